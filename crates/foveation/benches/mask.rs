@@ -1,0 +1,33 @@
+//! Mask generation time at 3840×2160 (27" at 60 cm), POR at the centre and
+//! in a corner. Goal (issue 2): ≤ 5 ms on one core.
+
+use criterion::{criterion_group, criterion_main, Criterion};
+use foveation::{mask, Display, GeislerPerry, Layout, SamplingModel};
+
+fn uhd() -> SamplingModel {
+    let display = Display {
+        name: "27in 4K".into(),
+        resolution_px: (3840, 2160),
+        size_mm: (596.7, 335.7),
+        eye_distance_mm: 600.0,
+        eye_point_px: None,
+    };
+    let geometry = display.geometry().expect("valid display");
+    SamplingModel::new(geometry, GeislerPerry::default(), 1.0, 17.0).expect("valid model")
+}
+
+fn bench(c: &mut Criterion) {
+    let model = uhd();
+    let mut group = c.benchmark_group("mask_3840x2160");
+    for (name, por) in [("centre", [1920.0, 1080.0]), ("corner", [0.5, 0.5])] {
+        for layout in [Layout::Nyquist, Layout::Seed] {
+            group.bench_function(format!("{}_{name}", layout.name()), |b| {
+                b.iter(|| mask::build(&model, layout, por).expect("mask"))
+            });
+        }
+    }
+    group.finish();
+}
+
+criterion_group!(benches, bench);
+criterion_main!(benches);

@@ -1,0 +1,38 @@
+//! # foveation — the perceptual maths of gazecast
+//!
+//! Pure functions and data, no I/O, no GPU. Every formula cites the seed
+//! section it implements (the seeds are in `shared/seeds/`).
+//!
+//! - [`display`]: display geometry, pixel pitch, eccentricity at the eye,
+//!   local pixels-per-degree.
+//! - [`csf`]: the Geisler–Perry contrast threshold and its inversions
+//!   (Murphy 2007, eq. 4.1–4.3).
+//! - [`sampling`]: the allowed ray spacing (Nyquist) at a screen point.
+//! - [`mask`]: the ray mask and its intermediate mesh (Murphy 2007 §4.4.4),
+//!   in two layouts, `nyquist` (default) and `seed`.
+//! - [`bound`]: the continuous Nyquist bound on the ray count.
+//! - [`perceptibility`]: Luebke & Hallen's threshold table, `is_perceptible`
+//!   and the best-effort inverse.
+//! - [`degradation`]: Murphy & Duchowski's acuity degradation table.
+//! - [`thin_lens`]: circle of confusion and mipmap level (Lee 2009 §4.1).
+//!
+//! Conventions: units are in names (`_px`, `_deg`, `_mm`, `_cpd`); screen
+//! coordinates are pixels from the top-left corner, y down. Functions return
+//! NaN only when given NaN; parameters that make no sense are a [`ParamError`]
+//! naming the field.
+
+pub mod bound;
+pub mod csf;
+pub mod degradation;
+pub mod display;
+mod error;
+pub mod mask;
+pub mod perceptibility;
+pub mod sampling;
+pub mod thin_lens;
+
+pub use csf::GeislerPerry;
+pub use display::{Display, ScreenGeometry};
+pub use error::ParamError;
+pub use mask::{Layout, RayMask};
+pub use sampling::SamplingModel;

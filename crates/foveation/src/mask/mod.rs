@@ -1,0 +1,605 @@
+//! The ray mask: where rays are cast for one point of regard, and the
+//! intermediate mesh that connects them (Murphy 2007 §4.4.4, Fig. 4.3/4.4).
+//!
+//! Layout: a contiguous disc of one ray per pixel centre around the POR, out
+//! to the radius where the allowed spacing first exceeds one pixel; then
+//! concentric rings. Ring `k` has radius `r_k` and `n_k` points per full turn
+//! at angles `2πi/n_k`. Consecutive rings are joined into a strip of quads
+//! where their angles line up and triangles where the point counts differ, so
+//! the mesh has no gaps and no overlaps. Only the parts of rings that can
+//! touch the screen are generated.
+//!
+//! Spacing: both the radial step `r_{k+1} - r_k` and the tangential step
+//! `2π r_k / n_k` are at most the allowed spacing (see [`SamplingModel`]),
+//! taken as the minimum over the visible part of the ring and over the step.
+//! The allowed spacing depends on where the POR is (the eye sees the screen
+//! obliquely away from its normal), so a mask belongs to one POR; building one
+//! takes a few milliseconds (see the `mask` benchmark).
+
+mod arcs;
+
+use std::f64::consts::{PI, TAU};
+
+use serde::{Deserialize, Serialize};
+
+pub use arcs::{ArcSet, ScreenFromPor};
+
+use crate::error::ParamError;
+use crate::sampling::{PorSampler, SamplingModel, Spacing};
+
+/// Which ring layout to build.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
+#[serde(rename_all = "lowercase")]
+pub enum Layout {
+    /// The fewest rays that meet the Nyquist spacing: real-valued radii and
+    /// spacings, a per-ring point count (kept from ring to ring while it
+    /// still meets the bound, so most cells are quads).
+    #[default]
+    Nyquist,
+    /// The dissertation's layout (Murphy 2007 §4.4.4): integer pixel spacing
+    /// that grows where the CSF allows, and one constant angular step for
+    /// every ring, taken from the outermost ring.
+    Seed,
+}
+
+impl Layout {
+    pub fn name(self) -> &'static str {
+        match self {
+            Layout::Nyquist => "nyquist",
+            Layout::Seed => "seed",
+        }
+    }
+}
+
+impl std::str::FromStr for Layout {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        match s {
+            "nyquist" => Ok(Layout::Nyquist),
+            "seed" => Ok(Layout::Seed),
+            other => Err(format!(
+                "unknown layout `{other}`: expected `nyquist` or `seed`"
+            )),
+        }
+    }
+}
+
+/// Marks the missing fourth corner of a triangular cell.
+pub const NO_VERTEX: u32 = u32::MAX;
+
+/// A row of contiguous fovea pixels `[x_start, x_end)` on row `y`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct PixelSpan {
+    pub y: u32,
+    pub x_start: u32,
+    pub x_end: u32,
+}
+
+/// One ring of the mask.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Ring {
+    pub radius_px: f64,
+    /// Points on a full turn (only the visible part is materialised).
+    pub points_per_turn: u32,
+    /// Radial step to the next ring, pixels.
+    pub radial_step_px: f64,
+    /// The tightest allowed spacing found on the ring, with its eccentricity
+    /// and local pixels-per-degree (used to plot the layout against the CSF).
+    pub tightest: Spacing,
+}
+
+/// A ray mask for one POR.
+#[derive(Debug, Clone)]
+pub struct RayMask {
+    pub layout: Layout,
+    pub por_px: [f64; 2],
+    pub width_px: u32,
+    pub height_px: u32,
+    /// Pixel centres within this distance of the POR are cast one per pixel.
+    pub fovea_radius_px: f64,
+    /// The fovea disc, clipped to the screen.
+    pub fovea: Vec<PixelSpan>,
+    pub rings: Vec<Ring>,
+    /// Intermediate-mesh vertices in screen pixels. Those on the screen are
+    /// rays; the others lie just outside and only close cells at the edge.
+    pub vertices: Vec<[f32; 2]>,
+    /// Intermediate-mesh cells: four vertex indices (quads) or three and
+    /// [`NO_VERTEX`] (triangles), in ring order.
+    pub cells: Vec<[u32; 4]>,
+}
+
+impl RayMask {
+    /// Rays in the fovea disc.
+    pub fn fovea_rays(&self) -> usize {
+        self.fovea
+            .iter()
+            .map(|s| (s.x_end - s.x_start) as usize)
+            .sum()
+    }
+
+    fn on_screen(&self, v: [f32; 2]) -> bool {
+        let (x, y) = (f64::from(v[0]), f64::from(v[1]));
+        x >= 0.0 && x < f64::from(self.width_px) && y >= 0.0 && y < f64::from(self.height_px)
+    }
+
+    /// Mesh vertices on the screen (each is a ray).
+    pub fn ring_rays(&self) -> usize {
+        self.vertices.iter().filter(|v| self.on_screen(**v)).count()
+    }
+
+    /// Rays inside the screen for this POR: fovea pixels plus on-screen mesh vertices.
+    pub fn rays(&self) -> usize {
+        self.fovea_rays() + self.ring_rays()
+    }
+
+    /// Mesh vertices that lie off the screen (needed only to close edge cells).
+    pub fn off_screen_vertices(&self) -> usize {
+        self.vertices.len() - self.ring_rays()
+    }
+
+    /// Every ray position on the screen: fovea pixel centres, then mesh vertices.
+    pub fn ray_positions(&self) -> impl Iterator<Item = [f64; 2]> + '_ {
+        let fovea = self.fovea.iter().flat_map(|s| {
+            (s.x_start..s.x_end).map(move |x| [f64::from(x) + 0.5, f64::from(s.y) + 0.5])
+        });
+        let rings = self
+            .vertices
+            .iter()
+            .filter(|v| self.on_screen(**v))
+            .map(|v| [f64::from(v[0]), f64::from(v[1])]);
+        fovea.chain(rings)
+    }
+
+    /// The corners of cell `i` (3 or 4).
+    pub fn cell_corners(&self, i: usize) -> Vec<[f64; 2]> {
+        self.cells[i]
+            .iter()
+            .filter(|&&v| v != NO_VERTEX)
+            .map(|&v| {
+                let p = self.vertices[v as usize];
+                [f64::from(p[0]), f64::from(p[1])]
+            })
+            .collect()
+    }
+
+    /// Number of quads and triangles.
+    pub fn cell_counts(&self) -> (usize, usize) {
+        let tris = self.cells.iter().filter(|c| c[3] == NO_VERTEX).count();
+        (self.cells.len() - tris, tris)
+    }
+}
+
+/// Samples per full turn when taking the minimum spacing over a ring.
+const SAMPLES_PER_TURN: f64 = 24.0;
+/// A ring keeps the previous ring's point count (so the strip is all quads)
+/// while that count is at least this fraction of what it needs.
+const KEEP_COUNT_FRACTION: f64 = 0.8;
+
+/// Builds the ray mask for `por_px` (any finite point, on or off the screen).
+pub fn build(
+    model: &SamplingModel,
+    layout: Layout,
+    por_px: [f64; 2],
+) -> Result<RayMask, ParamError> {
+    if !por_px[0].is_finite() {
+        return Err(ParamError::new(
+            "gaze.x",
+            por_px[0],
+            "the point of regard must be finite",
+        ));
+    }
+    if !por_px[1].is_finite() {
+        return Err(ParamError::new(
+            "gaze.y",
+            por_px[1],
+            "the point of regard must be finite",
+        ));
+    }
+    let [w, h] = model.geometry.size_px();
+    let screen = ScreenFromPor::new(por_px, w, h);
+    let sampler = RingSampler {
+        at_por: model.from_por(por_px),
+        screen,
+        por: por_px,
+        cache: Default::default(),
+    };
+
+    let fovea_radius_px = sampler.fovea_radius(layout);
+    let fovea = fovea_spans(
+        por_px,
+        fovea_radius_px,
+        model.geometry.width_px,
+        model.geometry.height_px,
+    );
+    let rings = sampler.rings(layout, fovea_radius_px);
+    let mut mask = RayMask {
+        layout,
+        por_px,
+        width_px: model.geometry.width_px,
+        height_px: model.geometry.height_px,
+        fovea_radius_px,
+        fovea,
+        rings,
+        vertices: Vec::new(),
+        cells: Vec::new(),
+    };
+    mesh_strips(&mut mask, &screen);
+    Ok(mask)
+}
+
+struct RingSampler {
+    at_por: PorSampler,
+    screen: ScreenFromPor,
+    por: [f64; 2],
+    /// The last radius evaluated and its result: the predictor step of one
+    /// ring is usually the next ring's radius.
+    cache: std::cell::Cell<Option<(f64, Spacing)>>,
+}
+
+impl RingSampler {
+    /// The tightest allowed spacing on the visible part of the circle of
+    /// radius `r` (the whole circle if none of it is visible).
+    fn tightest(&self, r: f64) -> Spacing {
+        if let Some((cached_r, s)) = self.cache.get() {
+            if cached_r == r {
+                return s;
+            }
+        }
+        let s = self.tightest_uncached(r);
+        self.cache.set(Some((r, s)));
+        s
+    }
+
+    fn tightest_uncached(&self, r: f64) -> Spacing {
+        if r <= 0.0 {
+            return self.at_por.spacing_at(self.por);
+        }
+        let arcs = match self.screen.visible_arcs(r) {
+            set if set.is_empty() => ArcSet::Full,
+            set => set,
+        };
+        let mut best: Option<Spacing> = None;
+        for (a, b) in arcs.intervals() {
+            let n = ((b - a) / TAU * SAMPLES_PER_TURN).ceil().max(2.0) as usize;
+            for k in 0..=n {
+                let phi = a + (b - a) * k as f64 / n as f64;
+                let p = [self.por[0] + r * phi.cos(), self.por[1] + r * phi.sin()];
+                let s = self.at_por.spacing_at(p);
+                if best.is_none_or(|b| s.spacing_px < b.spacing_px) {
+                    best = Some(s);
+                }
+            }
+        }
+        best.unwrap_or_else(|| self.at_por.spacing_at(self.por))
+    }
+
+    /// Allowed step from radius `r`: the tightest spacing at `r` and at the
+    /// radius one step out (a predictor step, so the bound holds across the
+    /// whole step, not only at its inner end).
+    fn step(&self, r: f64) -> Spacing {
+        let here = self.tightest(r);
+        let there = self.tightest_uncached(r + here.spacing_px);
+        self.cache.set(Some((r + here.spacing_px, there)));
+        if there.spacing_px < here.spacing_px {
+            there
+        } else {
+            here
+        }
+    }
+
+    /// Radius of the one-ray-per-pixel disc: where the allowed spacing first
+    /// exceeds one pixel (nyquist) or first reaches two whole pixels (seed:
+    /// the first intersection of Fig. 4.4). At least 1 px; at most the
+    /// farthest screen corner.
+    fn fovea_radius(&self, layout: Layout) -> f64 {
+        let limit = self.screen.max_distance_px + 1.0;
+        let exceeds = |r: f64| match layout {
+            Layout::Nyquist => self.tightest(r).spacing_px > 1.0,
+            Layout::Seed => self.tightest(r).spacing_px >= 2.0,
+        };
+        let mut r = 1.0;
+        while r < limit && !exceeds(r) {
+            r += 1.0;
+        }
+        if layout == Layout::Seed || r <= 1.0 || r >= limit {
+            return r.min(limit);
+        }
+        // Refine between r - 1 (does not exceed) and r (exceeds).
+        let (mut lo, mut hi) = (r - 1.0, r);
+        for _ in 0..24 {
+            let mid = 0.5 * (lo + hi);
+            if exceeds(mid) {
+                hi = mid;
+            } else {
+                lo = mid;
+            }
+        }
+        hi
+    }
+
+    fn rings(&self, layout: Layout, fovea_radius_px: f64) -> Vec<Ring> {
+        let mut rings: Vec<Ring> = Vec::new();
+        let far = self.screen.max_distance_px;
+        if fovea_radius_px > far {
+            return rings;
+        }
+        let mut r = fovea_radius_px;
+        loop {
+            let tightest = self.step(r);
+            let step = match layout {
+                Layout::Nyquist => tightest.spacing_px,
+                Layout::Seed => tightest.spacing_px.floor().max(1.0),
+            };
+            let needed = ((TAU * r / step).ceil() as u32).max(3);
+            let points_per_turn = match (layout, rings.last()) {
+                (Layout::Nyquist, Some(prev))
+                    if needed <= prev.points_per_turn
+                        && f64::from(needed)
+                            >= KEEP_COUNT_FRACTION * f64::from(prev.points_per_turn) =>
+                {
+                    prev.points_per_turn
+                }
+                (Layout::Nyquist, _) => ladder(needed),
+                (Layout::Seed, _) => needed,
+            };
+            rings.push(Ring {
+                radius_px: r,
+                points_per_turn,
+                radial_step_px: step,
+                tightest,
+            });
+            // Stop once this ring's polygon (inscribed, so its edges are
+            // r·cos(π/n) from the POR) lies beyond every screen corner.
+            if r * (PI / f64::from(points_per_turn)).cos() > far {
+                break;
+            }
+            r += step;
+        }
+        if layout == Layout::Seed {
+            // One constant angular step for all rings (Murphy 2007 §4.4.4):
+            // the tightest any ring needs, which is the outermost ring's
+            // whenever spacing grows faster than linearly with radius.
+            let n = rings.iter().map(|r| r.points_per_turn).max().unwrap_or(3);
+            for ring in &mut rings {
+                ring.points_per_turn = n;
+            }
+        }
+        rings
+    }
+}
+
+/// Rounds a point count up to the form m·2^k with 16 ≤ m < 32 (at most
+/// 1/16 more points), so consecutive rings share counts and their strips are
+/// quads; counts of 32 and below are kept.
+fn ladder(n: u32) -> u32 {
+    if n <= 32 {
+        return n;
+    }
+    let k = (31 - n.leading_zeros()) - 4;
+    n.div_ceil(1 << k) << k
+}
+
+/// Fovea pixels: every pixel whose centre is within `radius` of the POR.
+fn fovea_spans(por: [f64; 2], radius: f64, width: u32, height: u32) -> Vec<PixelSpan> {
+    let mut spans = Vec::new();
+    let y_lo = (por[1] - radius - 0.5).ceil().max(0.0);
+    let y_hi = (por[1] + radius - 0.5).floor().min(f64::from(height) - 1.0);
+    if y_lo > y_hi {
+        return spans;
+    }
+    for y in (y_lo as u32)..=(y_hi as u32) {
+        let dy = f64::from(y) + 0.5 - por[1];
+        let half = (radius * radius - dy * dy).max(0.0).sqrt();
+        let x_lo = (por[0] - half - 0.5).ceil().max(0.0);
+        let x_hi = (por[0] + half - 0.5).floor().min(f64::from(width) - 1.0);
+        if x_lo <= x_hi {
+            spans.push(PixelSpan {
+                y,
+                x_start: x_lo as u32,
+                x_end: x_hi as u32 + 1,
+            });
+        }
+    }
+    spans
+}
+
+/// Vertex ids of one ring's points, created on first use.
+///
+/// A slot holds `(generation << 32) | vertex id`; bumping the generation
+/// empties every slot at once when the buffer moves on to another ring.
+///
+/// The walk visits a ring's indices in order, so a new point is usually the
+/// previous one rotated by one angular step: one complex multiply instead of
+/// a sine and cosine (the drift over a few thousand steps is ~1e-13, far
+/// below the f32 the vertices are stored in).
+struct RingSlots {
+    radius: f64,
+    n: u32,
+    generation: u64,
+    slots: Vec<u64>,
+    /// Index and unit vector of the last point created, and the rotation by one step.
+    last_index: usize,
+    last_unit: [f64; 2],
+    step: [f64; 2],
+}
+
+impl RingSlots {
+    fn new() -> Self {
+        Self {
+            radius: 0.0,
+            n: 0,
+            generation: 0,
+            slots: Vec::new(),
+            last_index: usize::MAX,
+            last_unit: [1.0, 0.0],
+            step: [1.0, 0.0],
+        }
+    }
+
+    fn reset(&mut self, ring: &Ring) {
+        self.generation += 1;
+        self.radius = ring.radius_px;
+        self.n = ring.points_per_turn;
+        self.last_index = usize::MAX;
+        let (s, c) = (TAU / f64::from(self.n)).sin_cos();
+        self.step = [c, s];
+        if self.slots.len() < self.n as usize {
+            self.slots.resize(self.n as usize, 0);
+        }
+    }
+
+    /// Vertex id of point `i` (already reduced to `0..n`).
+    #[inline]
+    fn vertex(&mut self, i: usize, por: [f64; 2], vertices: &mut Vec<[f32; 2]>) -> u32 {
+        let slot = self.slots[i];
+        if slot >> 32 == self.generation {
+            return slot as u32;
+        }
+        let unit = if self.last_index.wrapping_add(1) == i {
+            let [c, s] = self.last_unit;
+            [
+                c * self.step[0] - s * self.step[1],
+                s * self.step[0] + c * self.step[1],
+            ]
+        } else {
+            let (s, c) = (TAU * i as f64 / f64::from(self.n)).sin_cos();
+            [c, s]
+        };
+        self.last_index = i;
+        self.last_unit = unit;
+        let id = vertices.len() as u32;
+        self.slots[i] = (self.generation << 32) | u64::from(id);
+        vertices.push([
+            (por[0] + self.radius * unit[0]) as f32,
+            (por[1] + self.radius * unit[1]) as f32,
+        ]);
+        id
+    }
+}
+
+/// Joins each pair of consecutive rings into a strip over the angles where
+/// the strip can touch the screen.
+fn mesh_strips(mask: &mut RayMask, screen: &ScreenFromPor) {
+    let por = mask.por_px;
+    let strips: Vec<ArcSet> = mask
+        .rings
+        .windows(2)
+        .map(|pair| strip_arcs(&pair[0], &pair[1], screen))
+        .collect();
+    // Reserve what the strips will produce: a ring's share of points is the
+    // visible fraction of its turn.
+    let estimate: f64 = strips
+        .iter()
+        .zip(&mask.rings)
+        .map(|(arcs, ring)| {
+            let turn: f64 = arcs
+                .intervals()
+                .iter()
+                .map(|(a, b)| b - a)
+                .sum::<f64>()
+                .min(TAU)
+                / TAU;
+            turn * f64::from(ring.points_per_turn)
+        })
+        .sum();
+    let mut vertices = Vec::with_capacity((estimate * 1.1) as usize + 16);
+    let mut cells = Vec::with_capacity((estimate * 1.1) as usize + 16);
+    let mut inner = RingSlots::new();
+    let mut outer = RingSlots::new();
+    for (pair, arcs) in mask.rings.windows(2).zip(strips) {
+        let (ri, ro) = (&pair[0], &pair[1]);
+        let (ni, no) = (ri.points_per_turn, ro.points_per_turn);
+        std::mem::swap(&mut inner, &mut outer);
+        if inner.n != ni || inner.radius != ri.radius_px {
+            inner.reset(ri);
+        }
+        outer.reset(ro);
+        let mut strip = Strip {
+            inner: &mut inner,
+            outer: &mut outer,
+            por,
+            vertices: &mut vertices,
+            cells: &mut cells,
+        };
+        match arcs {
+            ArcSet::Full => strip.walk(0, 0, |i, j| i < i64::from(ni) || j < i64::from(no)),
+            ArcSet::Arcs(list) => {
+                let (si, so) = (TAU / f64::from(ni), TAU / f64::from(no));
+                for (a, b) in list {
+                    let i0 = (a / si).floor() as i64;
+                    let j0 = (a / so).floor() as i64;
+                    strip.walk(i0, j0, |i, j| (i as f64) * si < b || (j as f64) * so < b);
+                }
+            }
+        }
+    }
+    mask.vertices = vertices;
+    mask.cells = cells;
+}
+
+/// The angles over which the strip between two rings can touch the screen,
+/// widened so that cells reaching in to the inner ring's chords and out by
+/// one step on either side are included.
+fn strip_arcs(ri: &Ring, ro: &Ring, screen: &ScreenFromPor) -> ArcSet {
+    let step_max = TAU / f64::from(ri.points_per_turn.min(ro.points_per_turn));
+    let inset = ri.radius_px * (PI / f64::from(ri.points_per_turn)).cos();
+    if ro.radius_px < screen.min_distance_px || inset > screen.max_distance_px {
+        return ArcSet::Arcs(Vec::new());
+    }
+    screen
+        .visible_arcs(inset.max(screen.min_distance_px))
+        .expanded(1.5 * step_max, 2.5 * step_max)
+}
+
+struct Strip<'a> {
+    inner: &'a mut RingSlots,
+    outer: &'a mut RingSlots,
+    por: [f64; 2],
+    vertices: &'a mut Vec<[f32; 2]>,
+    cells: &'a mut Vec<[u32; 4]>,
+}
+
+impl Strip<'_> {
+    /// Stitches the two rings from indices (i, j) while `go(i, j)` holds: a
+    /// quad where the next angles coincide, else a triangle advancing the
+    /// ring whose next point comes first. Angles are compared exactly, in
+    /// integers: `(i+1)/n_inner` against `(j+1)/n_outer`.
+    fn walk(&mut self, mut i: i64, mut j: i64, go: impl Fn(i64, i64) -> bool) {
+        let (ni, no) = (i64::from(self.inner.n), i64::from(self.outer.n));
+        let por = self.por;
+        // Reduced indices, advanced alongside i and j without a division.
+        let (ni_u, no_u) = (ni as usize, no as usize);
+        let mut iw = i.rem_euclid(ni) as usize;
+        let mut jw = j.rem_euclid(no) as usize;
+        let wrap = |k: usize, n: usize| if k + 1 == n { 0 } else { k + 1 };
+        // The current inner (a) and outer (d) corners carry over from one
+        // cell to the next; only the advancing corner is looked up.
+        let mut a = self.inner.vertex(iw, por, self.vertices);
+        let mut d = self.outer.vertex(jw, por, self.vertices);
+        while go(i, j) {
+            let next_inner = (i + 1) * no;
+            let next_outer = (j + 1) * ni;
+            if next_inner <= next_outer {
+                iw = wrap(iw, ni_u);
+                i += 1;
+                let b = self.inner.vertex(iw, por, self.vertices);
+                if next_inner == next_outer {
+                    jw = wrap(jw, no_u);
+                    j += 1;
+                    let c = self.outer.vertex(jw, por, self.vertices);
+                    self.cells.push([a, b, c, d]);
+                    d = c;
+                } else {
+                    self.cells.push([a, b, d, NO_VERTEX]);
+                }
+                a = b;
+            } else {
+                jw = wrap(jw, no_u);
+                j += 1;
+                let c = self.outer.vertex(jw, por, self.vertices);
+                self.cells.push([a, c, d, NO_VERTEX]);
+                d = c;
+            }
+        }
+    }
+}

@@ -1,0 +1,172 @@
+//! How densely the screen must be sampled: the CSF cut-off turned into a ray
+//! spacing with the Nyquist criterion (Murphy 2007 §4.4.4, DESIGN.md).
+
+use crate::csf::GeislerPerry;
+use crate::display::ScreenGeometry;
+use crate::error::{positive, ParamError};
+
+/// The seed's maximum ray spacing in pixels (Murphy 2007 §4.4.4: n ∈ [1..17]).
+pub const SEED_MAX_SPACING_PX: f64 = 17.0;
+
+/// A display, a CSF and a contrast level: everything that decides the
+/// allowed ray spacing at a screen point for a given point of regard.
+#[derive(Debug, Clone, Copy)]
+pub struct SamplingModel {
+    pub geometry: ScreenGeometry,
+    pub csf: GeislerPerry,
+    /// Michelson contrast C of the worst-case stimulus (1 = the seed's choice).
+    pub contrast: f64,
+    /// Largest spacing ever allowed, pixels (the seed's n_max = 17).
+    pub max_spacing_px: f64,
+}
+
+/// The allowed spacing at one point, with what it was derived from.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Spacing {
+    /// Allowed ray spacing in pixels, clamped to `[1, max_spacing_px]`.
+    pub spacing_px: f64,
+    /// Eccentricity of the point from the POR, degrees.
+    pub eccentricity_deg: f64,
+    /// Conservative local pixels per degree at the point.
+    pub ppd: f64,
+}
+
+impl SamplingModel {
+    /// Validates the contrast (must exceed CT0: at C ≤ CT0 nothing is
+    /// perceptible and no mask is meaningful) and the maximum spacing (≥ 1).
+    pub fn new(
+        geometry: ScreenGeometry,
+        csf: GeislerPerry,
+        contrast: f64,
+        max_spacing_px: f64,
+    ) -> Result<Self, ParamError> {
+        csf.validate()?;
+        if !(contrast.is_finite() && contrast > csf.ct0) {
+            return Err(ParamError::new(
+                "contrast",
+                contrast,
+                format!(
+                    "must be a finite contrast above CT0 = {:.6}; at or below it nothing is \
+                     perceptible, so there is no sampling requirement to build a mask from",
+                    csf.ct0
+                ),
+            ));
+        }
+        positive("max_spacing_px", max_spacing_px)?;
+        if max_spacing_px < 1.0 {
+            return Err(ParamError::new(
+                "max_spacing_px",
+                max_spacing_px,
+                "must be at least 1",
+            ));
+        }
+        Ok(Self {
+            geometry,
+            csf,
+            contrast,
+            max_spacing_px,
+        })
+    }
+
+    /// Allowed spacing in degrees at eccentricity `e_deg`: half a period of
+    /// the cut-off frequency, `1 / (2 f_c(e))` (Nyquist). +∞ if nothing is
+    /// perceptible there.
+    pub fn nyquist_spacing_deg(&self, e_deg: f64) -> f64 {
+        let f = self.csf.cutoff_frequency_cpd(self.contrast, e_deg);
+        if f > 0.0 {
+            0.5 / f
+        } else {
+            f64::INFINITY
+        }
+    }
+
+    /// Allowed spacing at screen point `p_px` while the eye fixates `por_px`,
+    /// converted to pixels with the conservative local pixels-per-degree and
+    /// clamped to `[1, max_spacing_px]`.
+    pub fn spacing_at(&self, por_px: [f64; 2], p_px: [f64; 2]) -> Spacing {
+        self.from_por(por_px).spacing_at(p_px)
+    }
+
+    /// Precomputes what does not change while the POR stays at `por_px`.
+    pub fn from_por(&self, por_px: [f64; 2]) -> PorSampler {
+        let g = &self.geometry;
+        PorSampler {
+            por_px,
+            pitch: [g.pitch_x_mm, g.pitch_y_mm],
+            eye_to_por_mm: g.eye_to_point_mm(por_px),
+            // f_c(e) = e2·ln(C/CT0) / (α·(e + e2)): the numerator is constant.
+            cutoff_numerator: self.csf.e2_deg * (self.contrast / self.csf.ct0).ln()
+                / self.csf.alpha,
+            e2_deg: self.csf.e2_deg,
+            ppd_per_mm: std::f64::consts::PI / 180.0 / g.max_pitch_mm(),
+            max_spacing_px: self.max_spacing_px,
+        }
+    }
+
+    /// Rays per pixel the continuous Nyquist bound asks for at `p_px`:
+    /// `min(1, (2 f_c(e) / ppd)²)` (no `max_spacing_px` floor).
+    pub fn required_density(&self, por_px: [f64; 2], p_px: [f64; 2]) -> f64 {
+        let e = self.geometry.eccentricity_deg(por_px, p_px);
+        let f = self.csf.cutoff_frequency_cpd(self.contrast, e);
+        let per_px = 2.0 * f / self.geometry.local_ppd(p_px);
+        (per_px * per_px).min(1.0)
+    }
+}
+
+/// The allowed spacing around one POR, with the per-POR constants hoisted out
+/// of the per-point work (the mask evaluates it tens of thousands of times).
+/// Gives the same values as [`SamplingModel::spacing_at`] to rounding.
+#[derive(Debug, Clone, Copy)]
+pub struct PorSampler {
+    por_px: [f64; 2],
+    pitch: [f64; 2],
+    eye_to_por_mm: [f64; 3],
+    cutoff_numerator: f64,
+    e2_deg: f64,
+    ppd_per_mm: f64,
+    max_spacing_px: f64,
+}
+
+impl PorSampler {
+    pub fn por_px(&self) -> [f64; 2] {
+        self.por_px
+    }
+
+    /// See [`SamplingModel::spacing_at`].
+    pub fn spacing_at(&self, p_px: [f64; 2]) -> Spacing {
+        let a = self.eye_to_por_mm;
+        let d = [
+            (p_px[0] - self.por_px[0]) * self.pitch[0],
+            (p_px[1] - self.por_px[1]) * self.pitch[1],
+        ];
+        // a × d with d_z = 0, and a·(a + d): the eccentricity formula of
+        // ScreenGeometry::eccentricity_deg.
+        let cross = [-a[2] * d[1], a[2] * d[0], a[0] * d[1] - a[1] * d[0]];
+        let b = [a[0] + d[0], a[1] + d[1], a[2]];
+        let dot = a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+        let eccentricity_deg = norm3(cross).atan2(dot).to_degrees();
+        let ppd = norm3(b) * self.ppd_per_mm;
+        let cutoff = self.cutoff_numerator / (eccentricity_deg + self.e2_deg);
+        let raw = 0.5 / cutoff * ppd;
+        let spacing_px = if raw.is_nan() {
+            1.0
+        } else {
+            raw.clamp(1.0, self.max_spacing_px)
+        };
+        Spacing {
+            spacing_px,
+            eccentricity_deg,
+            ppd,
+        }
+    }
+}
+
+/// Euclidean norm; plain square root when it cannot overflow or underflow.
+pub(crate) fn norm3(v: [f64; 3]) -> f64 {
+    let s = v[0] * v[0] + v[1] * v[1] + v[2] * v[2];
+    if s.is_normal() && s < 1e300 {
+        s.sqrt()
+    } else {
+        v[0].hypot(v[1]).hypot(v[2])
+    }
+}

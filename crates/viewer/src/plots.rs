@@ -1,0 +1,168 @@
+//! Pictures of the ray mask (like Murphy 2007 Fig. 4.3) and of the sampling
+//! rate against eccentricity (like Fig. 4.4), drawn with `plotters`.
+
+use std::path::{Path, PathBuf};
+
+use plotters::prelude::*;
+
+use crate::mask_cmd::BuiltMask;
+
+type DrawResult = Result<(), Box<dyn std::error::Error>>;
+
+const FONT: &[u8] = include_bytes!("../assets/fonts/DejaVuSansMono.ttf");
+
+fn register_font() {
+    static ONCE: std::sync::Once = std::sync::Once::new();
+    ONCE.call_once(|| {
+        // The embedded font is valid; registration can only fail on a bad font file.
+        let _ = plotters::style::register_font("sans-serif", FontStyle::Normal, FONT);
+    });
+}
+
+/// `mask.png` → `mask-csf.png`.
+pub fn csf_path(png: &Path) -> PathBuf {
+    let stem = png.file_stem().and_then(|s| s.to_str()).unwrap_or("mask");
+    png.with_file_name(format!("{stem}-csf.png"))
+}
+
+/// The screen with the fovea disc and the intermediate mesh, at most 1600 px wide.
+pub fn draw_mask(path: &Path, built: &BuiltMask) -> DrawResult {
+    register_font();
+    let m = &built.mask;
+    let r = &built.report;
+    let (w, h) = (f64::from(m.width_px), f64::from(m.height_px));
+    let scale = (1600.0 / w).min(1.0);
+    let plot_w = (w * scale).round() as u32;
+    let plot_h = (h * scale).round() as u32;
+    let root = BitMapBackend::new(path, (plot_w + 20, plot_h + 70)).into_drawing_area();
+    root.fill(&WHITE)?;
+    let caption = format!(
+        "{} | {} layout, C = {} | {} rays ({:.2}x bound) of {} pixels",
+        r.display,
+        r.layout,
+        r.contrast,
+        r.rays,
+        r.ratio_to_bound,
+        u64::from(m.width_px) * u64::from(m.height_px)
+    );
+    let mut chart = ChartBuilder::on(&root)
+        .caption(caption, ("sans-serif", 16))
+        .margin(10)
+        .build_cartesian_2d(0.0..w, h..0.0)?;
+    let screen = chart.plotting_area();
+    screen.fill(&RGBColor(250, 250, 250))?;
+    let mesh = RGBColor(40, 90, 170).mix(0.55);
+    for i in 0..m.cells.len() {
+        let mut c = m.cell_corners(i);
+        c.push(c[0]);
+        let pts: Vec<(f64, f64)> = c.iter().map(|p| (p[0], p[1])).collect();
+        chart.draw_series(std::iter::once(PathElement::new(pts, mesh.stroke_width(1))))?;
+    }
+    let fovea = RGBColor(200, 40, 40);
+    chart.draw_series(m.fovea.iter().map(|s| {
+        Rectangle::new(
+            [
+                (f64::from(s.x_start), f64::from(s.y)),
+                (f64::from(s.x_end), f64::from(s.y) + 1.0),
+            ],
+            fovea.filled(),
+        )
+    }))?;
+    let g = (m.por_px[0], m.por_px[1]);
+    let arm = 12.0 / scale;
+    chart.draw_series([
+        PathElement::new(
+            vec![(g.0 - arm, g.1), (g.0 + arm, g.1)],
+            BLACK.stroke_width(2),
+        ),
+        PathElement::new(
+            vec![(g.0, g.1 - arm), (g.0, g.1 + arm)],
+            BLACK.stroke_width(2),
+        ),
+    ])?;
+    root.present()?;
+    Ok(())
+}
+
+/// Sampling rate (rays per degree) against eccentricity: what the CSF asks
+/// for, what one ray per pixel can give, and what the layout casts.
+pub fn draw_csf(path: &Path, built: &BuiltMask) -> DrawResult {
+    register_font();
+    let m = &built.mask;
+    let model = &built.model;
+    let rings = &m.rings;
+    let max_e = rings
+        .last()
+        .map_or(10.0, |r| r.tightest.eccentricity_deg)
+        .max(1.0);
+    let required = |e: f64| 2.0 * model.csf.cutoff_frequency_cpd(model.contrast, e);
+    let top = required(0.0).max(rings.iter().map(|r| r.tightest.ppd).fold(0.0, f64::max)) * 1.05;
+    let root = BitMapBackend::new(path, (900, 560)).into_drawing_area();
+    root.fill(&WHITE)?;
+    let mut chart = ChartBuilder::on(&root)
+        .caption(
+            format!(
+                "Sampling rate vs eccentricity: {} ({} layout, C = {})",
+                built.display.name,
+                m.layout.name(),
+                model.contrast
+            ),
+            ("sans-serif", 16),
+        )
+        .margin(12)
+        .x_label_area_size(40)
+        .y_label_area_size(60)
+        .build_cartesian_2d(0.0..max_e, 0.0..top)?;
+    chart
+        .configure_mesh()
+        .x_desc("eccentricity (degrees)")
+        .y_desc("rays per degree")
+        .label_style(("sans-serif", 13))
+        .draw()?;
+    let n = 400;
+    chart
+        .draw_series(LineSeries::new(
+            (0..=n).map(|i| {
+                let e = max_e * f64::from(i) / f64::from(n);
+                (e, required(e))
+            }),
+            RED.stroke_width(2),
+        ))?
+        .label("CSF cut-off x 2 (Nyquist rate), eq. 4.3")
+        .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], RED.stroke_width(2)));
+    chart
+        .draw_series(LineSeries::new(
+            rings
+                .iter()
+                .map(|r| (r.tightest.eccentricity_deg, r.tightest.ppd)),
+            BLACK.stroke_width(1),
+        ))?
+        .label("one ray per pixel (local px/deg)")
+        .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], BLACK.stroke_width(1)));
+    let mut steps = Vec::with_capacity(rings.len() * 2);
+    for (k, r) in rings.iter().enumerate() {
+        let rate = r.tightest.ppd / r.radial_step_px;
+        let next_e = rings
+            .get(k + 1)
+            .map_or(max_e, |n| n.tightest.eccentricity_deg);
+        steps.push((r.tightest.eccentricity_deg, rate));
+        steps.push((next_e, rate));
+    }
+    let blue = RGBColor(30, 80, 200);
+    chart
+        .draw_series(LineSeries::new(steps, blue.stroke_width(2)))?
+        .label(format!(
+            "{} layout (radial rays per degree, per ring)",
+            m.layout.name()
+        ))
+        .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], blue.stroke_width(2)));
+    chart
+        .configure_series_labels()
+        .position(SeriesLabelPosition::UpperRight)
+        .border_style(BLACK)
+        .background_style(WHITE.mix(0.9))
+        .label_font(("sans-serif", 13))
+        .draw()?;
+    root.present()?;
+    Ok(())
+}

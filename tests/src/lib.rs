@@ -1,0 +1,1 @@
+//! Test-only crate: see `tests/`. Shared helpers for the cross-crate tests go here.

@@ -25,62 +25,112 @@ pub fn csf_path(png: &Path) -> PathBuf {
     png.with_file_name(format!("{stem}-csf.png"))
 }
 
-/// The screen with the fovea disc and the intermediate mesh, at most 1600 px wide.
+/// The screen with the fovea disc and the intermediate mesh, scaled to at
+/// most 1600 px wide (small screens are enlarged up to 2× so the mesh stays
+/// legible).
 pub fn draw_mask(path: &Path, built: &BuiltMask) -> DrawResult {
     register_font();
     let m = &built.mask;
     let r = &built.report;
     let (w, h) = (f64::from(m.width_px), f64::from(m.height_px));
-    let scale = (1600.0 / w).min(1.0);
+    let scale = (1600.0 / w).min(2.0);
     let plot_w = (w * scale).round() as u32;
     let plot_h = (h * scale).round() as u32;
-    let root = BitMapBackend::new(path, (plot_w + 20, plot_h + 70)).into_drawing_area();
-    root.fill(&WHITE)?;
-    let caption = format!(
-        "{} | {} layout, C = {} | {} rays ({:.2}x bound) of {} pixels",
-        r.display,
-        r.layout,
-        r.contrast,
-        r.rays,
-        r.ratio_to_bound,
-        u64::from(m.width_px) * u64::from(m.height_px)
-    );
-    let mut chart = ChartBuilder::on(&root)
-        .caption(caption, ("sans-serif", 16))
-        .margin(10)
-        .build_cartesian_2d(0.0..w, h..0.0)?;
-    let screen = chart.plotting_area();
-    screen.fill(&RGBColor(250, 250, 250))?;
-    let mesh = RGBColor(40, 90, 170).mix(0.55);
-    for i in 0..m.cells.len() {
-        let mut c = m.cell_corners(i);
-        c.push(c[0]);
-        let pts: Vec<(f64, f64)> = c.iter().map(|p| (p[0], p[1])).collect();
-        chart.draw_series(std::iter::once(PathElement::new(pts, mesh.stroke_width(1))))?;
+    let size = (plot_w.max(600) + 20, plot_h + 70);
+    draw_png(path, size, |root| {
+        let caption = format!(
+            "{} layout, C = {}: {} rays = {:.2}x the Nyquist bound, of {} pixels",
+            r.layout,
+            r.contrast,
+            r.rays,
+            r.ratio_to_bound,
+            u64::from(m.width_px) * u64::from(m.height_px)
+        );
+        let mut chart = ChartBuilder::on(root)
+            .caption(caption, ("sans-serif", 16))
+            .margin(10)
+            .build_cartesian_2d(0.0..w, h..0.0)?;
+        let screen = chart.plotting_area();
+        screen.fill(&RGBColor(250, 250, 250))?;
+        // Opaque colours only: the picture then has few distinct colours and
+        // saves as a small palette PNG.
+        let mesh = RGBColor(110, 150, 205);
+        for i in 0..m.cells.len() {
+            let mut c = m.cell_corners(i);
+            c.push(c[0]);
+            let pts: Vec<(f64, f64)> = c.iter().map(|p| (p[0], p[1])).collect();
+            chart.draw_series(std::iter::once(PathElement::new(pts, mesh.stroke_width(1))))?;
+        }
+        let fovea = RGBColor(200, 40, 40);
+        chart.draw_series(m.fovea.iter().map(|s| {
+            Rectangle::new(
+                [
+                    (f64::from(s.x_start), f64::from(s.y)),
+                    (f64::from(s.x_end), f64::from(s.y) + 1.0),
+                ],
+                fovea.filled(),
+            )
+        }))?;
+        let g = (m.por_px[0], m.por_px[1]);
+        let arm = 12.0 / scale;
+        chart.draw_series([
+            PathElement::new(
+                vec![(g.0 - arm, g.1), (g.0 + arm, g.1)],
+                BLACK.stroke_width(2),
+            ),
+            PathElement::new(
+                vec![(g.0, g.1 - arm), (g.0, g.1 + arm)],
+                BLACK.stroke_width(2),
+            ),
+        ])?;
+        Ok(())
+    })
+}
+
+type Area<'a> = DrawingArea<BitMapBackend<'a>, plotters::coord::Shift>;
+
+/// Draws onto a white RGB canvas of `size` and saves it with [`save_png`].
+fn draw_png(path: &Path, size: (u32, u32), draw: impl FnOnce(&Area) -> DrawResult) -> DrawResult {
+    let mut rgb = vec![0u8; size.0 as usize * size.1 as usize * 3];
+    {
+        let root = BitMapBackend::with_buffer(&mut rgb, size).into_drawing_area();
+        root.fill(&WHITE)?;
+        draw(&root)?;
+        root.present()?;
     }
-    let fovea = RGBColor(200, 40, 40);
-    chart.draw_series(m.fovea.iter().map(|s| {
-        Rectangle::new(
-            [
-                (f64::from(s.x_start), f64::from(s.y)),
-                (f64::from(s.x_end), f64::from(s.y) + 1.0),
-            ],
-            fovea.filled(),
-        )
-    }))?;
-    let g = (m.por_px[0], m.por_px[1]);
-    let arm = 12.0 / scale;
-    chart.draw_series([
-        PathElement::new(
-            vec![(g.0 - arm, g.1), (g.0 + arm, g.1)],
-            BLACK.stroke_width(2),
-        ),
-        PathElement::new(
-            vec![(g.0, g.1 - arm), (g.0, g.1 + arm)],
-            BLACK.stroke_width(2),
-        ),
-    ])?;
-    root.present()?;
+    save_png(path, size, &rgb)
+}
+
+/// Writes an RGB buffer as PNG: indexed colour when it has at most 256
+/// distinct colours (mesh pictures do, and shrink several-fold), else RGB.
+fn save_png(path: &Path, (w, h): (u32, u32), rgb: &[u8]) -> DrawResult {
+    let mut palette: Vec<[u8; 3]> = Vec::new();
+    let mut lookup = std::collections::HashMap::new();
+    let mut indices = Vec::with_capacity(rgb.len() / 3);
+    for px in rgb.chunks_exact(3) {
+        let c = [px[0], px[1], px[2]];
+        let next = palette.len();
+        let i = *lookup.entry(c).or_insert(next);
+        if i == next {
+            if next == 256 {
+                break;
+            }
+            palette.push(c);
+        }
+        indices.push(i as u8);
+    }
+    let file = std::io::BufWriter::new(std::fs::File::create(path)?);
+    let mut enc = png::Encoder::new(file, w, h);
+    enc.set_depth(png::BitDepth::Eight);
+    enc.set_compression(png::Compression::Best);
+    if indices.len() == rgb.len() / 3 {
+        enc.set_color(png::ColorType::Indexed);
+        enc.set_palette(palette.concat());
+        enc.write_header()?.write_image_data(&indices)?;
+    } else {
+        enc.set_color(png::ColorType::Rgb);
+        enc.write_header()?.write_image_data(rgb)?;
+    }
     Ok(())
 }
 
@@ -97,72 +147,73 @@ pub fn draw_csf(path: &Path, built: &BuiltMask) -> DrawResult {
         .max(1.0);
     let required = |e: f64| 2.0 * model.csf.cutoff_frequency_cpd(model.contrast, e);
     let top = required(0.0).max(rings.iter().map(|r| r.tightest.ppd).fold(0.0, f64::max)) * 1.05;
-    let root = BitMapBackend::new(path, (900, 560)).into_drawing_area();
-    root.fill(&WHITE)?;
-    let mut chart = ChartBuilder::on(&root)
-        .caption(
-            format!(
-                "Sampling rate vs eccentricity: {} ({} layout, C = {})",
-                built.display.name,
-                m.layout.name(),
-                model.contrast
-            ),
-            ("sans-serif", 16),
-        )
-        .margin(12)
-        .x_label_area_size(40)
-        .y_label_area_size(60)
-        .build_cartesian_2d(0.0..max_e, 0.0..top)?;
-    chart
-        .configure_mesh()
-        .x_desc("eccentricity (degrees)")
-        .y_desc("rays per degree")
-        .label_style(("sans-serif", 13))
-        .draw()?;
-    let n = 400;
-    chart
-        .draw_series(LineSeries::new(
-            (0..=n).map(|i| {
-                let e = max_e * f64::from(i) / f64::from(n);
-                (e, required(e))
-            }),
-            RED.stroke_width(2),
-        ))?
-        .label("CSF cut-off x 2 (Nyquist rate), eq. 4.3")
-        .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], RED.stroke_width(2)));
-    chart
-        .draw_series(LineSeries::new(
-            rings
-                .iter()
-                .map(|r| (r.tightest.eccentricity_deg, r.tightest.ppd)),
-            BLACK.stroke_width(1),
-        ))?
-        .label("one ray per pixel (local px/deg)")
-        .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], BLACK.stroke_width(1)));
-    let mut steps = Vec::with_capacity(rings.len() * 2);
-    for (k, r) in rings.iter().enumerate() {
-        let rate = r.tightest.ppd / r.radial_step_px;
-        let next_e = rings
-            .get(k + 1)
-            .map_or(max_e, |n| n.tightest.eccentricity_deg);
-        steps.push((r.tightest.eccentricity_deg, rate));
-        steps.push((next_e, rate));
-    }
-    let blue = RGBColor(30, 80, 200);
-    chart
-        .draw_series(LineSeries::new(steps, blue.stroke_width(2)))?
-        .label(format!(
-            "{} layout (radial rays per degree, per ring)",
-            m.layout.name()
-        ))
-        .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], blue.stroke_width(2)));
-    chart
-        .configure_series_labels()
-        .position(SeriesLabelPosition::UpperRight)
-        .border_style(BLACK)
-        .background_style(WHITE.mix(0.9))
-        .label_font(("sans-serif", 13))
-        .draw()?;
-    root.present()?;
-    Ok(())
+    draw_png(path, (900, 560), |root| {
+        let mut chart = ChartBuilder::on(root)
+            .caption(
+                format!(
+                    "Sampling rate vs eccentricity: {} ({} layout, C = {})",
+                    built.display.name,
+                    m.layout.name(),
+                    model.contrast
+                ),
+                ("sans-serif", 16),
+            )
+            .margin(12)
+            .x_label_area_size(40)
+            .y_label_area_size(60)
+            .build_cartesian_2d(0.0..max_e, 0.0..top)?;
+        chart
+            .configure_mesh()
+            .x_desc("eccentricity (degrees)")
+            .y_desc("rays per degree")
+            .label_style(("sans-serif", 13))
+            .draw()?;
+        let n = 400;
+        chart
+            .draw_series(LineSeries::new(
+                (0..=n).map(|i| {
+                    let e = max_e * f64::from(i) / f64::from(n);
+                    (e, required(e))
+                }),
+                RED.stroke_width(2),
+            ))?
+            .label("CSF cut-off x 2 (Nyquist rate), eq. 4.3")
+            .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], RED.stroke_width(2)));
+        chart
+            .draw_series(LineSeries::new(
+                rings
+                    .iter()
+                    .map(|r| (r.tightest.eccentricity_deg, r.tightest.ppd)),
+                BLACK.stroke_width(1),
+            ))?
+            .label("one ray per pixel (local px/deg)")
+            .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], BLACK.stroke_width(1)));
+        let mut steps = Vec::with_capacity(rings.len() * 2);
+        for (k, r) in rings.iter().enumerate() {
+            let rate = r.tightest.ppd / r.radial_step_px;
+            let next_e = rings
+                .get(k + 1)
+                .map_or(max_e, |n| n.tightest.eccentricity_deg);
+            steps.push((r.tightest.eccentricity_deg, rate));
+            steps.push((next_e, rate));
+        }
+        let blue = RGBColor(30, 80, 200);
+        chart
+            .draw_series(LineSeries::new(steps, blue.stroke_width(2)))?
+            .label(format!(
+                "{} layout (radial rays per degree, per ring)",
+                m.layout.name()
+            ))
+            .legend(move |(x, y)| {
+                PathElement::new(vec![(x, y), (x + 20, y)], blue.stroke_width(2))
+            });
+        chart
+            .configure_series_labels()
+            .position(SeriesLabelPosition::UpperRight)
+            .border_style(BLACK)
+            .background_style(WHITE.mix(0.9))
+            .label_font(("sans-serif", 13))
+            .draw()?;
+        Ok(())
+    })
 }

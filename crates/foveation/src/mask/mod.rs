@@ -170,7 +170,7 @@ impl RayMask {
 }
 
 /// Samples per full turn when taking the minimum spacing over a ring.
-const SAMPLES_PER_TURN: f64 = 24.0;
+const SAMPLES_PER_TURN: f64 = 16.0;
 /// A ring keeps the previous ring's point count (so the strip is all quads)
 /// while that count is at least this fraction of what it needs.
 const KEEP_COUNT_FRACTION: f64 = 0.8;
@@ -181,6 +181,30 @@ pub fn build(
     layout: Layout,
     por_px: [f64; 2],
 ) -> Result<RayMask, ParamError> {
+    let mut mask = RayMask {
+        layout,
+        por_px,
+        width_px: 0,
+        height_px: 0,
+        fovea_radius_px: 0.0,
+        fovea: Vec::new(),
+        rings: Vec::new(),
+        vertices: Vec::new(),
+        cells: Vec::new(),
+    };
+    rebuild(&mut mask, model, layout, por_px)?;
+    Ok(mask)
+}
+
+/// Rebuilds `mask` in place for a new POR (or model, or layout), reusing its
+/// buffers: what a renderer calls when the gaze moves. On error the mask is
+/// left unchanged.
+pub fn rebuild(
+    mask: &mut RayMask,
+    model: &SamplingModel,
+    layout: Layout,
+    por_px: [f64; 2],
+) -> Result<(), ParamError> {
     if !por_px[0].is_finite() {
         return Err(ParamError::new(
             "gaze.x",
@@ -203,28 +227,21 @@ pub fn build(
         por: por_px,
         cache: Default::default(),
     };
-
-    let fovea_radius_px = sampler.fovea_radius(layout);
-    let fovea = fovea_spans(
+    mask.layout = layout;
+    mask.por_px = por_px;
+    mask.width_px = model.geometry.width_px;
+    mask.height_px = model.geometry.height_px;
+    mask.fovea_radius_px = sampler.fovea_radius(layout);
+    fovea_spans(
+        &mut mask.fovea,
         por_px,
-        fovea_radius_px,
-        model.geometry.width_px,
-        model.geometry.height_px,
+        mask.fovea_radius_px,
+        mask.width_px,
+        mask.height_px,
     );
-    let rings = sampler.rings(layout, fovea_radius_px);
-    let mut mask = RayMask {
-        layout,
-        por_px,
-        width_px: model.geometry.width_px,
-        height_px: model.geometry.height_px,
-        fovea_radius_px,
-        fovea,
-        rings,
-        vertices: Vec::new(),
-        cells: Vec::new(),
-    };
-    mesh_strips(&mut mask, &screen);
-    Ok(mask)
+    sampler.rings(&mut mask.rings, layout, mask.fovea_radius_px);
+    mesh_strips(mask, &screen);
+    Ok(())
 }
 
 struct RingSampler {
@@ -317,11 +334,11 @@ impl RingSampler {
         hi
     }
 
-    fn rings(&self, layout: Layout, fovea_radius_px: f64) -> Vec<Ring> {
-        let mut rings: Vec<Ring> = Vec::new();
+    fn rings(&self, rings: &mut Vec<Ring>, layout: Layout, fovea_radius_px: f64) {
+        rings.clear();
         let far = self.screen.max_distance_px;
         if fovea_radius_px > far {
-            return rings;
+            return;
         }
         let mut r = fovea_radius_px;
         loop {
@@ -360,11 +377,10 @@ impl RingSampler {
             // the tightest any ring needs, which is the outermost ring's
             // whenever spacing grows faster than linearly with radius.
             let n = rings.iter().map(|r| r.points_per_turn).max().unwrap_or(3);
-            for ring in &mut rings {
+            for ring in rings.iter_mut() {
                 ring.points_per_turn = n;
             }
         }
-        rings
     }
 }
 
@@ -380,12 +396,12 @@ fn ladder(n: u32) -> u32 {
 }
 
 /// Fovea pixels: every pixel whose centre is within `radius` of the POR.
-fn fovea_spans(por: [f64; 2], radius: f64, width: u32, height: u32) -> Vec<PixelSpan> {
-    let mut spans = Vec::new();
+fn fovea_spans(spans: &mut Vec<PixelSpan>, por: [f64; 2], radius: f64, width: u32, height: u32) {
+    spans.clear();
     let y_lo = (por[1] - radius - 0.5).ceil().max(0.0);
     let y_hi = (por[1] + radius - 0.5).floor().min(f64::from(height) - 1.0);
     if y_lo > y_hi {
-        return spans;
+        return;
     }
     for y in (y_lo as u32)..=(y_hi as u32) {
         let dy = f64::from(y) + 0.5 - por[1];
@@ -400,7 +416,6 @@ fn fovea_spans(por: [f64; 2], radius: f64, width: u32, height: u32) -> Vec<Pixel
             });
         }
     }
-    spans
 }
 
 /// Vertex ids of one ring's points, created on first use.
@@ -502,8 +517,12 @@ fn mesh_strips(mask: &mut RayMask, screen: &ScreenFromPor) {
             turn * f64::from(ring.points_per_turn)
         })
         .sum();
-    let mut vertices = Vec::with_capacity((estimate * 1.1) as usize + 16);
-    let mut cells = Vec::with_capacity((estimate * 1.1) as usize + 16);
+    let mut vertices = std::mem::take(&mut mask.vertices);
+    let mut cells = std::mem::take(&mut mask.cells);
+    vertices.clear();
+    cells.clear();
+    vertices.reserve((estimate * 1.1) as usize + 16);
+    cells.reserve((estimate * 1.1) as usize + 16);
     let mut inner = RingSlots::new();
     let mut outer = RingSlots::new();
     for (pair, arcs) in mask.rings.windows(2).zip(strips) {

@@ -1,6 +1,77 @@
-//! # tracker-hal — gaze sources for gazecast (not yet implemented)
+//! # tracker-hal — gaze sources for gazecast
 //!
-//! This crate will hold the gaze-source trait, the ISCAN serial and Tobii HID
-//! drivers, mouse emulation, calibration and mapping, and lossless recording
-//! and replay (issues 3 and 4). It is empty on purpose: nothing here pretends
-//! to work yet.
+//! Labs run gazecast with a physical eye tracker, developers with a mouse,
+//! tests with recorded device streams. All three go through one small,
+//! blocking abstraction, in the style of `embedded-hal` / `embedded-io`.
+//!
+//! ## The trait
+//!
+//! [`GazeSource`]: `start`, `stop`, `next_sample`, `stats`. Its doc states
+//! exactly what blocks and what returns early (`Ok(None)` = clean end of
+//! stream; `TimedOut` = call again; `Disconnected` = reopen). Every error
+//! has one [`ErrorKind`] (`#[non_exhaustive]`) and a message.
+//!
+//! A [`GazeSample`] carries a sequence number, the device timestamp (when the
+//! device has one) and the host monotonic arrival time (µs, both kept), and
+//! per eye a position in tracker units or *missing* — never a bogus
+//! coordinate — with an optional pupil size. Mapping to screen pixels is a
+//! separate, explicit step ([`Mapping`]).
+//!
+//! ## Drivers are decoders over a transport
+//!
+//! A byte-stream device is a [`Decoder`] (a pure state machine: bytes in,
+//! samples out, garbage skipped and counted) run by [`StreamDriver`] over any
+//! `Read + Write` transport: a serial port ([`serial::open`]), a
+//! pseudo-terminal, a pipe, a `Cursor<Vec<u8>>`, or a [`ReplayTransport`].
+//! The same decode path therefore runs live, in tests and on replay.
+//!
+//! - [`iscan`]: ISCAN DQW serial output, binary and ASCII (format and
+//!   timestamp derivation documented there).
+//! - [`mouse`]: mouse-emulated gaze, a simulated device thread with optional
+//!   jitter, main-sequence saccades, latency and blinks.
+//!
+//! ## Recording and replay
+//!
+//! [`recording`] documents the `.gzrec` format (append-only CRC-checked
+//! chunks; a torn tail is detected and reported). A [`Recorder`] writes from
+//! its own thread; the driver's [`Tap`] never blocks and counts any overflow.
+//! [`ReplayTransport`] plays a recording (or a raw byte dump) back through the
+//! same decoder, as fast as possible or at the original pacing.
+//!
+//! ## Adding a driver
+//!
+//! 1. Write a `Decoder`: `push` appends every complete record to `out`,
+//!    resynchronising on garbage and counting dropped bytes and resyncs in
+//!    [`DecodeStats`]; `finish` counts what is left; `start_command` /
+//!    `stop_command` give the bytes that start and stop streaming.
+//! 2. Give it a config type and a variant in [`config::Driver`], so tracker
+//!    files can name it and recordings can carry it.
+//! 3. Teach [`sim`] to produce its wire format, add a stream to `tests/data`
+//!    with `gazecast simulate`, and add it to the conformance suite
+//!    (`tests/tests/conformance.rs`), which checks the rest.
+//!
+//! Devices that are not byte streams (HID reports) implement [`GazeSource`]
+//! directly (issue 4).
+
+pub mod clock;
+pub mod config;
+pub mod csv;
+pub mod error;
+pub mod iscan;
+pub mod mapping;
+pub mod mouse;
+pub mod recording;
+pub mod replay;
+pub mod sample;
+pub mod serial;
+pub mod sim;
+pub mod source;
+
+pub use clock::{Clock, MonotonicClock, SharedClock};
+pub use config::{Driver, TrackerConfig};
+pub use error::{Error, ErrorKind, Result};
+pub use mapping::Mapping;
+pub use recording::{Recorder, RecorderSummary, Recording, RecordingHeader, Tap};
+pub use replay::{Pacing, ReplayTransport};
+pub use sample::{DecodeStats, EyeSample, GazeSample};
+pub use source::{decode_all, Decoder, GazeSource, StreamDriver};

@@ -90,8 +90,13 @@ pub fn parse<T: DeserializeOwned>(path: &Path, text: &str) -> Result<T, ConfigEr
 
 /// A value that parsed but makes no sense, reported at its field's line.
 pub fn invalid_field(path: &Path, text: &str, field: &str, message: String) -> ConfigError {
-    let top = field.split('.').next().unwrap_or(field);
-    let (line, column) = find_field(text, top).unwrap_or((0, 0));
+    // The innermost named segment first (`driver.rate_hz` → `rate_hz`), then
+    // outwards (`size_mm.0` → `size_mm`).
+    let (line, column) = field
+        .rsplit('.')
+        .filter(|seg| !seg.chars().all(|c| c.is_ascii_digit()))
+        .find_map(|seg| find_field(text, seg))
+        .unwrap_or((0, 0));
     ConfigError::invalid(path, line, column, Some(field.to_string()), message)
 }
 
@@ -157,6 +162,15 @@ pub fn load_display(path: &Path) -> Result<foveation::Display, ConfigError> {
         )
     })?;
     Ok(display)
+}
+
+/// Loads a tracker file and checks its values.
+pub fn load_tracker(path: &Path) -> Result<tracker_hal::TrackerConfig, ConfigError> {
+    let (tracker, text): (tracker_hal::TrackerConfig, String) = load(path)?;
+    tracker
+        .validate()
+        .map_err(|(field, message)| invalid_field(path, &text, &field, message))?;
+    Ok(tracker)
 }
 
 /// `config/default.ron`: which files a command uses when given none.

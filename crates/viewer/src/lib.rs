@@ -5,6 +5,7 @@
 pub mod config;
 pub mod mask_cmd;
 pub mod plots;
+pub mod tracker_cmd;
 
 use clap::{Parser, Subcommand};
 
@@ -21,11 +22,24 @@ pub enum Command {
     /// Build the CSF ray mask for one gaze point; report rays against the
     /// Nyquist bound; optionally write the rays (CSV) and pictures (PNG).
     Mask(mask_cmd::MaskArgs),
+    /// Decode a recording or raw byte dump through the tracker's driver and
+    /// write one CSV row per record; a summary line goes to stderr.
+    Replay(tracker_cmd::ReplayArgs),
+    /// Record a serial tracker session losslessly (raw bytes with arrival times).
+    Record(tracker_cmd::RecordArgs),
+    /// List the serial ports trackers can be on.
+    Devices,
+    /// Write a synthesised device stream (and the samples it must decode to).
+    Simulate(tracker_cmd::SimulateArgs),
 }
 
 /// Runs a parsed command line, writing normal output to `out`.
 pub fn run(cli: Cli, out: &mut dyn std::io::Write) -> Result<(), String> {
     match cli.command {
         Command::Mask(args) => mask_cmd::run(&args, out),
+        Command::Replay(args) => tracker_cmd::replay(&args, &mut std::io::stderr()),
+        Command::Record(args) => tracker_cmd::record(&args, out),
+        Command::Devices => tracker_cmd::devices(out),
+        Command::Simulate(args) => tracker_cmd::simulate(&args, out),
     }
 }

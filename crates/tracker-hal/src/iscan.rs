@@ -1,0 +1,497 @@
+//! ISCAN RK-726PCI / DQW serial output (Murphy & Duchowski 2001 §3: binocular
+//! point of regard over RS-232 at 19.2 kbaud, a 512×512 frame per eye, 60 Hz).
+//!
+//! The format, as ISCAN's documentation is quoted by public lab toolkits
+//! (Psychtoolbox `DatarecordingFromISCANDemo.m`, MWorks' ISCAN plugin):
+//!
+//! - Up to 12 output parameters per sample, sent in the configured order while
+//!   tracking is active. Which parameter is which is configuration
+//!   ([`IscanConfig::parameters`]).
+//! - **Binary**: each record is the header `0x44 0x44`, then one little-endian
+//!   `u16` per parameter holding the value × 10 (tenths).
+//! - **ASCII**: each value as text (`xxx.x`), separated by spaces or tabs, the
+//!   record ended by CR LF (a bare LF is accepted too; any spacing is).
+//! - Host → device: command bytes 0x80–0xFF (start / stop tracking output are
+//!   configurable: 0x84/0x88 in some set-ups, 0x80/0x81 in others); bytes
+//!   0–127 are logged by the device as sync markers ([`marker_byte`]).
+//!
+//! **Timestamps.** ISCAN sends none. The driver derives one: the host arrival
+//! time of the chunk holding the record's last byte, minus the record's wire
+//! time (bytes × 10 bits ÷ baud). It is stored as `device_time_us` and is
+//! only as good as the host's read latency.
+//!
+//! **Validity.** A position outside the frame (`[0, width) × [0, height)`) is
+//! reported as a missing eye and counted as an invalid value: never clamped.
+//! ISCAN's documentation does not say what it sends for a lost eye; our
+//! simulator sends an out-of-frame value (binary `0xFFFF`, ASCII `999.9`).
+//!
+//! **Resynchronisation.** Binary: bytes before a header are dropped; a record
+//! whose payload contains the header sequence is taken as truncated (with a
+//! 512 frame, an in-range value never contains the byte pair `44 44`), and
+//! decoding restarts at that header. ASCII: a line that does not hold exactly
+//! one number per parameter is dropped whole. Dropped bytes and resyncs are
+//! counted; bit flips inside a binary value are only caught by the range check.
+
+use std::collections::VecDeque;
+
+use serde::{Deserialize, Serialize};
+
+use crate::error::{Error, ErrorKind, Result};
+use crate::sample::{DecodeStats, EyeSample, GazeSample};
+use crate::source::Decoder;
+
+/// The binary record header.
+pub const HEADER: [u8; 2] = [0x44, 0x44];
+/// ISCAN sends at most this many parameters.
+pub const MAX_PARAMETERS: usize = 12;
+/// Longest ASCII line accepted before it is dropped as garbage.
+const MAX_LINE: usize = MAX_PARAMETERS * 12 + 16;
+
+/// One output parameter.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub enum IscanParam {
+    LeftPorH,
+    LeftPorV,
+    RightPorH,
+    RightPorV,
+    LeftPupil,
+    RightPupil,
+    /// Any other parameter: decoded and ignored.
+    Other,
+}
+
+/// Binary or ASCII output.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub enum IscanMode {
+    Binary,
+    Ascii,
+}
+
+/// How an ISCAN is set up.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct IscanConfig {
+    pub mode: IscanMode,
+    /// Output parameters in the order the device sends them (1 to 12).
+    pub parameters: Vec<IscanParam>,
+    /// Tracker frame per eye, (width, height) in tracker units.
+    #[serde(default = "default_frame")]
+    pub frame: (f64, f64),
+    /// Serial speed, bits per second (19200 in the seed's set-up).
+    #[serde(default = "default_baud")]
+    pub baud: u32,
+    /// Serial device, e.g. `/dev/ttyUSB0` (used by `record` and the viewer).
+    #[serde(default)]
+    pub port: Option<String>,
+    /// Command byte that starts tracking output (0x80–0xFF).
+    #[serde(default = "default_start")]
+    pub start_command: u8,
+    /// Command byte that stops tracking output (0x80–0xFF).
+    #[serde(default = "default_stop")]
+    pub stop_command: u8,
+}
+
+fn default_frame() -> (f64, f64) {
+    (512.0, 512.0)
+}
+fn default_baud() -> u32 {
+    19_200
+}
+fn default_start() -> u8 {
+    0x84
+}
+fn default_stop() -> u8 {
+    0x88
+}
+
+impl IscanConfig {
+    /// The seed's set-up: binocular POR, 4 parameters, 512×512, 19200 baud.
+    pub fn binocular(mode: IscanMode) -> Self {
+        use IscanParam::*;
+        Self {
+            mode,
+            parameters: vec![LeftPorH, LeftPorV, RightPorH, RightPorV],
+            frame: default_frame(),
+            baud: default_baud(),
+            port: None,
+            start_command: default_start(),
+            stop_command: default_stop(),
+        }
+    }
+
+    /// Checks the values; the error names the field.
+    pub fn validate(&self) -> Result<(), (&'static str, String)> {
+        if self.parameters.is_empty() || self.parameters.len() > MAX_PARAMETERS {
+            return Err((
+                "parameters",
+                format!(
+                    "needs 1 to {MAX_PARAMETERS} parameters, got {}",
+                    self.parameters.len()
+                ),
+            ));
+        }
+        let (w, h) = self.frame;
+        if !(w.is_finite() && w > 0.0 && h.is_finite() && h > 0.0) {
+            return Err(("frame", format!("({w}, {h}) must be two positive sizes")));
+        }
+        if self.baud == 0 {
+            return Err(("baud", "must be positive".into()));
+        }
+        for (field, b) in [
+            ("start_command", self.start_command),
+            ("stop_command", self.stop_command),
+        ] {
+            if b < 0x80 {
+                return Err((
+                    field,
+                    format!("0x{b:02X} is a marker byte; commands are 0x80–0xFF"),
+                ));
+            }
+        }
+        Ok(())
+    }
+
+    /// Bytes of one record on the wire.
+    pub fn record_len(&self) -> usize {
+        HEADER.len() + 2 * self.parameters.len()
+    }
+
+    /// Wire time of `bytes` bytes in µs (start + 8 data + stop bits = 10 per byte).
+    pub fn wire_time_us(&self, bytes: usize) -> u64 {
+        (bytes as u64 * 10 * 1_000_000) / u64::from(self.baud.max(1))
+    }
+}
+
+/// The byte that asks the device to log sync marker `value` (0–127).
+pub fn marker_byte(value: u8) -> Result<u8> {
+    if value < 0x80 {
+        Ok(value)
+    } else {
+        Err(Error::new(
+            ErrorKind::Unsupported,
+            format!("ISCAN markers are 0–127, got {value}"),
+        ))
+    }
+}
+
+/// The ISCAN decoder (binary or ASCII).
+#[derive(Debug, Clone)]
+pub struct IscanDecoder {
+    config: IscanConfig,
+    buf: Vec<u8>,
+    stats: DecodeStats,
+    /// False after bytes were dropped, until the next good record: one resync
+    /// is counted per run of garbage.
+    synced: bool,
+    /// ASCII: drop bytes until the next line end (after an over-long line).
+    skip_line: bool,
+    values: Vec<f64>,
+}
+
+impl IscanDecoder {
+    pub fn new(config: IscanConfig) -> Self {
+        let n = config.parameters.len();
+        Self {
+            config,
+            buf: Vec::with_capacity(256),
+            stats: DecodeStats::default(),
+            synced: true,
+            skip_line: false,
+            values: Vec::with_capacity(n),
+        }
+    }
+
+    pub fn config(&self) -> &IscanConfig {
+        &self.config
+    }
+
+    fn drop_bytes(&mut self, n: usize) {
+        self.stats.dropped_bytes += n as u64;
+        if self.synced && n > 0 {
+            self.stats.resyncs += 1;
+            self.synced = false;
+        }
+    }
+
+    /// Builds a sample from `self.values` (one per parameter).
+    fn emit(&mut self, record_bytes: usize, arrival_us: u64, out: &mut VecDeque<GazeSample>) {
+        use IscanParam::*;
+        let (w, h) = self.config.frame;
+        let mut eye = [[f64::NAN; 2]; 2];
+        let mut pupil = [None, None];
+        for (p, &v) in self.config.parameters.iter().zip(&self.values) {
+            match p {
+                LeftPorH => eye[0][0] = v,
+                LeftPorV => eye[0][1] = v,
+                RightPorH => eye[1][0] = v,
+                RightPorV => eye[1][1] = v,
+                LeftPupil => pupil[0] = Some(v),
+                RightPupil => pupil[1] = Some(v),
+                Other => {}
+            }
+        }
+        let mut eyes = [EyeSample::MISSING; 2];
+        for k in 0..2 {
+            let [x, y] = eye[k];
+            let configured = !(x.is_nan() && y.is_nan());
+            let in_frame = (0.0..w).contains(&x) && (0.0..h).contains(&y);
+            if in_frame {
+                eyes[k].position = Some([x, y]);
+                eyes[k].pupil = pupil[k].filter(|p| p.is_finite() && *p >= 0.0);
+            } else if configured {
+                self.stats.invalid_values += 1;
+            }
+        }
+        let seq = self.stats.records;
+        self.stats.records += 1;
+        self.synced = true;
+        out.push_back(GazeSample {
+            seq,
+            device_time_us: Some(arrival_us.saturating_sub(self.config.wire_time_us(record_bytes))),
+            host_time_us: arrival_us,
+            left: eyes[0],
+            right: eyes[1],
+            combined: None,
+        });
+    }
+
+    fn push_binary(&mut self, arrival_us: u64, out: &mut VecDeque<GazeSample>) {
+        let len = self.config.record_len();
+        let mut start = 0;
+        loop {
+            let avail = &self.buf[start..];
+            if avail.len() < 2 {
+                break;
+            }
+            if avail[..2] != HEADER {
+                // Skip to the next header (keep a trailing 0x44: it may start one).
+                let skip = find_header(avail)
+                    .unwrap_or(avail.len() - usize::from(avail[avail.len() - 1] == HEADER[0]));
+                self.drop_bytes(skip);
+                start += skip;
+                continue;
+            }
+            if avail.len() < len {
+                break;
+            }
+            if let Some(q) = find_header(&avail[2..len]) {
+                // A header inside the payload: this record was truncated.
+                self.drop_bytes(2 + q);
+                start += 2 + q;
+                continue;
+            }
+            self.values.clear();
+            for k in 0..self.config.parameters.len() {
+                let raw = u16::from_le_bytes([avail[2 + 2 * k], avail[3 + 2 * k]]);
+                self.values.push(f64::from(raw) / 10.0);
+            }
+            start += len;
+            self.emit(len, arrival_us, out);
+        }
+        self.buf.drain(..start);
+    }
+
+    fn push_ascii(&mut self, arrival_us: u64, out: &mut VecDeque<GazeSample>) {
+        let mut start = 0;
+        while let Some(nl) = self.buf[start..].iter().position(|&b| b == b'\n') {
+            let line_len = nl + 1;
+            if self.skip_line {
+                self.skip_line = false;
+                self.drop_bytes(line_len);
+                start += line_len;
+                continue;
+            }
+            let line = &self.buf[start..start + nl];
+            let line = line.strip_suffix(b"\r").unwrap_or(line);
+            if line.iter().all(|b| b.is_ascii_whitespace()) {
+                // Blank line: tolerated spacing, not a record.
+                start += line_len;
+                continue;
+            }
+            self.values.clear();
+            let ok = parse_ascii(line, self.config.parameters.len(), &mut self.values);
+            start += line_len;
+            if ok {
+                self.emit(line_len, arrival_us, out);
+            } else {
+                self.drop_bytes(line_len);
+            }
+        }
+        self.buf.drain(..start);
+        if self.buf.len() > MAX_LINE {
+            let n = self.buf.len();
+            self.drop_bytes(n);
+            self.buf.clear();
+            self.skip_line = true;
+        }
+    }
+}
+
+fn find_header(bytes: &[u8]) -> Option<usize> {
+    bytes.windows(2).position(|w| w == HEADER)
+}
+
+/// Parses exactly `n` whitespace-separated finite numbers.
+fn parse_ascii(line: &[u8], n: usize, values: &mut Vec<f64>) -> bool {
+    let Ok(text) = std::str::from_utf8(line) else {
+        return false;
+    };
+    for field in text.split_ascii_whitespace() {
+        match field.parse::<f64>() {
+            Ok(v) if v.is_finite() && values.len() < n => values.push(v),
+            _ => return false,
+        }
+    }
+    values.len() == n
+}
+
+impl Decoder for IscanDecoder {
+    fn push(&mut self, bytes: &[u8], arrival_us: u64, out: &mut VecDeque<GazeSample>) {
+        self.stats.bytes += bytes.len() as u64;
+        self.buf.extend_from_slice(bytes);
+        match self.config.mode {
+            IscanMode::Binary => self.push_binary(arrival_us, out),
+            IscanMode::Ascii => self.push_ascii(arrival_us, out),
+        }
+    }
+
+    fn finish(&mut self) {
+        let n = self.buf.len();
+        self.drop_bytes(n);
+        self.buf.clear();
+    }
+
+    fn stats(&self) -> DecodeStats {
+        self.stats
+    }
+
+    fn start_command(&self) -> Vec<u8> {
+        vec![self.config.start_command]
+    }
+
+    fn stop_command(&self) -> Vec<u8> {
+        vec![self.config.stop_command]
+    }
+}
+
+/// Encodes one binary record (the simulator's and the tests' encoder).
+/// Values are rounded to tenths; `None` or out-of-u16 values become 0xFFFF.
+pub fn encode_binary(values: &[Option<f64>]) -> Vec<u8> {
+    let mut rec = HEADER.to_vec();
+    for v in values {
+        let raw = v
+            .map(|v| (v * 10.0).round())
+            .filter(|t| (0.0..65535.0).contains(t))
+            .map_or(0xFFFF, |t| t as u16);
+        rec.extend_from_slice(&raw.to_le_bytes());
+    }
+    rec
+}
+
+/// Encodes one ASCII record: values with one decimal, space separated, CR LF.
+/// `None` becomes `999.9` (outside any 512 frame).
+pub fn encode_ascii(values: &[Option<f64>]) -> Vec<u8> {
+    let fields: Vec<String> = values
+        .iter()
+        .map(|v| format!("{:.1}", v.unwrap_or(999.9)))
+        .collect();
+    let mut rec = fields.join(" ").into_bytes();
+    rec.extend_from_slice(b"\r\n");
+    rec
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::source::decode_all;
+
+    fn cfg(mode: IscanMode) -> IscanConfig {
+        IscanConfig::binocular(mode)
+    }
+
+    #[test]
+    fn binary_record_decodes_tenths() {
+        let rec = encode_binary(&[Some(100.5), Some(200.0), Some(101.0), Some(199.9)]);
+        let s = decode_all(
+            &mut IscanDecoder::new(cfg(IscanMode::Binary)),
+            &rec,
+            1_000_000,
+        );
+        assert_eq!(s.len(), 1);
+        assert_eq!(s[0].left.position, Some([100.5, 200.0]));
+        assert_eq!(s[0].right.position, Some([101.0, 199.9]));
+        // 10 bytes at 19200 baud: 5208 µs on the wire.
+        assert_eq!(s[0].device_time_us, Some(1_000_000 - 5208));
+    }
+
+    #[test]
+    fn garbage_before_a_record_is_dropped_and_counted() {
+        let mut bytes = vec![0x01, 0x44, 0x02, 0x03];
+        bytes.extend(encode_binary(&[Some(1.0), Some(2.0), Some(3.0), Some(4.0)]));
+        let mut d = IscanDecoder::new(cfg(IscanMode::Binary));
+        let s = decode_all(&mut d, &bytes, 0);
+        assert_eq!(s.len(), 1);
+        assert_eq!(d.stats().dropped_bytes, 4);
+        assert_eq!(d.stats().resyncs, 1);
+    }
+
+    #[test]
+    fn a_truncated_record_resyncs_on_the_next_header() {
+        let a = encode_binary(&[Some(1.0), Some(2.0), Some(3.0), Some(4.0)]);
+        let b = encode_binary(&[Some(5.0), Some(6.0), Some(7.0), Some(8.0)]);
+        let mut bytes = a[..6].to_vec();
+        bytes.extend(&b);
+        let mut d = IscanDecoder::new(cfg(IscanMode::Binary));
+        let s = decode_all(&mut d, &bytes, 0);
+        assert_eq!(s.len(), 1);
+        assert_eq!(s[0].left.position, Some([5.0, 6.0]));
+        assert_eq!(d.stats().dropped_bytes, 6);
+    }
+
+    #[test]
+    fn out_of_frame_values_are_missing_eyes_not_clamped() {
+        let rec = encode_binary(&[Some(600.0), Some(10.0), None, Some(3.0)]);
+        let mut d = IscanDecoder::new(cfg(IscanMode::Binary));
+        let s = decode_all(&mut d, &rec, 0);
+        assert_eq!(s[0].left.position, None);
+        assert_eq!(s[0].right.position, None);
+        assert_eq!(d.stats().invalid_values, 2);
+        assert_eq!(s[0].gaze(), None);
+    }
+
+    #[test]
+    fn ascii_tolerates_spacing_and_drops_bad_lines() {
+        let text = b"  100.5\t200.0  101.0 199.9\r\n\r\nabc def\r\n1 2 3\r\n1 2 3 4\n";
+        let mut d = IscanDecoder::new(cfg(IscanMode::Ascii));
+        let s = decode_all(&mut d, text, 0);
+        assert_eq!(s.len(), 2);
+        assert_eq!(s[0].left.position, Some([100.5, 200.0]));
+        assert_eq!(s[1].right.position, Some([3.0, 4.0]));
+        assert_eq!(
+            d.stats().dropped_bytes,
+            (b"abc def\r\n".len() + b"1 2 3\r\n".len()) as u64
+        );
+    }
+
+    #[test]
+    fn records_split_across_reads_decode_once() {
+        let rec = encode_binary(&[Some(1.0), Some(2.0), Some(3.0), Some(4.0)]);
+        let mut d = IscanDecoder::new(cfg(IscanMode::Binary));
+        let mut out = VecDeque::new();
+        for (i, b) in rec.iter().enumerate() {
+            d.push(&[*b], i as u64, &mut out);
+        }
+        assert_eq!(out.len(), 1);
+        assert_eq!(out[0].host_time_us, 9);
+        assert_eq!(d.stats().dropped_bytes, 0);
+    }
+
+    #[test]
+    fn markers_and_commands() {
+        assert_eq!(marker_byte(5).unwrap(), 5);
+        assert_eq!(marker_byte(200).unwrap_err().kind, ErrorKind::Unsupported);
+        let mut c = cfg(IscanMode::Binary);
+        c.start_command = 0x10;
+        assert_eq!(c.validate().unwrap_err().0, "start_command");
+    }
+}

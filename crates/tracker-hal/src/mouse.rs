@@ -1,0 +1,549 @@
+//! Mouse-emulated gaze: a simulated tracker that behaves like a real one
+//! (PsychoPy iohub's MouseGaze idea), for development without a tracker.
+//!
+//! The *device* ([`MouseEmulator`], run on its own thread by [`spawn_device`])
+//! samples the cursor at a fixed rate (default 120 Hz) and writes one binary
+//! record per sample to a byte stream, exactly like a serial tracker; the
+//! *driver* is the ordinary [`StreamDriver`](crate::StreamDriver) with
+//! [`MouseDecoder`]. Recording and replay therefore work the same as for ISCAN.
+//!
+//! Optional realism, all off by default and deterministic for a given seed:
+//! fixation jitter (Gaussian, RMS in degrees), saccades that follow the main
+//! sequence when the cursor jumps (duration ≈ 2.2·amplitude_deg + 21 ms, as
+//! PsychoPy's MouseGaze models it), added latency, and blinks (a held button
+//! makes both eyes invalid).
+//!
+//! Record (23 bytes, little-endian): `47 5A` ("GZ"), device time µs (u64),
+//! flags (u8, bit 0 = valid), x px (f32), y px (f32), CRC-32 of the 17 bytes
+//! after the header (u32). Host → device: `0x01` start, `0x02` stop.
+
+use std::collections::VecDeque;
+use std::io::{Read, Write};
+use std::time::{Duration, Instant};
+
+use crossbeam_channel::{Receiver, Sender};
+use rand::SeedableRng;
+use rand_chacha::ChaCha8Rng;
+use rand_distr::{Distribution, Normal};
+use serde::{Deserialize, Serialize};
+
+use crate::sample::{DecodeStats, EyeSample, GazeSample};
+use crate::source::Decoder;
+
+pub const HEADER: [u8; 2] = [0x47, 0x5A];
+pub const RECORD_LEN: usize = 23;
+pub const START: u8 = 0x01;
+pub const STOP: u8 = 0x02;
+
+/// Mouse-emulation settings (`config/trackers/mouse.ron`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MouseConfig {
+    /// Samples per second.
+    #[serde(default = "default_rate")]
+    pub rate_hz: f64,
+    /// Screen pixels per degree, to convert the degree settings below.
+    #[serde(default = "default_ppd")]
+    pub pixels_per_degree: f64,
+    /// RMS fixation jitter in degrees (0 = none).
+    #[serde(default)]
+    pub jitter_rms_deg: f64,
+    /// Move the gaze with main-sequence saccades when the cursor jumps.
+    #[serde(default)]
+    pub saccades: bool,
+    /// Cursor jumps of at least this amplitude (degrees) become saccades.
+    #[serde(default = "default_saccade_threshold")]
+    pub saccade_threshold_deg: f64,
+    /// Added latency between the cursor and the reported gaze, ms.
+    #[serde(default)]
+    pub latency_ms: f64,
+    /// Seed for the jitter.
+    #[serde(default)]
+    pub seed: u64,
+}
+
+fn default_rate() -> f64 {
+    120.0
+}
+fn default_ppd() -> f64 {
+    35.7
+}
+fn default_saccade_threshold() -> f64 {
+    1.0
+}
+
+impl Default for MouseConfig {
+    fn default() -> Self {
+        Self {
+            rate_hz: default_rate(),
+            pixels_per_degree: default_ppd(),
+            jitter_rms_deg: 0.0,
+            saccades: false,
+            saccade_threshold_deg: default_saccade_threshold(),
+            latency_ms: 0.0,
+            seed: 0,
+        }
+    }
+}
+
+impl MouseConfig {
+    pub fn validate(&self) -> Result<(), (&'static str, String)> {
+        let positive = |f: &'static str, v: f64| {
+            if v.is_finite() && v > 0.0 {
+                Ok(())
+            } else {
+                Err((f, format!("{v} must be a positive number")))
+            }
+        };
+        let non_negative = |f: &'static str, v: f64| {
+            if v.is_finite() && v >= 0.0 {
+                Ok(())
+            } else {
+                Err((f, format!("{v} must be zero or positive")))
+            }
+        };
+        positive("rate_hz", self.rate_hz)?;
+        positive("pixels_per_degree", self.pixels_per_degree)?;
+        non_negative("jitter_rms_deg", self.jitter_rms_deg)?;
+        non_negative("saccade_threshold_deg", self.saccade_threshold_deg)?;
+        non_negative("latency_ms", self.latency_ms)?;
+        Ok(())
+    }
+
+    /// Sampling period in µs.
+    pub fn period_us(&self) -> u64 {
+        (1e6 / self.rate_hz).round().max(1.0) as u64
+    }
+}
+
+/// What the cursor did, in screen pixels, at host time `t_us`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct CursorEvent {
+    pub t_us: u64,
+    pub position_px: [f64; 2],
+    /// A button or key is held: the emulated eyes are closed.
+    pub blink: bool,
+}
+
+#[derive(Debug, Clone, Copy)]
+struct Saccade {
+    from: [f64; 2],
+    to: [f64; 2],
+    start_us: u64,
+    duration_us: u64,
+}
+
+/// The emulated device: cursor in, records out.
+#[derive(Debug, Clone)]
+pub struct MouseEmulator {
+    config: MouseConfig,
+    rng: ChaCha8Rng,
+    history: VecDeque<CursorEvent>,
+    eye: Option<[f64; 2]>,
+    saccade: Option<Saccade>,
+}
+
+impl MouseEmulator {
+    pub fn new(config: MouseConfig) -> Self {
+        let rng = ChaCha8Rng::seed_from_u64(config.seed);
+        Self {
+            config,
+            rng,
+            history: VecDeque::new(),
+            eye: None,
+            saccade: None,
+        }
+    }
+
+    pub fn config(&self) -> &MouseConfig {
+        &self.config
+    }
+
+    /// The cursor moved (or a button changed). Events must come in time order.
+    pub fn cursor(&mut self, event: CursorEvent) {
+        self.history.push_back(event);
+    }
+
+    /// The gaze point (before jitter) and validity at device time `t_us`.
+    fn state_at(&mut self, t_us: u64) -> Option<[f64; 2]> {
+        let effective = t_us.saturating_sub((self.config.latency_ms * 1000.0).round() as u64);
+        while self.history.len() > 1 && self.history[1].t_us <= effective {
+            self.history.pop_front();
+        }
+        let cursor = *self.history.front().filter(|e| e.t_us <= effective)?;
+        let target = cursor.position_px;
+        let eye = match self.saccade {
+            Some(sac) if sac.to == target => {
+                if effective < sac.start_us + sac.duration_us {
+                    // Cosine velocity profile: smooth start and end.
+                    let p = effective.saturating_sub(sac.start_us) as f64 / sac.duration_us as f64;
+                    let k = 0.5 - 0.5 * (std::f64::consts::PI * p).cos();
+                    [
+                        sac.from[0] + (sac.to[0] - sac.from[0]) * k,
+                        sac.from[1] + (sac.to[1] - sac.from[1]) * k,
+                    ]
+                } else {
+                    self.saccade = None;
+                    target
+                }
+            }
+            _ => {
+                // The target changed (or nothing was moving): jump, or start a
+                // saccade from wherever the eye is now.
+                self.saccade = None;
+                match self.eye {
+                    Some(from) if self.config.saccades && from != target => {
+                        let amplitude_deg = (target[0] - from[0]).hypot(target[1] - from[1])
+                            / self.config.pixels_per_degree;
+                        if amplitude_deg >= self.config.saccade_threshold_deg {
+                            // Main sequence (PsychoPy MouseGaze): 2.2 ms/deg + 21 ms.
+                            let duration_us = ((2.2 * amplitude_deg + 21.0) * 1000.0) as u64;
+                            self.saccade = Some(Saccade {
+                                from,
+                                to: target,
+                                start_us: effective,
+                                duration_us,
+                            });
+                            from
+                        } else {
+                            target
+                        }
+                    }
+                    _ => target,
+                }
+            }
+        };
+        self.eye = Some(eye);
+        if cursor.blink {
+            None
+        } else {
+            self.eye
+        }
+    }
+
+    /// Samples the emulated eye at device time `t_us` and encodes the record.
+    pub fn tick(&mut self, t_us: u64) -> [u8; RECORD_LEN] {
+        let point = self.state_at(t_us).map(|p| {
+            if self.config.jitter_rms_deg > 0.0 {
+                // RMS of the 2-D displacement = jitter → σ per axis = rms/√2.
+                let sigma = self.config.jitter_rms_deg * self.config.pixels_per_degree
+                    / std::f64::consts::SQRT_2;
+                let n = Normal::new(0.0, sigma)
+                    .unwrap_or_else(|_| unreachable!("sigma is finite and positive"));
+                [
+                    p[0] + n.sample(&mut self.rng),
+                    p[1] + n.sample(&mut self.rng),
+                ]
+            } else {
+                p
+            }
+        });
+        encode_record(t_us, point.map(|p| [p[0] as f32, p[1] as f32]))
+    }
+}
+
+/// Encodes one mouse record.
+pub fn encode_record(device_time_us: u64, point: Option<[f32; 2]>) -> [u8; RECORD_LEN] {
+    let mut r = [0u8; RECORD_LEN];
+    r[..2].copy_from_slice(&HEADER);
+    r[2..10].copy_from_slice(&device_time_us.to_le_bytes());
+    let p = point.unwrap_or([0.0, 0.0]);
+    r[10] = u8::from(point.is_some());
+    r[11..15].copy_from_slice(&p[0].to_le_bytes());
+    r[15..19].copy_from_slice(&p[1].to_le_bytes());
+    let crc = crc32fast::hash(&r[2..19]);
+    r[19..23].copy_from_slice(&crc.to_le_bytes());
+    r
+}
+
+/// Decodes mouse records; resynchronises on the header, rejects bad CRCs.
+#[derive(Debug, Clone, Default)]
+pub struct MouseDecoder {
+    buf: Vec<u8>,
+    stats: DecodeStats,
+    synced: bool,
+}
+
+impl MouseDecoder {
+    pub fn new() -> Self {
+        Self {
+            buf: Vec::new(),
+            stats: DecodeStats::default(),
+            synced: true,
+        }
+    }
+
+    fn drop_bytes(&mut self, n: usize) {
+        self.stats.dropped_bytes += n as u64;
+        if self.synced && n > 0 {
+            self.stats.resyncs += 1;
+            self.synced = false;
+        }
+    }
+}
+
+impl Decoder for MouseDecoder {
+    fn push(&mut self, bytes: &[u8], arrival_us: u64, out: &mut VecDeque<GazeSample>) {
+        self.stats.bytes += bytes.len() as u64;
+        self.buf.extend_from_slice(bytes);
+        let mut start = 0;
+        loop {
+            let avail = &self.buf[start..];
+            if avail.len() < 2 {
+                break;
+            }
+            if avail[..2] != HEADER {
+                let skip = avail
+                    .windows(2)
+                    .position(|w| w == HEADER)
+                    .unwrap_or(avail.len() - usize::from(avail[avail.len() - 1] == HEADER[0]));
+                self.drop_bytes(skip);
+                start += skip;
+                continue;
+            }
+            if avail.len() < RECORD_LEN {
+                break;
+            }
+            let r = &avail[..RECORD_LEN];
+            let crc = u32::from_le_bytes([r[19], r[20], r[21], r[22]]);
+            if crc32fast::hash(&r[2..19]) != crc || r[10] > 1 {
+                // Not a record after all: skip this header byte and look again.
+                self.drop_bytes(1);
+                start += 1;
+                continue;
+            }
+            let t = u64::from_le_bytes([r[2], r[3], r[4], r[5], r[6], r[7], r[8], r[9]]);
+            let x = f32::from_le_bytes([r[11], r[12], r[13], r[14]]);
+            let y = f32::from_le_bytes([r[15], r[16], r[17], r[18]]);
+            let valid = r[10] == 1 && x.is_finite() && y.is_finite();
+            if r[10] == 1 && !valid {
+                self.stats.invalid_values += 1;
+            }
+            let eye = if valid {
+                EyeSample {
+                    position: Some([f64::from(x), f64::from(y)]),
+                    pupil: None,
+                }
+            } else {
+                EyeSample::MISSING
+            };
+            let seq = self.stats.records;
+            self.stats.records += 1;
+            self.synced = true;
+            out.push_back(GazeSample {
+                seq,
+                device_time_us: Some(t),
+                host_time_us: arrival_us,
+                left: eye,
+                right: eye,
+                combined: None,
+            });
+            start += RECORD_LEN;
+        }
+        self.buf.drain(..start);
+    }
+
+    fn finish(&mut self) {
+        let n = self.buf.len();
+        self.drop_bytes(n);
+        self.buf.clear();
+    }
+
+    fn stats(&self) -> DecodeStats {
+        self.stats
+    }
+
+    fn start_command(&self) -> Vec<u8> {
+        vec![START]
+    }
+
+    fn stop_command(&self) -> Vec<u8> {
+        vec![STOP]
+    }
+}
+
+/// The host end of a running mouse device: read records, write commands.
+pub struct MouseLink {
+    reader: std::io::PipeReader,
+    commands: Sender<u8>,
+}
+
+impl Read for MouseLink {
+    fn read(&mut self, buf: &mut [u8]) -> std::io::Result<usize> {
+        self.reader.read(buf)
+    }
+}
+
+impl Write for MouseLink {
+    fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
+        for &b in buf {
+            self.commands.send(b).map_err(|_| {
+                std::io::Error::new(
+                    std::io::ErrorKind::BrokenPipe,
+                    "the mouse device has stopped",
+                )
+            })?;
+        }
+        Ok(buf.len())
+    }
+
+    fn flush(&mut self) -> std::io::Result<()> {
+        Ok(())
+    }
+}
+
+/// Runs a [`MouseEmulator`] on its own thread, sampling at the configured
+/// rate while started. Cursor events come from `cursor` (the viewer's window
+/// thread); when that channel closes the device stops and the link reads end
+/// of stream. Device time is host monotonic time.
+pub fn spawn_device(
+    config: MouseConfig,
+    cursor: Receiver<CursorEvent>,
+) -> std::io::Result<MouseLink> {
+    let (reader, mut writer) = std::io::pipe()?;
+    let (commands, command_rx) = crossbeam_channel::unbounded::<u8>();
+    let period = Duration::from_micros(config.period_us());
+    std::thread::Builder::new()
+        .name("mouse-gaze".into())
+        .spawn(move || {
+            let mut emulator = MouseEmulator::new(config);
+            let mut streaming = false;
+            let mut next = Instant::now();
+            loop {
+                for c in command_rx.try_iter() {
+                    match c {
+                        START => streaming = true,
+                        STOP => streaming = false,
+                        _ => {}
+                    }
+                }
+                loop {
+                    match cursor.try_recv() {
+                        Ok(e) => emulator.cursor(e),
+                        Err(crossbeam_channel::TryRecvError::Empty) => break,
+                        Err(crossbeam_channel::TryRecvError::Disconnected) => return,
+                    }
+                }
+                if streaming {
+                    let record = emulator.tick(crate::clock::monotonic_us());
+                    if writer.write_all(&record).is_err() {
+                        return; // the driver is gone
+                    }
+                }
+                next += period;
+                let now = Instant::now();
+                if next > now {
+                    std::thread::sleep(next - now);
+                } else {
+                    next = now;
+                }
+            }
+        })?;
+    Ok(MouseLink { reader, commands })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::source::decode_all;
+
+    fn at(t_ms: u64, x: f64, y: f64) -> CursorEvent {
+        CursorEvent {
+            t_us: t_ms * 1000,
+            position_px: [x, y],
+            blink: false,
+        }
+    }
+
+    #[test]
+    fn records_round_trip() {
+        let mut bytes = encode_record(5, Some([1.5, 2.25])).to_vec();
+        bytes.extend(encode_record(6, None));
+        let s = decode_all(&mut MouseDecoder::new(), &bytes, 9);
+        assert_eq!(s.len(), 2);
+        assert_eq!(s[0].gaze(), Some([1.5, 2.25]));
+        assert_eq!(s[0].device_time_us, Some(5));
+        assert_eq!(s[1].gaze(), None);
+    }
+
+    #[test]
+    fn a_corrupt_record_is_skipped() {
+        let mut a = encode_record(5, Some([1.0, 2.0])).to_vec();
+        a[12] ^= 0x10;
+        a.extend(encode_record(6, Some([3.0, 4.0])));
+        let mut d = MouseDecoder::new();
+        let s = decode_all(&mut d, &a, 0);
+        assert_eq!(s.len(), 1);
+        assert_eq!(s[0].gaze(), Some([3.0, 4.0]));
+        assert_eq!(d.stats().dropped_bytes, RECORD_LEN as u64);
+    }
+
+    #[test]
+    fn saccade_follows_the_main_sequence() {
+        let cfg = MouseConfig {
+            saccades: true,
+            pixels_per_degree: 10.0,
+            ..MouseConfig::default()
+        };
+        let mut m = MouseEmulator::new(cfg);
+        m.cursor(at(0, 0.0, 0.0));
+        m.cursor(at(100, 100.0, 0.0)); // a 10° jump: 2.2·10 + 21 = 43 ms
+        let x = |m: &mut MouseEmulator, t_ms: u64| {
+            let r = m.tick(t_ms * 1000);
+            f64::from(f32::from_le_bytes([r[11], r[12], r[13], r[14]]))
+        };
+        assert_eq!(x(&mut m, 50), 0.0);
+        assert_eq!(x(&mut m, 100), 0.0);
+        let mid = x(&mut m, 121);
+        assert!(mid > 30.0 && mid < 70.0, "{mid}");
+        assert!(x(&mut m, 140) < 100.0);
+        assert_eq!(x(&mut m, 144), 100.0);
+    }
+
+    #[test]
+    fn latency_delays_and_blink_invalidates() {
+        let cfg = MouseConfig {
+            latency_ms: 20.0,
+            ..MouseConfig::default()
+        };
+        let mut m = MouseEmulator::new(cfg);
+        m.cursor(at(0, 5.0, 5.0));
+        m.cursor(at(10, 50.0, 50.0));
+        m.cursor(CursorEvent {
+            t_us: 40_000,
+            position_px: [50.0, 50.0],
+            blink: true,
+        });
+        let d = |r: [u8; RECORD_LEN]| decode_all(&mut MouseDecoder::new(), &r, 0)[0].gaze();
+        assert_eq!(d(m.tick(25_000)), Some([5.0, 5.0]));
+        assert_eq!(d(m.tick(30_000)), Some([50.0, 50.0]));
+        assert_eq!(d(m.tick(61_000)), None);
+    }
+
+    #[test]
+    fn jitter_is_deterministic_for_a_seed_and_has_the_asked_rms() {
+        let cfg = MouseConfig {
+            jitter_rms_deg: 0.5,
+            pixels_per_degree: 40.0,
+            seed: 7,
+            ..MouseConfig::default()
+        };
+        let run = || {
+            let mut m = MouseEmulator::new(cfg.clone());
+            m.cursor(at(0, 100.0, 100.0));
+            (1..=4000u64)
+                .map(|k| decode_all(&mut MouseDecoder::new(), &m.tick(k * 1000), 0)[0].gaze())
+                .collect::<Vec<_>>()
+        };
+        let a = run();
+        assert_eq!(a, run());
+        let ms: f64 = a
+            .iter()
+            .flatten()
+            .map(|p| (p[0] - 100.0).powi(2) + (p[1] - 100.0).powi(2))
+            .sum::<f64>()
+            / 4000.0;
+        let rms_deg = ms.sqrt() / 40.0;
+        assert!((rms_deg - 0.5).abs() < 0.03, "{rms_deg}");
+    }
+}

@@ -1,0 +1,69 @@
+//! What a gaze source delivers.
+
+/// One eye in one sample: a position in tracker units, or missing. A
+/// missing eye never carries a coordinate (no bogus 0,0).
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct EyeSample {
+    /// Point of regard in tracker units (ISCAN: 0..512 frame units; mouse:
+    /// screen pixels). `None` when the eye was not tracked (blink, lost).
+    pub position: Option<[f64; 2]>,
+    /// Pupil size in the device's units, when the device reports it.
+    pub pupil: Option<f64>,
+}
+
+impl EyeSample {
+    pub const MISSING: EyeSample = EyeSample {
+        position: None,
+        pupil: None,
+    };
+
+    pub fn valid(&self) -> bool {
+        self.position.is_some()
+    }
+}
+
+/// One gaze sample.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct GazeSample {
+    /// Records decoded by this source so far, from 0: strictly increasing.
+    pub seq: u64,
+    /// The device's own timestamp in µs on the device clock, when it has one
+    /// (ISCAN has none; its driver derives one, see `iscan`).
+    pub device_time_us: Option<u64>,
+    /// Host monotonic time in µs when the record's last byte arrived.
+    pub host_time_us: u64,
+    pub left: EyeSample,
+    pub right: EyeSample,
+    /// The device's own combined (cyclopean) point, for devices that send one.
+    pub combined: Option<[f64; 2]>,
+}
+
+impl GazeSample {
+    /// The point the renderer uses: the device's combined point where it has
+    /// one, else the mean of the valid eyes; `None` when no eye is valid.
+    pub fn gaze(&self) -> Option<[f64; 2]> {
+        if self.combined.is_some() {
+            return self.combined;
+        }
+        match (self.left.position, self.right.position) {
+            (Some(l), Some(r)) => Some([(l[0] + r[0]) / 2.0, (l[1] + r[1]) / 2.0]),
+            (Some(p), None) | (None, Some(p)) => Some(p),
+            (None, None) => None,
+        }
+    }
+}
+
+/// What a decoder has seen so far.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct DecodeStats {
+    /// Bytes received from the transport.
+    pub bytes: u64,
+    /// Records decoded into samples.
+    pub records: u64,
+    /// Bytes skipped because they did not form a valid record.
+    pub dropped_bytes: u64,
+    /// Times the decoder lost and regained record alignment.
+    pub resyncs: u64,
+    /// Values outside the device's range (reported as a missing eye).
+    pub invalid_values: u64,
+}

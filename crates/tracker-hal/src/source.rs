@@ -1,0 +1,160 @@
+//! The gaze-source trait and the generic stream driver that every
+//! byte-stream device (ISCAN, the mouse emulator, replays) goes through.
+
+use std::collections::VecDeque;
+use std::io::{Read, Write};
+
+use crate::clock::Clock;
+use crate::error::{Error, ErrorKind, Result};
+use crate::recording::Tap;
+use crate::sample::{DecodeStats, GazeSample};
+
+/// A source of gaze samples. Blocking, in the style of `embedded-io`.
+///
+/// - [`start`](GazeSource::start) asks the device to stream; [`stop`](GazeSource::stop)
+///   asks it to stop. Both only send; neither waits for data.
+/// - [`next_sample`](GazeSource::next_sample) blocks until one complete record is
+///   decoded and returns it. It returns early with:
+///   - `Ok(None)`: the stream ended cleanly (the transport reported end of
+///     file, e.g. the end of a replay). Every later call returns `Ok(None)`.
+///   - `Err` with [`ErrorKind::TimedOut`]: no complete record arrived within
+///     the transport's timeout. Nothing is lost; call again.
+///   - `Err` with [`ErrorKind::Disconnected`]: the transport failed. Reopen it.
+/// - Garbage in the stream is not an error: decoders skip it, resynchronise and
+///   count it in [`stats`](GazeSource::stats).
+pub trait GazeSource {
+    fn start(&mut self) -> Result<()>;
+    fn stop(&mut self) -> Result<()>;
+    fn next_sample(&mut self) -> Result<Option<GazeSample>>;
+    fn stats(&self) -> DecodeStats;
+}
+
+/// Turns device bytes into samples. A decoder is a pure state machine: no
+/// I/O, no clock; it is what the conformance suite and the fuzzers drive.
+pub trait Decoder: Send {
+    /// Feeds `bytes` that arrived at host time `arrival_us`, appending every
+    /// record they complete to `out`.
+    fn push(&mut self, bytes: &[u8], arrival_us: u64, out: &mut VecDeque<GazeSample>);
+    /// The stream ended: whatever is left is counted as dropped.
+    fn finish(&mut self);
+    fn stats(&self) -> DecodeStats;
+    /// Bytes that ask the device to start streaming (may be empty).
+    fn start_command(&self) -> Vec<u8>;
+    /// Bytes that ask the device to stop streaming (may be empty).
+    fn stop_command(&self) -> Vec<u8>;
+}
+
+/// A [`GazeSource`] over any byte transport (`Read + Write`): a serial port,
+/// a pseudo-terminal, a pipe, an in-memory buffer, a replayed recording.
+pub struct StreamDriver<T, D> {
+    transport: T,
+    decoder: D,
+    clock: Box<dyn Clock>,
+    tap: Option<Tap>,
+    pending: VecDeque<GazeSample>,
+    buf: Vec<u8>,
+    ended: bool,
+}
+
+impl<T: Read + Write, D: Decoder> StreamDriver<T, D> {
+    /// `clock` stamps each chunk read from the transport with its arrival time.
+    pub fn new(transport: T, decoder: D, clock: Box<dyn Clock>) -> Self {
+        Self {
+            transport,
+            decoder,
+            clock,
+            tap: None,
+            pending: VecDeque::new(),
+            buf: vec![0; 4096],
+            ended: false,
+        }
+    }
+
+    /// Also send every byte read and written, with its time, to a recorder.
+    pub fn with_tap(mut self, tap: Tap) -> Self {
+        self.tap = Some(tap);
+        self
+    }
+
+    pub fn decoder(&self) -> &D {
+        &self.decoder
+    }
+
+    pub fn transport_mut(&mut self) -> &mut T {
+        &mut self.transport
+    }
+
+    /// Writes raw bytes to the device (commands, markers).
+    pub fn send(&mut self, bytes: &[u8]) -> Result<()> {
+        if bytes.is_empty() {
+            return Ok(());
+        }
+        self.transport
+            .write_all(bytes)
+            .map_err(|e| Error::from_io("writing to the tracker", &e))?;
+        self.transport
+            .flush()
+            .map_err(|e| Error::from_io("writing to the tracker", &e))?;
+        if let Some(tap) = &self.tap {
+            tap.host_to_device(self.clock.now_us(), bytes);
+        }
+        Ok(())
+    }
+}
+
+impl<T: Read + Write, D: Decoder> GazeSource for StreamDriver<T, D> {
+    fn start(&mut self) -> Result<()> {
+        let bytes = self.decoder.start_command();
+        self.send(&bytes)
+    }
+
+    fn stop(&mut self) -> Result<()> {
+        let bytes = self.decoder.stop_command();
+        self.send(&bytes)
+    }
+
+    fn next_sample(&mut self) -> Result<Option<GazeSample>> {
+        loop {
+            if let Some(s) = self.pending.pop_front() {
+                return Ok(Some(s));
+            }
+            if self.ended {
+                return Ok(None);
+            }
+            match self.transport.read(&mut self.buf) {
+                Ok(0) => {
+                    self.decoder.finish();
+                    self.ended = true;
+                }
+                Ok(n) => {
+                    let t = self.clock.now_us();
+                    if let Some(tap) = &self.tap {
+                        tap.device_to_host(t, &self.buf[..n]);
+                    }
+                    self.decoder.push(&self.buf[..n], t, &mut self.pending);
+                }
+                Err(e) if e.kind() == std::io::ErrorKind::Interrupted => {}
+                Err(e) => {
+                    let err = Error::from_io("reading from the tracker", &e);
+                    if err.kind == ErrorKind::Disconnected {
+                        self.decoder.finish();
+                    }
+                    return Err(err);
+                }
+            }
+        }
+    }
+
+    fn stats(&self) -> DecodeStats {
+        self.decoder.stats()
+    }
+}
+
+/// Decodes a whole byte buffer at once (arrival time `arrival_us` for all of
+/// it): the decoder path without a transport, for tests and fuzzers.
+pub fn decode_all<D: Decoder>(decoder: &mut D, bytes: &[u8], arrival_us: u64) -> Vec<GazeSample> {
+    let mut out = VecDeque::new();
+    decoder.push(bytes, arrival_us, &mut out);
+    decoder.finish();
+    out.into()
+}

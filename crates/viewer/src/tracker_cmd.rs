@@ -1,0 +1,308 @@
+//! `gazecast replay`, `record`, `devices` and `simulate`: the tracker side of
+//! the command line.
+
+use std::io::Write;
+use std::path::{Path, PathBuf};
+use std::time::{Duration, Instant};
+
+use tracker_hal::csv::{csv_row, CSV_HEADER};
+use tracker_hal::recording::{write_recording, RecordingHeader};
+use tracker_hal::sim::{gaze_script, simulate_iscan, simulate_mouse, Script, SimStream};
+use tracker_hal::{
+    Driver, GazeSource, MonotonicClock, Pacing, Recorder, Recording, ReplayTransport, StreamDriver,
+    TrackerConfig,
+};
+
+use crate::config;
+
+/// Input format of `gazecast replay`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum InputFormat {
+    /// A `.gzrec` recording (arrival times as recorded).
+    Recording,
+    /// Raw device bytes with no timing (arrival times synthesised from the baud rate).
+    RawBytes,
+}
+
+#[derive(Debug, Clone, clap::Args)]
+pub struct ReplayArgs {
+    /// Tracker file (RON): driver and mapping used to decode.
+    #[arg(long, value_name = "FILE.ron")]
+    pub tracker: PathBuf,
+    /// The recording or byte dump to decode.
+    #[arg(long, value_name = "FILE")]
+    pub input: PathBuf,
+    #[arg(long, value_enum, default_value = "recording")]
+    pub format: InputFormat,
+    /// Output CSV, one row per decoded record.
+    #[arg(long, value_name = "OUT.csv")]
+    pub csv: PathBuf,
+    /// Coordinates in tracker units instead of screen pixels.
+    #[arg(long)]
+    pub raw: bool,
+    /// Deliver the data at its original pacing instead of as fast as possible.
+    #[arg(long)]
+    pub realtime: bool,
+}
+
+#[derive(Debug, Clone, clap::Args)]
+pub struct RecordArgs {
+    /// Tracker file (RON); an ISCAN needs `port`.
+    #[arg(long, value_name = "FILE.ron")]
+    pub tracker: PathBuf,
+    /// Recording to write (`.gzrec`).
+    #[arg(long, value_name = "FILE")]
+    pub out: PathBuf,
+    /// Stop after this many seconds (default: until interrupted; the file
+    /// stays readable either way).
+    #[arg(long, value_name = "S")]
+    pub seconds: Option<f64>,
+}
+
+#[derive(Debug, Clone, clap::Args)]
+pub struct SimulateArgs {
+    /// Tracker file (RON) whose wire format to simulate.
+    #[arg(long, value_name = "FILE.ron")]
+    pub tracker: PathBuf,
+    /// Recording to write (`.gzrec`).
+    #[arg(long, value_name = "FILE")]
+    pub out: PathBuf,
+    /// Also write the samples a correct decoder must produce (tracker units).
+    #[arg(long, value_name = "FILE.csv")]
+    pub csv: Option<PathBuf>,
+    #[arg(long, value_name = "S", default_value_t = 10.0)]
+    pub seconds: f64,
+    /// Sampling rate (default: 60 Hz for ISCAN, the tracker file's rate for the mouse).
+    #[arg(long, value_name = "HZ")]
+    pub rate: Option<f64>,
+    #[arg(long, value_name = "N", default_value_t = 1)]
+    pub seed: u64,
+}
+
+fn load_tracker(path: &Path) -> Result<TrackerConfig, String> {
+    config::load_tracker(path).map_err(|e| e.to_string())
+}
+
+/// Runs `gazecast replay`.
+pub fn replay(args: &ReplayArgs, err: &mut dyn Write) -> Result<(), String> {
+    let tracker = load_tracker(&args.tracker)?;
+    let pacing = if args.realtime {
+        Pacing::RealTime
+    } else {
+        Pacing::AsFastAsPossible
+    };
+    let transport = match args.format {
+        InputFormat::Recording => {
+            let rec = Recording::read(&args.input).map_err(|e| e.to_string())?;
+            if let Some(t) = &rec.torn_tail {
+                let _ = writeln!(
+                    err,
+                    "warning: {}: the recording ends early at byte {} ({} bytes unreadable: {}); decoding what precedes it",
+                    args.input.display(),
+                    t.offset,
+                    t.bytes,
+                    t.reason
+                );
+            }
+            if rec.lost_chunks > 0 {
+                let _ = writeln!(
+                    err,
+                    "WARNING: {}: the recorder lost {} chunks while writing this file",
+                    args.input.display(),
+                    rec.lost_chunks
+                );
+            }
+            ReplayTransport::from_recording(&rec, pacing)
+        }
+        InputFormat::RawBytes => {
+            let bytes = std::fs::read(&args.input)
+                .map_err(|e| format!("{}: cannot read: {e}", args.input.display()))?;
+            let baud = match &tracker.driver {
+                Driver::Iscan(c) => c.baud,
+                _ => 115_200,
+            };
+            ReplayTransport::from_raw_bytes(&bytes, baud, 16, pacing)
+        }
+    };
+    let clock = transport.clock();
+    let mut driver = StreamDriver::new(transport, tracker.decoder(), Box::new(clock));
+    let fail = |e: std::io::Error| format!("{}: cannot write: {e}", args.csv.display());
+    let mut out = std::io::BufWriter::new(std::fs::File::create(&args.csv).map_err(fail)?);
+    writeln!(out, "{CSV_HEADER}").map_err(fail)?;
+    let frame = tracker.frame();
+    let mapping = tracker.mapping.clone();
+    let map = move |p: [f64; 2]| {
+        if args.raw {
+            p
+        } else {
+            mapping.to_screen(p, frame)
+        }
+    };
+    driver.start().map_err(|e| e.to_string())?;
+    while let Some(sample) = driver.next_sample().map_err(|e| e.to_string())? {
+        writeln!(out, "{}", csv_row(&sample, &map)).map_err(fail)?;
+    }
+    out.flush().map_err(fail)?;
+    let s = driver.stats();
+    writeln!(
+        err,
+        "records={} dropped_bytes={} resyncs={}",
+        s.records, s.dropped_bytes, s.resyncs
+    )
+    .map_err(|e| e.to_string())
+}
+
+/// Runs `gazecast record`.
+pub fn record(args: &RecordArgs, out: &mut dyn Write) -> Result<(), String> {
+    let tracker = load_tracker(&args.tracker)?;
+    let Driver::Iscan(iscan) = &tracker.driver else {
+        return Err(format!(
+            "{}: `record` talks to a serial tracker; the {} driver needs the viewer window (gazecast view --record, not built yet)",
+            args.tracker.display(),
+            tracker.driver_name()
+        ));
+    };
+    let port_name = iscan.port.clone().ok_or_else(|| {
+        format!(
+            "{}: field `port` is needed to record from a serial tracker",
+            args.tracker.display()
+        )
+    })?;
+    let port = tracker_hal::serial::open(&port_name, iscan.baud, Duration::from_millis(250))
+        .map_err(|e| e.to_string())?;
+    let header = RecordingHeader {
+        tracker: tracker.clone(),
+        display: None,
+        note: format!("recorded from {port_name}"),
+    };
+    let recorder = Recorder::start(&args.out, &header, 8192).map_err(|e| e.to_string())?;
+    let mut driver = StreamDriver::new(port, tracker.decoder(), Box::new(MonotonicClock))
+        .with_tap(recorder.tap());
+    driver.start().map_err(|e| e.to_string())?;
+    let start = Instant::now();
+    let mut timeouts = 0u64;
+    let outcome = loop {
+        if args
+            .seconds
+            .is_some_and(|s| start.elapsed().as_secs_f64() >= s)
+        {
+            break Ok(());
+        }
+        match driver.next_sample() {
+            Ok(Some(_)) => {}
+            Ok(None) => break Ok(()),
+            Err(e) if e.kind == tracker_hal::ErrorKind::TimedOut => timeouts += 1,
+            Err(e) => break Err(e.to_string()),
+        }
+    };
+    let _ = driver.stop();
+    let summary = recorder.finish().map_err(|e| e.to_string())?;
+    let s = driver.stats();
+    let _ = writeln!(
+        out,
+        "{}: records={} dropped_bytes={} resyncs={} read_timeouts={} chunks={} bytes={}",
+        args.out.display(),
+        s.records,
+        s.dropped_bytes,
+        s.resyncs,
+        timeouts,
+        summary.chunks_written,
+        summary.bytes_written
+    );
+    if summary.lost_chunks > 0 {
+        return Err(format!(
+            "THE RECORDING LOST DATA: {} chunks ({} bytes) were dropped because the disk did not keep up",
+            summary.lost_chunks, summary.lost_bytes
+        ));
+    }
+    outcome
+}
+
+/// Runs `gazecast devices`.
+pub fn devices(out: &mut dyn Write) -> Result<(), String> {
+    let ports = tracker_hal::serial::list_ports()
+        .unwrap_or_else(|e| vec![format!("(serial ports unavailable: {e})")]);
+    let w = |out: &mut dyn Write, s: &str| writeln!(out, "{s}").map_err(|e| e.to_string());
+    w(out, "serial ports:")?;
+    if ports.is_empty() {
+        w(out, "  (none found)")?;
+    }
+    for p in ports {
+        w(out, &format!("  {p}"))?;
+    }
+    Ok(())
+}
+
+/// The simulated stream the arguments describe, with its recording header.
+pub fn simulated(
+    tracker: &TrackerConfig,
+    args: &SimulateArgs,
+) -> Result<(RecordingHeader, SimStream), String> {
+    if !(args.seconds.is_finite() && args.seconds > 0.0 && args.seconds <= 3600.0) {
+        return Err(format!("--seconds {}: must be in (0, 3600]", args.seconds));
+    }
+    let (stream, rate) = match &tracker.driver {
+        Driver::Iscan(c) => {
+            let rate = args.rate.unwrap_or(60.0);
+            // The seed's ISCAN covers about ±20° with 512 units: 12.8 units/deg.
+            let script = Script {
+                seconds: args.seconds,
+                rate_hz: rate,
+                frame: c.frame,
+                units_per_degree: 12.8,
+                seed: args.seed,
+            };
+            (simulate_iscan(c, &gaze_script(&script), args.seed), rate)
+        }
+        Driver::Mouse(c) => {
+            let rate = args.rate.unwrap_or(c.rate_hz);
+            let script = Script {
+                seconds: args.seconds,
+                rate_hz: rate,
+                frame: (1280.0, 1024.0),
+                units_per_degree: c.pixels_per_degree,
+                seed: args.seed,
+            };
+            (
+                simulate_mouse(c, &gaze_script(&script), 1.0, args.seed),
+                rate,
+            )
+        }
+    };
+    if !(rate.is_finite() && rate > 0.0 && rate <= 10_000.0) {
+        return Err(format!("--rate {rate}: must be in (0, 10000] Hz"));
+    }
+    let header = RecordingHeader {
+        tracker: tracker.clone(),
+        display: None,
+        note: format!(
+            "SYNTHESISED by gazecast simulate (tracker_hal::sim), seed {}, {} s at {} Hz: not captured from a real device",
+            args.seed, args.seconds, rate
+        ),
+    };
+    Ok((header, stream))
+}
+
+/// Runs `gazecast simulate`.
+pub fn simulate(args: &SimulateArgs, out: &mut dyn Write) -> Result<(), String> {
+    let tracker = load_tracker(&args.tracker)?;
+    let (header, stream) = simulated(&tracker, args)?;
+    write_recording(&args.out, &header, &stream.chunks).map_err(|e| e.to_string())?;
+    if let Some(csv) = &args.csv {
+        let fail = |e: std::io::Error| format!("{}: cannot write: {e}", csv.display());
+        let mut w = std::io::BufWriter::new(std::fs::File::create(csv).map_err(fail)?);
+        writeln!(w, "{CSV_HEADER}").map_err(fail)?;
+        for s in &stream.expected {
+            writeln!(w, "{}", csv_row(s, &|p| p)).map_err(fail)?;
+        }
+        w.flush().map_err(fail)?;
+    }
+    writeln!(
+        out,
+        "{}: {} records in {} chunks",
+        args.out.display(),
+        stream.expected.len(),
+        stream.chunks.len()
+    )
+    .map_err(|e| e.to_string())
+}

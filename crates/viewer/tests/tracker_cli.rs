@@ -1,0 +1,254 @@
+//! The tracker command-line contract (issue 3) on the real binary.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+fn repo() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
+}
+
+fn gazecast() -> Command {
+    let mut c = Command::new(env!("CARGO_BIN_EXE_gazecast"));
+    c.current_dir(repo());
+    c
+}
+
+const HEADER: &str =
+    "seq,device_time_us,host_time_us,left_x,left_y,left_valid,right_x,right_y,right_valid,gaze_x,gaze_y,gaze_valid";
+
+#[test]
+fn replay_writes_the_contract_csv_and_a_summary_line() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let csv = dir.path().join("out.csv");
+    let out = gazecast()
+        .args([
+            "replay",
+            "--tracker",
+            "config/trackers/iscan-binary.ron",
+            "--input",
+            "tests/data/iscan-binary-60hz.gzrec",
+            "--csv",
+        ])
+        .arg(&csv)
+        .output()
+        .expect("runs");
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert_eq!(
+        String::from_utf8_lossy(&out.stderr).trim(),
+        "records=600 dropped_bytes=0 resyncs=0"
+    );
+    let text = std::fs::read_to_string(&csv).expect("csv");
+    let mut lines = text.lines();
+    assert_eq!(lines.next(), Some(HEADER));
+    let rows: Vec<Vec<&str>> = lines.map(|l| l.split(',').collect()).collect();
+    assert_eq!(rows.len(), 600);
+    // Screen pixels (1280×1024 mapping): x within the screen; a missing eye has empty coordinates.
+    for r in &rows {
+        assert_eq!(r.len(), 12);
+        for (x, y, v) in [(3, 4, 5), (6, 7, 8), (9, 10, 11)] {
+            match r[v] {
+                "1" => {
+                    let (x, y): (f64, f64) = (r[x].parse().expect("x"), r[y].parse().expect("y"));
+                    assert!((0.0..1280.0).contains(&x) && (0.0..1024.0).contains(&y));
+                }
+                "0" => assert!(r[x].is_empty() && r[y].is_empty()),
+                other => panic!("valid column {other}"),
+            }
+        }
+    }
+    // --raw gives tracker units: exactly the simulator's expected CSV.
+    let out = gazecast()
+        .args([
+            "replay",
+            "--tracker",
+            "config/trackers/iscan-binary.ron",
+            "--input",
+            "tests/data/iscan-binary-60hz.gzrec",
+            "--raw",
+            "--csv",
+        ])
+        .arg(&csv)
+        .output()
+        .expect("runs");
+    assert!(out.status.success());
+    assert_eq!(
+        std::fs::read_to_string(&csv).expect("csv"),
+        std::fs::read_to_string(repo().join("tests/data/iscan-binary-60hz.csv")).expect("expected")
+    );
+}
+
+#[test]
+fn replay_of_raw_bytes_with_garbage_exits_zero_and_counts() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let raw = dir.path().join("dump.bin");
+    let mut bytes = b"\x01\x02garbage".to_vec();
+    for k in 0..50u16 {
+        bytes.extend([0x44, 0x44]);
+        for v in [100 + k, 200, 300, 400] {
+            bytes.extend((v * 10).to_le_bytes());
+        }
+        if k == 20 {
+            bytes.extend([0xAA, 0x44, 0x01]);
+        }
+    }
+    std::fs::write(&raw, &bytes).expect("write");
+    let csv = dir.path().join("out.csv");
+    let out = gazecast()
+        .args([
+            "replay",
+            "--tracker",
+            "config/trackers/iscan-binary.ron",
+            "--format",
+            "raw-bytes",
+            "--input",
+        ])
+        .arg(&raw)
+        .arg("--csv")
+        .arg(&csv)
+        .output()
+        .expect("runs");
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert_eq!(
+        String::from_utf8_lossy(&out.stderr).trim(),
+        "records=50 dropped_bytes=12 resyncs=2"
+    );
+}
+
+#[test]
+fn replay_fails_clearly_on_bad_files_and_configs() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let bad_tracker = dir.path().join("bad.ron");
+    std::fs::write(
+        &bad_tracker,
+        "Tracker(\n  driver: Mouse((\n    rate_hz: -5.0,\n  )),\n)\n",
+    )
+    .expect("write");
+    let not_rec = dir.path().join("not.gzrec");
+    std::fs::write(&not_rec, b"hello").expect("write");
+    let csv = dir.path().join("o.csv");
+    let cases: Vec<(Vec<String>, &str)> = vec![
+        (
+            vec![
+                "--tracker".into(),
+                bad_tracker.display().to_string(),
+                "--input".into(),
+                "tests/data/mouse-120hz.gzrec".into(),
+            ],
+            "bad.ron:3:",
+        ),
+        (
+            vec![
+                "--tracker".into(),
+                "config/trackers/mouse.ron".into(),
+                "--input".into(),
+                "/nonexistent.gzrec".into(),
+            ],
+            "/nonexistent.gzrec",
+        ),
+        (
+            vec![
+                "--tracker".into(),
+                "config/trackers/mouse.ron".into(),
+                "--input".into(),
+                not_rec.display().to_string(),
+            ],
+            "not a gazecast recording",
+        ),
+    ];
+    for (args, needle) in cases {
+        let out = gazecast()
+            .arg("replay")
+            .args(&args)
+            .arg("--csv")
+            .arg(&csv)
+            .output()
+            .expect("runs");
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(!out.status.success(), "{args:?} should fail");
+        assert!(
+            err.contains(needle),
+            "{args:?}: expected `{needle}` in {err}"
+        );
+        assert!(!err.contains("panicked"));
+    }
+    let err = String::from_utf8_lossy(
+        &gazecast()
+            .args(["replay", "--tracker"])
+            .arg(&bad_tracker)
+            .args(["--input", "x", "--csv", "y"])
+            .output()
+            .expect("runs")
+            .stderr,
+    )
+    .into_owned();
+    assert!(err.contains("rate_hz"), "{err}");
+}
+
+#[test]
+fn a_torn_recording_still_replays_with_a_warning() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let torn = dir.path().join("torn.gzrec");
+    let bytes = std::fs::read(repo().join("tests/data/mouse-120hz.gzrec")).expect("data");
+    std::fs::write(&torn, &bytes[..bytes.len() / 2]).expect("write");
+    let out = gazecast()
+        .args([
+            "replay",
+            "--tracker",
+            "config/trackers/mouse.ron",
+            "--input",
+        ])
+        .arg(&torn)
+        .arg("--csv")
+        .arg(dir.path().join("o.csv"))
+        .output()
+        .expect("runs");
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{err}");
+    assert!(err.contains("ends early"), "{err}");
+}
+
+#[test]
+fn devices_never_fails_without_hardware() {
+    let out = gazecast().arg("devices").output().expect("runs");
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(String::from_utf8_lossy(&out.stdout).starts_with("serial ports:"));
+}
+
+#[test]
+fn record_refuses_the_mouse_and_a_missing_port_clearly() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let out = gazecast()
+        .args(["record", "--tracker", "config/trackers/mouse.ron", "--out"])
+        .arg(dir.path().join("r.gzrec"))
+        .output()
+        .expect("runs");
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("serial tracker"));
+    let out = gazecast()
+        .args([
+            "record",
+            "--tracker",
+            "config/trackers/iscan-binary.ron",
+            "--seconds",
+            "1",
+            "--out",
+        ])
+        .arg(dir.path().join("r.gzrec"))
+        .output()
+        .expect("runs");
+    // No /dev/ttyUSB0 here: a clear error naming the port.
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("/dev/ttyUSB0"));
+}

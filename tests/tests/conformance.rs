@@ -333,15 +333,26 @@ fn check_invariants(
 }
 
 proptest! {
-    // 3 decoders × 36 000 random streams + the mutated streams below: well
-    // over 100 000 cases, a few seconds.
-    #![proptest_config(ProptestConfig { cases: 36_000, failure_persistence: None, ..ProptestConfig::default() })]
+    // 34 000 random streams per decoder (102 000 cases) plus the 4 000
+    // mutated real streams below: over 100 000 cases in a few seconds.
+    #![proptest_config(ProptestConfig { cases: 34_000, failure_persistence: None, ..ProptestConfig::default() })]
 
     #[test]
-    fn decoders_never_panic_on_random_bytes(input in prop::collection::vec(any::<u8>(), 0..160), split in 1usize..40) {
-        for (name, mut d) in decoders() {
-            check_invariants(name, &mut d, &input, split)?;
-        }
+    fn iscan_binary_never_panics_on_random_bytes(input in prop::collection::vec(any::<u8>(), 0..160), split in 1usize..40) {
+        let (name, mut d) = decoders().swap_remove(0);
+        check_invariants(name, &mut d, &input, split)?;
+    }
+
+    #[test]
+    fn iscan_ascii_never_panics_on_random_bytes(input in prop::collection::vec(any::<u8>(), 0..160), split in 1usize..40) {
+        let (name, mut d) = decoders().swap_remove(1);
+        check_invariants(name, &mut d, &input, split)?;
+    }
+
+    #[test]
+    fn mouse_never_panics_on_random_bytes(input in prop::collection::vec(any::<u8>(), 0..160), split in 1usize..40) {
+        let (name, mut d) = decoders().swap_remove(2);
+        check_invariants(name, &mut d, &input, split)?;
     }
 }
 

@@ -37,6 +37,7 @@ use std::collections::VecDeque;
 use serde::{Deserialize, Serialize};
 
 use crate::error::{Error, ErrorKind, Result};
+use crate::framing::{bytes_before_header, Framing};
 use crate::sample::{DecodeStats, EyeSample, GazeSample};
 use crate::source::Decoder;
 
@@ -178,11 +179,7 @@ pub fn marker_byte(value: u8) -> Result<u8> {
 #[derive(Debug, Clone)]
 pub struct IscanDecoder {
     config: IscanConfig,
-    buf: Vec<u8>,
-    stats: DecodeStats,
-    /// False after bytes were dropped, until the next good record: one resync
-    /// is counted per run of garbage.
-    synced: bool,
+    framing: Framing,
     /// ASCII: drop bytes until the next line end (after an over-long line).
     skip_line: bool,
     values: Vec<f64>,
@@ -193,9 +190,7 @@ impl IscanDecoder {
         let n = config.parameters.len();
         Self {
             config,
-            buf: Vec::with_capacity(256),
-            stats: DecodeStats::default(),
-            synced: true,
+            framing: Framing::new(),
             skip_line: false,
             values: Vec::with_capacity(n),
         }
@@ -203,14 +198,6 @@ impl IscanDecoder {
 
     pub fn config(&self) -> &IscanConfig {
         &self.config
-    }
-
-    fn drop_bytes(&mut self, n: usize) {
-        self.stats.dropped_bytes += n as u64;
-        if self.synced && n > 0 {
-            self.stats.resyncs += 1;
-            self.synced = false;
-        }
     }
 
     /// Builds a sample from `self.values` (one per parameter).
@@ -239,12 +226,10 @@ impl IscanDecoder {
                 eyes[k].position = Some([x, y]);
                 eyes[k].pupil = pupil[k].filter(|p| p.is_finite() && *p >= 0.0);
             } else if configured {
-                self.stats.invalid_values += 1;
+                self.framing.stats.invalid_values += 1;
             }
         }
-        let seq = self.stats.records;
-        self.stats.records += 1;
-        self.synced = true;
+        let seq = self.framing.record();
         out.push_back(GazeSample {
             seq,
             device_time_us: Some(arrival_us.saturating_sub(self.config.wire_time_us(record_bytes))),
@@ -259,24 +244,22 @@ impl IscanDecoder {
         let len = self.config.record_len();
         let mut start = 0;
         loop {
-            let avail = &self.buf[start..];
+            let avail = &self.framing.buf[start..];
             if avail.len() < 2 {
                 break;
             }
             if avail[..2] != HEADER {
-                // Skip to the next header (keep a trailing 0x44: it may start one).
-                let skip = find_header(avail)
-                    .unwrap_or(avail.len() - usize::from(avail[avail.len() - 1] == HEADER[0]));
-                self.drop_bytes(skip);
+                let skip = bytes_before_header(avail, HEADER);
+                self.framing.drop_bytes(skip);
                 start += skip;
                 continue;
             }
             if avail.len() < len {
                 break;
             }
-            if let Some(q) = find_header(&avail[2..len]) {
+            if let Some(q) = avail[2..len].windows(2).position(|w| w == HEADER) {
                 // A header inside the payload: this record was truncated.
-                self.drop_bytes(2 + q);
+                self.framing.drop_bytes(2 + q);
                 start += 2 + q;
                 continue;
             }
@@ -288,20 +271,20 @@ impl IscanDecoder {
             start += len;
             self.emit(len, arrival_us, out);
         }
-        self.buf.drain(..start);
+        self.framing.buf.drain(..start);
     }
 
     fn push_ascii(&mut self, arrival_us: u64, out: &mut VecDeque<GazeSample>) {
         let mut start = 0;
-        while let Some(nl) = self.buf[start..].iter().position(|&b| b == b'\n') {
+        while let Some(nl) = self.framing.buf[start..].iter().position(|&b| b == b'\n') {
             let line_len = nl + 1;
             if self.skip_line {
                 self.skip_line = false;
-                self.drop_bytes(line_len);
+                self.framing.drop_bytes(line_len);
                 start += line_len;
                 continue;
             }
-            let line = &self.buf[start..start + nl];
+            let line = &self.framing.buf[start..start + nl];
             let line = line.strip_suffix(b"\r").unwrap_or(line);
             if line.iter().all(|b| b.is_ascii_whitespace()) {
                 // Blank line: tolerated spacing, not a record.
@@ -314,21 +297,17 @@ impl IscanDecoder {
             if ok {
                 self.emit(line_len, arrival_us, out);
             } else {
-                self.drop_bytes(line_len);
+                self.framing.drop_bytes(line_len);
             }
         }
-        self.buf.drain(..start);
-        if self.buf.len() > MAX_LINE {
-            let n = self.buf.len();
-            self.drop_bytes(n);
-            self.buf.clear();
+        self.framing.buf.drain(..start);
+        if self.framing.buf.len() > MAX_LINE {
+            let n = self.framing.buf.len();
+            self.framing.drop_bytes(n);
+            self.framing.buf.clear();
             self.skip_line = true;
         }
     }
-}
-
-fn find_header(bytes: &[u8]) -> Option<usize> {
-    bytes.windows(2).position(|w| w == HEADER)
 }
 
 /// Parses exactly `n` whitespace-separated finite numbers.
@@ -347,8 +326,7 @@ fn parse_ascii(line: &[u8], n: usize, values: &mut Vec<f64>) -> bool {
 
 impl Decoder for IscanDecoder {
     fn push(&mut self, bytes: &[u8], arrival_us: u64, out: &mut VecDeque<GazeSample>) {
-        self.stats.bytes += bytes.len() as u64;
-        self.buf.extend_from_slice(bytes);
+        self.framing.accept(bytes);
         match self.config.mode {
             IscanMode::Binary => self.push_binary(arrival_us, out),
             IscanMode::Ascii => self.push_ascii(arrival_us, out),
@@ -356,13 +334,11 @@ impl Decoder for IscanDecoder {
     }
 
     fn finish(&mut self) {
-        let n = self.buf.len();
-        self.drop_bytes(n);
-        self.buf.clear();
+        self.framing.finish();
     }
 
     fn stats(&self) -> DecodeStats {
-        self.stats
+        self.framing.stats
     }
 
     fn start_command(&self) -> Vec<u8> {

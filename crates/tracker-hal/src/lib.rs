@@ -57,6 +57,7 @@ pub mod clock;
 pub mod config;
 pub mod csv;
 pub mod error;
+mod framing;
 pub mod iscan;
 pub mod mapping;
 pub mod mouse;

@@ -27,6 +27,7 @@ use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal};
 use serde::{Deserialize, Serialize};
 
+use crate::framing::{bytes_before_header, Framing};
 use crate::sample::{DecodeStats, EyeSample, GazeSample};
 use crate::source::Decoder;
 
@@ -257,47 +258,37 @@ pub fn encode_record(device_time_us: u64, point: Option<[f32; 2]>) -> [u8; RECOR
 }
 
 /// Decodes mouse records; resynchronises on the header, rejects bad CRCs.
-#[derive(Debug, Clone, Default)]
+#[derive(Debug, Clone)]
 pub struct MouseDecoder {
-    buf: Vec<u8>,
-    stats: DecodeStats,
-    synced: bool,
+    framing: Framing,
 }
 
 impl MouseDecoder {
     pub fn new() -> Self {
         Self {
-            buf: Vec::new(),
-            stats: DecodeStats::default(),
-            synced: true,
+            framing: Framing::new(),
         }
     }
+}
 
-    fn drop_bytes(&mut self, n: usize) {
-        self.stats.dropped_bytes += n as u64;
-        if self.synced && n > 0 {
-            self.stats.resyncs += 1;
-            self.synced = false;
-        }
+impl Default for MouseDecoder {
+    fn default() -> Self {
+        Self::new()
     }
 }
 
 impl Decoder for MouseDecoder {
     fn push(&mut self, bytes: &[u8], arrival_us: u64, out: &mut VecDeque<GazeSample>) {
-        self.stats.bytes += bytes.len() as u64;
-        self.buf.extend_from_slice(bytes);
+        self.framing.accept(bytes);
         let mut start = 0;
         loop {
-            let avail = &self.buf[start..];
+            let avail = &self.framing.buf[start..];
             if avail.len() < 2 {
                 break;
             }
             if avail[..2] != HEADER {
-                let skip = avail
-                    .windows(2)
-                    .position(|w| w == HEADER)
-                    .unwrap_or(avail.len() - usize::from(avail[avail.len() - 1] == HEADER[0]));
-                self.drop_bytes(skip);
+                let skip = bytes_before_header(avail, HEADER);
+                self.framing.drop_bytes(skip);
                 start += skip;
                 continue;
             }
@@ -308,7 +299,7 @@ impl Decoder for MouseDecoder {
             let crc = u32::from_le_bytes([r[19], r[20], r[21], r[22]]);
             if crc32fast::hash(&r[2..19]) != crc || r[10] > 1 {
                 // Not a record after all: skip this header byte and look again.
-                self.drop_bytes(1);
+                self.framing.drop_bytes(1);
                 start += 1;
                 continue;
             }
@@ -317,7 +308,7 @@ impl Decoder for MouseDecoder {
             let y = f32::from_le_bytes([r[15], r[16], r[17], r[18]]);
             let valid = r[10] == 1 && x.is_finite() && y.is_finite();
             if r[10] == 1 && !valid {
-                self.stats.invalid_values += 1;
+                self.framing.stats.invalid_values += 1;
             }
             let eye = if valid {
                 EyeSample {
@@ -327,9 +318,7 @@ impl Decoder for MouseDecoder {
             } else {
                 EyeSample::MISSING
             };
-            let seq = self.stats.records;
-            self.stats.records += 1;
-            self.synced = true;
+            let seq = self.framing.record();
             out.push_back(GazeSample {
                 seq,
                 device_time_us: Some(t),
@@ -340,17 +329,15 @@ impl Decoder for MouseDecoder {
             });
             start += RECORD_LEN;
         }
-        self.buf.drain(..start);
+        self.framing.buf.drain(..start);
     }
 
     fn finish(&mut self) {
-        let n = self.buf.len();
-        self.drop_bytes(n);
-        self.buf.clear();
+        self.framing.finish();
     }
 
     fn stats(&self) -> DecodeStats {
-        self.stats
+        self.framing.stats
     }
 
     fn start_command(&self) -> Vec<u8> {

@@ -1,0 +1,62 @@
+//! Byte-stream bookkeeping shared by the decoders: the pending bytes, the
+//! statistics, and the rule that one run of skipped bytes is one resync.
+
+use crate::sample::DecodeStats;
+
+#[derive(Debug, Clone)]
+pub(crate) struct Framing {
+    /// Bytes received and not yet consumed.
+    pub buf: Vec<u8>,
+    pub stats: DecodeStats,
+    /// False after bytes were dropped, until the next good record.
+    synced: bool,
+}
+
+impl Framing {
+    pub fn new() -> Self {
+        Self {
+            buf: Vec::with_capacity(256),
+            stats: DecodeStats::default(),
+            synced: true,
+        }
+    }
+
+    /// Takes in bytes from the transport.
+    pub fn accept(&mut self, bytes: &[u8]) {
+        self.stats.bytes += bytes.len() as u64;
+        self.buf.extend_from_slice(bytes);
+    }
+
+    /// Counts `n` skipped bytes (one resync per run of garbage).
+    pub fn drop_bytes(&mut self, n: usize) {
+        self.stats.dropped_bytes += n as u64;
+        if self.synced && n > 0 {
+            self.stats.resyncs += 1;
+            self.synced = false;
+        }
+    }
+
+    /// Counts one decoded record and returns its sequence number.
+    pub fn record(&mut self) -> u64 {
+        let seq = self.stats.records;
+        self.stats.records += 1;
+        self.synced = true;
+        seq
+    }
+
+    /// The stream ended: whatever is pending is dropped.
+    pub fn finish(&mut self) {
+        let n = self.buf.len();
+        self.drop_bytes(n);
+        self.buf.clear();
+    }
+}
+
+/// How many bytes of `avail` come before the next two-byte `header`. With no
+/// header, everything but a trailing first header byte (which may start one).
+pub(crate) fn bytes_before_header(avail: &[u8], header: [u8; 2]) -> usize {
+    avail
+        .windows(2)
+        .position(|w| w == header)
+        .unwrap_or(avail.len() - usize::from(avail.last() == Some(&header[0])))
+}

@@ -5,8 +5,9 @@
 set -euo pipefail
 
 # gcc/libc6-dev: linking; pkg-config + libudev-dev: serial ports (serialport);
-# mesa-vulkan-drivers: the software Vulkan (lavapipe) the GPU tests run on.
-packages=(gcc libc6-dev pkg-config libudev-dev mesa-vulkan-drivers)
+# mesa-vulkan-drivers: the software Vulkan (lavapipe) the GPU tests run on;
+# glmark2-data: the Stanford bunny (/usr/share/glmark2/models/bunny.obj).
+packages=(gcc libc6-dev pkg-config libudev-dev mesa-vulkan-drivers glmark2-data)
 
 missing=()
 for p in "${packages[@]}"; do

@@ -1,6 +1,21 @@
-//! # raycast — the hybrid ray caster (not yet implemented)
+//! # raycast — the hybrid foveated ray caster (CPU reference)
 //!
-//! This crate will hold scenes, the BVH, the CPU reference caster, the wgpu
-//! compute core and the reconstruction from the intermediate mesh (issues 5
-//! and 6). It is empty on purpose: nothing here pretends to work yet. The ray
-//! mask it will cast is built by `foveation::mask`.
+//! Scenes ([`scene`]), meshes ([`mesh`]), the BVH ([`bvh`]), robust
+//! ray/box and ray/triangle tests ([`ray`]), the eye-through-the-display
+//! camera ([`camera`]), Blinn–Phong shading ([`shade`]) and the full and
+//! foveated renderers ([`render`]) of Murphy 2007 ch. 4–6. The GPU core
+//! (issue 6) will reuse the flat BVH layout and must match these images.
+
+pub mod bvh;
+pub mod camera;
+pub mod error;
+pub mod mesh;
+pub mod ray;
+pub mod render;
+pub mod scene;
+pub mod shade;
+
+pub use camera::Camera;
+pub use error::SceneError;
+pub use render::{render, Frame, Layer, Mode, Settings, Stats, Triggers};
+pub use scene::{Scene, SceneFile};

@@ -90,19 +90,40 @@ pub fn parse<T: DeserializeOwned>(path: &Path, text: &str) -> Result<T, ConfigEr
 
 /// A value that parsed but makes no sense, reported at its field's line.
 pub fn invalid_field(path: &Path, text: &str, field: &str, message: String) -> ConfigError {
-    // The innermost named segment first (`driver.rate_hz` → `rate_hz`), then
-    // outwards (`size_mm.0` → `size_mm`).
-    let (line, column) = field
-        .rsplit('.')
-        .filter(|seg| !seg.chars().all(|c| c.is_ascii_digit()))
-        .find_map(|seg| find_field(text, seg))
-        .unwrap_or((0, 0));
+    let (line, column) = locate(text, field).unwrap_or((0, 0));
     ConfigError::invalid(path, line, column, Some(field.to_string()), message)
 }
 
-/// Line and column (1-based) of `name:` in the text, outside comments.
-fn find_field(text: &str, name: &str) -> Option<(usize, usize)> {
-    for (i, line) in text.lines().enumerate() {
+/// Line and column of a dotted field path. `objects[3].mesh` is the fourth
+/// `mesh:` after `objects:`; otherwise the innermost named segment is looked
+/// up first (`driver.rate_hz` → `rate_hz`), then outwards (`size_mm.0` →
+/// `size_mm`).
+fn locate(text: &str, field: &str) -> Option<(usize, usize)> {
+    let segments: Vec<&str> = field.split('.').collect();
+    if let Some(k) = segments.iter().position(|s| s.ends_with(']')) {
+        let (name, index) = segments[k].trim_end_matches(']').split_once('[')?;
+        let index: usize = index.parse().ok()?;
+        let (start, _) = find_field_from(text, name, 0)?;
+        let Some(inner) = segments.get(k + 1) else {
+            return Some((start, 1));
+        };
+        let mut line = start;
+        for _ in 0..=index {
+            let (l, _) = find_field_from(text, inner, line)?;
+            line = l;
+        }
+        return find_field_from(text, inner, line - 1);
+    }
+    field
+        .rsplit('.')
+        .filter(|seg| !seg.chars().all(|c| c.is_ascii_digit()))
+        .find_map(|seg| find_field_from(text, seg, 0))
+}
+
+/// Line and column (1-based) of the first `name:` on a line after line
+/// `after` (0 = from the start), outside comments.
+fn find_field_from(text: &str, name: &str, after: usize) -> Option<(usize, usize)> {
+    for (i, line) in text.lines().enumerate().skip(after) {
         let code = line.split("//").next().unwrap_or("");
         if let Some(col) = code.find(name) {
             let before_ok = code[..col]

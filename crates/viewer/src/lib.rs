@@ -5,6 +5,7 @@
 pub mod config;
 pub mod mask_cmd;
 pub mod plots;
+pub mod render_cmd;
 pub mod tracker_cmd;
 
 use clap::{Parser, Subcommand};
@@ -22,6 +23,8 @@ pub enum Command {
     /// Build the CSF ray mask for one gaze point; report rays against the
     /// Nyquist bound; optionally write the rays (CSV) and pictures (PNG).
     Mask(mask_cmd::MaskArgs),
+    /// Render one frame of a scene, foveated or at full resolution, to a PNG.
+    Render(render_cmd::RenderArgs),
     /// Decode a recording or raw byte dump through the tracker's driver and
     /// write one CSV row per record; a summary line goes to stderr.
     Replay(tracker_cmd::ReplayArgs),
@@ -37,6 +40,7 @@ pub enum Command {
 pub fn run(cli: Cli, out: &mut dyn std::io::Write) -> Result<(), String> {
     match cli.command {
         Command::Mask(args) => mask_cmd::run(&args, out),
+        Command::Render(args) => render_cmd::run(&args, out),
         Command::Replay(args) => tracker_cmd::replay(&args, &mut std::io::stderr()),
         Command::Record(args) => tracker_cmd::record(&args, out),
         Command::Devices => tracker_cmd::devices(out),

@@ -42,7 +42,7 @@ pub struct MaskArgs {
     pub png: Option<PathBuf>,
 }
 
-fn parse_point(s: &str) -> Result<[f64; 2], String> {
+pub fn parse_point(s: &str) -> Result<[f64; 2], String> {
     let (x, y) = s
         .split_once(',')
         .ok_or_else(|| format!("`{s}`: expected X,Y (e.g. 640,512)"))?;

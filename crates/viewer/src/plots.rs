@@ -103,7 +103,7 @@ fn draw_png(path: &Path, size: (u32, u32), draw: impl FnOnce(&Area) -> DrawResul
 
 /// Writes an RGB buffer as PNG: indexed colour when it has at most 256
 /// distinct colours (mesh pictures do, and shrink several-fold), else RGB.
-fn save_png(path: &Path, (w, h): (u32, u32), rgb: &[u8]) -> DrawResult {
+pub fn save_png(path: &Path, (w, h): (u32, u32), rgb: &[u8]) -> DrawResult {
     let mut palette: Vec<[u8; 3]> = Vec::new();
     let mut lookup = std::collections::HashMap::new();
     let mut indices = Vec::with_capacity(rgb.len() / 3);

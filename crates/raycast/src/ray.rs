@@ -1,0 +1,324 @@
+//! Rays and the two ray/primitive tests everything else is built on.
+
+use glam::Vec3;
+
+/// A ray `origin + t·dir`, with the reciprocal direction precomputed for the
+/// slab test. `dir` need not be normalised.
+#[derive(Debug, Clone, Copy)]
+pub struct Ray {
+    pub origin: Vec3,
+    pub dir: Vec3,
+    pub inv_dir: Vec3,
+}
+
+impl Ray {
+    pub fn new(origin: Vec3, dir: Vec3) -> Self {
+        // 1/±0 = ±∞: a zero component makes that slab test depend only on
+        // where the origin lies, which `Aabb::hit` handles explicitly.
+        Self {
+            origin,
+            dir,
+            inv_dir: Vec3::ONE / dir,
+        }
+    }
+
+    pub fn at(&self, t: f32) -> Vec3 {
+        self.origin + self.dir * t
+    }
+}
+
+/// An axis-aligned box.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Aabb {
+    pub min: Vec3,
+    pub max: Vec3,
+}
+
+impl Aabb {
+    pub const EMPTY: Aabb = Aabb {
+        min: Vec3::splat(f32::INFINITY),
+        max: Vec3::splat(f32::NEG_INFINITY),
+    };
+
+    pub fn grow(&mut self, p: Vec3) {
+        self.min = self.min.min(p);
+        self.max = self.max.max(p);
+    }
+
+    pub fn union(&self, o: &Aabb) -> Aabb {
+        Aabb {
+            min: self.min.min(o.min),
+            max: self.max.max(o.max),
+        }
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.min.x > self.max.x
+    }
+
+    pub fn surface_area(&self) -> f32 {
+        if self.is_empty() {
+            return 0.0;
+        }
+        let d = self.max - self.min;
+        2.0 * (d.x * d.y + d.y * d.z + d.z * d.x)
+    }
+
+    pub fn centre(&self) -> Vec3 {
+        (self.min + self.max) * 0.5
+    }
+
+    /// Slab test: the entry distance if the ray meets the box within
+    /// `[0, t_max]`, boundary included.
+    ///
+    /// Correct for direction components that are zero or negative zero. A
+    /// ray parallel to a pair of slabs meets the box only if its origin lies
+    /// between them; the seed's Algorithm 4.1, as printed, never rejects such
+    /// a ray. Here the parallel axis is tested on the origin directly, so
+    /// `0·∞ = NaN` never reaches the comparisons.
+    #[inline]
+    pub fn hit(&self, ray: &Ray, t_max: f32) -> Option<f32> {
+        let mut t0 = 0.0f32;
+        let mut t1 = t_max;
+        for a in 0..3 {
+            let (o, d, inv) = (ray.origin[a], ray.dir[a], ray.inv_dir[a]);
+            if d == 0.0 {
+                if o < self.min[a] || o > self.max[a] {
+                    return None;
+                }
+                continue;
+            }
+            let mut near = (self.min[a] - o) * inv;
+            let mut far = (self.max[a] - o) * inv;
+            if near > far {
+                std::mem::swap(&mut near, &mut far);
+            }
+            // Widen `far` by 2 ulps (Ize 2013), so rounding never rejects a
+            // ray that grazes the box.
+            far *= 1.0 + 2.0 * f32::EPSILON;
+            t0 = t0.max(near);
+            t1 = t1.min(far);
+            if t0 > t1 {
+                return None;
+            }
+        }
+        Some(t0)
+    }
+}
+
+/// Which ray/triangle test to use.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
+pub enum TriangleTest {
+    /// Woop, Benthin & Wald 2013: no ray slips between triangles sharing an edge.
+    #[default]
+    Watertight,
+    /// Möller–Trumbore (Murphy 2007, Algorithm 4.2), for comparison.
+    MollerTrumbore,
+}
+
+/// Ray data precomputed once per ray for the watertight test.
+#[derive(Debug, Clone, Copy)]
+pub struct WatertightRay {
+    origin: Vec3,
+    kx: usize,
+    ky: usize,
+    kz: usize,
+    sx: f32,
+    sy: f32,
+    sz: f32,
+}
+
+impl WatertightRay {
+    /// Woop et al. 2013, §3: permute the axes so the largest direction
+    /// component is z, then shear the ray onto +z.
+    pub fn new(ray: &Ray) -> Self {
+        let a = ray.dir.abs();
+        let kz = if a.x > a.y {
+            if a.x > a.z {
+                0
+            } else {
+                2
+            }
+        } else if a.y > a.z {
+            1
+        } else {
+            2
+        };
+        let mut kx = (kz + 1) % 3;
+        let mut ky = (kx + 1) % 3;
+        if ray.dir[kz] < 0.0 {
+            std::mem::swap(&mut kx, &mut ky);
+        }
+        let dz = ray.dir[kz];
+        Self {
+            origin: ray.origin,
+            kx,
+            ky,
+            kz,
+            sx: ray.dir[kx] / dz,
+            sy: ray.dir[ky] / dz,
+            sz: 1.0 / dz,
+        }
+    }
+}
+
+/// A hit on one triangle: distance and barycentrics of vertices 1 and 2.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct TriHit {
+    pub t: f32,
+    pub u: f32,
+    pub v: f32,
+}
+
+/// Watertight ray/triangle intersection (Woop, Benthin & Wald 2013), with
+/// the paper's double-precision fallback when an edge function is exactly 0.
+/// Edges are closed on both sides, so a ray through a shared edge or vertex
+/// hits at least one of the triangles. Returns hits with `t_min < t < t_max`.
+#[inline]
+pub fn watertight(
+    r: &WatertightRay,
+    p0: Vec3,
+    p1: Vec3,
+    p2: Vec3,
+    t_min: f32,
+    t_max: f32,
+) -> Option<TriHit> {
+    let a = p0 - r.origin;
+    let b = p1 - r.origin;
+    let c = p2 - r.origin;
+    let (kx, ky, kz) = (r.kx, r.ky, r.kz);
+    let ax = a[kx] - r.sx * a[kz];
+    let ay = a[ky] - r.sy * a[kz];
+    let bx = b[kx] - r.sx * b[kz];
+    let by = b[ky] - r.sy * b[kz];
+    let cx = c[kx] - r.sx * c[kz];
+    let cy = c[ky] - r.sy * c[kz];
+    let mut u = cx * by - cy * bx;
+    let mut v = ax * cy - ay * cx;
+    let mut w = bx * ay - by * ax;
+    if u == 0.0 || v == 0.0 || w == 0.0 {
+        u = (f64::from(cx) * f64::from(by) - f64::from(cy) * f64::from(bx)) as f32;
+        v = (f64::from(ax) * f64::from(cy) - f64::from(ay) * f64::from(cx)) as f32;
+        w = (f64::from(bx) * f64::from(ay) - f64::from(by) * f64::from(ax)) as f32;
+    }
+    if (u < 0.0 || v < 0.0 || w < 0.0) && (u > 0.0 || v > 0.0 || w > 0.0) {
+        return None;
+    }
+    let det = u + v + w;
+    if det == 0.0 {
+        return None; // degenerate (zero-area in projection)
+    }
+    let az = r.sz * a[kz];
+    let bz = r.sz * b[kz];
+    let cz = r.sz * c[kz];
+    let t_scaled = u * az + v * bz + w * cz;
+    // Compare t·det against the range without dividing (sign-aware).
+    let (lo, hi) = if det > 0.0 {
+        (t_min * det, t_max * det)
+    } else {
+        (t_max * det, t_min * det)
+    };
+    if !(t_scaled > lo && t_scaled < hi) {
+        return None;
+    }
+    let inv = 1.0 / det;
+    Some(TriHit {
+        t: t_scaled * inv,
+        u: v * inv,
+        v: w * inv,
+    })
+}
+
+/// Möller–Trumbore (Murphy 2007, Algorithm 4.2; Möller & Trumbore 1997).
+#[inline]
+pub fn moller_trumbore(
+    ray: &Ray,
+    p0: Vec3,
+    p1: Vec3,
+    p2: Vec3,
+    t_min: f32,
+    t_max: f32,
+) -> Option<TriHit> {
+    let e1 = p1 - p0;
+    let e2 = p2 - p0;
+    let p = ray.dir.cross(e2);
+    let det = e1.dot(p);
+    if det.abs() < f32::MIN_POSITIVE {
+        return None;
+    }
+    let inv = 1.0 / det;
+    let s = ray.origin - p0;
+    let u = s.dot(p) * inv;
+    if !(0.0..=1.0).contains(&u) {
+        return None;
+    }
+    let q = s.cross(e1);
+    let v = ray.dir.dot(q) * inv;
+    if v < 0.0 || u + v > 1.0 {
+        return None;
+    }
+    let t = e2.dot(q) * inv;
+    (t > t_min && t < t_max).then_some(TriHit { t, u, v })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn parallel_rays_are_rejected_outside_the_slab_and_kept_inside() {
+        let b = Aabb {
+            min: Vec3::ZERO,
+            max: Vec3::ONE,
+        };
+        // Parallel to the x slabs (dir.x = 0), origin outside in x: must miss.
+        let outside = Ray::new(Vec3::new(2.0, 0.5, -1.0), Vec3::new(0.0, 0.0, 1.0));
+        assert_eq!(b.hit(&outside, f32::INFINITY), None);
+        let outside_neg = Ray::new(Vec3::new(2.0, 0.5, -1.0), Vec3::new(-0.0, 0.0, 1.0));
+        assert_eq!(b.hit(&outside_neg, f32::INFINITY), None);
+        // Inside the x slab, and exactly on its boundary plane: hit.
+        let inside = Ray::new(Vec3::new(0.5, 0.5, -1.0), Vec3::new(0.0, -0.0, 1.0));
+        assert_eq!(b.hit(&inside, f32::INFINITY), Some(1.0));
+        let on_plane = Ray::new(Vec3::new(1.0, 0.5, -1.0), Vec3::new(0.0, 0.0, 1.0));
+        assert_eq!(b.hit(&on_plane, f32::INFINITY), Some(1.0));
+    }
+
+    #[test]
+    fn both_triangle_tests_agree_on_a_plain_hit() {
+        let (p0, p1, p2) = (
+            Vec3::new(-1.0, -1.0, 0.0),
+            Vec3::new(1.0, -1.0, 0.0),
+            Vec3::new(0.0, 1.0, 0.0),
+        );
+        let ray = Ray::new(Vec3::new(0.1, 0.0, 5.0), Vec3::new(0.0, 0.0, -1.0));
+        let a = watertight(&WatertightRay::new(&ray), p0, p1, p2, 0.0, f32::INFINITY).unwrap();
+        let b = moller_trumbore(&ray, p0, p1, p2, 0.0, f32::INFINITY).unwrap();
+        assert!((a.t - 5.0).abs() < 1e-6 && (b.t - 5.0).abs() < 1e-6);
+        assert!((a.u - b.u).abs() < 1e-6 && (a.v - b.v).abs() < 1e-6);
+    }
+
+    #[test]
+    fn a_ray_through_a_shared_edge_hits_one_of_the_two_triangles() {
+        let (a, b) = (Vec3::new(0.0, -1.0, 0.0), Vec3::new(0.0, 1.0, 0.0));
+        let (l, r) = (Vec3::new(-1.0, 0.0, 0.0), Vec3::new(1.0, 0.0, 0.0));
+        let ray = Ray::new(Vec3::new(0.0, 0.3, 3.0), Vec3::new(0.0, 0.0, -1.0));
+        let w = WatertightRay::new(&ray);
+        let hits = [
+            watertight(&w, a, b, l, 0.0, 10.0),
+            watertight(&w, b, a, r, 0.0, 10.0),
+        ];
+        assert!(hits.iter().any(Option::is_some));
+    }
+
+    #[test]
+    fn zero_area_triangles_never_hit() {
+        let p = Vec3::new(0.0, 0.0, 0.0);
+        let q = Vec3::new(1.0, 1.0, 0.0);
+        let ray = Ray::new(Vec3::new(0.5, 0.5, 1.0), Vec3::new(0.0, 0.0, -1.0));
+        assert_eq!(
+            watertight(&WatertightRay::new(&ray), p, q, q * 2.0, 0.0, 10.0),
+            None
+        );
+        assert_eq!(moller_trumbore(&ray, p, q, q * 2.0, 0.0, 10.0), None);
+    }
+}

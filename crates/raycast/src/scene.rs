@@ -1,0 +1,445 @@
+//! Scene files (`config/scenes/*.ron`) and the world they describe: every
+//! object's triangles in world space (millimetres, the display's frame: the
+//! screen centre at the origin, x right, y up, z towards the viewer; objects
+//! behind the screen have z < 0), with one BVH over all of them.
+
+use std::collections::BTreeMap;
+use std::path::Path;
+
+use glam::{EulerRot, Mat3, Vec3};
+use serde::{Deserialize, Serialize};
+
+use crate::bvh::Bvh;
+use crate::error::SceneError;
+use crate::mesh::TriangleMesh;
+use crate::ray::{moller_trumbore, watertight, Aabb, Ray, TriangleTest, WatertightRay};
+
+/// Where a mesh comes from.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub enum MeshSource {
+    /// A Wavefront OBJ file (relative paths are relative to the scene file).
+    Obj { path: String },
+    /// Unit icosphere, 20·4^subdivisions triangles.
+    Icosphere { subdivisions: u32 },
+    /// Torus around y with unit-scale radii.
+    Torus {
+        major_radius: f32,
+        minor_radius: f32,
+        segments: u32,
+        sides: u32,
+    },
+    /// Unit sphere with smooth bumps, at least `triangles` triangles.
+    Bumpy {
+        triangles: u32,
+        amplitude: f32,
+        seed: u64,
+    },
+    /// One triangle with the given corners (scene units).
+    Triangle {
+        a: (f32, f32, f32),
+        b: (f32, f32, f32),
+        c: (f32, f32, f32),
+    },
+}
+
+/// Blinn–Phong material.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Material {
+    pub diffuse: (f32, f32, f32),
+    #[serde(default = "default_specular")]
+    pub specular: (f32, f32, f32),
+    #[serde(default = "default_shininess")]
+    pub shininess: f32,
+}
+
+fn default_specular() -> (f32, f32, f32) {
+    (0.25, 0.25, 0.25)
+}
+fn default_shininess() -> f32 {
+    32.0
+}
+
+impl Default for Material {
+    fn default() -> Self {
+        Self {
+            diffuse: (0.7, 0.7, 0.7),
+            specular: default_specular(),
+            shininess: default_shininess(),
+        }
+    }
+}
+
+/// One placed instance of a mesh.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Object {
+    pub mesh: String,
+    #[serde(default)]
+    pub material: Option<String>,
+    /// Position in mm (screen centre = origin, z towards the viewer).
+    pub translate_mm: (f32, f32, f32),
+    /// Rotation in degrees about x, then y, then z.
+    #[serde(default)]
+    pub rotate_deg: (f32, f32, f32),
+    /// Uniform scale: mesh units to mm.
+    pub scale_mm: f32,
+}
+
+/// A light.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub enum Light {
+    /// A point light at the eye (the default).
+    Headlight { intensity: f32 },
+    Point {
+        position_mm: (f32, f32, f32),
+        intensity: f32,
+    },
+    Directional {
+        direction: (f32, f32, f32),
+        intensity: f32,
+    },
+}
+
+/// Effects a scene asks for; the pipeline runs only these (DESIGN.md).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
+pub enum Effect {
+    /// Cast the CSF ray mask instead of every pixel.
+    FoveatedSampling,
+    /// Refine cells whose corners disagree on hit/miss or object.
+    SilhouetteRefinement,
+    /// Refine cells whose corner normals differ by more than the crease angle.
+    CreaseRefinement,
+    /// Refine cells with a depth jump between corners.
+    DepthRefinement,
+    /// Draw the POR box (the seed's figures).
+    PorOverlay,
+}
+
+/// The scene file.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(rename = "Scene", deny_unknown_fields)]
+pub struct SceneFile {
+    pub name: String,
+    #[serde(default = "default_background")]
+    pub background: (f32, f32, f32),
+    pub meshes: BTreeMap<String, MeshSource>,
+    #[serde(default)]
+    pub materials: BTreeMap<String, Material>,
+    pub objects: Vec<Object>,
+    #[serde(default = "default_lights")]
+    pub lights: Vec<Light>,
+    #[serde(default = "default_effects")]
+    pub effects: Vec<Effect>,
+    /// Crease angle for `CreaseRefinement`, degrees.
+    #[serde(default = "default_crease")]
+    pub crease_deg: f32,
+    /// Depth ratio for `DepthRefinement`: refine when max/min hit distance
+    /// across a cell's corners exceeds 1 + this.
+    #[serde(default = "default_depth_jump")]
+    pub depth_jump: f32,
+}
+
+fn default_background() -> (f32, f32, f32) {
+    (0.08, 0.08, 0.1)
+}
+fn default_lights() -> Vec<Light> {
+    vec![Light::Headlight { intensity: 1.0 }]
+}
+fn default_effects() -> Vec<Effect> {
+    vec![
+        Effect::FoveatedSampling,
+        Effect::SilhouetteRefinement,
+        Effect::CreaseRefinement,
+        Effect::DepthRefinement,
+    ]
+}
+fn default_crease() -> f32 {
+    30.0
+}
+fn default_depth_jump() -> f32 {
+    0.05
+}
+
+/// One world-space triangle: corners, corner normals, object.
+#[derive(Debug, Clone, Copy)]
+pub struct WorldTriangle {
+    pub p: [Vec3; 3],
+    pub n: [Vec3; 3],
+    pub object: u32,
+}
+
+/// What a ray hit.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Hit {
+    /// Ray parameter (1 = the screen plane for camera rays).
+    pub t: f32,
+    pub object: u32,
+    pub triangle: u32,
+    /// Interpolated shading normal, unit length.
+    pub normal: Vec3,
+}
+
+/// A loaded scene, ready to trace.
+#[derive(Debug, Clone)]
+pub struct Scene {
+    pub name: String,
+    pub background: Vec3,
+    pub materials: Vec<Material>,
+    pub lights: Vec<Light>,
+    pub effects: Vec<Effect>,
+    pub crease_deg: f32,
+    pub depth_jump: f32,
+    /// Triangles in BVH leaf order.
+    pub triangles: Vec<WorldTriangle>,
+    pub bvh: Bvh,
+}
+
+impl Scene {
+    /// Builds the world. Relative OBJ paths are resolved against `base_dir`.
+    /// Errors name the field (`objects[3].mesh`) or the mesh file and line.
+    pub fn build(file: &SceneFile, base_dir: &Path) -> Result<Self, SceneError> {
+        let finite3 = |v: (f32, f32, f32)| v.0.is_finite() && v.1.is_finite() && v.2.is_finite();
+        let mut meshes = BTreeMap::new();
+        for (name, src) in &file.meshes {
+            let field = format!("meshes.{name}");
+            let mesh = match src {
+                MeshSource::Obj { path } => {
+                    let p = Path::new(path);
+                    let p = if p.is_absolute() {
+                        p.to_path_buf()
+                    } else {
+                        base_dir.join(p)
+                    };
+                    TriangleMesh::load_obj(&p)?
+                }
+                MeshSource::Icosphere { subdivisions } => {
+                    if *subdivisions > 8 {
+                        return Err(SceneError::field(
+                            field,
+                            "subdivisions above 8 (1.3 M triangles) are not supported",
+                        ));
+                    }
+                    TriangleMesh::icosphere(*subdivisions)
+                }
+                MeshSource::Torus {
+                    major_radius,
+                    minor_radius,
+                    segments,
+                    sides,
+                } => {
+                    if !(major_radius.is_finite()
+                        && minor_radius.is_finite()
+                        && *major_radius > 0.0
+                        && *minor_radius > 0.0)
+                    {
+                        return Err(SceneError::field(field, "radii must be positive"));
+                    }
+                    if u64::from(*segments) * u64::from(*sides) > 20_000_000 {
+                        return Err(SceneError::field(field, "segments × sides is too large"));
+                    }
+                    TriangleMesh::torus(*major_radius, *minor_radius, *segments, *sides)
+                }
+                MeshSource::Bumpy {
+                    triangles,
+                    amplitude,
+                    seed,
+                } => {
+                    if *triangles > 20_000_000 || !amplitude.is_finite() || amplitude.abs() >= 1.0 {
+                        return Err(SceneError::field(
+                            field,
+                            "needs triangles ≤ 20 M and |amplitude| < 1",
+                        ));
+                    }
+                    TriangleMesh::bumpy(*triangles, *amplitude, *seed)
+                }
+                MeshSource::Triangle { a, b, c } => {
+                    if !(finite3(*a) && finite3(*b) && finite3(*c)) {
+                        return Err(SceneError::field(field, "corners must be finite"));
+                    }
+                    let v = |t: (f32, f32, f32)| Vec3::new(t.0, t.1, t.2);
+                    TriangleMesh::new(vec![v(*a), v(*b), v(*c)], vec![[0, 1, 2]], &field)?
+                }
+            };
+            meshes.insert(name.clone(), mesh);
+        }
+        let mut material_index = BTreeMap::new();
+        let mut materials = vec![Material::default()];
+        for (name, m) in &file.materials {
+            let ok = finite3(m.diffuse)
+                && finite3(m.specular)
+                && m.shininess.is_finite()
+                && m.shininess >= 0.0;
+            if !ok {
+                return Err(SceneError::field(
+                    format!("materials.{name}"),
+                    "colours and shininess must be finite",
+                ));
+            }
+            material_index.insert(name.clone(), materials.len() as u32);
+            materials.push(*m);
+        }
+        let mut object_material = Vec::new();
+        let mut triangles = Vec::new();
+        for (k, o) in file.objects.iter().enumerate() {
+            let field = |f: &str| format!("objects[{k}].{f}");
+            let mesh = meshes.get(&o.mesh).ok_or_else(|| {
+                SceneError::field(
+                    field("mesh"),
+                    format!("no mesh named `{}` in `meshes`", o.mesh),
+                )
+            })?;
+            let material = match &o.material {
+                None => 0,
+                Some(m) => *material_index.get(m).ok_or_else(|| {
+                    SceneError::field(field("material"), format!("no material named `{m}`"))
+                })?,
+            };
+            if !finite3(o.translate_mm) {
+                return Err(SceneError::field(field("translate_mm"), "must be finite"));
+            }
+            if !finite3(o.rotate_deg) {
+                return Err(SceneError::field(field("rotate_deg"), "must be finite"));
+            }
+            if !(o.scale_mm.is_finite() && o.scale_mm > 0.0) {
+                return Err(SceneError::field(
+                    field("scale_mm"),
+                    "must be a positive number",
+                ));
+            }
+            object_material.push(material);
+            let r = o.rotate_deg;
+            let rot = Mat3::from_euler(
+                EulerRot::ZYX,
+                r.2.to_radians(),
+                r.1.to_radians(),
+                r.0.to_radians(),
+            );
+            let t = Vec3::new(o.translate_mm.0, o.translate_mm.1, o.translate_mm.2);
+            let place = |p: Vec3| rot * (p * o.scale_mm) + t;
+            for tri in &mesh.indices {
+                let p = tri.map(|i| place(mesh.positions[i as usize]));
+                let n = tri.map(|i| rot * mesh.normals[i as usize]);
+                if p.iter().any(|v| !v.is_finite()) {
+                    return Err(SceneError::field(
+                        field("scale_mm"),
+                        "the placed mesh overflows f32",
+                    ));
+                }
+                triangles.push(WorldTriangle {
+                    p,
+                    n,
+                    object: k as u32,
+                });
+            }
+        }
+        let lights_ok = file.lights.iter().all(|l| match l {
+            Light::Headlight { intensity } => intensity.is_finite(),
+            Light::Point {
+                position_mm,
+                intensity,
+            } => finite3(*position_mm) && intensity.is_finite(),
+            Light::Directional {
+                direction,
+                intensity,
+            } => {
+                finite3(*direction)
+                    && intensity.is_finite()
+                    && Vec3::new(direction.0, direction.1, direction.2).length() > 0.0
+            }
+        });
+        if !lights_ok {
+            return Err(SceneError::field(
+                "lights",
+                "positions, directions and intensities must be finite (directions non-zero)",
+            ));
+        }
+        for (name, v) in [
+            ("crease_deg", file.crease_deg),
+            ("depth_jump", file.depth_jump),
+        ] {
+            if !(v.is_finite() && v >= 0.0) {
+                return Err(SceneError::field(name, "must be zero or positive"));
+            }
+        }
+        let bounds: Vec<Aabb> = triangles
+            .iter()
+            .map(|t| {
+                let mut b = Aabb::EMPTY;
+                t.p.iter().for_each(|p| b.grow(*p));
+                b
+            })
+            .collect();
+        let bvh = Bvh::build(&bounds);
+        let triangles = bvh.order.iter().map(|&i| triangles[i as usize]).collect();
+        let materials = object_material
+            .iter()
+            .map(|&m| materials[m as usize])
+            .collect();
+        let c = file.background;
+        Ok(Self {
+            name: file.name.clone(),
+            background: Vec3::new(c.0, c.1, c.2),
+            materials,
+            lights: file.lights.clone(),
+            effects: file.effects.clone(),
+            crease_deg: file.crease_deg,
+            depth_jump: file.depth_jump,
+            triangles,
+            bvh,
+        })
+    }
+
+    pub fn has(&self, e: Effect) -> bool {
+        self.effects.contains(&e)
+    }
+
+    /// Closest hit along `ray` with `t` in `(t_min, ∞)`.
+    pub fn intersect(&self, ray: &Ray, t_min: f32, test: TriangleTest) -> Option<Hit> {
+        if self.triangles.is_empty() {
+            return None;
+        }
+        let wray = WatertightRay::new(ray);
+        let mut best: Option<(u32, f32, f32, f32)> = None;
+        self.bvh
+            .traverse(ray, f32::INFINITY, |first, count, t_max| {
+                let mut t_max = t_max;
+                for i in first..first + count {
+                    let tri = &self.triangles[i as usize];
+                    let h = match test {
+                        TriangleTest::Watertight => {
+                            watertight(&wray, tri.p[0], tri.p[1], tri.p[2], t_min, t_max)
+                        }
+                        TriangleTest::MollerTrumbore => {
+                            moller_trumbore(ray, tri.p[0], tri.p[1], tri.p[2], t_min, t_max)
+                        }
+                    };
+                    if let Some(h) = h {
+                        t_max = h.t;
+                        best = Some((i, h.t, h.u, h.v));
+                    }
+                }
+                t_max
+            });
+        best.map(|(i, t, u, v)| {
+            let tri = &self.triangles[i as usize];
+            let n = tri.n[0] * (1.0 - u - v) + tri.n[1] * u + tri.n[2] * v;
+            let face = (tri.p[1] - tri.p[0]).cross(tri.p[2] - tri.p[0]);
+            let normal = n
+                .try_normalize()
+                .or_else(|| face.try_normalize())
+                .unwrap_or(Vec3::Z);
+            Hit {
+                t,
+                object: tri.object,
+                triangle: i,
+                normal,
+            }
+        })
+    }
+
+    /// Number of objects (materials are per object).
+    pub fn object_count(&self) -> usize {
+        self.materials.len()
+    }
+}

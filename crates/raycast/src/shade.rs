@@ -1,0 +1,52 @@
+//! Blinn–Phong shading from an (interpolated) normal.
+
+use glam::Vec3;
+
+use crate::scene::{Light, Scene};
+
+const AMBIENT: f32 = 0.08;
+
+/// Linear colour of a surface point of `object` at `position` with normal
+/// `normal`, seen from `eye`.
+pub fn shade(scene: &Scene, object: u32, position: Vec3, normal: Vec3, eye: Vec3) -> Vec3 {
+    let m = &scene.materials[object as usize];
+    let diffuse = Vec3::new(m.diffuse.0, m.diffuse.1, m.diffuse.2);
+    let specular = Vec3::new(m.specular.0, m.specular.1, m.specular.2);
+    let v = (eye - position).try_normalize().unwrap_or(Vec3::Z);
+    // Two-sided: light the side facing the eye.
+    let n = if normal.dot(v) < 0.0 { -normal } else { normal };
+    let mut c = diffuse * AMBIENT;
+    for light in &scene.lights {
+        let (l, intensity) = match *light {
+            Light::Headlight { intensity } => (v, intensity),
+            Light::Point {
+                position_mm: p,
+                intensity,
+            } => (
+                (Vec3::new(p.0, p.1, p.2) - position)
+                    .try_normalize()
+                    .unwrap_or(v),
+                intensity,
+            ),
+            Light::Directional {
+                direction: d,
+                intensity,
+            } => (
+                (-Vec3::new(d.0, d.1, d.2)).try_normalize().unwrap_or(v),
+                intensity,
+            ),
+        };
+        let ndl = n.dot(l).max(0.0);
+        if ndl > 0.0 {
+            let h = (l + v).try_normalize().unwrap_or(n);
+            c += intensity * (diffuse * ndl + specular * n.dot(h).max(0.0).powf(m.shininess));
+        }
+    }
+    c
+}
+
+/// Linear colour to 8-bit sRGB-ish (gamma 2.2), clamped.
+pub fn to_rgb8(c: Vec3) -> [u8; 3] {
+    let g = |x: f32| (x.clamp(0.0, 1.0).powf(1.0 / 2.2) * 255.0 + 0.5) as u8;
+    [g(c.x), g(c.y), g(c.z)]
+}

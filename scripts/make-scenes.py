@@ -60,9 +60,11 @@ def stress():
         "    meshes: {",
         '        "ball": Bumpy(triangles: 5000, amplitude: 0.2, seed: 9),',
         '        "ring": Torus(major_radius: 0.7, minor_radius: 0.3, segments: 48, sides: 16),',
-        '        "sliver1": Triangle(a: (-400.0, -300.0, 380.0), b: (420.0, -260.0, 380.0), c: (-380.0, -250.0, 380.0)),',
-        '        "sliver2": Triangle(a: (-300.0, 320.0, 420.0), b: (-250.0, -330.0, 420.0), c: (-280.0, 330.0, 420.0)),',
-        '        "sliver3": Triangle(a: (350.0, 300.0, 300.0), b: (200.0, -300.0, 300.0), c: (330.0, 300.0, 300.0)),',
+        # Long thin triangles between the screen and the eye (z > 0), each
+        # crossing the whole field of view at its depth.
+        '        "sliver1": Triangle(a: (-60.0, -20.0, 380.0), b: (60.0, -14.0, 380.0), c: (-58.0, -12.0, 380.0)),',
+        '        "sliver2": Triangle(a: (-20.0, 35.0, 420.0), b: (-12.0, -35.0, 420.0), c: (-16.0, 35.0, 420.0)),',
+        '        "sliver3": Triangle(a: (60.0, 70.0, 300.0), b: (30.0, -70.0, 300.0), c: (66.0, 70.0, 300.0)),',
         "    },",
         "    materials: {",
         '        "a": (diffuse: (0.8, 0.35, 0.3)),',

@@ -107,7 +107,9 @@ impl Bvh {
         mut t_max: f32,
         mut visit: impl FnMut(u32, u32, f32) -> f32,
     ) -> f32 {
-        let mut stack = [0u32; MAX_DEPTH];
+        // Far children wait on the stack with their entry distance, so a pop
+        // skips them without a second box test once a closer hit is known.
+        let mut stack = [(0u32, 0f32); MAX_DEPTH];
         let mut sp = 0;
         let mut node = 0u32;
         if self.nodes[0].aabb().hit(ray, t_max).is_none() {
@@ -123,8 +125,8 @@ impl Bvh {
                 let hb = self.nodes[b as usize].aabb().hit(ray, t_max);
                 match (ha, hb) {
                     (Some(ta), Some(tb)) => {
-                        let (near, far) = if ta <= tb { (a, b) } else { (b, a) };
-                        stack[sp] = far;
+                        let (near, far, t_far) = if ta <= tb { (a, b, tb) } else { (b, a, ta) };
+                        stack[sp] = (far, t_far);
                         sp += 1;
                         node = near;
                         continue;
@@ -140,14 +142,15 @@ impl Bvh {
                     (None, None) => {}
                 }
             }
-            // Pop, skipping nodes now beyond the closest hit.
+            // Pop, skipping nodes that start beyond the closest hit.
             loop {
                 if sp == 0 {
                     return t_max;
                 }
                 sp -= 1;
-                node = stack[sp];
-                if self.nodes[node as usize].aabb().hit(ray, t_max).is_some() {
+                let (next, t_entry) = stack[sp];
+                if t_entry <= t_max {
+                    node = next;
                     break;
                 }
             }

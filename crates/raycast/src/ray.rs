@@ -1,6 +1,6 @@
 //! Rays and the two ray/primitive tests everything else is built on.
 
-use glam::Vec3;
+use glam::{Vec3, Vec3A};
 
 /// A ray `origin + t·dir`, with the reciprocal direction precomputed for the
 /// slab test. `dir` need not be normalised.
@@ -8,17 +8,22 @@ use glam::Vec3;
 pub struct Ray {
     pub origin: Vec3,
     pub dir: Vec3,
-    pub inv_dir: Vec3,
+    /// 1/dir; ±∞ for a zero (or negative zero) component.
+    pub inv_dir: Vec3A,
+    origin_a: Vec3A,
+    /// Some direction component is ±0: `Aabb::hit` takes its exact path.
+    parallel: bool,
 }
 
 impl Ray {
     pub fn new(origin: Vec3, dir: Vec3) -> Self {
-        // 1/±0 = ±∞: a zero component makes that slab test depend only on
-        // where the origin lies, which `Aabb::hit` handles explicitly.
+        let parallel = dir.x == 0.0 || dir.y == 0.0 || dir.z == 0.0;
         Self {
             origin,
             dir,
-            inv_dir: Vec3::ONE / dir,
+            inv_dir: Vec3A::ONE / Vec3A::from(dir),
+            origin_a: origin.into(),
+            parallel,
         }
     }
 
@@ -73,11 +78,27 @@ impl Aabb {
     ///
     /// Correct for direction components that are zero or negative zero. A
     /// ray parallel to a pair of slabs meets the box only if its origin lies
-    /// between them; the seed's Algorithm 4.1, as printed, never rejects such
-    /// a ray. Here the parallel axis is tested on the origin directly, so
-    /// `0·∞ = NaN` never reaches the comparisons.
+    /// between them (boundary included); the seed's Algorithm 4.1, as
+    /// printed, never rejects such a ray. Rays with a zero component take an
+    /// exact per-axis path that tests the origin directly, so `0·∞ = NaN`
+    /// never reaches a comparison; all other rays take a branch-free SIMD path.
     #[inline]
     pub fn hit(&self, ray: &Ray, t_max: f32) -> Option<f32> {
+        let (lo, hi) = (Vec3A::from(self.min), Vec3A::from(self.max));
+        if ray.parallel {
+            return self.hit_parallel(ray, t_max);
+        }
+        let t1 = (lo - ray.origin_a) * ray.inv_dir;
+        let t2 = (hi - ray.origin_a) * ray.inv_dir;
+        let near = t1.min(t2).max_element().max(0.0);
+        // Widen `far` by 2 ulps (Ize 2013), so rounding never rejects a
+        // ray that grazes the box.
+        let far = (t1.max(t2).min_element() * (1.0 + 2.0 * f32::EPSILON)).min(t_max);
+        (near <= far).then_some(near)
+    }
+
+    #[cold]
+    fn hit_parallel(&self, ray: &Ray, t_max: f32) -> Option<f32> {
         let mut t0 = 0.0f32;
         let mut t1 = t_max;
         for a in 0..3 {
@@ -88,16 +109,12 @@ impl Aabb {
                 }
                 continue;
             }
-            let mut near = (self.min[a] - o) * inv;
-            let mut far = (self.max[a] - o) * inv;
+            let (mut near, mut far) = ((self.min[a] - o) * inv, (self.max[a] - o) * inv);
             if near > far {
                 std::mem::swap(&mut near, &mut far);
             }
-            // Widen `far` by 2 ulps (Ize 2013), so rounding never rejects a
-            // ray that grazes the box.
-            far *= 1.0 + 2.0 * f32::EPSILON;
             t0 = t0.max(near);
-            t1 = t1.min(far);
+            t1 = t1.min(far * (1.0 + 2.0 * f32::EPSILON));
             if t0 > t1 {
                 return None;
             }

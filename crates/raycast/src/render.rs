@@ -127,8 +127,11 @@ pub struct Stats {
 
 const FOVEA: u32 = u32::MAX;
 const UNOWNED: u32 = u32::MAX - 1;
-/// Fixed-point subpixel precision of the ownership raster.
-const SUB: f64 = 256.0;
+/// Fixed-point subpixel precision of the ownership raster: 1/65536 px keeps
+/// the mesh's f32 vertex positions (and the fovea circle they are inscribed
+/// in) distinct from pixel centres a thousandth of a pixel away; products of
+/// coordinates up to 2^31 still fit in i64.
+const SUB: f64 = 65536.0;
 
 fn cast(scene: &Scene, cam: &Camera, p: [f32; 2], test: TriangleTest) -> Option<Hit> {
     scene.intersect(&cam.ray(p), 0.0, test)
@@ -193,27 +196,29 @@ fn full(scene: &Scene, cam: &Camera, test: TriangleTest, frame: &mut Frame) {
 
 /// Is a cell with these corner hits homogeneous under `t`?
 fn homogeneous(corners: &[Option<Hit>], t: &Triggers) -> bool {
-    let first = corners[0];
     if corners.iter().all(Option::is_none) {
         return true;
     }
-    let Some(a) = first else { return !t.silhouette };
-    let hits: Vec<Hit> = corners.iter().flatten().copied().collect();
-    if hits.len() != corners.len() || hits.iter().any(|h| h.object != a.object) {
+    let Some(a) = corners[0] else {
+        return !t.silhouette;
+    };
+    if corners
+        .iter()
+        .any(|h| h.is_none_or(|h| h.object != a.object))
+    {
         return !t.silhouette;
     }
+    let hits = || corners.iter().flatten();
     if let Some(deg) = t.crease_deg {
         let cos = deg.to_radians().cos();
-        for i in 0..hits.len() {
-            for j in i + 1..hits.len() {
-                if hits[i].normal.dot(hits[j].normal) < cos {
-                    return false;
-                }
+        for (i, p) in hits().enumerate() {
+            if hits().skip(i + 1).any(|q| p.normal.dot(q.normal) < cos) {
+                return false;
             }
         }
     }
     if let Some(jump) = t.depth_jump {
-        let (lo, hi) = hits.iter().fold((f32::INFINITY, 0.0f32), |(lo, hi), h| {
+        let (lo, hi) = hits().fold((f32::INFINITY, 0.0f32), |(lo, hi), h| {
             (lo.min(h.t), hi.max(h.t))
         });
         if hi > lo * (1.0 + jump) {
@@ -338,7 +343,7 @@ fn foveated(
 }
 
 /// Calls `own` for the index of every pixel whose centre lies in the cell.
-/// Coordinates are snapped to 1/256 px and edge functions evaluated exactly
+/// Coordinates are snapped to 1/65536 px and edge functions evaluated exactly
 /// in integers; a centre on an edge belongs to the cell for which that edge
 /// runs "down or left" (a top-left style rule), so cells sharing an edge never
 /// both claim a pixel and never both miss it.

@@ -45,8 +45,23 @@ pub fn shade(scene: &Scene, object: u32, position: Vec3, normal: Vec3, eye: Vec3
     c
 }
 
-/// Linear colour to 8-bit sRGB-ish (gamma 2.2), clamped.
+/// Entries of the gamma table over linear [0, 1].
+const GAMMA_STEPS: usize = 4096;
+
+fn gamma_table() -> &'static [u8; GAMMA_STEPS + 1] {
+    static TABLE: std::sync::OnceLock<[u8; GAMMA_STEPS + 1]> = std::sync::OnceLock::new();
+    TABLE.get_or_init(|| {
+        let mut t = [0u8; GAMMA_STEPS + 1];
+        for (i, v) in t.iter_mut().enumerate() {
+            *v = ((i as f32 / GAMMA_STEPS as f32).powf(1.0 / 2.2) * 255.0 + 0.5) as u8;
+        }
+        t
+    })
+}
+
+/// Linear colour to 8-bit (gamma 2.2), clamped; a table lookup, not `powf`.
 pub fn to_rgb8(c: Vec3) -> [u8; 3] {
-    let g = |x: f32| (x.clamp(0.0, 1.0).powf(1.0 / 2.2) * 255.0 + 0.5) as u8;
+    let t = gamma_table();
+    let g = |x: f32| t[(x.clamp(0.0, 1.0) * GAMMA_STEPS as f32 + 0.5) as usize];
     [g(c.x), g(c.y), g(c.z)]
 }

@@ -1,0 +1,82 @@
+//! Primary-ray throughput: every pixel's ray through a scene's BVH, closest
+//! hit only (no shading), median of 5 passes. Prints one JSON line.
+//!
+//! `cargo run --release -p raycast --example trace_rays -- SCENE.ron DISPLAY.ron [--dump DIR]`
+//!
+//! With `--dump`, also writes the world triangles (`triangles.f32`, 9 f32 per
+//! triangle) and the rays (`rays.f32`, origin + direction, 6 f32 per ray) so
+//! `bench/embree_compare.py` can trace exactly the same work with Embree.
+
+use std::io::Write;
+use std::path::Path;
+use std::time::Instant;
+
+use raycast::ray::TriangleTest;
+use raycast::{Camera, Scene, SceneFile};
+use rayon::prelude::*;
+
+fn main() -> Result<(), String> {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let [scene_path, display_path, rest @ ..] = args.as_slice() else {
+        return Err("usage: trace_rays SCENE.ron DISPLAY.ron [--dump DIR]".into());
+    };
+    let text = std::fs::read_to_string(scene_path).map_err(|e| format!("{scene_path}: {e}"))?;
+    let file: SceneFile = ron::from_str(&text).map_err(|e| format!("{scene_path}: {e}"))?;
+    let scene = Scene::build(
+        &file,
+        Path::new(scene_path).parent().unwrap_or(Path::new(".")),
+    )
+    .map_err(|e| e.to_string())?;
+    let text = std::fs::read_to_string(display_path).map_err(|e| format!("{display_path}: {e}"))?;
+    let display: foveation::Display =
+        ron::from_str(&text).map_err(|e| format!("{display_path}: {e}"))?;
+    let g = display.geometry().map_err(|e| e.to_string())?;
+    let cam = Camera::new(&g);
+    let (w, h) = (g.width_px, g.height_px);
+    let rays: Vec<raycast::ray::Ray> = (0..h)
+        .flat_map(|y| (0..w).map(move |x| (x, y)))
+        .map(|(x, y)| cam.pixel_ray(x, y))
+        .collect();
+    let mut times = Vec::new();
+    let mut hits = 0;
+    for _ in 0..5 {
+        let start = Instant::now();
+        hits = rays
+            .par_iter()
+            .filter(|r| scene.intersect(r, 0.0, TriangleTest::Watertight).is_some())
+            .count();
+        times.push(start.elapsed().as_secs_f64());
+    }
+    times.sort_by(f64::total_cmp);
+    let median = times[2];
+    if let Some(i) = rest.iter().position(|a| a == "--dump") {
+        let dir = Path::new(rest.get(i + 1).ok_or("--dump needs a directory")?);
+        std::fs::create_dir_all(dir).map_err(|e| e.to_string())?;
+        let tris: Vec<f32> = scene
+            .triangles
+            .iter()
+            .flat_map(|t| t.p.iter().flat_map(|p| p.to_array()))
+            .collect();
+        let r: Vec<f32> = rays
+            .iter()
+            .flat_map(|r| r.origin.to_array().into_iter().chain(r.dir.to_array()))
+            .collect();
+        for (name, data) in [("triangles.f32", &tris), ("rays.f32", &r)] {
+            let mut f = std::fs::File::create(dir.join(name)).map_err(|e| e.to_string())?;
+            f.write_all(bytemuck::cast_slice(data))
+                .map_err(|e| e.to_string())?;
+        }
+    }
+    println!(
+        "{{\"scene\":\"{}\",\"triangles\":{},\"rays\":{},\"hits\":{},\"threads\":{},\"seconds\":{:.6},\"rays_per_s\":{:.0},\"rays_per_s_per_thread\":{:.0}}}",
+        scene.name,
+        scene.triangles.len(),
+        rays.len(),
+        hits,
+        rayon::current_num_threads(),
+        median,
+        rays.len() as f64 / median,
+        rays.len() as f64 / median / rayon::current_num_threads() as f64
+    );
+    Ok(())
+}

@@ -1,0 +1,178 @@
+//! The `gazecast render` contract (issue 5) on the real binary.
+
+use std::path::Path;
+use std::process::Command;
+
+fn gazecast() -> Command {
+    let mut c = Command::new(env!("CARGO_BIN_EXE_gazecast"));
+    c.current_dir(Path::new(env!("CARGO_MANIFEST_DIR")).join("../.."));
+    c
+}
+
+/// A small display so the binary renders quickly in tests.
+fn small_display(dir: &Path) -> std::path::PathBuf {
+    let p = dir.join("small.ron");
+    std::fs::write(&p, "Display(name: \"small\", resolution_px: (320, 256), size_mm: (337.9, 270.3), eye_distance_mm: 540.0)")
+        .expect("write");
+    p
+}
+
+#[test]
+fn render_writes_the_image_layers_and_the_stats_contract() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let d = small_display(dir.path());
+    let (png, layers, stats) = (
+        dir.path().join("f.png"),
+        dir.path().join("l.png"),
+        dir.path().join("s.json"),
+    );
+    let out = gazecast()
+        .args([
+            "render",
+            "--scene",
+            "config/scenes/search-task.ron",
+            "--gaze",
+            "100,80",
+            "--repeat",
+            "3",
+            "--display",
+        ])
+        .arg(&d)
+        .arg("--out")
+        .arg(&png)
+        .arg("--layers")
+        .arg(&layers)
+        .arg("--stats")
+        .arg(&stats)
+        .output()
+        .expect("runs");
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    for f in [&png, &layers] {
+        assert!(std::fs::read(f).expect("png").starts_with(b"\x89PNG"));
+    }
+    let v: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&stats).expect("json")).expect("valid json");
+    for key in [
+        "rays_fovea",
+        "rays_mask",
+        "rays_refine",
+        "rays_total",
+        "cells_total",
+        "cells_refined",
+        "time_ms",
+        "backend",
+        "threads",
+    ] {
+        assert!(v.get(key).is_some(), "missing {key}: {v}");
+    }
+    assert_eq!(v["backend"], "cpu");
+    assert_eq!(v["times_ms"].as_array().expect("times").len(), 3);
+    let n = |k: &str| v[k].as_u64().expect("count");
+    assert_eq!(
+        n("rays_total"),
+        n("rays_fovea") + n("rays_mask") + n("rays_refine")
+    );
+    assert!(n("rays_total") < 320 * 256);
+
+    let full_stats = dir.path().join("full.json");
+    let out = gazecast()
+        .args([
+            "render",
+            "--scene",
+            "config/scenes/search-task.ron",
+            "--mode",
+            "full",
+            "--display",
+        ])
+        .arg(&d)
+        .arg("--out")
+        .arg(&png)
+        .arg("--stats")
+        .arg(&full_stats)
+        .output()
+        .expect("runs");
+    assert!(out.status.success());
+    let v: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&full_stats).expect("json")).expect("json");
+    assert_eq!(v["rays_total"], 320 * 256);
+}
+
+#[test]
+fn bad_scenes_name_file_line_and_field() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let d = small_display(dir.path());
+    let obj_nan = dir.path().join("nan.obj");
+    std::fs::write(
+        &obj_nan,
+        "# a triangle\nv 0 0 0\nv 1 0 0\nv nan 1 0\nf 1 2 3\n",
+    )
+    .expect("write");
+    let obj_index = dir.path().join("index.obj");
+    std::fs::write(&obj_index, "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 7\n").expect("write");
+    let scene = |meshes: &str, objects: &str| {
+        format!("Scene(\n  name: \"t\",\n  meshes: {{\n    {meshes}\n  }},\n  objects: [\n    {objects}\n  ],\n)\n")
+    };
+    let ok_obj = "(mesh: \"m\", translate_mm: (0.0, 0.0, -50.0), scale_mm: 10.0),";
+    let cases: Vec<(String, String)> = vec![
+        (
+            scene(
+                "\"m\": Icosphere(subdivisions: 2),",
+                &format!(
+                    "{ok_obj}\n    (mesh: \"nope\", translate_mm: (0.0, 0.0, 0.0), scale_mm: 1.0),"
+                ),
+            ),
+            "s.ron:8:".into(),
+        ),
+        (
+            scene(
+                "\"m\": Icosphere(subdivisions: 2),",
+                "(mesh: \"m\", translate_mm: (0.0, 0.0, 0.0), scale_mm: -1.0),",
+            ),
+            "objects[0].scale_mm".into(),
+        ),
+        (
+            scene(
+                &format!("\"m\": Obj(path: \"{}\"),", obj_nan.display()),
+                ok_obj,
+            ),
+            "nan.obj:4:".into(),
+        ),
+        (
+            scene(
+                &format!("\"m\": Obj(path: \"{}\"),", obj_index.display()),
+                ok_obj,
+            ),
+            "index.obj".into(),
+        ),
+        (
+            scene("\"m\": Obj(path: \"missing.obj\"),", ok_obj),
+            "missing.obj".into(),
+        ),
+        (
+            scene("\"m\": Icosphere(subdivisions: \"two\"),", ok_obj),
+            "s.ron:4:".into(),
+        ),
+    ];
+    for (text, needle) in cases {
+        let s = dir.path().join("s.ron");
+        std::fs::write(&s, &text).expect("write");
+        let out = gazecast()
+            .arg("render")
+            .arg("--scene")
+            .arg(&s)
+            .arg("--display")
+            .arg(&d)
+            .arg("--out")
+            .arg(dir.path().join("o.png"))
+            .output()
+            .expect("runs");
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(!out.status.success(), "should fail: {text}");
+        assert!(err.contains(&needle), "expected `{needle}` in: {err}");
+        assert!(!err.contains("panicked"), "{err}");
+    }
+}

@@ -1,7 +1,9 @@
 //! Primary-ray throughput: every pixel's ray through a scene's BVH, closest
 //! hit only (no shading), median of 5 passes. Prints one JSON line.
 //!
-//! `cargo run --release -p raycast --example trace_rays -- SCENE.ron DISPLAY.ron [--dump DIR]`
+//! `cargo run --release -p raycast --example trace_rays -- SCENE.ron DISPLAY.ron [--grid] [--dump DIR]`
+//!
+//! `--grid` traces through the seed's uniform grid instead of the BVH.
 //!
 //! With `--dump`, also writes the world triangles (`triangles.f32`, 9 f32 per
 //! triangle) and the rays (`rays.f32`, origin + direction, 6 f32 per ray) so
@@ -22,11 +24,17 @@ fn main() -> Result<(), String> {
     };
     let text = std::fs::read_to_string(scene_path).map_err(|e| format!("{scene_path}: {e}"))?;
     let file: SceneFile = ron::from_str(&text).map_err(|e| format!("{scene_path}: {e}"))?;
-    let scene = Scene::build(
+    let mut scene = Scene::build(
         &file,
         Path::new(scene_path).parent().unwrap_or(Path::new(".")),
     )
     .map_err(|e| e.to_string())?;
+    let accel = if rest.iter().any(|a| a == "--grid") {
+        scene.build_grid();
+        "grid"
+    } else {
+        "bvh"
+    };
     let text = std::fs::read_to_string(display_path).map_err(|e| format!("{display_path}: {e}"))?;
     let display: foveation::Display =
         ron::from_str(&text).map_err(|e| format!("{display_path}: {e}"))?;
@@ -68,8 +76,9 @@ fn main() -> Result<(), String> {
         }
     }
     println!(
-        "{{\"scene\":\"{}\",\"triangles\":{},\"rays\":{},\"hits\":{},\"threads\":{},\"seconds\":{:.6},\"rays_per_s\":{:.0},\"rays_per_s_per_thread\":{:.0}}}",
+        "{{\"scene\":\"{}\",\"accel\":\"{}\",\"triangles\":{},\"rays\":{},\"hits\":{},\"threads\":{},\"seconds\":{:.6},\"rays_per_s\":{:.0},\"rays_per_s_per_thread\":{:.0}}}",
         scene.name,
+        accel,
         scene.triangles.len(),
         rays.len(),
         hits,

@@ -9,6 +9,7 @@
 pub mod bvh;
 pub mod camera;
 pub mod error;
+pub mod grid;
 pub mod mesh;
 pub mod ray;
 pub mod render;

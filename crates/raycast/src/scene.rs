@@ -11,6 +11,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::bvh::Bvh;
 use crate::error::SceneError;
+use crate::grid::UniformGrid;
 use crate::mesh::TriangleMesh;
 use crate::ray::{moller_trumbore, watertight, Aabb, Ray, TriangleTest, WatertightRay};
 
@@ -193,6 +194,19 @@ pub struct Scene {
     /// Triangles in BVH leaf order.
     pub triangles: Vec<WorldTriangle>,
     pub bvh: Bvh,
+    /// The seed's uniform grid over the same triangles, when asked for
+    /// ([`Scene::build_grid`]); used when `accel` is `Grid`.
+    pub grid: Option<UniformGrid>,
+    pub accel: Accel,
+}
+
+/// Which acceleration structure `intersect` uses.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Accel {
+    #[default]
+    Bvh,
+    /// Murphy 2007 §6.1.1, for comparison.
+    Grid,
 }
 
 impl Scene {
@@ -387,7 +401,24 @@ impl Scene {
             depth_jump: file.depth_jump,
             triangles,
             bvh,
+            grid: None,
+            accel: Accel::Bvh,
         })
+    }
+
+    /// Builds the seed's uniform grid and makes `intersect` use it.
+    pub fn build_grid(&mut self) {
+        let bounds: Vec<Aabb> = self
+            .triangles
+            .iter()
+            .map(|t| {
+                let mut b = Aabb::EMPTY;
+                t.p.iter().for_each(|p| b.grow(*p));
+                b
+            })
+            .collect();
+        self.grid = Some(UniformGrid::build(&bounds));
+        self.accel = Accel::Grid;
     }
 
     pub fn has(&self, e: Effect) -> bool {
@@ -399,28 +430,48 @@ impl Scene {
         if self.triangles.is_empty() {
             return None;
         }
-        let wray = WatertightRay::new(ray);
+        // Set up the watertight ray only once a triangle is reached: most
+        // rays of a sparse scene miss the root box.
+        let mut wray: Option<WatertightRay> = None;
         let mut best: Option<(u32, f32, f32, f32)> = None;
-        self.bvh
-            .traverse(ray, f32::INFINITY, |first, count, t_max| {
-                let mut t_max = t_max;
-                for i in first..first + count {
-                    let tri = &self.triangles[i as usize];
-                    let h = match test {
-                        TriangleTest::Watertight => {
-                            watertight(&wray, tri.p[0], tri.p[1], tri.p[2], t_min, t_max)
-                        }
-                        TriangleTest::MollerTrumbore => {
-                            moller_trumbore(ray, tri.p[0], tri.p[1], tri.p[2], t_min, t_max)
-                        }
-                    };
-                    if let Some(h) = h {
-                        t_max = h.t;
-                        best = Some((i, h.t, h.u, h.v));
-                    }
+        let mut test_one = |i: u32, t_max: f32| -> Option<f32> {
+            let tri = &self.triangles[i as usize];
+            let h = match test {
+                TriangleTest::Watertight => {
+                    let w = wray.get_or_insert_with(|| WatertightRay::new(ray));
+                    watertight(w, tri.p[0], tri.p[1], tri.p[2], t_min, t_max)
                 }
-                t_max
-            });
+                TriangleTest::MollerTrumbore => {
+                    moller_trumbore(ray, tri.p[0], tri.p[1], tri.p[2], t_min, t_max)
+                }
+            }?;
+            best = Some((i, h.t, h.u, h.v));
+            Some(h.t)
+        };
+        match (self.accel, &self.grid) {
+            (Accel::Grid, Some(grid)) => {
+                let mut closest = f32::INFINITY;
+                grid.traverse(ray, |tris, cell_exit| {
+                    for &i in tris {
+                        if let Some(t) = test_one(i, closest) {
+                            closest = t;
+                        }
+                    }
+                    closest <= cell_exit
+                });
+            }
+            _ => {
+                self.bvh
+                    .traverse(ray, f32::INFINITY, |first, count, mut t_max| {
+                        for i in first..first + count {
+                            if let Some(t) = test_one(i, t_max) {
+                                t_max = t;
+                            }
+                        }
+                        t_max
+                    });
+            }
+        }
         best.map(|(i, t, u, v)| {
             let tri = &self.triangles[i as usize];
             let n = tri.n[0] * (1.0 - u - v) + tri.n[1] * u + tri.n[2] * v;

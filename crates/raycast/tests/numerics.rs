@@ -230,3 +230,51 @@ proptest! {
         }
     }
 }
+
+#[test]
+fn the_seeds_uniform_grid_finds_the_same_hits_as_the_bvh() {
+    let file: SceneFile = ron::from_str(
+        &std::fs::read_to_string(concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/../../config/scenes/search-task.ron"
+        ))
+        .expect("scene"),
+    )
+    .expect("parse");
+    let bvh_scene = Scene::build(&file, std::path::Path::new(".")).expect("build");
+    let mut grid_scene = bvh_scene.clone();
+    grid_scene.build_grid();
+    let grid = grid_scene.grid.as_ref().expect("grid built");
+    assert!(
+        grid.max_bin <= raycast::grid::BIN_SIZE,
+        "max bin {} over the seed's 40",
+        grid.max_bin
+    );
+    let mut x = 0xDEAD_BEEFu64;
+    let mut rnd = move || {
+        x ^= x << 13;
+        x ^= x >> 7;
+        x ^= x << 17;
+        (x >> 40) as f32 / (1u64 << 24) as f32
+    };
+    let eye = Vec3::new(0.0, 0.0, 540.0);
+    let (mut hits, mut disagree) = (0, 0);
+    for _ in 0..50_000 {
+        let target = Vec3::new((rnd() - 0.5) * 240.0, (rnd() - 0.5) * 240.0, 0.0);
+        let ray = Ray::new(eye, target - eye);
+        let a = bvh_scene.intersect(&ray, 0.0, TriangleTest::Watertight);
+        let b = grid_scene.intersect(&ray, 0.0, TriangleTest::Watertight);
+        match (a, b) {
+            (Some(a), Some(b)) => {
+                hits += 1;
+                if (a.t - b.t).abs() > 1e-5 * a.t {
+                    disagree += 1;
+                }
+            }
+            (None, None) => {}
+            _ => disagree += 1,
+        }
+    }
+    assert!(hits > 5_000, "{hits}");
+    assert_eq!(disagree, 0);
+}

@@ -25,6 +25,14 @@ pub enum Backend {
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum AccelArg {
+    /// Binned-SAH BVH.
+    Bvh,
+    /// The seed's uniform grid (Murphy 2007 §6.1.1), for comparison.
+    Grid,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
 pub enum Intersector {
     Watertight,
     MollerTrumbore,
@@ -66,6 +74,9 @@ pub struct RenderArgs {
     /// Ray/triangle test.
     #[arg(long, value_enum, default_value = "watertight")]
     pub intersector: Intersector,
+    /// Acceleration structure.
+    #[arg(long, value_enum, default_value = "bvh")]
+    pub accel: AccelArg,
     /// Draw the POR box even if the scene does not ask for it.
     #[arg(long, value_name = "por")]
     pub overlay: Option<String>,
@@ -84,6 +95,7 @@ pub struct RenderReport {
     pub height_px: u32,
     pub gaze_px: [f64; 2],
     pub triangles: usize,
+    pub accel: &'static str,
     /// All repeat times, ms.
     pub times_ms: Vec<f64>,
 }
@@ -102,7 +114,10 @@ pub fn load_scene(path: &Path) -> Result<Scene, String> {
 
 /// Runs `gazecast render`.
 pub fn run(args: &RenderArgs, out: &mut dyn Write) -> Result<(), String> {
-    let scene = load_scene(&args.scene)?;
+    let mut scene = load_scene(&args.scene)?;
+    if args.accel == AccelArg::Grid {
+        scene.build_grid();
+    }
     let display = config::load_display(&args.display).map_err(|e| e.to_string())?;
     let geometry = display.geometry().map_err(|e| e.to_string())?;
     let model = SamplingModel::new(
@@ -169,6 +184,11 @@ pub fn run(args: &RenderArgs, out: &mut dyn Write) -> Result<(), String> {
         height_px: frame.height,
         gaze_px: gaze,
         triangles: scene.triangles.len(),
+        accel: if args.accel == AccelArg::Grid {
+            "grid"
+        } else {
+            "bvh"
+        },
         times_ms: times,
     };
     if let Some(path) = &args.stats {

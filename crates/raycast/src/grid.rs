@@ -1,0 +1,176 @@
+//! The seed's uniform grid (Murphy 2007 §6.1.1), kept as a second
+//! acceleration structure for comparison with the BVH.
+//!
+//! Construction follows the dissertation: start with the scene's bounding box
+//! as one cell; insert every triangle into every cell it overlaps; if any cell
+//! holds more than the bin size (40 triangles), restart with finer, roughly
+//! cubic cells. Two differences, both stated: overlap is tested with the
+//! triangle's bounding box rather than the separating-axis test (so cells hold
+//! a few extra candidates), and refinement stops at 16 M cells, after which
+//! the fullest cell may exceed the bin size (reported in `max_bin`).
+//! Traversal is Amanatides & Woo's 3-D DDA; a hit counts only once the ray has
+//! reached it (its distance is within the current cell), since triangles span
+//! cells.
+
+use glam::Vec3;
+
+use crate::ray::Aabb;
+
+/// The seed's empirically derived bin size.
+pub const BIN_SIZE: usize = 40;
+const MAX_CELLS: usize = 16 << 20;
+
+#[derive(Debug, Clone)]
+pub struct UniformGrid {
+    pub bounds: Aabb,
+    pub dims: [u32; 3],
+    pub cell_size: Vec3,
+    /// CSR: triangles of cell c are `items[start[c]..start[c + 1]]`.
+    pub start: Vec<u32>,
+    pub items: Vec<u32>,
+    /// Most triangles in one cell.
+    pub max_bin: usize,
+    /// Rebuilds needed to meet the bin size.
+    pub levels: u32,
+}
+
+impl UniformGrid {
+    pub fn build(tri_bounds: &[Aabb]) -> Self {
+        let mut bounds = Aabb::EMPTY;
+        for b in tri_bounds {
+            bounds = bounds.union(b);
+        }
+        if tri_bounds.is_empty() {
+            return Self {
+                bounds,
+                dims: [1; 3],
+                cell_size: Vec3::ONE,
+                start: vec![0, 0],
+                items: Vec::new(),
+                max_bin: 0,
+                levels: 0,
+            };
+        }
+        // Pad flat boxes so every axis has some extent.
+        let extent = (bounds.max - bounds.min).max(Vec3::splat(
+            1e-3 * (bounds.max - bounds.min).max_element().max(1e-6),
+        ));
+        bounds.max = bounds.min + extent;
+        let mut side = extent.max_element();
+        let mut levels = 0;
+        loop {
+            let dims = (extent / side).ceil().max(Vec3::ONE);
+            let dims = [dims.x as u32, dims.y as u32, dims.z as u32];
+            let cell_size = extent / Vec3::new(dims[0] as f32, dims[1] as f32, dims[2] as f32);
+            let cells = dims.iter().map(|&d| d as usize).product::<usize>();
+            let mut counts = vec![0u32; cells + 1];
+            let range = |b: &Aabb| {
+                let lo = ((b.min - bounds.min) / cell_size).floor();
+                let hi = ((b.max - bounds.min) / cell_size).floor();
+                let c = |v: f32, d: u32| (v.max(0.0) as u32).min(d - 1);
+                (
+                    [c(lo.x, dims[0]), c(lo.y, dims[1]), c(lo.z, dims[2])],
+                    [c(hi.x, dims[0]), c(hi.y, dims[1]), c(hi.z, dims[2])],
+                )
+            };
+            let index = |x: u32, y: u32, z: u32| ((z * dims[1] + y) * dims[0] + x) as usize;
+            for b in tri_bounds {
+                let (lo, hi) = range(b);
+                for z in lo[2]..=hi[2] {
+                    for y in lo[1]..=hi[1] {
+                        for x in lo[0]..=hi[0] {
+                            counts[index(x, y, z)] += 1;
+                        }
+                    }
+                }
+            }
+            let max_bin = counts.iter().copied().max().unwrap_or(0) as usize;
+            let finer_cells = (cells as f64 * 1.25f64.powi(3)) as usize;
+            if max_bin > BIN_SIZE && finer_cells <= MAX_CELLS {
+                side /= 1.25;
+                levels += 1;
+                continue;
+            }
+            // Prefix sums, then fill.
+            let mut start = vec![0u32; cells + 1];
+            for c in 0..cells {
+                start[c + 1] = start[c] + counts[c];
+            }
+            let mut fill = start.clone();
+            let mut items = vec![0u32; start[cells] as usize];
+            for (t, b) in tri_bounds.iter().enumerate() {
+                let (lo, hi) = range(b);
+                for z in lo[2]..=hi[2] {
+                    for y in lo[1]..=hi[1] {
+                        for x in lo[0]..=hi[0] {
+                            let c = index(x, y, z);
+                            items[fill[c] as usize] = t as u32;
+                            fill[c] += 1;
+                        }
+                    }
+                }
+            }
+            return Self {
+                bounds,
+                dims,
+                cell_size,
+                start,
+                items,
+                max_bin,
+                levels,
+            };
+        }
+    }
+
+    /// Walks the cells the ray crosses, near to far, calling `visit(triangles,
+    /// t_max)` with the cell's exit distance as `t_max`; stops when `visit`
+    /// returns true (a hit inside the cell).
+    pub fn traverse(&self, ray: &crate::ray::Ray, mut visit: impl FnMut(&[u32], f32) -> bool) {
+        let Some(t_enter) = self.bounds.hit(ray, f32::INFINITY) else {
+            return;
+        };
+        let p = ray.at(t_enter) - self.bounds.min;
+        let mut cell = [0i64; 3];
+        let mut step = [0i64; 3];
+        let mut t_next = [f32::INFINITY; 3];
+        let mut t_delta = [f32::INFINITY; 3];
+        for a in 0..3 {
+            let d = ray.dir[a];
+            cell[a] =
+                ((p[a] / self.cell_size[a]).floor() as i64).clamp(0, i64::from(self.dims[a]) - 1);
+            if d > 0.0 {
+                step[a] = 1;
+                t_next[a] = t_enter + (((cell[a] + 1) as f32) * self.cell_size[a] - p[a]) / d;
+                t_delta[a] = self.cell_size[a] / d;
+            } else if d < 0.0 {
+                step[a] = -1;
+                t_next[a] = t_enter + ((cell[a] as f32) * self.cell_size[a] - p[a]) / d;
+                t_delta[a] = -self.cell_size[a] / d;
+            }
+        }
+        loop {
+            let c = ((cell[2] * i64::from(self.dims[1]) + cell[1]) * i64::from(self.dims[0])
+                + cell[0]) as usize;
+            let exit = t_next[0].min(t_next[1]).min(t_next[2]);
+            let tris = &self.items[self.start[c] as usize..self.start[c + 1] as usize];
+            if !tris.is_empty() && visit(tris, exit * (1.0 + 4.0 * f32::EPSILON)) {
+                return;
+            }
+            let a = if t_next[0] <= t_next[1] && t_next[0] <= t_next[2] {
+                0
+            } else if t_next[1] <= t_next[2] {
+                1
+            } else {
+                2
+            };
+            if step[a] == 0 {
+                return;
+            }
+            cell[a] += step[a];
+            if cell[a] < 0 || cell[a] >= i64::from(self.dims[a]) {
+                return;
+            }
+            t_next[a] += t_delta[a];
+        }
+    }
+}

@@ -10,7 +10,7 @@ trap 'rm -rf "$tmp"' EXIT
 field() { grep -o "\"$1\": [0-9.]*" "$2" | head -1 | awk '{print $2}'; }
 echo "| scene | display | full ms | foveated ms | full / foveated | rays full | rays foveated | cells refined |"
 echo "|---|---|---:|---:|---:|---:|---:|---:|"
-for scene in search-task bunny; do
+for scene in search-task bunny stress; do
   for display in desktop-24in-1080p desktop-27in-4k; do
     for mode in full foveated; do
       "$bin" render --scene "config/scenes/$scene.ron" --display "config/displays/$display.ron" \

@@ -109,12 +109,12 @@ impl Bvh {
     ) -> f32 {
         // Far children wait on the stack with their entry distance, so a pop
         // skips them without a second box test once a closer hit is known.
-        let mut stack = [(0u32, 0f32); MAX_DEPTH];
-        let mut sp = 0;
-        let mut node = 0u32;
         if self.nodes[0].aabb().hit(ray, t_max).is_none() {
             return t_max;
         }
+        let mut stack = [(0u32, 0f32); MAX_DEPTH];
+        let mut sp = 0;
+        let mut node = 0u32;
         loop {
             let n = &self.nodes[node as usize];
             if n.count > 0 {

@@ -7,6 +7,7 @@
 //! (issue 6) will reuse the flat BVH layout and must match these images.
 
 pub mod bvh;
+pub mod bvh4;
 pub mod camera;
 pub mod error;
 pub mod grid;

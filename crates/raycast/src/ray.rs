@@ -27,6 +27,11 @@ impl Ray {
         }
     }
 
+    /// Some direction component is ±0.
+    pub fn is_parallel(&self) -> bool {
+        self.parallel
+    }
+
     pub fn at(&self, t: f32) -> Vec3 {
         self.origin + self.dir * t
     }

@@ -177,6 +177,16 @@ pub fn render(
     Ok((frame, stats))
 }
 
+/// `to_rgb8`, skipped for the background (most pixels of a sparse scene).
+#[inline]
+fn rgb8(scene: &Scene, colour: Vec3) -> [u8; 3] {
+    if colour == scene.background {
+        scene.background_rgb8
+    } else {
+        to_rgb8(colour)
+    }
+}
+
 fn full(scene: &Scene, cam: &Camera, test: TriangleTest, frame: &mut Frame) {
     let w = frame.width as usize;
     frame
@@ -189,7 +199,7 @@ fn full(scene: &Scene, cam: &Camera, test: TriangleTest, frame: &mut Frame) {
                 let p = [x as f32 + 0.5, y as f32 + 0.5];
                 let hit = cast(scene, cam, p, test);
                 hits[x] = hit.is_some();
-                row[3 * x..3 * x + 3].copy_from_slice(&to_rgb8(colour_of(scene, cam, p, hit)));
+                row[3 * x..3 * x + 3].copy_from_slice(&rgb8(scene, colour_of(scene, cam, p, hit)));
             }
         });
 }
@@ -279,7 +289,10 @@ fn foveated(
             .for_each(|(r, c)| *r = *r || corners_of(c).iter().any(|&v| touched[v as usize]));
     }
     // 4. Ownership: fovea spans, then cells by an exact top-left rule.
-    let owner: Vec<AtomicU32> = (0..w * h).map(|_| AtomicU32::new(UNOWNED)).collect();
+    let owner: Vec<AtomicU32> = (0..w * h)
+        .into_par_iter()
+        .map(|_| AtomicU32::new(UNOWNED))
+        .collect();
     for s in &m.fovea {
         for x in s.x_start..s.x_end {
             owner[s.y as usize * w + x as usize].store(FOVEA, Ordering::Relaxed);
@@ -291,7 +304,7 @@ fn foveated(
                 owner[i].compare_exchange(UNOWNED, ci as u32, Ordering::Relaxed, Ordering::Relaxed);
         })
     });
-    let owner: Vec<u32> = owner.into_iter().map(AtomicU32::into_inner).collect();
+    let owner: Vec<u32> = owner.into_par_iter().map(AtomicU32::into_inner).collect();
     // 5. Cast or interpolate, and shade.
     let counts: (u64, u64, u64) = frame
         .rgb
@@ -328,7 +341,7 @@ fn foveated(
                 };
                 layers[x] = layer;
                 hits[x] = hit;
-                row[3 * x..3 * x + 3].copy_from_slice(&to_rgb8(colour));
+                row[3 * x..3 * x + 3].copy_from_slice(&rgb8(scene, colour));
             }
             n
         })

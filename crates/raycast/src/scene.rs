@@ -10,6 +10,7 @@ use glam::{EulerRot, Mat3, Vec3};
 use serde::{Deserialize, Serialize};
 
 use crate::bvh::Bvh;
+use crate::bvh4::Bvh4;
 use crate::error::SceneError;
 use crate::grid::UniformGrid;
 use crate::mesh::TriangleMesh;
@@ -186,6 +187,8 @@ pub struct Hit {
 pub struct Scene {
     pub name: String,
     pub background: Vec3,
+    /// The background as the renderer writes it.
+    pub background_rgb8: [u8; 3],
     pub materials: Vec<Material>,
     pub lights: Vec<Light>,
     pub effects: Vec<Effect>,
@@ -194,6 +197,8 @@ pub struct Scene {
     /// Triangles in BVH leaf order.
     pub triangles: Vec<WorldTriangle>,
     pub bvh: Bvh,
+    /// The same hierarchy 4 wide, traversed by the CPU caster.
+    pub bvh4: Bvh4,
     /// The seed's uniform grid over the same triangles, when asked for
     /// ([`Scene::build_grid`]); used when `accel` is `Grid`.
     pub grid: Option<UniformGrid>,
@@ -394,12 +399,14 @@ impl Scene {
         Ok(Self {
             name: file.name.clone(),
             background: Vec3::new(c.0, c.1, c.2),
+            background_rgb8: crate::shade::to_rgb8(Vec3::new(c.0, c.1, c.2)),
             materials,
             lights: file.lights.clone(),
             effects: file.effects.clone(),
             crease_deg: file.crease_deg,
             depth_jump: file.depth_jump,
             triangles,
+            bvh4: Bvh4::collapse(&bvh),
             bvh,
             grid: None,
             accel: Accel::Bvh,
@@ -461,15 +468,20 @@ impl Scene {
                 });
             }
             _ => {
-                self.bvh
-                    .traverse(ray, f32::INFINITY, |first, count, mut t_max| {
-                        for i in first..first + count {
-                            if let Some(t) = test_one(i, t_max) {
-                                t_max = t;
-                            }
+                let leaf = |first: u32, count: u32, mut t_max: f32| {
+                    for i in first..first + count {
+                        if let Some(t) = test_one(i, t_max) {
+                            t_max = t;
                         }
-                        t_max
-                    });
+                    }
+                    t_max
+                };
+                if ray.is_parallel() {
+                    // A zero direction component needs the exact slab test.
+                    self.bvh.traverse(ray, f32::INFINITY, leaf);
+                } else {
+                    self.bvh4.traverse(ray, f32::INFINITY, leaf);
+                }
             }
         }
         best.map(|(i, t, u, v)| {

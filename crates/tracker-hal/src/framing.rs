@@ -44,6 +44,25 @@ impl Framing {
         seq
     }
 
+    /// Advances `*start` to the next `header` (dropping and counting what
+    /// precedes it) and reports whether a whole `len`-byte record candidate
+    /// starts there; `false` means more bytes are needed.
+    pub fn seek_record(&mut self, start: &mut usize, header: [u8; 2], len: usize) -> bool {
+        loop {
+            let avail = &self.buf[*start..];
+            if avail.len() < 2 {
+                return false;
+            }
+            if avail[..2] != header {
+                let skip = bytes_before_header(avail, header);
+                self.drop_bytes(skip);
+                *start += skip;
+                continue;
+            }
+            return avail.len() >= len;
+        }
+    }
+
     /// The stream ended: whatever is pending is dropped.
     pub fn finish(&mut self) {
         let n = self.buf.len();
@@ -54,7 +73,7 @@ impl Framing {
 
 /// How many bytes of `avail` come before the next two-byte `header`. With no
 /// header, everything but a trailing first header byte (which may start one).
-pub(crate) fn bytes_before_header(avail: &[u8], header: [u8; 2]) -> usize {
+fn bytes_before_header(avail: &[u8], header: [u8; 2]) -> usize {
     avail
         .windows(2)
         .position(|w| w == header)

@@ -37,7 +37,7 @@ use std::collections::VecDeque;
 use serde::{Deserialize, Serialize};
 
 use crate::error::{Error, ErrorKind, Result};
-use crate::framing::{bytes_before_header, Framing};
+use crate::framing::Framing;
 use crate::sample::{DecodeStats, EyeSample, GazeSample};
 use crate::source::Decoder;
 
@@ -243,20 +243,8 @@ impl IscanDecoder {
     fn push_binary(&mut self, arrival_us: u64, out: &mut VecDeque<GazeSample>) {
         let len = self.config.record_len();
         let mut start = 0;
-        loop {
+        while self.framing.seek_record(&mut start, HEADER, len) {
             let avail = &self.framing.buf[start..];
-            if avail.len() < 2 {
-                break;
-            }
-            if avail[..2] != HEADER {
-                let skip = bytes_before_header(avail, HEADER);
-                self.framing.drop_bytes(skip);
-                start += skip;
-                continue;
-            }
-            if avail.len() < len {
-                break;
-            }
             if let Some(q) = avail[2..len].windows(2).position(|w| w == HEADER) {
                 // A header inside the payload: this record was truncated.
                 self.framing.drop_bytes(2 + q);

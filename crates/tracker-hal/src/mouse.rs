@@ -27,7 +27,7 @@ use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal};
 use serde::{Deserialize, Serialize};
 
-use crate::framing::{bytes_before_header, Framing};
+use crate::framing::Framing;
 use crate::sample::{DecodeStats, EyeSample, GazeSample};
 use crate::source::Decoder;
 
@@ -281,21 +281,8 @@ impl Decoder for MouseDecoder {
     fn push(&mut self, bytes: &[u8], arrival_us: u64, out: &mut VecDeque<GazeSample>) {
         self.framing.accept(bytes);
         let mut start = 0;
-        loop {
-            let avail = &self.framing.buf[start..];
-            if avail.len() < 2 {
-                break;
-            }
-            if avail[..2] != HEADER {
-                let skip = bytes_before_header(avail, HEADER);
-                self.framing.drop_bytes(skip);
-                start += skip;
-                continue;
-            }
-            if avail.len() < RECORD_LEN {
-                break;
-            }
-            let r = &avail[..RECORD_LEN];
+        while self.framing.seek_record(&mut start, HEADER, RECORD_LEN) {
+            let r = &self.framing.buf[start..start + RECORD_LEN];
             let crc = u32::from_le_bytes([r[19], r[20], r[21], r[22]]);
             if crc32fast::hash(&r[2..19]) != crc || r[10] > 1 {
                 // Not a record after all: skip this header byte and look again.

@@ -1,7 +1,8 @@
 //! # raycast — the hybrid foveated ray caster (CPU reference)
 //!
-//! Scenes ([`scene`]), meshes ([`mesh`]), the BVH ([`bvh`]), robust
-//! ray/box and ray/triangle tests ([`ray`]), the eye-through-the-display
+//! Scenes ([`scene`]), meshes ([`mesh`]), the BVH ([`bvh`], binary and flat
+//! for the GPU; [`bvh4`], 4-wide for the CPU), the seed's uniform grid
+//! ([`grid`]), robust ray/box and ray/triangle tests ([`ray`]), the eye-through-the-display
 //! camera ([`camera`]), Blinn–Phong shading ([`shade`]) and the full and
 //! foveated renderers ([`render`]) of Murphy 2007 ch. 4–6. The GPU core
 //! (issue 6) will reuse the flat BVH layout and must match these images.

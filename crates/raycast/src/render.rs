@@ -84,6 +84,11 @@ pub struct Settings {
     pub layout: Layout,
     pub triggers: Triggers,
     pub test: TriangleTest,
+    /// Rasterise every cell, including homogeneous background cells, so
+    /// that any pixel without an owner shows up as a `Gap` (tests use this).
+    /// Off, background cells are not rasterised: their pixels keep the
+    /// background, which is what the exact ownership rule gives them anyway.
+    pub check_coverage: bool,
 }
 
 /// Which path produced a pixel.
@@ -298,7 +303,17 @@ fn foveated(
             owner[s.y as usize * w + x as usize].store(FOVEA, Ordering::Relaxed);
         }
     }
+    // A homogeneous cell whose corners all miss is background: unless
+    // coverage is being checked, it is not rasterised at all.
+    let background = |c: &[u32; 4]| {
+        corners_of(c)
+            .iter()
+            .all(|&v| vertex_hits[v as usize].is_none())
+    };
     m.cells.par_iter().enumerate().for_each(|(ci, c)| {
+        if !settings.check_coverage && !refined[ci] && background(c) {
+            return;
+        }
         rasterise(m, corners_of(c), w, h, |i| {
             let _ =
                 owner[i].compare_exchange(UNOWNED, ci as u32, Ordering::Relaxed, Ordering::Relaxed);
@@ -317,7 +332,9 @@ fn foveated(
             for x in 0..w {
                 let p = [x as f32 + 0.5, y as f32 + 0.5];
                 let o = owner[y * w + x];
-                let (layer, hit, colour) = if o == FOVEA || o == UNOWNED || refined[o as usize] {
+                let (layer, hit, colour) = if o == UNOWNED && !settings.check_coverage {
+                    (Layer::Interpolated, false, scene.background)
+                } else if o == FOVEA || o == UNOWNED || refined[o as usize] {
                     let hit = cast(scene, cam, p, test);
                     let layer = match o {
                         FOVEA => {

@@ -37,6 +37,17 @@ fn frames(
     gaze: [f64; 2],
     triggers: Triggers,
 ) -> (raycast::Frame, raycast::Frame, raycast::Stats) {
+    frames_with(scene, d, gaze, triggers, false)
+}
+
+/// `check_coverage` rasterises background cells too, so unowned pixels show.
+fn frames_with(
+    scene: &Scene,
+    d: &Display,
+    gaze: [f64; 2],
+    triggers: Triggers,
+    check_coverage: bool,
+) -> (raycast::Frame, raycast::Frame, raycast::Stats) {
     let g = d.geometry().expect("geometry");
     let model = SamplingModel::new(g, GeislerPerry::default(), 1.0, 17.0).expect("model");
     let cam = Camera::new(&g);
@@ -45,6 +56,7 @@ fn frames(
         layout: Layout::Nyquist,
         triggers,
         test: TriangleTest::Watertight,
+        check_coverage,
     };
     let (full, _) = render(scene, &cam, &model, &s(Mode::Full), gaze).expect("full");
     let (fov, stats) = render(scene, &cam, &model, &s(Mode::Foveated), gaze).expect("foveated");
@@ -190,7 +202,13 @@ fn every_pixel_has_exactly_one_owner() {
         (display(640, 512), [0.0, 511.9]),
         (display(401, 333), [133.3, 77.7]),
     ] {
-        let (_, fov, stats) = frames(&scene, &d, gaze, Triggers::from_scene(&scene));
+        let (_, fov, stats) = frames_with(&scene, &d, gaze, Triggers::from_scene(&scene), true);
+        // Skipping background cells (the default) changes no pixel.
+        let (_, fast, _) = frames_with(&scene, &d, gaze, Triggers::from_scene(&scene), false);
+        assert!(
+            fov.rgb == fast.rgb && fov.hit == fast.hit,
+            "{gaze:?}: skipping background cells changed the image"
+        );
         let gaps: Vec<(usize, usize)> = fov
             .layer
             .iter()

@@ -140,6 +140,7 @@ pub fn run(args: &RenderArgs, out: &mut dyn Write) -> Result<(), String> {
             Intersector::Watertight => TriangleTest::Watertight,
             Intersector::MollerTrumbore => TriangleTest::MollerTrumbore,
         },
+        check_coverage: false,
     };
     if let Some(o) = &args.overlay {
         if o != "por" {

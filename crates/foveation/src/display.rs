@@ -88,12 +88,6 @@ pub struct ScreenGeometry {
 }
 
 impl ScreenGeometry {
-    /// The same display seen from another eye distance.
-    pub fn with_eye_distance(mut self, eye_distance_mm: f64) -> Result<Self, ParamError> {
-        self.eye_distance_mm = positive("eye_distance_mm", eye_distance_mm)?;
-        Ok(self)
-    }
-
     /// Screen size in pixels as floats, (width, height).
     pub fn size_px(&self) -> [f64; 2] {
         [f64::from(self.width_px), f64::from(self.height_px)]
@@ -155,12 +149,6 @@ impl ScreenGeometry {
     /// its angular bound in any direction.
     pub fn local_ppd(&self, p_px: [f64; 2]) -> f64 {
         self.eye_distance_to_mm(p_px) / self.max_pitch_mm() * std::f64::consts::PI / 180.0
-    }
-
-    /// Whether `p` lies on the screen (half-open: `[0, w) × [0, h)`).
-    pub fn contains(&self, p_px: [f64; 2]) -> bool {
-        let [w, h] = self.size_px();
-        p_px[0] >= 0.0 && p_px[0] < w && p_px[1] >= 0.0 && p_px[1] < h
     }
 
     /// Screen centre in pixels.

@@ -99,7 +99,7 @@ impl Bvh {
     }
 
     /// Visits, near to far, the leaves whose box the ray enters before
-    /// `t_max()`; `visit` returns the new `t_max` (closest hit so far).
+    /// `t_max`; `visit(first, count, t_max)` returns the new `t_max`.
     #[inline]
     pub fn traverse(
         &self,

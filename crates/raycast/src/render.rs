@@ -146,8 +146,10 @@ fn colour_of(scene: &Scene, cam: &Camera, p: [f32; 2], hit: Option<Hit>) -> Vec3
     match hit {
         None => scene.background,
         Some(h) => {
-            let ray = cam.ray(p);
-            shade(scene, h.object, ray.at(h.t), h.normal, cam.eye)
+            // The hit point on the eye ray through p (no `Ray` needed: its
+            // reciprocal direction would be wasted work per pixel).
+            let position = cam.eye + (cam.screen_point(p) - cam.eye) * h.t;
+            shade(scene, h.object, position, h.normal, cam.eye)
         }
     }
 }

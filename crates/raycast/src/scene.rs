@@ -500,9 +500,4 @@ impl Scene {
             }
         })
     }
-
-    /// Number of objects (materials are per object).
-    pub fn object_count(&self) -> usize {
-        self.materials.len()
-    }
 }

@@ -79,6 +79,40 @@ pub struct SimulateArgs {
     pub seed: u64,
 }
 
+/// The sample CSV of `replay` and `simulate`, with errors naming the file.
+struct SampleCsv<'a> {
+    path: &'a Path,
+    w: std::io::BufWriter<std::fs::File>,
+}
+
+impl<'a> SampleCsv<'a> {
+    fn create(path: &'a Path) -> Result<Self, String> {
+        let file = std::fs::File::create(path).map_err(|e| Self::fail(path, e))?;
+        let mut csv = Self {
+            path,
+            w: std::io::BufWriter::new(file),
+        };
+        writeln!(csv.w, "{CSV_HEADER}").map_err(|e| Self::fail(path, e))?;
+        Ok(csv)
+    }
+
+    fn row(
+        &mut self,
+        s: &tracker_hal::GazeSample,
+        map: &dyn Fn([f64; 2]) -> [f64; 2],
+    ) -> Result<(), String> {
+        writeln!(self.w, "{}", csv_row(s, map)).map_err(|e| Self::fail(self.path, e))
+    }
+
+    fn finish(mut self) -> Result<(), String> {
+        self.w.flush().map_err(|e| Self::fail(self.path, e))
+    }
+
+    fn fail(path: &Path, e: std::io::Error) -> String {
+        format!("{}: cannot write: {e}", path.display())
+    }
+}
+
 fn load_tracker(path: &Path) -> Result<TrackerConfig, String> {
     config::load_tracker(path).map_err(|e| e.to_string())
 }
@@ -126,9 +160,7 @@ pub fn replay(args: &ReplayArgs, err: &mut dyn Write) -> Result<(), String> {
     };
     let clock = transport.clock();
     let mut driver = StreamDriver::new(transport, tracker.decoder(), Box::new(clock));
-    let fail = |e: std::io::Error| format!("{}: cannot write: {e}", args.csv.display());
-    let mut out = std::io::BufWriter::new(std::fs::File::create(&args.csv).map_err(fail)?);
-    writeln!(out, "{CSV_HEADER}").map_err(fail)?;
+    let mut out = SampleCsv::create(&args.csv)?;
     let frame = tracker.frame();
     let mapping = tracker.mapping.clone();
     let map = move |p: [f64; 2]| {
@@ -140,9 +172,9 @@ pub fn replay(args: &ReplayArgs, err: &mut dyn Write) -> Result<(), String> {
     };
     driver.start().map_err(|e| e.to_string())?;
     while let Some(sample) = driver.next_sample().map_err(|e| e.to_string())? {
-        writeln!(out, "{}", csv_row(&sample, &map)).map_err(fail)?;
+        out.row(&sample, &map)?;
     }
-    out.flush().map_err(fail)?;
+    out.finish()?;
     let s = driver.stats();
     writeln!(
         err,
@@ -289,13 +321,11 @@ pub fn simulate(args: &SimulateArgs, out: &mut dyn Write) -> Result<(), String> 
     let (header, stream) = simulated(&tracker, args)?;
     write_recording(&args.out, &header, &stream.chunks).map_err(|e| e.to_string())?;
     if let Some(csv) = &args.csv {
-        let fail = |e: std::io::Error| format!("{}: cannot write: {e}", csv.display());
-        let mut w = std::io::BufWriter::new(std::fs::File::create(csv).map_err(fail)?);
-        writeln!(w, "{CSV_HEADER}").map_err(fail)?;
+        let mut w = SampleCsv::create(csv)?;
         for s in &stream.expected {
-            writeln!(w, "{}", csv_row(s, &|p| p)).map_err(fail)?;
+            w.row(s, &|p| p)?;
         }
-        w.flush().map_err(fail)?;
+        w.finish()?;
     }
     writeln!(
         out,

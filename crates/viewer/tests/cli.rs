@@ -1,25 +1,11 @@
 //! The `gazecast mask` command-line contract (issue 2), checked on the real binary.
 
-use std::path::Path;
-use std::process::Command;
+mod common;
 
-fn gazecast() -> Command {
-    let mut c = Command::new(env!("CARGO_BIN_EXE_gazecast"));
-    c.current_dir(Path::new(env!("CARGO_MANIFEST_DIR")).join("../.."));
-    c
-}
+use common::{gazecast, Run};
 
 fn json(args: &[&str]) -> serde_json::Value {
-    let out = gazecast()
-        .args(["mask", "--json"])
-        .args(args)
-        .output()
-        .expect("runs");
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    let out = gazecast().args(["mask", "--json"]).args(args).succeed();
     serde_json::from_slice(&out.stdout).expect("one JSON object")
 }
 
@@ -100,16 +86,10 @@ fn points_csv_lists_exactly_the_rays_inside_the_screen() {
 fn png_writes_the_mask_and_the_csf_plot() {
     let dir = tempfile::tempdir().expect("tempdir");
     let png = dir.path().join("m.png");
-    let out = gazecast()
+    gazecast()
         .args(["mask", "--display", "config/displays/v8-hmd.ron", "--png"])
         .arg(&png)
-        .output()
-        .expect("runs");
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+        .succeed();
     for f in [png.clone(), dir.path().join("m-csf.png")] {
         let bytes = std::fs::read(&f).expect("png written");
         assert!(

@@ -1,16 +1,11 @@
 //! The `gazecast render` contract (issue 5) on the real binary.
 
-use std::path::Path;
-use std::process::Command;
+mod common;
 
-fn gazecast() -> Command {
-    let mut c = Command::new(env!("CARGO_BIN_EXE_gazecast"));
-    c.current_dir(Path::new(env!("CARGO_MANIFEST_DIR")).join("../.."));
-    c
-}
+use common::{gazecast, Run};
 
 /// A small display so the binary renders quickly in tests.
-fn small_display(dir: &Path) -> std::path::PathBuf {
+fn small_display(dir: &std::path::Path) -> std::path::PathBuf {
     let p = dir.join("small.ron");
     std::fs::write(&p, "Display(name: \"small\", resolution_px: (320, 256), size_mm: (337.9, 270.3), eye_distance_mm: 540.0)")
         .expect("write");
@@ -26,7 +21,7 @@ fn render_writes_the_image_layers_and_the_stats_contract() {
         dir.path().join("l.png"),
         dir.path().join("s.json"),
     );
-    let out = gazecast()
+    gazecast()
         .args([
             "render",
             "--scene",
@@ -44,13 +39,7 @@ fn render_writes_the_image_layers_and_the_stats_contract() {
         .arg(&layers)
         .arg("--stats")
         .arg(&stats)
-        .output()
-        .expect("runs");
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+        .succeed();
     for f in [&png, &layers] {
         assert!(std::fs::read(f).expect("png").starts_with(b"\x89PNG"));
     }
@@ -79,7 +68,7 @@ fn render_writes_the_image_layers_and_the_stats_contract() {
     assert!(n("rays_total") < 320 * 256);
 
     let full_stats = dir.path().join("full.json");
-    let out = gazecast()
+    gazecast()
         .args([
             "render",
             "--scene",
@@ -93,9 +82,7 @@ fn render_writes_the_image_layers_and_the_stats_contract() {
         .arg(&png)
         .arg("--stats")
         .arg(&full_stats)
-        .output()
-        .expect("runs");
-    assert!(out.status.success());
+        .succeed();
     let v: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(&full_stats).expect("json")).expect("json");
     assert_eq!(v["rays_total"], 320 * 256);

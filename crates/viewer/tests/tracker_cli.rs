@@ -1,16 +1,13 @@
 //! The tracker command-line contract (issue 3) on the real binary.
 
+mod common;
+
+use common::{gazecast, Run};
+
 use std::path::{Path, PathBuf};
-use std::process::Command;
 
 fn repo() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
-}
-
-fn gazecast() -> Command {
-    let mut c = Command::new(env!("CARGO_BIN_EXE_gazecast"));
-    c.current_dir(repo());
-    c
 }
 
 const HEADER: &str =
@@ -30,13 +27,7 @@ fn replay_writes_the_contract_csv_and_a_summary_line() {
             "--csv",
         ])
         .arg(&csv)
-        .output()
-        .expect("runs");
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+        .succeed();
     assert_eq!(
         String::from_utf8_lossy(&out.stderr).trim(),
         "records=600 dropped_bytes=0 resyncs=0"
@@ -61,7 +52,7 @@ fn replay_writes_the_contract_csv_and_a_summary_line() {
         }
     }
     // --raw gives tracker units: exactly the simulator's expected CSV.
-    let out = gazecast()
+    gazecast()
         .args([
             "replay",
             "--tracker",
@@ -72,9 +63,7 @@ fn replay_writes_the_contract_csv_and_a_summary_line() {
             "--csv",
         ])
         .arg(&csv)
-        .output()
-        .expect("runs");
-    assert!(out.status.success());
+        .succeed();
     assert_eq!(
         std::fs::read_to_string(&csv).expect("csv"),
         std::fs::read_to_string(repo().join("tests/data/iscan-binary-60hz.csv")).expect("expected")
@@ -109,13 +98,7 @@ fn replay_of_raw_bytes_with_garbage_exits_zero_and_counts() {
         .arg(&raw)
         .arg("--csv")
         .arg(&csv)
-        .output()
-        .expect("runs");
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+        .succeed();
     assert_eq!(
         String::from_utf8_lossy(&out.stderr).trim(),
         "records=50 dropped_bytes=12 resyncs=2"
@@ -217,12 +200,7 @@ fn a_torn_recording_still_replays_with_a_warning() {
 
 #[test]
 fn devices_never_fails_without_hardware() {
-    let out = gazecast().arg("devices").output().expect("runs");
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    let out = gazecast().arg("devices").succeed();
     assert!(String::from_utf8_lossy(&out.stdout).starts_with("serial ports:"));
 }
 

@@ -15,6 +15,8 @@
 //!   and the best-effort inverse.
 //! - [`degradation`]: Murphy & Duchowski's acuity degradation table.
 //! - [`thin_lens`]: circle of confusion and mipmap level (Lee 2009 §4.1).
+//! - [`quality`]: PSNR, PSNR near the gaze, the visibility-weighted
+//!   foveated error and the silhouette error of a frame against its reference.
 //!
 //! Conventions: units are in names (`_px`, `_deg`, `_mm`, `_cpd`); screen
 //! coordinates are pixels from the top-left corner, y down. Functions return
@@ -28,6 +30,7 @@ pub mod display;
 mod error;
 pub mod mask;
 pub mod perceptibility;
+pub mod quality;
 pub mod sampling;
 pub mod thin_lens;
 

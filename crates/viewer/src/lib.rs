@@ -2,6 +2,7 @@
 //! loading and pictures. It owns no maths (see `foveation`) and, later, the
 //! threads and the window.
 
+pub mod bench_cmd;
 pub mod config;
 pub mod mask_cmd;
 pub mod plots;
@@ -30,10 +31,13 @@ pub enum Command {
     Replay(tracker_cmd::ReplayArgs),
     /// Record a serial tracker session losslessly (raw bytes with arrival times).
     Record(tracker_cmd::RecordArgs),
-    /// List the serial ports trackers can be on.
+    /// List the serial ports, USB eye trackers and HID eye-tracker interfaces.
     Devices,
     /// Write a synthesised device stream (and the samples it must decode to).
     Simulate(tracker_cmd::SimulateArgs),
+    /// Measure what accuracy costs in time (`accuracy`) and how the cost
+    /// scales with triangles and pixels (`scaling`).
+    Bench(bench_cmd::BenchArgs),
 }
 
 /// Runs a parsed command line, writing normal output to `out`.
@@ -45,5 +49,6 @@ pub fn run(cli: Cli, out: &mut dyn std::io::Write) -> Result<(), String> {
         Command::Record(args) => tracker_cmd::record(&args, out),
         Command::Devices => tracker_cmd::devices(out),
         Command::Simulate(args) => tracker_cmd::simulate(&args, out),
+        Command::Bench(args) => bench_cmd::run(&args, out),
     }
 }

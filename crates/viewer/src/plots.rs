@@ -217,3 +217,224 @@ pub fn draw_csf(path: &Path, built: &BuiltMask) -> DrawResult {
         Ok(())
     })
 }
+
+/// One configuration on the accuracy-versus-time plot.
+#[derive(Debug, Clone)]
+pub struct ParetoPoint {
+    pub label: String,
+    pub time_ms: f64,
+    /// Foveated PSNR (dB); ∞ for the exact reference, drawn at the top.
+    pub quality_db: f64,
+    pub pareto: bool,
+    /// The default configuration (drawn larger, always labelled).
+    pub highlight: bool,
+    /// Uses the uniform grid (drawn as a cross instead of a dot).
+    pub grid: bool,
+}
+
+/// Quality against frame time, one point per configuration, the Pareto front
+/// joined and labelled. Exact results (∞ dB) sit on a line at the top.
+pub fn draw_pareto(path: &Path, title: &str, points: &[ParetoPoint]) -> DrawResult {
+    register_font();
+    let finite: Vec<f64> = points
+        .iter()
+        .map(|p| p.quality_db)
+        .filter(|q| q.is_finite())
+        .collect();
+    let lo = finite.iter().copied().fold(f64::INFINITY, f64::min);
+    let hi = finite.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+    let (lo, hi) = if lo.is_finite() {
+        (lo, hi)
+    } else {
+        (0.0, 40.0)
+    };
+    let exact_y = hi + (hi - lo).max(4.0) * 0.12;
+    let y_range = (lo - (hi - lo).max(4.0) * 0.05)..(exact_y + (hi - lo).max(4.0) * 0.05);
+    let t_max = points.iter().map(|p| p.time_ms).fold(0.0, f64::max) * 1.08;
+    let y = |p: &ParetoPoint| {
+        if p.quality_db.is_infinite() {
+            exact_y
+        } else {
+            p.quality_db
+        }
+    };
+    draw_png(path, (1100, 720), |root| {
+        let mut chart = ChartBuilder::on(root)
+            .caption(
+                format!("Foveated PSNR against frame time: {title}"),
+                ("sans-serif", 17),
+            )
+            .margin(14)
+            .x_label_area_size(44)
+            .y_label_area_size(64)
+            .build_cartesian_2d(0.0..t_max.max(1e-3), y_range)?;
+        chart
+            .configure_mesh()
+            .x_desc("frame time (ms, lower is better)")
+            .y_desc("foveated PSNR (dB, higher is better)")
+            .label_style(("sans-serif", 13))
+            .draw()?;
+        chart.draw_series(std::iter::once(PathElement::new(
+            vec![(0.0, exact_y), (t_max, exact_y)],
+            RGBColor(200, 200, 200).stroke_width(1),
+        )))?;
+        chart.draw_series(std::iter::once(Text::new(
+            "exact (full resolution)",
+            (t_max * 0.01, exact_y),
+            ("sans-serif", 12)
+                .into_font()
+                .color(&RGBColor(120, 120, 120)),
+        )))?;
+        let grey = RGBColor(150, 160, 180);
+        chart
+            .draw_series(
+                points
+                    .iter()
+                    .filter(|p| !p.grid)
+                    .map(|p| Circle::new((p.time_ms, y(p)), 3, grey.filled())),
+            )?
+            .label("configuration, BVH")
+            .legend(move |(x, y)| Circle::new((x + 10, y), 3, grey.filled()));
+        if points.iter().any(|p| p.grid) {
+            chart
+                .draw_series(
+                    points
+                        .iter()
+                        .filter(|p| p.grid)
+                        .map(|p| Cross::new((p.time_ms, y(p)), 4, grey.stroke_width(1))),
+                )?
+                .label("configuration, uniform grid")
+                .legend(move |(x, y)| Cross::new((x + 10, y), 4, grey.stroke_width(1)));
+        }
+        let mut front: Vec<&ParetoPoint> = points.iter().filter(|p| p.pareto).collect();
+        front.sort_by(|a, b| a.time_ms.total_cmp(&b.time_ms));
+        let red = RGBColor(200, 40, 40);
+        chart
+            .draw_series(LineSeries::new(
+                front.iter().map(|p| (p.time_ms, y(p))),
+                red.stroke_width(2),
+            ))?
+            .label("Pareto front")
+            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], red.stroke_width(2)));
+        chart.draw_series(
+            front
+                .iter()
+                .map(|p| Circle::new((p.time_ms, y(p)), 4, red.filled())),
+        )?;
+        let blue = RGBColor(30, 80, 200);
+        chart
+            .draw_series(
+                points
+                    .iter()
+                    .filter(|p| p.highlight)
+                    .map(|p| Circle::new((p.time_ms, y(p)), 7, blue.stroke_width(2))),
+            )?
+            .label("default configuration")
+            .legend(move |(x, y)| Circle::new((x + 10, y), 6, blue.stroke_width(2)));
+        // Labels: the front (alternately above and below, to limit overlap)
+        // and the default.
+        let labelled = front
+            .iter()
+            .copied()
+            .chain(points.iter().filter(|p| p.highlight && !p.pareto));
+        for (k, p) in labelled.enumerate() {
+            let dy = if k % 2 == 0 { -16 } else { 6 };
+            let colour = if p.highlight { blue } else { BLACK };
+            chart.draw_series(std::iter::once(
+                EmptyElement::at((p.time_ms, y(p)))
+                    + Text::new(
+                        p.label.clone(),
+                        (6, dy),
+                        ("sans-serif", 11).into_font().color(&colour),
+                    ),
+            ))?;
+        }
+        chart
+            .configure_series_labels()
+            .position(SeriesLabelPosition::LowerRight)
+            .border_style(BLACK)
+            .background_style(WHITE.mix(0.9))
+            .label_font(("sans-serif", 13))
+            .draw()?;
+        Ok(())
+    })
+}
+
+/// A log–log plot of time (ms) against `x_desc`, one line per series.
+pub fn draw_log_log(
+    path: &Path,
+    title: &str,
+    x_desc: &str,
+    series: &[(&str, &[(f64, f64)])],
+) -> DrawResult {
+    register_font();
+    let all: Vec<(f64, f64)> = series
+        .iter()
+        .flat_map(|(_, v)| v.iter().copied())
+        .filter(|(x, y)| *x > 0.0 && *y > 0.0)
+        .collect();
+    if all.is_empty() {
+        return Err("no positive points to plot".into());
+    }
+    let fold = |f: fn(f64, f64) -> f64, init: f64, pick: fn(&(f64, f64)) -> f64| {
+        all.iter().map(pick).fold(init, f)
+    };
+    let (x0, x1) = (
+        fold(f64::min, f64::INFINITY, |p| p.0),
+        fold(f64::max, 0.0, |p| p.0),
+    );
+    let (y0, y1) = (
+        fold(f64::min, f64::INFINITY, |p| p.1),
+        fold(f64::max, 0.0, |p| p.1),
+    );
+    let colours = [
+        RGBColor(200, 40, 40),
+        RGBColor(30, 80, 200),
+        RGBColor(30, 140, 60),
+    ];
+    draw_png(path, (900, 600), |root| {
+        let mut chart = ChartBuilder::on(root)
+            .caption(title, ("sans-serif", 16))
+            .margin(14)
+            .x_label_area_size(44)
+            .y_label_area_size(64)
+            .build_cartesian_2d(
+                (x0 / 1.5..x1 * 1.5).log_scale(),
+                (y0 / 1.5..y1 * 1.5).log_scale(),
+            )?;
+        chart
+            .configure_mesh()
+            .x_desc(x_desc)
+            .y_desc("frame time (ms)")
+            .x_labels(10)
+            .y_labels(10)
+            .x_label_formatter(&|v| format!("{v:.1e}"))
+            .y_label_formatter(&|v| {
+                if *v >= 10.0 {
+                    format!("{v:.0}")
+                } else {
+                    format!("{v:.2}")
+                }
+            })
+            .label_style(("sans-serif", 13))
+            .draw()?;
+        for (k, (name, pts)) in series.iter().enumerate() {
+            let c = colours[k % colours.len()];
+            chart
+                .draw_series(LineSeries::new(pts.iter().copied(), c.stroke_width(2)))?
+                .label(*name)
+                .legend(move |(x, y)| {
+                    PathElement::new(vec![(x, y), (x + 20, y)], c.stroke_width(2))
+                });
+            chart.draw_series(pts.iter().map(|&p| Circle::new(p, 4, c.filled())))?;
+        }
+        chart
+            .configure_series_labels()
+            .position(SeriesLabelPosition::UpperLeft)
+            .border_style(BLACK)
+            .background_style(WHITE.mix(0.9))
+            .label_font(("sans-serif", 13))
+            .draw()?;
+        Ok(())
+    })
+}

@@ -1,0 +1,107 @@
+//! `gazecast bench` (issue 8) on the real binary: a quick sweep on a tiny
+//! scene writes well-formed results, plot and report.
+
+mod common;
+
+use common::{gazecast, Run};
+
+#[test]
+fn a_quick_accuracy_sweep_writes_csv_plot_and_report() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let display = dir.path().join("tiny.ron");
+    std::fs::write(
+        &display,
+        "Display(name: \"tiny\", resolution_px: (96, 72), size_mm: (337.9, 253.4), eye_distance_mm: 540.0)",
+    )
+    .expect("write");
+    let out = dir.path().join("sweep");
+    let run = gazecast()
+        .args([
+            "bench",
+            "accuracy",
+            "--scene",
+            "config/scenes/search-task.ron",
+            "--quick",
+            "--display",
+        ])
+        .arg(&display)
+        .arg("--out")
+        .arg(&out)
+        .succeed();
+    let stdout = String::from_utf8_lossy(&run.stdout);
+    assert!(stdout.contains("9 configurations x 2 gazes"), "{stdout}");
+
+    let csv = std::fs::read_to_string(out.join("results.csv")).expect("results.csv");
+    let mut lines = csv.lines();
+    let header: Vec<&str> = lines.next().expect("header").split(',').collect();
+    assert_eq!(header.join(","), gazecast_viewer::bench_cmd::RESULTS_HEADER);
+    let rows: Vec<Vec<&str>> = lines.map(|l| l.split(',').collect()).collect();
+    assert_eq!(rows.len(), 9 * 2, "one row per configuration and gaze");
+    let col = |name: &str| header.iter().position(|h| *h == name).expect(name);
+    for r in &rows {
+        assert_eq!(r.len(), header.len(), "{r:?}");
+        let time: f64 = r[col("time_ms")].parse().expect("time");
+        assert!(time > 0.0);
+        let psnr = r[col("psnr_db")];
+        if r[col("layout")] == "full" {
+            assert_eq!(psnr, "inf", "the reference against itself");
+            assert_eq!(r[col("silhouette_error")], "0.000000");
+        } else {
+            let p: f64 = psnr.parse().expect("psnr");
+            assert!(p > 10.0, "{r:?}");
+            let e: f64 = r[col("silhouette_error")].parse().expect("error");
+            assert!((0.0..=1.0).contains(&e));
+        }
+        let f: f64 = r[col("foveated_psnr_db")].parse().expect("foveated psnr");
+        assert!(f >= 0.0);
+    }
+    let png = std::fs::read(out.join("pareto.png")).expect("pareto.png");
+    assert!(png.starts_with(b"\x89PNG"));
+    let report = std::fs::read_to_string(out.join("report.md")).expect("report.md");
+    for needle in [
+        "| configuration |",
+        "(default)",
+        "foveated PSNR",
+        "Machine:",
+        "pareto.png",
+    ] {
+        assert!(report.contains(needle), "report lacks {needle}");
+    }
+}
+
+#[test]
+fn bench_errors_are_clear() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let out = gazecast()
+        .args([
+            "bench",
+            "accuracy",
+            "--scene",
+            "config/scenes/nope.ron",
+            "--display",
+            "config/displays/tobii-et1750-17in.ron",
+            "--out",
+        ])
+        .arg(dir.path())
+        .output()
+        .expect("runs");
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("nope.ron"));
+    let out = gazecast()
+        .args([
+            "bench",
+            "accuracy",
+            "--scene",
+            "config/scenes/search-task.ron",
+            "--display",
+            "config/displays/tobii-et1750-17in.ron",
+            "--gazes",
+            "0",
+            "--out",
+        ])
+        .arg(dir.path())
+        .output()
+        .expect("runs");
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("--gazes"));
+}

@@ -4,7 +4,7 @@
 use std::path::{Path, PathBuf};
 
 use gazecast_viewer::config;
-use gazecast_viewer::tracker_cmd::{simulated, SimulateArgs};
+use gazecast_viewer::tracker_cmd::{simulated, HidLayoutArg, SimulateArgs};
 use tracker_hal::csv::{csv_row, CSV_HEADER};
 use tracker_hal::Recording;
 
@@ -20,22 +20,45 @@ fn test_data_matches_the_simulator() {
             "iscan-binary-60hz",
             60.0,
             1,
+            HidLayoutArg::Reference,
         ),
         (
             "config/trackers/iscan-ascii.ron",
             "iscan-ascii-60hz",
             60.0,
             2,
+            HidLayoutArg::Reference,
         ),
         (
             "tests/data/iscan-binary-115200.ron",
             "iscan-binary-240hz",
             240.0,
             3,
+            HidLayoutArg::Reference,
         ),
-        ("tests/data/mouse-realistic.ron", "mouse-120hz", 120.0, 4),
+        (
+            "tests/data/mouse-realistic.ron",
+            "mouse-120hz",
+            120.0,
+            4,
+            HidLayoutArg::Reference,
+        ),
+        (
+            "config/trackers/tobii-hid.ron",
+            "tobii-hid-50hz",
+            50.0,
+            7,
+            HidLayoutArg::Reference,
+        ),
+        (
+            "config/trackers/tobii-hid.ron",
+            "tobii-hid-compact-120hz",
+            120.0,
+            9,
+            HidLayoutArg::Compact,
+        ),
     ];
-    for (tracker, name, rate, seed) in cases {
+    for (tracker, name, rate, seed, hid_layout) in cases {
         let cfg = config::load_tracker(&repo().join(tracker)).unwrap_or_else(|e| panic!("{e}"));
         let args = SimulateArgs {
             tracker: tracker.into(),
@@ -44,6 +67,8 @@ fn test_data_matches_the_simulator() {
             seconds: 10.0,
             rate: Some(rate),
             seed,
+            hid_layout,
+            hid_log: None,
         };
         let (header, stream) = simulated(&cfg, &args).unwrap_or_else(|e| panic!("{e}"));
         let rec = Recording::read(&repo().join(format!("tests/data/{name}.gzrec")))
@@ -54,7 +79,7 @@ fn test_data_matches_the_simulator() {
             "{name}: chunks differ: run scripts/make-test-data.sh"
         );
         let csv: Vec<String> = std::iter::once(CSV_HEADER.to_string())
-            .chain(stream.expected.iter().map(|s| csv_row(s, &|p| p)))
+            .chain(stream.expected.iter().map(|s| csv_row(s, &|p| Some(p))))
             .collect();
         let on_disk =
             std::fs::read_to_string(repo().join(format!("tests/data/{name}.csv"))).expect("csv");

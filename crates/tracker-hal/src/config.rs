@@ -2,6 +2,7 @@
 
 use serde::{Deserialize, Serialize};
 
+use crate::hid::{HidConfig, HidLogDecoder};
 use crate::iscan::{IscanConfig, IscanDecoder};
 use crate::mapping::Mapping;
 use crate::mouse::{MouseConfig, MouseDecoder};
@@ -12,6 +13,8 @@ use crate::source::Decoder;
 pub enum Driver {
     Iscan(IscanConfig),
     Mouse(MouseConfig),
+    /// A tracker on the HID eye-tracker usage page (Tobii and others).
+    TobiiHid(HidConfig),
 }
 
 /// A tracker: its driver and how its coordinates map to the screen.
@@ -30,6 +33,7 @@ impl TrackerConfig {
         match &self.driver {
             Driver::Iscan(c) => c.validate().map_err(|e| scoped("driver", e))?,
             Driver::Mouse(c) => c.validate().map_err(|e| scoped("driver", e))?,
+            Driver::TobiiHid(c) => c.validate().map_err(|e| scoped("driver", e))?,
         }
         self.mapping.validate().map_err(|(f, m)| (f.to_string(), m))
     }
@@ -39,6 +43,7 @@ impl TrackerConfig {
         match &self.driver {
             Driver::Iscan(c) => Box::new(IscanDecoder::new(c.clone())),
             Driver::Mouse(_) => Box::new(MouseDecoder::new()),
+            Driver::TobiiHid(_) => Box::new(HidLogDecoder::new()),
         }
     }
 
@@ -48,6 +53,7 @@ impl TrackerConfig {
         match &self.driver {
             Driver::Iscan(c) => c.frame,
             Driver::Mouse(_) => (f64::INFINITY, f64::INFINITY),
+            Driver::TobiiHid(c) => c.screen_um,
         }
     }
 
@@ -56,6 +62,7 @@ impl TrackerConfig {
         match &self.driver {
             Driver::Iscan(_) => "iscan",
             Driver::Mouse(_) => "mouse",
+            Driver::TobiiHid(_) => "tobii-hid",
         }
     }
 }
@@ -80,5 +87,8 @@ impl Decoder for Box<dyn Decoder> {
     }
     fn stop_command(&self) -> Vec<u8> {
         (**self).stop_command()
+    }
+    fn frame_hint(&self) -> Option<(f64, f64)> {
+        (**self).frame_hint()
     }
 }

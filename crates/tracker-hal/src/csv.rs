@@ -9,8 +9,8 @@ pub const CSV_HEADER: &str =
 
 /// One row. `map` converts tracker units to the output units (identity for
 /// `--raw`). Missing eyes and gaze have empty coordinates and valid = 0.
-pub fn csv_row(s: &GazeSample, map: &dyn Fn([f64; 2]) -> [f64; 2]) -> String {
-    let point = |p: Option<[f64; 2]>| match p.map(map) {
+pub fn csv_row(s: &GazeSample, map: &dyn Fn([f64; 2]) -> Option<[f64; 2]>) -> String {
+    let point = |p: Option<[f64; 2]>| match p.and_then(map) {
         Some([x, y]) => format!("{x},{y},1"),
         None => ",,0".to_string(),
     };

@@ -237,6 +237,7 @@ impl IscanDecoder {
             left: eyes[0],
             right: eyes[1],
             combined: None,
+            eye_position_um: [None, None],
         });
     }
 

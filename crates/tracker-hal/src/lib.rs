@@ -50,14 +50,27 @@
 //!    with `gazecast simulate`, and add it to the conformance suite
 //!    (`tests/tests/conformance.rs`), which checks the rest.
 //!
-//! Devices that are not byte streams (HID reports) implement [`GazeSource`]
-//! directly (issue 4).
+//! Devices that are not byte streams (HID reports) go through the same
+//! decoder path: [`hid::driver::HidDriver`] turns each report into a line of
+//! hid-log text and decodes it with [`hid::HidLogDecoder`], which is also the
+//! byte-stream decoder of recorded and replayed HID sessions.
+//!
+//! ## Calibration, binocular gaze, events, clocks
+//!
+//! [`calibration`]: targets, stable windows, affine / homography /
+//! polynomial fits, validation in degrees. [`events`]: vergence depth,
+//! cyclopean gaze, I-VT fixations and saccades, blinks, the device-to-host
+//! clock model.
 
+pub mod calibration;
 pub mod clock;
 pub mod config;
 pub mod csv;
+pub mod discovery;
 pub mod error;
+pub mod events;
 mod framing;
+pub mod hid;
 pub mod iscan;
 pub mod mapping;
 pub mod mouse;

@@ -313,6 +313,7 @@ impl Decoder for MouseDecoder {
                 left: eye,
                 right: eye,
                 combined: None,
+                eye_position_um: [None, None],
             });
             start += RECORD_LEN;
         }

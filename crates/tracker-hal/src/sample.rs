@@ -36,6 +36,9 @@ pub struct GazeSample {
     pub right: EyeSample,
     /// The device's own combined (cyclopean) point, for devices that send one.
     pub combined: Option<[f64; 2]>,
+    /// Left and right eye positions in the tracker's 3-D frame (µm), from
+    /// trackers that report them (HID); `None` when absent or invalid.
+    pub eye_position_um: [Option<[f64; 3]>; 2],
 }
 
 impl GazeSample {

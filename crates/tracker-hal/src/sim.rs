@@ -218,6 +218,7 @@ pub fn simulate_iscan(config: &IscanConfig, truth: &[TruthSample], seed: u64) ->
             left,
             right,
             combined: None,
+            eye_position_um: [None, None],
         });
     }
     SimStream { chunks, expected }
@@ -278,6 +279,7 @@ pub fn simulate_mouse(
             left: eye,
             right: eye,
             combined: None,
+            eye_position_um: [None, None],
         });
     }
     SimStream { chunks, expected }

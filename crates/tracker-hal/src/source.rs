@@ -42,6 +42,11 @@ pub trait Decoder: Send {
     fn start_command(&self) -> Vec<u8>;
     /// Bytes that ask the device to stop streaming (may be empty).
     fn stop_command(&self) -> Vec<u8>;
+    /// The coordinate frame (width, height, tracker units) the device has
+    /// reported about itself, when it does (HID: the calibrated screen size).
+    fn frame_hint(&self) -> Option<(f64, f64)> {
+        None
+    }
 }
 
 /// A [`GazeSource`] over any byte transport (`Read + Write`): a serial port,

@@ -194,6 +194,42 @@ pub fn load_tracker(path: &Path) -> Result<tracker_hal::TrackerConfig, ConfigErr
     Ok(tracker)
 }
 
+/// Loads a calibration file (written by `gazecast calibrate` or
+/// `tracker_hal::calibration`); errors name the file, line and field.
+pub fn load_calibration(path: &Path) -> Result<tracker_hal::calibration::Calibration, ConfigError> {
+    use tracker_hal::calibration::Model;
+    let (c, text): (tracker_hal::calibration::Calibration, String) = load(path)?;
+    let need = match c.model {
+        Model::Affine => 6,
+        Model::Homography => 9,
+        Model::Polynomial2 => 12,
+    };
+    if c.params.len() != need || !c.params.iter().all(|v| v.is_finite()) {
+        return Err(invalid_field(
+            path,
+            &text,
+            "params",
+            format!(
+                "{:?} needs {need} finite parameters, found {}",
+                c.model,
+                c.params.len()
+            ),
+        ));
+    }
+    let finite = |n: &tracker_hal::calibration::Normaliser| {
+        n.centre.iter().all(|v| v.is_finite()) && n.scale.is_finite() && n.scale > 0.0
+    };
+    if !finite(&c.raw) || !finite(&c.screen) {
+        return Err(invalid_field(
+            path,
+            &text,
+            "raw",
+            "normalisers need finite centres and a positive scale".into(),
+        ));
+    }
+    Ok(c)
+}
+
 /// `config/default.ron`: which files a command uses when given none.
 #[derive(Debug, Clone, Deserialize)]
 #[serde(deny_unknown_fields)]

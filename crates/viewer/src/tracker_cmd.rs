@@ -6,7 +6,8 @@ use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
 use tracker_hal::csv::{csv_row, CSV_HEADER};
-use tracker_hal::recording::{write_recording, RecordingHeader};
+use tracker_hal::hid::sim::{simulate_hid, HidLayout};
+use tracker_hal::recording::{write_recording, ChunkKind, RecordingHeader};
 use tracker_hal::sim::{gaze_script, simulate_iscan, simulate_mouse, Script, SimStream};
 use tracker_hal::{
     Driver, GazeSource, MonotonicClock, Pacing, Recorder, Recording, ReplayTransport, StreamDriver,
@@ -22,6 +23,9 @@ pub enum InputFormat {
     Recording,
     /// Raw device bytes with no timing (arrival times synthesised from the baud rate).
     RawBytes,
+    /// HID report log: `<host_time_us> <hex bytes>` per report, `# descriptor
+    /// <hex>` and `# feature <hex>` lines (the HID driver's recording format).
+    HidLog,
 }
 
 #[derive(Debug, Clone, clap::Args)]
@@ -43,6 +47,10 @@ pub struct ReplayArgs {
     /// Deliver the data at its original pacing instead of as fast as possible.
     #[arg(long)]
     pub realtime: bool,
+    /// Map gaze with this calibration (RON, from `tracker_hal::calibration`)
+    /// instead of the tracker file's mapping.
+    #[arg(long, value_name = "FILE.ron")]
+    pub calibration: Option<PathBuf>,
 }
 
 #[derive(Debug, Clone, clap::Args)]
@@ -77,6 +85,21 @@ pub struct SimulateArgs {
     pub rate: Option<f64>,
     #[arg(long, value_name = "N", default_value_t = 1)]
     pub seed: u64,
+    /// HID trackers: which report layout the simulated device uses.
+    #[arg(long, value_enum, default_value = "reference")]
+    pub hid_layout: HidLayoutArg,
+    /// HID trackers: also write the device side as a hid-log text file.
+    #[arg(long, value_name = "FILE")]
+    pub hid_log: Option<PathBuf>,
+}
+
+/// Report layouts of the simulated HID tracker.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum HidLayoutArg {
+    /// As Microsoft's reference descriptor (8×1-byte timestamp, Constant fields).
+    Reference,
+    /// Another order, 64-bit timestamp, padding, no head position.
+    Compact,
 }
 
 /// The sample CSV of `replay` and `simulate`, with errors naming the file.
@@ -99,7 +122,7 @@ impl<'a> SampleCsv<'a> {
     fn row(
         &mut self,
         s: &tracker_hal::GazeSample,
-        map: &dyn Fn([f64; 2]) -> [f64; 2],
+        map: &dyn Fn([f64; 2]) -> Option<[f64; 2]>,
     ) -> Result<(), String> {
         writeln!(self.w, "{}", csv_row(s, map)).map_err(|e| Self::fail(self.path, e))
     }
@@ -148,7 +171,15 @@ pub fn replay(args: &ReplayArgs, err: &mut dyn Write) -> Result<(), String> {
             }
             ReplayTransport::from_recording(&rec, pacing)
         }
-        InputFormat::RawBytes => {
+        InputFormat::RawBytes | InputFormat::HidLog => {
+            if (args.format == InputFormat::HidLog) != matches!(tracker.driver, Driver::TobiiHid(_))
+            {
+                return Err(format!(
+                    "--format hid-log goes with a TobiiHid tracker file; {} has a {} driver",
+                    args.tracker.display(),
+                    tracker.driver_name()
+                ));
+            }
             let bytes = std::fs::read(&args.input)
                 .map_err(|e| format!("{}: cannot read: {e}", args.input.display()))?;
             let baud = match &tracker.driver {
@@ -161,17 +192,25 @@ pub fn replay(args: &ReplayArgs, err: &mut dyn Write) -> Result<(), String> {
     let clock = transport.clock();
     let mut driver = StreamDriver::new(transport, tracker.decoder(), Box::new(clock));
     let mut out = SampleCsv::create(&args.csv)?;
-    let frame = tracker.frame();
-    let mapping = tracker.mapping.clone();
-    let map = move |p: [f64; 2]| {
-        if args.raw {
-            p
-        } else {
-            mapping.to_screen(p, frame)
-        }
+    let calibration = match &args.calibration {
+        Some(path) => Some(config::load_calibration(path).map_err(|e| e.to_string())?),
+        None => None,
     };
+    let mapping = tracker.mapping.clone();
     driver.start().map_err(|e| e.to_string())?;
     while let Some(sample) = driver.next_sample().map_err(|e| e.to_string())? {
+        // A HID tracker reports its screen size in its features, which
+        // precede the first sample.
+        let frame = driver.decoder().frame_hint().unwrap_or(tracker.frame());
+        let map = |p: [f64; 2]| {
+            if args.raw {
+                Some(p)
+            } else if let Some(c) = &calibration {
+                c.map(p)
+            } else {
+                Some(mapping.to_screen(p, frame))
+            }
+        };
         out.row(&sample, &map)?;
     }
     out.finish()?;
@@ -262,6 +301,27 @@ pub fn devices(out: &mut dyn Write) -> Result<(), String> {
     for p in ports {
         w(out, &format!("  {p}"))?;
     }
+    for (title, found) in [
+        (
+            "USB eye trackers (known vendors: Tobii 0x2104):",
+            tracker_hal::discovery::usb_trackers(),
+        ),
+        (
+            "HID eye trackers (usage page 0x12):",
+            tracker_hal::discovery::hid_trackers(),
+        ),
+    ] {
+        w(out, title)?;
+        match found {
+            Ok(list) if list.is_empty() => w(out, "  (none found)")?,
+            Ok(list) => {
+                for d in list {
+                    w(out, &format!("  {d}"))?;
+                }
+            }
+            Err(e) => w(out, &format!("  ({e})"))?,
+        }
+    }
     Ok(())
 }
 
@@ -300,6 +360,26 @@ pub fn simulated(
                 rate,
             )
         }
+        Driver::TobiiHid(c) => {
+            // The seed's Tobii ET-1750 ran at 50 Hz (Murphy 2007 §7.1).
+            let rate = args.rate.unwrap_or(50.0);
+            let script = Script {
+                seconds: args.seconds,
+                rate_hz: rate,
+                frame: c.screen_um,
+                // 1° at 60 cm is 10.47 mm on the screen.
+                units_per_degree: 10_470.0,
+                seed: args.seed,
+            };
+            let layout = match args.hid_layout {
+                HidLayoutArg::Reference => HidLayout::Reference,
+                HidLayoutArg::Compact => HidLayout::Compact,
+            };
+            (
+                simulate_hid(layout, &gaze_script(&script), c.screen_um, rate, args.seed),
+                rate,
+            )
+        }
     };
     if !(rate.is_finite() && rate > 0.0 && rate <= 10_000.0) {
         return Err(format!("--rate {rate}: must be in (0, 10000] Hz"));
@@ -320,10 +400,24 @@ pub fn simulate(args: &SimulateArgs, out: &mut dyn Write) -> Result<(), String> 
     let tracker = load_tracker(&args.tracker)?;
     let (header, stream) = simulated(&tracker, args)?;
     write_recording(&args.out, &header, &stream.chunks).map_err(|e| e.to_string())?;
+    if let Some(path) = &args.hid_log {
+        if !matches!(tracker.driver, Driver::TobiiHid(_)) {
+            return Err("--hid-log: only for a TobiiHid tracker file".into());
+        }
+        let mut text = format!("# {}\n", header.note);
+        for c in stream
+            .chunks
+            .iter()
+            .filter(|c| c.kind == ChunkKind::DeviceToHost)
+        {
+            text.push_str(&String::from_utf8_lossy(&c.payload));
+        }
+        std::fs::write(path, text).map_err(|e| format!("{}: cannot write: {e}", path.display()))?;
+    }
     if let Some(csv) = &args.csv {
         let mut w = SampleCsv::create(csv)?;
         for s in &stream.expected {
-            w.row(s, &|p| p)?;
+            w.row(s, &|p| Some(p))?;
         }
         w.finish()?;
     }

@@ -230,3 +230,140 @@ fn record_refuses_the_mouse_and_a_missing_port_clearly() {
     assert!(!out.status.success());
     assert!(String::from_utf8_lossy(&out.stderr).contains("/dev/ttyUSB0"));
 }
+
+#[test]
+fn replay_of_a_hid_log_follows_the_raw_contract_and_maps_to_pixels() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let csv = dir.path().join("raw.csv");
+    let out = gazecast()
+        .args([
+            "replay",
+            "--tracker",
+            "config/trackers/tobii-hid.ron",
+            "--format",
+            "hid-log",
+            "--input",
+            "tests/data/tobii-hid-50hz.hidlog",
+            "--raw",
+            "--csv",
+        ])
+        .arg(&csv)
+        .succeed();
+    let summary = String::from_utf8_lossy(&out.stderr);
+    assert!(summary.contains("dropped_bytes=0 resyncs=0"), "{summary}");
+    // --raw: µm, the sensor timestamp, per-eye columns empty with valid 0 —
+    // exactly the simulator's expected CSV (the .gzrec carries the same text).
+    assert_eq!(
+        std::fs::read_to_string(&csv).expect("csv"),
+        std::fs::read_to_string(repo().join("tests/data/tobii-hid-50hz.csv")).expect("expected")
+    );
+    // Without --raw: pixels through the device's calibrated screen size.
+    let px = dir.path().join("px.csv");
+    gazecast()
+        .args([
+            "replay",
+            "--tracker",
+            "config/trackers/tobii-hid.ron",
+            "--input",
+            "tests/data/tobii-hid-50hz.gzrec",
+            "--csv",
+        ])
+        .arg(&px)
+        .succeed();
+    let text = std::fs::read_to_string(&px).expect("csv");
+    for r in text
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').collect::<Vec<_>>())
+    {
+        assert_eq!((r[5], r[8], r[11]), ("0", "0", "1"), "{r:?}");
+        let (x, y): (f64, f64) = (r[9].parse().expect("x"), r[10].parse().expect("y"));
+        assert!((0.0..=1280.0).contains(&x) && (0.0..=1024.0).contains(&y));
+    }
+    // A calibration file replaces the mapping: this one doubles x.
+    let cal = dir.path().join("cal.ron");
+    std::fs::write(
+        &cal,
+        "Calibration(model: Affine, params: [2.0, 0.0, 0.0, 0.0, 1.0, 0.0], \
+         raw: (centre: (0.0, 0.0), scale: 1.0), screen: (centre: (0.0, 0.0), scale: 1.0), \
+         rms_residual_px: 0.0, points: [])",
+    )
+    .expect("write");
+    let calibrated = dir.path().join("cal.csv");
+    gazecast()
+        .args([
+            "replay",
+            "--tracker",
+            "config/trackers/tobii-hid.ron",
+            "--format",
+            "hid-log",
+            "--input",
+            "tests/data/tobii-hid-50hz.hidlog",
+            "--calibration",
+        ])
+        .arg(&cal)
+        .arg("--csv")
+        .arg(&calibrated)
+        .succeed();
+    let raw = std::fs::read_to_string(&csv).expect("csv");
+    let cal_text = std::fs::read_to_string(&calibrated).expect("csv");
+    let (a, b) = (
+        raw.lines()
+            .nth(1)
+            .expect("row")
+            .split(',')
+            .collect::<Vec<_>>(),
+        cal_text
+            .lines()
+            .nth(1)
+            .expect("row")
+            .split(',')
+            .collect::<Vec<_>>(),
+    );
+    let ax: f64 = a[9].parse().expect("x");
+    let bx: f64 = b[9].parse().expect("x");
+    assert_eq!(bx, 2.0 * ax);
+    // A calibration with the wrong parameter count names the field.
+    std::fs::write(
+        &cal,
+        "Calibration(model: Homography, params: [1.0], raw: (centre: (0.0, 0.0), scale: 1.0), \
+         screen: (centre: (0.0, 0.0), scale: 1.0), rms_residual_px: 0.0, points: [])",
+    )
+    .expect("write");
+    let out = gazecast()
+        .args([
+            "replay",
+            "--tracker",
+            "config/trackers/tobii-hid.ron",
+            "--format",
+            "hid-log",
+            "--input",
+            "tests/data/tobii-hid-50hz.hidlog",
+            "--calibration",
+        ])
+        .arg(&cal)
+        .arg("--csv")
+        .arg(&calibrated)
+        .output()
+        .expect("runs");
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("cal.ron:1") && err.contains("params"), "{err}");
+    // hid-log with a serial tracker file is refused clearly.
+    let out = gazecast()
+        .args([
+            "replay",
+            "--tracker",
+            "config/trackers/iscan-binary.ron",
+            "--format",
+            "hid-log",
+            "--input",
+            "tests/data/tobii-hid-50hz.hidlog",
+            "--csv",
+        ])
+        .arg(&calibrated)
+        .output()
+        .expect("runs");
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("TobiiHid"));
+}

@@ -1,0 +1,434 @@
+//! Binocular gaze and eye-movement events: vergence depth (Murphy &
+//! Duchowski 2001 §4.2), the cyclopean gaze the renderer uses, velocity-
+//! threshold fixation/saccade classification (I-VT), blinks from validity
+//! gaps, and the device-to-host clock model.
+
+use foveation::ScreenGeometry;
+use serde::Serialize;
+
+/// A 3-D gaze point from the two eyes' points in the near view plane
+/// (Murphy & Duchowski eqs. 1–3): `s = b / (x_l − x_r + b)`,
+/// `g = (1 − s)·h + s·((x_l + x_r)/2, (y_l + y_r)/2, f)`.
+///
+/// `baseline` is the distance b between the eye centres, `head` the head
+/// position h and `plane_distance` f, all in the same units as the eye
+/// points. Returns `None` ("no depth") when the lines of sight are parallel
+/// or diverge (s ≤ 0 or s > `max_scale`) or the input is not finite: a
+/// near-singular denominator never becomes an infinity.
+pub fn vergence_point(
+    left: [f64; 2],
+    right: [f64; 2],
+    baseline: f64,
+    head: [f64; 3],
+    plane_distance: f64,
+    max_scale: f64,
+) -> Option<[f64; 3]> {
+    let finite = left
+        .iter()
+        .chain(&right)
+        .chain(&head)
+        .chain([baseline, plane_distance].iter())
+        .all(|v| v.is_finite());
+    if !finite || baseline <= 0.0 {
+        return None;
+    }
+    let denominator = left[0] - right[0] + baseline;
+    // |denominator| ≤ b / max_scale means s beyond the range: checked
+    // before dividing, so a tiny denominator cannot overflow.
+    if denominator <= baseline / max_scale {
+        return None;
+    }
+    let s = baseline / denominator;
+    let c = [(left[0] + right[0]) / 2.0, (left[1] + right[1]) / 2.0];
+    let g = [
+        (1.0 - s) * head[0] + s * c[0],
+        (1.0 - s) * head[1] + s * c[1],
+        (1.0 - s) * head[2] + s * plane_distance,
+    ];
+    g.iter().all(|v| v.is_finite()).then_some(g)
+}
+
+/// The 2-D gaze for the renderer: the mean of both eyes, or the one eye
+/// that is valid (one-eye fallback), or `None`.
+pub fn cyclopean(left: Option<[f64; 2]>, right: Option<[f64; 2]>) -> Option<[f64; 2]> {
+    let ok = |p: Option<[f64; 2]>| p.filter(|p| p[0].is_finite() && p[1].is_finite());
+    match (ok(left), ok(right)) {
+        (Some(l), Some(r)) => Some([(l[0] + r[0]) / 2.0, (l[1] + r[1]) / 2.0]),
+        (Some(p), None) | (None, Some(p)) => Some(p),
+        (None, None) => None,
+    }
+}
+
+/// A classified stretch of the gaze signal.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub enum EventKind {
+    /// Mean position (px) over the fixation.
+    Fixation { centroid_px: [f64; 2] },
+    /// Amplitude (start to end, degrees) and peak velocity (°/s).
+    Saccade { amplitude_deg: f64, peak_deg_s: f64 },
+    /// Both eyes missing for a blink-like time.
+    Blink,
+    /// Missing for longer than a blink (tracking lost).
+    Lost,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Event {
+    pub kind: EventKind,
+    pub start_us: u64,
+    pub end_us: u64,
+}
+
+/// I-VT settings.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct IvtConfig {
+    /// Faster than this (°/s) is a saccade (the seed's analysis: 15°/s).
+    pub velocity_deg_s: f64,
+    /// Missing spans from this long up to `max_blink_us` are blinks; longer
+    /// ones are tracking loss; shorter ones are ignored.
+    pub min_blink_us: u64,
+    pub max_blink_us: u64,
+    /// A time step longer than this between samples counts as missing data
+    /// (a HID tracker sends nothing while it sees no eyes).
+    pub max_sample_gap_us: u64,
+}
+
+impl Default for IvtConfig {
+    fn default() -> Self {
+        Self {
+            velocity_deg_s: 15.0,
+            min_blink_us: 50_000,
+            max_blink_us: 500_000,
+            max_sample_gap_us: 50_000,
+        }
+    }
+}
+
+/// Classifies samples (time, gaze in px or `None`) into fixations,
+/// saccades, blinks and losses. Angles from the display geometry.
+pub fn classify(
+    samples: &[(u64, Option<[f64; 2]>)],
+    geometry: &ScreenGeometry,
+    config: &IvtConfig,
+) -> Vec<Event> {
+    #[derive(PartialEq, Clone, Copy)]
+    enum State {
+        Fix,
+        Sac,
+    }
+    let mut events = Vec::new();
+    let mut run: Vec<(u64, [f64; 2], f64)> = Vec::new(); // (t, p, velocity)
+    let mut state: Option<State> = None;
+    let mut missing_since: Option<u64> = None;
+    let mut last: Option<(u64, [f64; 2])> = None;
+    let close_run =
+        |run: &mut Vec<(u64, [f64; 2], f64)>, state: Option<State>, events: &mut Vec<Event>| {
+            if let (Some(s), Some(first), Some(lastp)) = (state, run.first(), run.last()) {
+                let kind = match s {
+                    State::Fix => {
+                        let n = run.len() as f64;
+                        EventKind::Fixation {
+                            centroid_px: [
+                                run.iter().map(|r| r.1[0]).sum::<f64>() / n,
+                                run.iter().map(|r| r.1[1]).sum::<f64>() / n,
+                            ],
+                        }
+                    }
+                    State::Sac => EventKind::Saccade {
+                        amplitude_deg: geometry.eccentricity_deg(first.1, lastp.1),
+                        peak_deg_s: run.iter().map(|r| r.2).fold(0.0, f64::max),
+                    },
+                };
+                events.push(Event {
+                    kind,
+                    start_us: first.0,
+                    end_us: lastp.0,
+                });
+            }
+            run.clear();
+        };
+    let close_gap = |from: u64, to: u64, events: &mut Vec<Event>| {
+        let d = to.saturating_sub(from);
+        if d >= config.min_blink_us {
+            events.push(Event {
+                kind: if d <= config.max_blink_us {
+                    EventKind::Blink
+                } else {
+                    EventKind::Lost
+                },
+                start_us: from,
+                end_us: to,
+            });
+        }
+    };
+    for &(t, p) in samples {
+        let p = p.filter(|p| p[0].is_finite() && p[1].is_finite());
+        match p {
+            None => {
+                if missing_since.is_none() {
+                    close_run(&mut run, state, &mut events);
+                    state = None;
+                    missing_since = Some(last.map_or(t, |l| l.0));
+                }
+            }
+            Some(p) => {
+                let gap_start = match (missing_since.take(), last) {
+                    (Some(m), _) => Some(m),
+                    (None, Some((lt, _))) if t.saturating_sub(lt) > config.max_sample_gap_us => {
+                        close_run(&mut run, state, &mut events);
+                        state = None;
+                        Some(lt)
+                    }
+                    _ => None,
+                };
+                if let Some(g) = gap_start {
+                    close_gap(g, t, &mut events);
+                    last = None;
+                }
+                let v = match last {
+                    Some((lt, lp)) if t > lt => {
+                        geometry.eccentricity_deg(lp, p) / ((t - lt) as f64 * 1e-6)
+                    }
+                    _ => 0.0,
+                };
+                let s = if v > config.velocity_deg_s {
+                    State::Sac
+                } else {
+                    State::Fix
+                };
+                if state != Some(s) {
+                    close_run(&mut run, state, &mut events);
+                    state = Some(s);
+                }
+                run.push((t, p, v));
+                last = Some((t, p));
+            }
+        }
+    }
+    close_run(&mut run, state, &mut events);
+    if let (Some(m), Some(&(t, _))) = (missing_since, samples.last()) {
+        close_gap(m, t, &mut events);
+    }
+    events
+}
+
+/// The device clock against the host clock: `host ≈ host0 + rate·(device − device0)`.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct ClockModel {
+    pub device0_us: u64,
+    pub host0_us: f64,
+    /// Host µs per device µs (1 + drift).
+    pub rate: f64,
+    /// Median host − model over the fit samples, µs (the typical latency
+    /// above the fastest arrivals is absorbed into `host0_us`).
+    pub residual_mad_us: f64,
+}
+
+impl ClockModel {
+    /// Drift of the device clock relative to the host, parts per million
+    /// (positive: the device clock runs fast).
+    pub fn drift_ppm(&self) -> f64 {
+        (1.0 / self.rate - 1.0) * 1e6
+    }
+
+    /// Host time (µs) of a device timestamp.
+    pub fn host_time_us(&self, device_us: u64) -> f64 {
+        self.host0_us + self.rate * (device_us as f64 - self.device0_us as f64)
+    }
+
+    /// Offset host − device at device time `device_us` (µs).
+    pub fn offset_us(&self, device_us: u64) -> f64 {
+        self.host_time_us(device_us) - device_us as f64
+    }
+
+    /// Robust fit (Theil–Sen on pairs half the series apart, median
+    /// intercept) of `(device_us, host_us)` pairs. Outliers (late
+    /// arrivals) up to nearly half the samples do not move it. `None` with
+    /// fewer than 4 pairs or no time span.
+    pub fn fit(pairs: &[(u64, u64)]) -> Option<Self> {
+        if pairs.len() < 4 {
+            return None;
+        }
+        let (d0, h0) = pairs[0];
+        let rel: Vec<(f64, f64)> = pairs
+            .iter()
+            .map(|&(d, h)| (d as f64 - d0 as f64, h as f64 - h0 as f64))
+            .collect();
+        let half = rel.len() / 2;
+        let mut slopes: Vec<f64> = (0..rel.len() - half)
+            .filter_map(|i| {
+                let (a, b) = (rel[i], rel[i + half]);
+                let dx = b.0 - a.0;
+                (dx > 0.0).then(|| (b.1 - a.1) / dx)
+            })
+            .collect();
+        if slopes.is_empty() {
+            return None;
+        }
+        slopes.sort_by(f64::total_cmp);
+        let rate = slopes[slopes.len() / 2];
+        let mut intercepts: Vec<f64> = rel.iter().map(|(d, h)| h - rate * d).collect();
+        intercepts.sort_by(f64::total_cmp);
+        let b = intercepts[intercepts.len() / 2];
+        let mut dev: Vec<f64> = intercepts.iter().map(|i| (i - b).abs()).collect();
+        dev.sort_by(f64::total_cmp);
+        (rate.is_finite() && rate > 0.0).then_some(Self {
+            device0_us: d0,
+            host0_us: h0 as f64 + b,
+            rate,
+            residual_mad_us: dev[dev.len() / 2],
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use proptest::prelude::*;
+    use rand::{Rng, SeedableRng};
+
+    #[test]
+    fn vergence_follows_the_seed_equations() {
+        // Eyes 64 mm apart, plane at 500 mm, head at the origin. Points in
+        // the plane 64 mm apart in the eyes' own order: parallel → no depth.
+        let b = 64.0;
+        assert_eq!(
+            vergence_point([-32.0, 0.0], [32.0, 0.0], b, [0.0; 3], 500.0, 1e4),
+            None
+        );
+        // Converging on the plane itself: both eyes see the same point, s = 1.
+        let g = vergence_point([10.0, 5.0], [10.0, 5.0], b, [0.0; 3], 500.0, 1e4).expect("depth");
+        assert_eq!(g, [10.0, 5.0, 500.0]);
+        // Crossed beyond the plane by 32 mm: s = 64/(32+64) = 2/3.
+        let g = vergence_point([16.0, 0.0], [-16.0, 0.0], b, [0.0; 3], 500.0, 1e4).expect("depth");
+        assert!((g[2] - 500.0 * 2.0 / 3.0).abs() < 1e-9, "{g:?}");
+        // Nearly parallel: the denominator is 1e-12·b → beyond max_scale.
+        assert_eq!(
+            vergence_point([-32.0 + 64e-12, 0.0], [32.0, 0.0], b, [0.0; 3], 500.0, 1e4),
+            None
+        );
+        assert_eq!(
+            vergence_point([f64::NAN, 0.0], [0.0, 0.0], b, [0.0; 3], 500.0, 1e4),
+            None
+        );
+        assert_eq!(
+            cyclopean(Some([0.0, 0.0]), Some([2.0, 4.0])),
+            Some([1.0, 2.0])
+        );
+        assert_eq!(cyclopean(None, Some([2.0, 4.0])), Some([2.0, 4.0]));
+        assert_eq!(cyclopean(Some([f64::NAN, 0.0]), None), None);
+    }
+
+    proptest! {
+        #[test]
+        fn vergence_is_finite_or_none(
+            xl in prop_oneof![-1e12f64..1e12, Just(-32.0), -33.0f64..-31.0],
+            xr in prop_oneof![-1e12f64..1e12, Just(32.0), 31.0f64..33.0],
+            y in -1e6f64..1e6,
+            b in prop_oneof![Just(0.0), 1e-9f64..1e3],
+            f in 0.0f64..1e6,
+        ) {
+            if let Some(g) = vergence_point([xl, y], [xr, y], b, [1.0, 2.0, 3.0], f, 1e4) {
+                prop_assert!(g.iter().all(|v| v.is_finite()));
+            }
+        }
+    }
+
+    fn geometry() -> ScreenGeometry {
+        foveation::Display {
+            name: "t".into(),
+            resolution_px: (1280, 1024),
+            size_mm: (337.9, 270.3),
+            eye_distance_mm: 600.0,
+            eye_point_px: None,
+        }
+        .geometry()
+        .expect("display")
+    }
+
+    #[test]
+    fn ivt_finds_fixations_saccades_and_blinks() {
+        // 250 Hz: fixation at 300 px for 300 ms, a 40 ms saccade to 900 px,
+        // fixation 300 ms, a 150 ms blink, fixation 200 ms.
+        let mut s = Vec::new();
+        let mut t = 0u64;
+        let push = |s: &mut Vec<(u64, Option<[f64; 2]>)>, p: Option<[f64; 2]>, t: &mut u64| {
+            s.push((*t, p));
+            *t += 4_000;
+        };
+        for _ in 0..75 {
+            push(&mut s, Some([300.0, 500.0]), &mut t);
+        }
+        for k in 1..=10 {
+            push(&mut s, Some([300.0 + 60.0 * f64::from(k), 500.0]), &mut t);
+        }
+        for _ in 0..75 {
+            push(&mut s, Some([900.0, 500.0]), &mut t);
+        }
+        for _ in 0..37 {
+            push(&mut s, None, &mut t);
+        }
+        for _ in 0..50 {
+            push(&mut s, Some([900.0, 500.0]), &mut t);
+        }
+        let e = classify(&s, &geometry(), &IvtConfig::default());
+        let kinds: Vec<&str> = e
+            .iter()
+            .map(|e| match e.kind {
+                EventKind::Fixation { .. } => "F",
+                EventKind::Saccade { .. } => "S",
+                EventKind::Blink => "B",
+                EventKind::Lost => "L",
+            })
+            .collect();
+        assert_eq!(kinds, ["F", "S", "F", "B", "F"], "{e:?}");
+        let EventKind::Saccade { amplitude_deg, .. } = e[1].kind else {
+            unreachable!()
+        };
+        assert!(amplitude_deg > 10.0, "{amplitude_deg}");
+        assert!(
+            (e[3].end_us - e[3].start_us).abs_diff(152_000) <= 8_000,
+            "{:?}",
+            e[3]
+        );
+    }
+
+    #[test]
+    fn a_silent_gap_is_missing_data() {
+        // A HID tracker sends nothing during a blink: a 120 ms hole.
+        let mut s: Vec<(u64, Option<[f64; 2]>)> = (0..50)
+            .map(|i| (i * 20_000, Some([500.0, 500.0])))
+            .collect();
+        s.retain(|(t, _)| !(400_000..520_000).contains(t));
+        let e = classify(&s, &geometry(), &IvtConfig::default());
+        assert!(e.iter().any(|e| e.kind == EventKind::Blink), "{e:?}");
+    }
+
+    #[test]
+    fn the_clock_fit_recovers_offset_and_drift() {
+        // Device clock 40 ppm fast with a 5000 s offset; host arrival 2 ms
+        // later plus 0–1.5 ms jitter, and 10 % of reports 20–80 ms late.
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(7);
+        let pairs: Vec<(u64, u64)> = (0..3000u64)
+            .map(|k| {
+                let t = 1_000_000 + k * 20_000;
+                let device = 5_000_000_000 + t + t * 40 / 1_000_000;
+                let mut host = t + 2_000 + rng.random_range(0..1_500);
+                if rng.random::<f64>() < 0.1 {
+                    host += rng.random_range(20_000..80_000);
+                }
+                (device, host)
+            })
+            .collect();
+        let m = ClockModel::fit(&pairs).expect("fits");
+        assert!((m.drift_ppm() - 40.0).abs() < 1.0, "{} ppm", m.drift_ppm());
+        // At the middle of the run, the model's host time of a report is
+        // its true time + about the median latency (2.75 ms).
+        let t = 1_000_000 + 1500 * 20_000u64;
+        let device = 5_000_000_000 + t + t * 40 / 1_000_000;
+        let err = m.host_time_us(device) - t as f64;
+        assert!((err - 2_750.0).abs() < 500.0, "{err}");
+        assert!(ClockModel::fit(&pairs[..3]).is_none());
+        assert!(ClockModel::fit(&[(5, 1), (5, 2), (5, 3), (5, 4)]).is_none());
+    }
+}

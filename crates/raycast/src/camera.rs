@@ -48,6 +48,11 @@ impl Camera {
         Ray::new(self.eye, self.screen_point(p) - self.eye)
     }
 
+    /// Pixel pitch (mm) in x and y.
+    pub fn pitch(&self) -> [f32; 2] {
+        [self.pitch_x, self.pitch_y]
+    }
+
     /// The ray through the centre of pixel (x, y).
     pub fn pixel_ray(&self, x: u32, y: u32) -> Ray {
         self.ray([x as f32 + 0.5, y as f32 + 0.5])

@@ -4,13 +4,15 @@
 //! for the GPU; [`bvh4`], 4-wide for the CPU), the seed's uniform grid
 //! ([`grid`]), robust ray/box and ray/triangle tests ([`ray`]), the eye-through-the-display
 //! camera ([`camera`]), Blinn–Phong shading ([`shade`]) and the full and
-//! foveated renderers ([`render`]) of Murphy 2007 ch. 4–6. The GPU core
-//! (issue 6) will reuse the flat BVH layout and must match these images.
+//! foveated renderers ([`render`]) of Murphy 2007 ch. 4–6, and the GPU core
+//! ([`gpu`], wgpu compute over the flat binary BVH; full resolution so far),
+//! which must match these images.
 
 pub mod bvh;
 pub mod bvh4;
 pub mod camera;
 pub mod error;
+pub mod gpu;
 pub mod grid;
 pub mod mesh;
 pub mod ray;

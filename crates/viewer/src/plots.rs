@@ -331,20 +331,35 @@ pub fn draw_pareto(path: &Path, title: &str, points: &[ParetoPoint]) -> DrawResu
             )?
             .label("default configuration")
             .legend(move |(x, y)| Circle::new((x + 10, y), 6, blue.stroke_width(2)));
-        // Labels: the front (alternately above and below, to limit overlap)
-        // and the default.
-        let labelled = front
+        // Labels: the default first, then the front from the fastest; a
+        // label goes right or left of its point, above or below, wherever it
+        // overlaps no label already placed; where none fits it is left out
+        // (every point is in the report's table).
+        let labelled = points
             .iter()
-            .copied()
-            .chain(points.iter().filter(|p| p.highlight && !p.pareto));
-        for (k, p) in labelled.enumerate() {
-            let dy = if k % 2 == 0 { -16 } else { 6 };
+            .filter(|p| p.highlight)
+            .chain(front.iter().copied().filter(|p| !p.highlight));
+        let mut placed: Vec<(i32, i32, i32, i32)> = Vec::new();
+        for p in labelled {
+            let (px, py) = chart.backend_coord(&(p.time_ms, y(p)));
+            let w = 7 * p.label.chars().count() as i32;
+            let h = 13;
+            let spot = [(6, -16), (6, 4), (-w - 6, -16), (-w - 6, 4)]
+                .into_iter()
+                .map(|(dx, dy)| (px + dx, py + dy, px + dx + w, py + dy + h))
+                .find(|b| {
+                    placed
+                        .iter()
+                        .all(|o| b.2 <= o.0 || b.0 >= o.2 || b.3 <= o.1 || b.1 >= o.3)
+                });
+            let Some(b) = spot else { continue };
+            placed.push(b);
             let colour = if p.highlight { blue } else { BLACK };
             chart.draw_series(std::iter::once(
                 EmptyElement::at((p.time_ms, y(p)))
                     + Text::new(
                         p.label.clone(),
-                        (6, dy),
+                        (b.0 - px, b.1 - py),
                         ("sans-serif", 11).into_font().color(&colour),
                     ),
             ))?;
@@ -406,7 +421,7 @@ pub fn draw_log_log(
             .configure_mesh()
             .x_desc(x_desc)
             .y_desc("frame time (ms)")
-            .x_labels(10)
+            .x_labels(6)
             .y_labels(10)
             .x_label_formatter(&|v| format!("{v:.1e}"))
             .y_label_formatter(&|v| {

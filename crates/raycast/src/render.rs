@@ -296,15 +296,6 @@ fn foveated(
             .for_each(|(r, c)| *r = *r || corners_of(c).iter().any(|&v| touched[v as usize]));
     }
     // 4. Ownership: fovea spans, then cells by an exact top-left rule.
-    let owner: Vec<AtomicU32> = (0..w * h)
-        .into_par_iter()
-        .map(|_| AtomicU32::new(UNOWNED))
-        .collect();
-    for s in &m.fovea {
-        for x in s.x_start..s.x_end {
-            owner[s.y as usize * w + x as usize].store(FOVEA, Ordering::Relaxed);
-        }
-    }
     // A homogeneous cell whose corners all miss is background: unless
     // coverage is being checked, it is not rasterised at all.
     let background = |c: &[u32; 4]| {
@@ -312,16 +303,9 @@ fn foveated(
             .iter()
             .all(|&v| vertex_hits[v as usize].is_none())
     };
-    m.cells.par_iter().enumerate().for_each(|(ci, c)| {
-        if !settings.check_coverage && !refined[ci] && background(c) {
-            return;
-        }
-        rasterise(m, corners_of(c), w, h, |i| {
-            let _ =
-                owner[i].compare_exchange(UNOWNED, ci as u32, Ordering::Relaxed, Ordering::Relaxed);
-        })
+    let owner = owners(m, w, h, |ci| {
+        !settings.check_coverage && !refined[ci] && background(&m.cells[ci])
     });
-    let owner: Vec<u32> = owner.into_par_iter().map(AtomicU32::into_inner).collect();
     // 5. Cast or interpolate, and shade.
     let counts: (u64, u64, u64) = frame
         .rgb
@@ -372,6 +356,42 @@ fn foveated(
     stats.rays_total = stats.rays_fovea + stats.rays_mask + stats.rays_refine;
     stats.cells_total = m.cells.len() as u64;
     stats.cells_refined = refined.iter().filter(|r| **r).count() as u64;
+}
+
+/// Owner of a pixel in the fovea disc ([`ownership`]).
+pub const OWNER_FOVEA: u32 = FOVEA;
+/// A pixel no cell claims ([`ownership`]).
+pub const OWNER_NONE: u32 = UNOWNED;
+
+/// Which part of the mask owns each pixel: [`OWNER_FOVEA`], the index of the
+/// one cell whose exact top-left rule claims the pixel centre, or
+/// [`OWNER_NONE`]. Depends on the gaze only (every cell is rasterised); the
+/// GPU core uploads it.
+pub fn ownership(m: &RayMask, w: usize, h: usize) -> Vec<u32> {
+    owners(m, w, h, |_| false)
+}
+
+/// Fovea spans first, then every cell that `skip` does not exclude.
+fn owners(m: &RayMask, w: usize, h: usize, skip: impl Fn(usize) -> bool + Sync) -> Vec<u32> {
+    let owner: Vec<AtomicU32> = (0..w * h)
+        .into_par_iter()
+        .map(|_| AtomicU32::new(UNOWNED))
+        .collect();
+    for s in &m.fovea {
+        for x in s.x_start..s.x_end {
+            owner[s.y as usize * w + x as usize].store(FOVEA, Ordering::Relaxed);
+        }
+    }
+    m.cells.par_iter().enumerate().for_each(|(ci, c)| {
+        if skip(ci) {
+            return;
+        }
+        rasterise(m, corners_of(c), w, h, |i| {
+            let _ =
+                owner[i].compare_exchange(UNOWNED, ci as u32, Ordering::Relaxed, Ordering::Relaxed);
+        })
+    });
+    owner.into_par_iter().map(AtomicU32::into_inner).collect()
 }
 
 /// Calls `own` for the index of every pixel whose centre lies in the cell.

@@ -2,6 +2,10 @@
 //! adapter the machine has — Mesa's lavapipe where there is no GPU, which
 //! `scripts/system-deps.sh` installs.
 
+mod common;
+
+use common::{display, load};
+
 use std::path::Path;
 
 use foveation::{Display, GeislerPerry, Layout, SamplingModel};
@@ -10,27 +14,6 @@ use raycast::ray::TriangleTest;
 use raycast::render::{render, Mode, Settings, Triggers};
 use raycast::scene::{Light, MeshSource, Object};
 use raycast::{Camera, Frame, Scene, SceneFile};
-
-fn repo() -> &'static Path {
-    Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../.."))
-}
-
-fn display(w: u32, h: u32) -> Display {
-    Display {
-        name: "17in".into(),
-        resolution_px: (w, h),
-        size_mm: (337.9, 270.3),
-        eye_distance_mm: 540.0,
-        eye_point_px: None,
-    }
-}
-
-fn load(name: &str) -> Scene {
-    let path = repo().join("config/scenes").join(format!("{name}.ron"));
-    let text = std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
-    let file: SceneFile = ron::from_str(&text).unwrap_or_else(|e| panic!("{name}: {e}"));
-    Scene::build(&file, path.parent().expect("dir")).unwrap_or_else(|e| panic!("{name}: {e}"))
-}
 
 fn gpu(scene: &Scene) -> GpuRenderer {
     GpuRenderer::new(scene).unwrap_or_else(|e| {
@@ -194,4 +177,171 @@ fn rendering_many_frames_reuses_its_buffers() {
         "100 frames grew resident memory by {} MiB",
         grown >> 20
     );
+}
+
+fn cpu_foveated(scene: &Scene, d: &Display, gaze: [f64; 2]) -> (Frame, raycast::Stats) {
+    let g = d.geometry().expect("geometry");
+    let model = SamplingModel::new(g, GeislerPerry::default(), 1.0, 17.0).expect("model");
+    let s = Settings {
+        mode: Mode::Foveated,
+        layout: Layout::Nyquist,
+        triggers: Triggers::from_scene(scene),
+        test: TriangleTest::Watertight,
+        check_coverage: false,
+    };
+    render(scene, &Camera::new(&g), &model, &s, gaze).expect("renders")
+}
+
+fn gpu_foveated(
+    g: &mut GpuRenderer,
+    scene: &Scene,
+    d: &Display,
+    gaze: [f64; 2],
+) -> (Frame, raycast::Stats) {
+    let geo = d.geometry().expect("geometry");
+    let model = SamplingModel::new(geo, GeislerPerry::default(), 1.0, 17.0).expect("model");
+    let mask = foveation::mask::build(&model, Layout::Nyquist, gaze).expect("mask");
+    g.render_foveated(&Camera::new(&geo), &mask, &Triggers::from_scene(scene))
+        .expect("gpu renders")
+}
+
+#[test]
+fn gpu_foveated_frames_match_the_cpu_reference() {
+    for name in ["search-task", "bunny", "stress"] {
+        let scene = load(name);
+        let mut g = gpu(&scene);
+        let d = display(320, 256);
+        // Centre, a corner, partly off the screen.
+        for gaze in [[160.0, 128.0], [2.0, 3.0], [-40.0, 200.0]] {
+            let (cpu, cs) = cpu_foveated(&scene, &d, gaze);
+            let (frame, gs) = gpu_foveated(&mut g, &scene, &d, gaze);
+            let (hit, colour, worst) = compare(&cpu, &frame);
+            eprintln!(
+                "{name} gaze {gaze:?}: {hit} hit/miss, {colour} colour > 1, worst {worst}; rays cpu {} gpu {}, refined cells cpu {} gpu {}",
+                cs.rays_total, gs.rays_total, cs.cells_refined, gs.cells_refined
+            );
+            assert!(hit <= 4, "{name} {gaze:?}: {hit} hit/miss differences");
+            assert!(colour <= 4, "{name} {gaze:?}: {colour} colour differences");
+            assert_eq!(
+                (
+                    gs.rays_fovea,
+                    gs.rays_mask,
+                    gs.rays_refine,
+                    gs.cells_refined
+                ),
+                (
+                    cs.rays_fovea,
+                    cs.rays_mask,
+                    cs.rays_refine,
+                    cs.cells_refined
+                ),
+                "{name} {gaze:?}: ray counts"
+            );
+            assert_eq!(frame.layer, cpu.layer, "{name} {gaze:?}: layers");
+        }
+    }
+}
+
+#[test]
+fn gpu_foveated_hard_cases() {
+    // A POR that moves every frame (buffers reused), 1×1, and a scene where
+    // no cell is refined (nothing hits) or every object cell is (noise).
+    let scene = load("stress");
+    let mut g = gpu(&scene);
+    let d = display(96, 72);
+    for k in 0..12 {
+        let gaze = [8.0 * f64::from(k), 6.0 * f64::from(k)];
+        let (cpu, cs) = cpu_foveated(&scene, &d, gaze);
+        let (frame, gs) = gpu_foveated(&mut g, &scene, &d, gaze);
+        let (hit, colour, _) = compare(&cpu, &frame);
+        assert!(hit <= 4 && colour <= 4, "gaze {gaze:?}");
+        assert_eq!(gs.rays_total, cs.rays_total, "gaze {gaze:?}");
+    }
+    let one = display(1, 1);
+    let (cpu, _) = cpu_foveated(&scene, &one, [0.5, 0.5]);
+    let (frame, _) = gpu_foveated(&mut g, &scene, &one, [0.5, 0.5]);
+    assert_eq!(compare(&cpu, &frame).0, 0);
+    let mut empty = sphere_scene(1.0);
+    empty.triangles.clear();
+    empty.bvh = raycast::bvh::Bvh::build(&[]);
+    let mut ge = gpu(&empty);
+    let (frame, stats) = gpu_foveated(&mut ge, &empty, &d, [48.0, 36.0]);
+    assert_eq!(stats.cells_refined, 0);
+    assert!(frame.hit.iter().all(|h| !h));
+    // Noise: a rough sphere filling the screen with a 0.5° crease angle,
+    // so (nearly) every cell is refined.
+    let noise = noise_scene();
+    let mut gn = gpu(&noise);
+    let (cpu, cs) = cpu_foveated(&noise, &d, [48.0, 36.0]);
+    let (frame, gs) = gpu_foveated(&mut gn, &noise, &d, [48.0, 36.0]);
+    assert!(
+        cs.cells_refined * 10 >= cs.cells_total * 9,
+        "{} of {} cells refined",
+        cs.cells_refined,
+        cs.cells_total
+    );
+    assert_eq!(
+        (gs.cells_refined, gs.rays_total),
+        (cs.cells_refined, cs.rays_total)
+    );
+    let (hit, colour, _) = compare(&cpu, &frame);
+    assert!(hit <= 4 && colour <= 4, "noise: {hit} / {colour}");
+}
+
+fn noise_scene() -> Scene {
+    let file = SceneFile {
+        name: "noise".into(),
+        background: (0.1, 0.1, 0.12),
+        meshes: [(
+            "n".to_string(),
+            MeshSource::Bumpy {
+                triangles: 20_000,
+                amplitude: 0.3,
+                seed: 3,
+            },
+        )]
+        .into(),
+        materials: Default::default(),
+        objects: vec![Object {
+            mesh: "n".into(),
+            material: None,
+            translate_mm: (0.0, 0.0, -200.0),
+            rotate_deg: (0.0, 0.0, 0.0),
+            scale_mm: 400.0,
+        }],
+        lights: vec![Light::Headlight { intensity: 1.0 }],
+        effects: vec![
+            raycast::scene::Effect::FoveatedSampling,
+            raycast::scene::Effect::SilhouetteRefinement,
+            raycast::scene::Effect::CreaseRefinement,
+        ],
+        crease_deg: 0.5,
+        depth_jump: 0.05,
+    };
+    Scene::build(&file, Path::new(".")).expect("builds")
+}
+
+#[test]
+fn a_frame_beyond_the_storage_binding_limit_is_a_clear_error() {
+    let scene = sphere_scene(10.0);
+    let mut g = gpu(&scene);
+    let limit = g.max_binding_bytes();
+    let w = 4096u32;
+    let Ok(h) = u32::try_from(limit / (4 * u64::from(w)) + 1) else {
+        eprintln!("this adapter's limit ({limit} bytes) allows any frame");
+        return;
+    };
+    let e = g
+        .render_full(&Camera::new(&display(w, h).geometry().expect("geometry")))
+        .expect_err("too large");
+    let msg = e.to_string();
+    assert!(
+        msg.contains("max_storage_buffer_binding_size") && msg.contains(&limit.to_string()),
+        "{msg}"
+    );
+    // The renderer is still usable afterwards.
+    let d = display(16, 12);
+    assert!(g
+        .render_full(&Camera::new(&d.geometry().expect("geometry")))
+        .is_ok());
 }

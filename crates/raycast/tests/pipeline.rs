@@ -1,5 +1,9 @@
 //! The hybrid pipeline against the full-resolution reference.
 
+mod common;
+
+use common::{display, load};
+
 use std::path::Path;
 
 use foveation::{Display, GeislerPerry, Layout, SamplingModel};
@@ -7,29 +11,6 @@ use raycast::ray::TriangleTest;
 use raycast::render::{render, Layer, Mode, Settings, Triggers};
 use raycast::scene::{Effect, Light, MeshSource, Object};
 use raycast::{Camera, Scene, SceneFile};
-
-fn repo() -> &'static Path {
-    Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../.."))
-}
-
-/// The dissertation's 17" display at a quarter of its pixels (same size and
-/// distance), so the tests stay fast; ppd halves, the maths is the same.
-fn display(w: u32, h: u32) -> Display {
-    Display {
-        name: "17in".into(),
-        resolution_px: (w, h),
-        size_mm: (337.9, 270.3),
-        eye_distance_mm: 540.0,
-        eye_point_px: None,
-    }
-}
-
-fn load(name: &str) -> Scene {
-    let path = repo().join("config/scenes").join(format!("{name}.ron"));
-    let text = std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
-    let file: SceneFile = ron::from_str(&text).unwrap_or_else(|e| panic!("{name}: {e}"));
-    Scene::build(&file, path.parent().expect("dir")).unwrap_or_else(|e| panic!("{name}: {e}"))
-}
 
 fn frames(
     scene: &Scene,

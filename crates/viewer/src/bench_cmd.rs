@@ -65,8 +65,7 @@ pub struct AccuracyArgs {
     /// Seed of the random gaze positions.
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
-    /// `gpu` is refused until the foveated stages run on the GPU (issue 6);
-    /// `auto` uses the CPU.
+    /// The sweep runs on the CPU backend (`gpu` is refused; `auto` = CPU).
     #[arg(long, value_enum, default_value = "auto")]
     pub backend: Backend,
     /// Fewer configurations (8) and two gazes unless --gazes is given.
@@ -82,7 +81,7 @@ pub struct ScalingArgs {
     /// Timed repeats per point (after one warm-up). Default 3, or 1 with --quick.
     #[arg(long, value_name = "N")]
     pub repeats: Option<u32>,
-    /// As for `accuracy`: the CPU until the foveated GPU stages exist.
+    /// As for `accuracy`: the CPU backend.
     #[arg(long, value_enum, default_value = "auto")]
     pub backend: Backend,
     /// 10^4–10^5 triangles and 640×360–1280×720 only.
@@ -98,8 +97,8 @@ pub fn run(args: &BenchArgs, out: &mut dyn Write) -> Result<(), String> {
     };
     if backend == Backend::Gpu {
         return Err(
-            "--backend gpu: the sweep compares foveated frames, and the foveated stages \
-                    are not on the GPU yet (issue 6); use --backend cpu or auto"
+            "--backend gpu: the sweeps run on the CPU backend so far (the GPU core has no \
+                    grid and no per-stage timers yet); use --backend cpu or auto"
                 .into(),
         );
     }

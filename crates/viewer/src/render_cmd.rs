@@ -157,17 +157,15 @@ pub fn run(args: &RenderArgs, out: &mut dyn Write) -> Result<(), String> {
         }
     }
     let full = settings.mode == Mode::Full || !scene.has(Effect::FoveatedSampling);
-    let gpu_able =
-        full && args.accel == AccelArg::Bvh && args.intersector == Intersector::Watertight;
+    let gpu_able = args.accel == AccelArg::Bvh && args.intersector == Intersector::Watertight;
     let mut gpu = None;
     let mut note = None;
     match (args.backend, gpu_able) {
         (Backend::Cpu, _) => {}
         (Backend::Gpu, false) => {
             return Err(
-                "--backend gpu: the GPU core renders full resolution with the BVH and the \
-                        watertight test only so far (the foveated stages are issue 6's open part); \
-                        use --backend cpu or auto"
+                "--backend gpu: the GPU core has the BVH and the watertight test only; \
+                        use --backend cpu for --accel grid or --intersector moller-trumbore"
                     .into(),
             )
         }
@@ -175,11 +173,21 @@ pub fn run(args: &RenderArgs, out: &mut dyn Write) -> Result<(), String> {
             gpu = Some(GpuRenderer::new(&scene).map_err(|e| format!("--backend gpu: {e}"))?)
         }
         (Backend::Auto, false) => {
-            note =
-                Some("auto: the CPU renders this (foveated frames are not on the GPU yet)".into())
+            note = Some(
+                "auto: the CPU renders this (the grid and Möller–Trumbore are CPU-only)".into(),
+            )
         }
-        (Backend::Auto, true) => match GpuRenderer::new(&scene) {
-            Ok(g) => gpu = Some(g),
+        (Backend::Auto, true) => match raycast::gpu::probe() {
+            Ok((name, true)) => {
+                note = Some(format!(
+                    "auto: the only adapter is a software one ({name}), slower than the CPU \
+                     backend; rendering on the CPU (--backend gpu forces it)"
+                ))
+            }
+            Ok(_) => match GpuRenderer::new(&scene) {
+                Ok(g) => gpu = Some(g),
+                Err(e) => note = Some(format!("auto: {e}; rendering on the CPU")),
+            },
             Err(e) => note = Some(format!("auto: {e}; rendering on the CPU")),
         },
     }
@@ -187,9 +195,15 @@ pub fn run(args: &RenderArgs, out: &mut dyn Write) -> Result<(), String> {
     let mut last = None;
     for _ in 0..args.repeat.max(1) {
         let (frame, stats) = match gpu.as_mut() {
-            Some(g) => g
+            Some(g) if full => g
                 .render_full(&camera)
                 .map_err(|e| format!("--backend gpu: {e}"))?,
+            Some(g) => {
+                let mask = foveation::mask::build(&model, settings.layout, gaze)
+                    .map_err(|e| format!("--gaze: {e}"))?;
+                g.render_foveated(&camera, &mask, &settings.triggers)
+                    .map_err(|e| format!("--backend gpu: {e}"))?
+            }
             None => render(&scene, &camera, &model, &settings, gaze)
                 .map_err(|e| format!("--gaze: {e}"))?,
         };

@@ -290,21 +290,7 @@ fn replay_of_a_hid_log_follows_the_raw_contract_and_maps_to_pixels() {
     )
     .expect("write");
     let calibrated = dir.path().join("cal.csv");
-    gazecast()
-        .args([
-            "replay",
-            "--tracker",
-            "config/trackers/tobii-hid.ron",
-            "--format",
-            "hid-log",
-            "--input",
-            "tests/data/tobii-hid-50hz.hidlog",
-            "--calibration",
-        ])
-        .arg(&cal)
-        .arg("--csv")
-        .arg(&calibrated)
-        .succeed();
+    replay_hid_log(&cal, &calibrated).succeed();
     let raw = std::fs::read_to_string(&csv).expect("csv");
     let cal_text = std::fs::read_to_string(&calibrated).expect("csv");
     let (a, b) = (
@@ -330,22 +316,7 @@ fn replay_of_a_hid_log_follows_the_raw_contract_and_maps_to_pixels() {
          screen: (centre: (0.0, 0.0), scale: 1.0), rms_residual_px: 0.0, points: [])",
     )
     .expect("write");
-    let out = gazecast()
-        .args([
-            "replay",
-            "--tracker",
-            "config/trackers/tobii-hid.ron",
-            "--format",
-            "hid-log",
-            "--input",
-            "tests/data/tobii-hid-50hz.hidlog",
-            "--calibration",
-        ])
-        .arg(&cal)
-        .arg("--csv")
-        .arg(&calibrated)
-        .output()
-        .expect("runs");
+    let out = replay_hid_log(&cal, &calibrated).output().expect("runs");
     assert!(!out.status.success());
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(err.contains("cal.ron:1") && err.contains("params"), "{err}");
@@ -366,4 +337,23 @@ fn replay_of_a_hid_log_follows_the_raw_contract_and_maps_to_pixels() {
         .expect("runs");
     assert!(!out.status.success());
     assert!(String::from_utf8_lossy(&out.stderr).contains("TobiiHid"));
+}
+
+/// `gazecast replay` of the synthesised HID log with a calibration file.
+fn replay_hid_log(calibration: &std::path::Path, csv: &std::path::Path) -> std::process::Command {
+    let mut c = gazecast();
+    c.args([
+        "replay",
+        "--tracker",
+        "config/trackers/tobii-hid.ron",
+        "--format",
+        "hid-log",
+        "--input",
+        "tests/data/tobii-hid-50hz.hidlog",
+        "--calibration",
+    ])
+    .arg(calibration)
+    .arg("--csv")
+    .arg(csv);
+    c
 }

@@ -243,35 +243,56 @@ fn to_rgb8(c: vec3<f32>) -> vec3<u32> {
     return vec3<u32>(gamma[i.x], gamma[i.y], gamma[i.z]);
 }
 
+// A cast sample: did the ray through screen point p hit, where, what.
+struct Sample {
+    hit: u32,
+    object: u32,
+    t: f32,
+    normal: vec3<f32>,
+};
+
+fn screen_point(p: vec2<f32>) -> vec3<f32> {
+    return vec3<f32>(
+        (p.x - f32(params.width) / 2.0) * params.pitch.x,
+        (f32(params.height) / 2.0 - p.y) * params.pitch.y,
+        0.0);
+}
+
+fn trace(p: vec2<f32>) -> Sample {
+    let eye = params.eye.xyz;
+    let dir = screen_point(p) - eye;
+    let r = Ray(eye, dir, 1.0 / dir, dir.x == 0.0 || dir.y == 0.0 || dir.z == 0.0);
+    let h = intersect(r);
+    if (h.t < 0.0) { return Sample(0u, 0u, 0.0, vec3<f32>(0.0)); }
+    let tr = triangles[h.tri];
+    let s = 1.0 - h.u - h.v;
+    var n = try_normalize(tr.n0.xyz * s + tr.n1.xyz * h.u + tr.n2.xyz * h.v);
+    if (all(n == vec3<f32>(0.0))) {
+        n = try_normalize(cross(tr.p1.xyz - tr.p0.xyz, tr.p2.xyz - tr.p0.xyz));
+        if (all(n == vec3<f32>(0.0))) { n = vec3<f32>(0.0, 0.0, 1.0); }
+    }
+    return Sample(1u, bitcast<u32>(tr.p0.w), h.t, n);
+}
+
+// 8-bit colour of a sample seen through screen point p (the CPU's
+// `colour_of` followed by `rgb8`).
+fn colour(p: vec2<f32>, s: Sample) -> vec3<u32> {
+    if (s.hit == 0u) { return params.background_rgb8.xyz; }
+    let eye = params.eye.xyz;
+    let position = eye + (screen_point(p) - eye) * s.t;
+    let c = shade(s.object, position, s.normal, eye);
+    if (all(c == params.background.xyz)) { return params.background_rgb8.xyz; }
+    return to_rgb8(c);
+}
+
+fn pack(rgb: vec3<u32>, hit: u32, layer: u32) -> u32 {
+    return rgb.x | (rgb.y << 8u) | (rgb.z << 16u) | (hit << 24u) | (layer << 25u);
+}
+
 @compute @workgroup_size(8, 8)
 fn full(@builtin(global_invocation_id) id: vec3<u32>) {
     if (id.x >= params.width || id.y >= params.height) { return; }
     let p = vec2<f32>(f32(id.x) + 0.5, f32(id.y) + 0.5);
-    let eye = params.eye.xyz;
-    let screen = vec3<f32>(
-        (p.x - f32(params.width) / 2.0) * params.pitch.x,
-        (f32(params.height) / 2.0 - p.y) * params.pitch.y,
-        0.0);
-    let dir = screen - eye;
-    let r = Ray(eye, dir, 1.0 / dir, dir.x == 0.0 || dir.y == 0.0 || dir.z == 0.0);
-    let h = intersect(r);
-    var rgb = params.background_rgb8.xyz;
-    var hit = 0u;
-    if (h.t >= 0.0) {
-        let tr = triangles[h.tri];
-        let object = bitcast<u32>(tr.p0.w);
-        let s = 1.0 - h.u - h.v;
-        var n = try_normalize(tr.n0.xyz * s + tr.n1.xyz * h.u + tr.n2.xyz * h.v);
-        if (all(n == vec3<f32>(0.0))) {
-            n = try_normalize(cross(tr.p1.xyz - tr.p0.xyz, tr.p2.xyz - tr.p0.xyz));
-            if (all(n == vec3<f32>(0.0))) { n = vec3<f32>(0.0, 0.0, 1.0); }
-        }
-        let position = eye + (screen - eye) * h.t;
-        let c = shade(object, position, n, eye);
-        if (any(c != params.background.xyz)) {
-            rgb = to_rgb8(c);
-        }
-        hit = 1u;
-    }
-    pixels[id.y * params.width + id.x] = rgb.x | (rgb.y << 8u) | (rgb.z << 16u) | (hit << 24u);
+    let s = trace(p);
+    pixels[id.y * params.width + id.x] = pack(colour(p, s), s.hit, 0u);
 }

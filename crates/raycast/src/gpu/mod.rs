@@ -1,12 +1,16 @@
 //! The GPU core in `wgpu` compute (WGSL in `cast.wgsl`).
 //!
 //! **State (issue 6, in progress):** the scene (flattened binary BVH,
-//! triangles, per-object materials, lights, the gamma table) is uploaded once;
-//! per frame only the camera changes; one compute pass casts and shades one
-//! ray per pixel (full resolution) and the frame is read back. The foveated
-//! stages (mask rays, cell classification, refinement with an atomic counter
-//! and an indirect dispatch, reconstruction) are **not written yet**: the
-//! foveated mode runs on the CPU.
+//! triangles, per-object materials, lights, the gamma table) is uploaded once.
+//! Full resolution: one compute pass casts and shades one ray per pixel.
+//! Foveated (`foveated.wgsl`): the CPU builds the ray mask and the pixel
+//! ownership for the gaze (they depend on the gaze only) and uploads them;
+//! the GPU casts the mask vertices, classifies the cells, widens the refined
+//! set by the silhouette margin, then per pixel casts (fovea, refined cells)
+//! or interpolates (homogeneous cells) and shades — stage for stage the CPU's
+//! `render::foveated`. Not yet: building the mask and ownership on the GPU,
+//! compacting the refined pixels with an atomic counter and an indirect
+//! dispatch, timestamp queries. The frame is read back.
 //!
 //! Any adapter works, including Mesa's lavapipe (software Vulkan), which is
 //! how the tests run on machines without a GPU. A buffer larger than the
@@ -19,8 +23,9 @@ use bytemuck::{Pod, Zeroable};
 use wgpu::util::DeviceExt;
 
 use crate::camera::Camera;
-use crate::render::{Frame, Layer, Stats};
+use crate::render::{Frame, Layer, Stats, Triggers};
 use crate::scene::{Light, Scene};
+use foveation::mask::{RayMask, NO_VERTEX};
 
 /// Why the GPU backend cannot render.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -81,11 +86,40 @@ struct Target {
     bind_group: wgpu::BindGroup,
 }
 
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Pod, Zeroable)]
+struct FovParams {
+    n_vertices: u32,
+    n_cells: u32,
+    silhouette: u32,
+    margin: u32,
+    crease_cos: f32,
+    depth_jump: f32,
+    pad: [u32; 2],
+}
+
+/// The foveated stages' buffers, grown when a mask needs more.
+struct FovTarget {
+    vertices: u64,
+    cells: u64,
+    pixels: u64,
+    buffers: Vec<wgpu::Buffer>,
+    counters_readback: wgpu::Buffer,
+    bind_group: wgpu::BindGroup,
+}
+
+/// Bytes per vertex hit record in `foveated.wgsl` (`Sample`: 32 bytes).
+const SAMPLE_BYTES: u64 = 32;
+
 /// A device with a scene on it.
 pub struct GpuRenderer {
     device: wgpu::Device,
     queue: wgpu::Queue,
     pipeline: wgpu::ComputePipeline,
+    fov_pipelines: [wgpu::ComputePipeline; 5],
+    fov_layout: wgpu::BindGroupLayout,
+    fov_params: wgpu::Buffer,
+    fov_target: Option<FovTarget>,
     layout: wgpu::BindGroupLayout,
     params: wgpu::Buffer,
     scene_buffers: [wgpu::Buffer; 5],
@@ -96,6 +130,20 @@ pub struct GpuRenderer {
     target: Option<Target>,
     adapter: String,
     max_binding: u64,
+}
+
+/// Binding 0 of both groups: a uniform buffer.
+fn uniform_entry() -> wgpu::BindGroupLayoutEntry {
+    wgpu::BindGroupLayoutEntry {
+        binding: 0,
+        visibility: wgpu::ShaderStages::COMPUTE,
+        ty: wgpu::BindingType::Buffer {
+            ty: wgpu::BufferBindingType::Uniform,
+            has_dynamic_offset: false,
+            min_binding_size: None,
+        },
+        count: None,
+    }
 }
 
 fn storage_entry(binding: u32, read_only: bool) -> wgpu::BindGroupLayoutEntry {
@@ -121,20 +169,34 @@ fn gamma_table() -> Vec<u32> {
         .collect()
 }
 
+/// The adapter `GpuRenderer::new` would use: a real GPU first, a software
+/// one (Mesa's lavapipe) if that is all there is.
+fn adapter() -> Result<wgpu::Adapter, GpuError> {
+    let mut desc = wgpu::InstanceDescriptor::new_without_display_handle_from_env();
+    // Vulkan, Metal or DX12 unless WGPU_BACKEND says otherwise: probing
+    // OpenGL would only print EGL noise on headless machines.
+    desc.backends = wgpu::Backends::from_env().unwrap_or(wgpu::Backends::PRIMARY);
+    let instance = wgpu::Instance::new(desc);
+    pollster::block_on(instance.request_adapter(&wgpu::RequestAdapterOptions {
+        power_preference: wgpu::PowerPreference::HighPerformance,
+        ..Default::default()
+    }))
+    .map_err(|e| GpuError::NoAdapter(e.to_string()))
+}
+
+/// What adapter there is, without creating a device: `Ok((name, software))`
+/// where `software` means a CPU implementation such as lavapipe (slower
+/// than the CPU backend; `--backend auto` does not pick it).
+pub fn probe() -> Result<(String, bool), GpuError> {
+    let info = adapter()?.get_info();
+    Ok((info.name, info.device_type == wgpu::DeviceType::Cpu))
+}
+
 impl GpuRenderer {
     /// Picks an adapter (a real GPU first, a software one if that is all
     /// there is) and uploads the scene.
     pub fn new(scene: &Scene) -> Result<Self, GpuError> {
-        let mut desc = wgpu::InstanceDescriptor::new_without_display_handle_from_env();
-        // Vulkan, Metal or DX12 unless WGPU_BACKEND says otherwise: probing
-        // OpenGL would only print EGL noise on headless machines.
-        desc.backends = wgpu::Backends::from_env().unwrap_or(wgpu::Backends::PRIMARY);
-        let instance = wgpu::Instance::new(desc);
-        let adapter = pollster::block_on(instance.request_adapter(&wgpu::RequestAdapterOptions {
-            power_preference: wgpu::PowerPreference::HighPerformance,
-            ..Default::default()
-        }))
-        .map_err(|e| GpuError::NoAdapter(e.to_string()))?;
+        let adapter = adapter()?;
         let info = adapter.get_info();
         let adapter_name = format!(
             "{} ({:?}, {:?}, driver {} {})",
@@ -239,20 +301,16 @@ impl GpuRenderer {
             usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
             mapped_at_creation: false,
         });
+        let source = format!(
+            "{}\n{}",
+            include_str!("cast.wgsl"),
+            include_str!("foveated.wgsl")
+        );
         let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
-            label: Some("cast.wgsl"),
-            source: wgpu::ShaderSource::Wgsl(include_str!("cast.wgsl").into()),
+            label: Some("cast.wgsl + foveated.wgsl"),
+            source: wgpu::ShaderSource::Wgsl(source.into()),
         });
-        let mut entries = vec![wgpu::BindGroupLayoutEntry {
-            binding: 0,
-            visibility: wgpu::ShaderStages::COMPUTE,
-            ty: wgpu::BindingType::Buffer {
-                ty: wgpu::BufferBindingType::Uniform,
-                has_dynamic_offset: false,
-                min_binding_size: None,
-            },
-            count: None,
-        }];
+        let mut entries = vec![uniform_entry()];
         entries.extend((1..=5).map(|b| storage_entry(b, true)));
         entries.push(storage_entry(6, false));
         let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
@@ -272,11 +330,50 @@ impl GpuRenderer {
             compilation_options: Default::default(),
             cache: None,
         });
+        let mut fov_entries = vec![uniform_entry()];
+        fov_entries.extend((1..=3).map(|b| storage_entry(b, true)));
+        fov_entries.extend((4..=7).map(|b| storage_entry(b, false)));
+        let fov_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("foveated"),
+            entries: &fov_entries,
+        });
+        let fov_pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("foveated"),
+            bind_group_layouts: &[Some(&layout), Some(&fov_layout)],
+            immediate_size: 0,
+        });
+        let fov_pipeline = |entry: &str| {
+            device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+                label: Some(entry),
+                layout: Some(&fov_pipeline_layout),
+                module: &module,
+                entry_point: Some(entry),
+                compilation_options: Default::default(),
+                cache: None,
+            })
+        };
+        let fov_pipelines = [
+            fov_pipeline("cast_vertices"),
+            fov_pipeline("classify"),
+            fov_pipeline("widen"),
+            fov_pipeline("count_cells"),
+            fov_pipeline("pixels_foveated"),
+        ];
+        let fov_params = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("foveated params"),
+            size: std::mem::size_of::<FovParams>() as u64,
+            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
         let c = scene.background;
         Ok(Self {
             device,
             queue,
             pipeline,
+            fov_pipelines,
+            fov_layout,
+            fov_params,
+            fov_target: None,
             layout,
             params,
             scene_buffers,
@@ -288,6 +385,11 @@ impl GpuRenderer {
             adapter: adapter_name,
             max_binding,
         })
+    }
+
+    /// The largest storage buffer one binding may hold on this device (bytes).
+    pub fn max_binding_bytes(&self) -> u64 {
+        self.max_binding
     }
 
     /// The adapter in words (name, backend, type, driver).
@@ -348,9 +450,7 @@ impl GpuRenderer {
             .ok_or_else(|| GpuError::Readback("no target".into()))
     }
 
-    /// Renders one full-resolution frame (one ray per pixel) and reads it back.
-    pub fn render_full(&mut self, cam: &Camera) -> Result<(Frame, Stats), GpuError> {
-        let start = Instant::now();
+    fn write_params(&self, cam: &Camera) -> Result<u32, GpuError> {
         let (w, h) = (cam.width_px, cam.height_px);
         let pixels = w.checked_mul(h).ok_or(GpuError::TooLarge {
             what: "the frame",
@@ -380,6 +480,14 @@ impl GpuRenderer {
         };
         self.queue
             .write_buffer(&self.params, 0, bytemuck::bytes_of(&params));
+        Ok(pixels)
+    }
+
+    /// Renders one full-resolution frame (one ray per pixel) and reads it back.
+    pub fn render_full(&mut self, cam: &Camera) -> Result<(Frame, Stats), GpuError> {
+        let start = Instant::now();
+        let (w, h) = (cam.width_px, cam.height_px);
+        let pixels = self.write_params(cam)?;
         let pipeline = self.pipeline.clone();
         let device = self.device.clone();
         let queue = self.queue.clone();
@@ -401,38 +509,10 @@ impl GpuRenderer {
             encoder.copy_buffer_to_buffer(&target.out, 0, &target.readback, 0, bytes);
         }
         queue.submit(Some(encoder.finish()));
-        let mut frame = Frame {
-            width: w,
-            height: h,
-            rgb: vec![0; 3 * pixels as usize],
-            hit: vec![false; pixels as usize],
-            layer: vec![Layer::Full; pixels as usize],
-        };
+        let mut frame = blank_frame(w, h);
         if bytes > 0 {
-            let slice = target.readback.slice(..bytes);
-            let (tx, rx) = mpsc::channel();
-            slice.map_async(wgpu::MapMode::Read, move |r| {
-                let _ = tx.send(r);
-            });
-            device
-                .poll(wgpu::PollType::wait_indefinitely())
-                .map_err(|e| GpuError::Readback(e.to_string()))?;
-            rx.recv()
-                .map_err(|e| GpuError::Readback(e.to_string()))?
-                .map_err(|e| GpuError::Readback(e.to_string()))?;
-            {
-                let view = slice
-                    .get_mapped_range()
-                    .map_err(|e| GpuError::Readback(e.to_string()))?;
-                let words: &[u32] = bytemuck::cast_slice(&view);
-                for (i, &p) in words.iter().enumerate() {
-                    frame.rgb[3 * i] = p as u8;
-                    frame.rgb[3 * i + 1] = (p >> 8) as u8;
-                    frame.rgb[3 * i + 2] = (p >> 16) as u8;
-                    frame.hit[i] = (p >> 24) & 1 == 1;
-                }
-            }
-            target.readback.unmap();
+            let words = read_back(&device, &target.readback, bytes)?;
+            unpack(&words, &mut frame);
         }
         let stats = Stats {
             rays_total: u64::from(pixels),
@@ -441,5 +521,241 @@ impl GpuRenderer {
             ..Stats::default()
         };
         Ok((frame, stats))
+    }
+
+    fn fov_target(&mut self, vertices: u64, cells: u64, pixels: u64) -> Result<(), GpuError> {
+        let fits = self
+            .fov_target
+            .as_ref()
+            .is_some_and(|t| t.vertices >= vertices && t.cells >= cells && t.pixels >= pixels);
+        if fits {
+            return Ok(());
+        }
+        // Grow with headroom so a moving gaze does not reallocate every frame.
+        let (nv, nc, np) = (
+            (vertices.max(1) * 5 / 4).max(1024),
+            (cells.max(1) * 5 / 4).max(1024),
+            pixels.max(1),
+        );
+        let sizes: [(&'static str, u64, wgpu::BufferUsages); 6] = [
+            ("the mask vertices", 8 * nv, wgpu::BufferUsages::COPY_DST),
+            ("the mask cells", 16 * nc, wgpu::BufferUsages::COPY_DST),
+            ("the pixel ownership", 4 * np, wgpu::BufferUsages::COPY_DST),
+            (
+                "the vertex hits",
+                SAMPLE_BYTES * nv,
+                wgpu::BufferUsages::empty(),
+            ),
+            ("the refined flags", 4 * nc, wgpu::BufferUsages::empty()),
+            ("the touched vertices", 4 * nv, wgpu::BufferUsages::COPY_DST),
+        ];
+        let mut buffers = Vec::new();
+        for (what, size, extra) in sizes {
+            if size > self.max_binding {
+                return Err(GpuError::TooLarge {
+                    what,
+                    bytes: size,
+                    limit: self.max_binding,
+                });
+            }
+            buffers.push(self.device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some(what),
+                size,
+                usage: wgpu::BufferUsages::STORAGE | extra,
+                mapped_at_creation: false,
+            }));
+        }
+        buffers.push(self.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("counters"),
+            size: 16,
+            usage: wgpu::BufferUsages::STORAGE
+                | wgpu::BufferUsages::COPY_DST
+                | wgpu::BufferUsages::COPY_SRC,
+            mapped_at_creation: false,
+        }));
+        let counters_readback = self.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("counters readback"),
+            size: 16,
+            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let mut entries = vec![wgpu::BindGroupEntry {
+            binding: 0,
+            resource: self.fov_params.as_entire_binding(),
+        }];
+        for (k, b) in buffers.iter().enumerate() {
+            entries.push(wgpu::BindGroupEntry {
+                binding: k as u32 + 1,
+                resource: b.as_entire_binding(),
+            });
+        }
+        let bind_group = self.device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("foveated"),
+            layout: &self.fov_layout,
+            entries: &entries,
+        });
+        self.fov_target = Some(FovTarget {
+            vertices: nv,
+            cells: nc,
+            pixels: np,
+            buffers,
+            counters_readback,
+            bind_group,
+        });
+        Ok(())
+    }
+
+    /// Renders one foveated frame for the ray mask `mask` (built for the
+    /// gaze on the CPU) with the refinement `triggers`, and reads it back.
+    pub fn render_foveated(
+        &mut self,
+        cam: &Camera,
+        mask: &RayMask,
+        triggers: &Triggers,
+    ) -> Result<(Frame, Stats), GpuError> {
+        let start = Instant::now();
+        let (w, h) = (cam.width_px, cam.height_px);
+        let pixels = self.write_params(cam)?;
+        let owner = crate::render::ownership(mask, w as usize, h as usize);
+        let (nv, nc) = (mask.vertices.len() as u64, mask.cells.len() as u64);
+        self.fov_target(nv, nc, u64::from(pixels))?;
+        let fov = FovParams {
+            n_vertices: nv as u32,
+            n_cells: nc as u32,
+            silhouette: u32::from(triggers.silhouette),
+            margin: u32::from(triggers.margin),
+            crease_cos: triggers.crease_deg.map_or(-2.0, |d| d.to_radians().cos()),
+            depth_jump: triggers.depth_jump.unwrap_or(-1.0),
+            pad: [0; 2],
+        };
+        self.queue
+            .write_buffer(&self.fov_params, 0, bytemuck::bytes_of(&fov));
+        // Triangles carry NO_VERTEX (u32::MAX) as their fourth corner, as
+        // `foveated.wgsl` expects.
+        const _: () = assert!(NO_VERTEX == u32::MAX);
+        let cells: &[u8] = bytemuck::cast_slice(&mask.cells);
+        let device = self.device.clone();
+        let queue = self.queue.clone();
+        let pipelines = self.fov_pipelines.clone();
+        let target = self.target(pixels)?;
+        let (out, readback, bind0) = (
+            target.out.clone(),
+            target.readback.clone(),
+            target.bind_group.clone(),
+        );
+        let Some(ft) = self.fov_target.as_ref() else {
+            return Err(GpuError::Readback("no foveated buffers".into()));
+        };
+        let b = &ft.buffers;
+        if nv > 0 {
+            queue.write_buffer(&b[0], 0, bytemuck::cast_slice(&mask.vertices));
+        }
+        if nc > 0 {
+            queue.write_buffer(&b[1], 0, cells);
+        }
+        if !owner.is_empty() {
+            queue.write_buffer(&b[2], 0, bytemuck::cast_slice(&owner));
+        }
+        queue.write_buffer(&b[6], 0, &[0u8; 16]);
+        let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
+            label: Some("foveated frame"),
+        });
+        encoder.clear_buffer(&b[5], 0, None);
+        let groups = |n: u64| {
+            let g = n.div_ceil(64).max(1);
+            ((g.min(65_535)) as u32, g.div_ceil(65_535) as u32)
+        };
+        {
+            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                label: Some("foveated"),
+                timestamp_writes: None,
+            });
+            pass.set_bind_group(0, &bind0, &[]);
+            pass.set_bind_group(1, &ft.bind_group, &[]);
+            for (k, n) in [(0, nv), (1, nc), (2, nc), (3, nc)] {
+                pass.set_pipeline(&pipelines[k]);
+                let (x, y) = groups(n);
+                pass.dispatch_workgroups(x, y, 1);
+            }
+            pass.set_pipeline(&pipelines[4]);
+            pass.dispatch_workgroups(w.div_ceil(8), h.div_ceil(8), 1);
+        }
+        let bytes = 4 * u64::from(pixels);
+        if bytes > 0 {
+            encoder.copy_buffer_to_buffer(&out, 0, &readback, 0, bytes);
+        }
+        encoder.copy_buffer_to_buffer(&b[6], 0, &ft.counters_readback, 0, 16);
+        queue.submit(Some(encoder.finish()));
+        let mut frame = blank_frame(w, h);
+        if bytes > 0 {
+            let words = read_back(&device, &readback, bytes)?;
+            unpack(&words, &mut frame);
+        }
+        let counters = read_back(&device, &ft.counters_readback, 16)?;
+        let stats = Stats {
+            rays_fovea: u64::from(counters[0]),
+            rays_mask: nv,
+            rays_refine: u64::from(counters[1]),
+            rays_total: u64::from(counters[0]) + nv + u64::from(counters[1]),
+            cells_total: nc,
+            cells_refined: u64::from(counters[2]),
+            pixels_uncovered: 0,
+            time_ms: start.elapsed().as_secs_f64() * 1e3,
+        };
+        Ok((frame, stats))
+    }
+}
+
+fn blank_frame(w: u32, h: u32) -> Frame {
+    let n = w as usize * h as usize;
+    Frame {
+        width: w,
+        height: h,
+        rgb: vec![0; 3 * n],
+        hit: vec![false; n],
+        layer: vec![Layer::Full; n],
+    }
+}
+
+/// Maps `buffer` (after the submission that fills it) and copies its words out.
+fn read_back(
+    device: &wgpu::Device,
+    buffer: &wgpu::Buffer,
+    bytes: u64,
+) -> Result<Vec<u32>, GpuError> {
+    let slice = buffer.slice(..bytes);
+    let (tx, rx) = mpsc::channel();
+    slice.map_async(wgpu::MapMode::Read, move |r| {
+        let _ = tx.send(r);
+    });
+    device
+        .poll(wgpu::PollType::wait_indefinitely())
+        .map_err(|e| GpuError::Readback(e.to_string()))?;
+    rx.recv()
+        .map_err(|e| GpuError::Readback(e.to_string()))?
+        .map_err(|e| GpuError::Readback(e.to_string()))?;
+    let words = {
+        let view = slice
+            .get_mapped_range()
+            .map_err(|e| GpuError::Readback(e.to_string()))?;
+        bytemuck::cast_slice::<u8, u32>(&view).to_vec()
+    };
+    buffer.unmap();
+    Ok(words)
+}
+
+/// Pixel words (`pack` in cast.wgsl) into a frame: RGB, hit, layer.
+fn unpack(words: &[u32], frame: &mut Frame) {
+    for (i, &p) in words.iter().enumerate().take(frame.hit.len()) {
+        frame.rgb[3 * i] = p as u8;
+        frame.rgb[3 * i + 1] = (p >> 8) as u8;
+        frame.rgb[3 * i + 2] = (p >> 16) as u8;
+        frame.hit[i] = (p >> 24) & 1 == 1;
+        frame.layer[i] = match (p >> 25) & 3 {
+            1 => Layer::Fovea,
+            2 => Layer::Interpolated,
+            3 => Layer::Refined,
+            _ => Layer::Full,
+        };
     }
 }

@@ -111,7 +111,11 @@ fn sphere_scene(radius_mm: f32) -> Scene {
                 intensity: 0.3,
             },
         ],
-        effects: vec![],
+        effects: vec![
+            raycast::scene::Effect::FoveatedSampling,
+            raycast::scene::Effect::SilhouetteRefinement,
+            raycast::scene::Effect::CreaseRefinement,
+        ],
         crease_deg: 30.0,
         depth_jump: 0.05,
     };
@@ -238,6 +242,10 @@ fn gpu_foveated_frames_match_the_cpu_reference() {
                 "{name} {gaze:?}: ray counts"
             );
             assert_eq!(frame.layer, cpu.layer, "{name} {gaze:?}: layers");
+            // Per-stage GPU times, where the adapter has timestamp queries.
+            let stages = g.stage_ms();
+            assert!(stages.is_empty() || stages.len() == raycast::gpu::FOVEATED_STAGES.len());
+            assert!(stages.iter().all(|(_, ms)| ms.is_finite() && *ms >= 0.0));
         }
     }
 }
@@ -257,6 +265,16 @@ fn gpu_foveated_hard_cases() {
         assert!(hit <= 4 && colour <= 4, "gaze {gaze:?}");
         assert_eq!(gs.rays_total, cs.rays_total, "gaze {gaze:?}");
     }
+    // 3840×2160, the sphere scene (cheap rays, many pixels).
+    let sphere = sphere_scene(120.0);
+    let mut gs4k = gpu(&sphere);
+    let big = display(3840, 2160);
+    let (cpu, cs) = cpu_foveated(&sphere, &big, [1000.0, 700.0]);
+    let (frame, gs) = gpu_foveated(&mut gs4k, &sphere, &big, [1000.0, 700.0]);
+    let (hit, colour, _) = compare(&cpu, &frame);
+    assert!(hit <= 4 && colour <= 4, "4K: {hit} / {colour}");
+    assert_eq!(gs.rays_total, cs.rays_total, "4K ray counts");
+    assert!(cs.rays_mask > 0 && cs.rays_total < 8_294_400 / 4, "{cs:?}");
     let one = display(1, 1);
     let (cpu, _) = cpu_foveated(&scene, &one, [0.5, 0.5]);
     let (frame, _) = gpu_foveated(&mut g, &scene, &one, [0.5, 0.5]);

@@ -97,6 +97,9 @@ pub struct RenderReport {
     pub backend: &'static str,
     /// The GPU adapter (name, API, type, driver) when the GPU rendered.
     pub adapter: Option<String>,
+    /// GPU time per stage of the last frame (ms), from timestamp queries,
+    /// when the GPU rendered and the adapter has them.
+    pub gpu_stages_ms: Vec<StageTime>,
     pub threads: usize,
     pub mode: &'static str,
     pub scene: String,
@@ -107,6 +110,13 @@ pub struct RenderReport {
     pub accel: &'static str,
     /// All repeat times, ms.
     pub times_ms: Vec<f64>,
+}
+
+/// One GPU stage's time.
+#[derive(Debug, Clone, Serialize)]
+pub struct StageTime {
+    pub stage: &'static str,
+    pub ms: f64,
 }
 
 /// Loads and builds a scene; errors name the file, line and field.
@@ -230,6 +240,12 @@ pub fn run(args: &RenderArgs, out: &mut dyn Write) -> Result<(), String> {
         stats,
         backend: if gpu.is_some() { "gpu" } else { "cpu" },
         adapter: gpu.as_ref().map(|g| g.adapter().to_string()),
+        gpu_stages_ms: gpu.as_ref().map_or_else(Vec::new, |g| {
+            g.stage_ms()
+                .iter()
+                .map(|&(stage, ms)| StageTime { stage, ms })
+                .collect()
+        }),
         threads: rayon::current_num_threads(),
         mode: if full { "full" } else { "foveated" },
         scene: scene.name.clone(),

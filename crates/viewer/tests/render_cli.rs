@@ -163,3 +163,57 @@ fn bad_scenes_name_file_line_and_field() {
         assert!(!err.contains("panicked"), "{err}");
     }
 }
+
+#[test]
+fn the_gpu_backend_renders_foveated_frames_and_reports_its_adapter() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let d = small_display(dir.path());
+    let (gpu_png, cpu_png, stats) = (
+        dir.path().join("g.png"),
+        dir.path().join("c.png"),
+        dir.path().join("s.json"),
+    );
+    let render = |backend: &str, png: &std::path::Path| {
+        let mut c = gazecast();
+        c.args([
+            "render",
+            "--scene",
+            "config/scenes/search-task.ron",
+            "--gaze",
+            "100,80",
+            "--backend",
+            backend,
+            "--display",
+        ])
+        .arg(&d)
+        .arg("--out")
+        .arg(png);
+        c
+    };
+    render("gpu", &gpu_png).arg("--stats").arg(&stats).succeed();
+    let v: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&stats).expect("json")).expect("valid json");
+    assert_eq!(v["backend"], "gpu");
+    assert_eq!(v["mode"], "foveated");
+    assert!(v["adapter"].as_str().is_some_and(|a| !a.is_empty()), "{v}");
+    assert!(v["gpu_stages_ms"].is_array());
+    // The CPU backend casts exactly as many rays.
+    let cpu = render("cpu", &cpu_png).succeed();
+    let line = String::from_utf8_lossy(&cpu.stdout);
+    let rays = v["rays_total"].as_u64().expect("rays");
+    assert!(line.contains(&format!(": {rays} rays")), "{line} vs {rays}");
+    // auto names what it used and why.
+    let auto = render("auto", &cpu_png).succeed();
+    let text = String::from_utf8_lossy(&auto.stdout);
+    assert!(
+        text.contains(" on gpu (") || text.contains("auto: "),
+        "{text}"
+    );
+    // The grid is CPU-only: --backend gpu refuses it clearly.
+    let out = render("gpu", &cpu_png)
+        .args(["--accel", "grid"])
+        .output()
+        .expect("runs");
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("--backend cpu"));
+}

@@ -28,8 +28,13 @@ const UNOWNED: u32 = 0xfffffffeu;
 @group(1) @binding(4) var<storage, read_write> vhits: array<Sample>;
 @group(1) @binding(5) var<storage, read_write> refined: array<u32>;
 @group(1) @binding(6) var<storage, read_write> touched: array<u32>;
-// fovea rays, refined rays, refined cells.
+// fovea rays, refined rays, refined cells, pixels listed to cast.
 @group(1) @binding(7) var<storage, read_write> counters: array<atomic<u32>, 4>;
+// Pixels to cast (index | 1 << 31 for the fovea), appended by `pixels_foveated`.
+@group(1) @binding(8) var<storage, read_write> cast_list: array<u32>;
+// Workgroup counts of the indirect dispatch of `cast_listed` (a group of its
+// own: bound as storage it may not be in the scope of the indirect dispatch).
+@group(2) @binding(0) var<storage, read_write> dispatch: array<u32, 3>;
 
 fn corner_count(c: vec4<u32>) -> u32 {
     if (c.w == NO_VERTEX) { return 3u; }
@@ -164,15 +169,16 @@ fn pixels_foveated(@builtin(global_invocation_id) id: vec3<u32>) {
         return;
     }
     if (o == FOVEA || refined[o] == 1u) {
-        let s = trace(p);
-        var layer = 3u;
+        // Cast later, by `cast_listed` over the compacted list.
+        var tag = 0u;
         if (o == FOVEA) {
-            layer = 1u;
+            tag = 0x80000000u;
             atomicAdd(&counters[0], 1u);
         } else {
             atomicAdd(&counters[1], 1u);
         }
-        pixels[i] = pack(colour(p, s), s.hit, layer);
+        let k = atomicAdd(&counters[3], 1u);
+        cast_list[k] = i | tag;
         return;
     }
     let c = cells[o];
@@ -187,4 +193,28 @@ fn pixels_foveated(@builtin(global_invocation_id) id: vec3<u32>) {
     }
     let s = interpolate(c, p);
     pixels[i] = pack(colour(p, s), s.hit, 2u);
+}
+
+// One thread: the workgroup counts for `cast_listed` (64 per group, at most
+// 65535 groups in x).
+@compute @workgroup_size(1)
+fn prepare_cast() {
+    let n = atomicLoad(&counters[3]);
+    let groups = (n + 63u) / 64u;
+    dispatch[0] = min(groups, 65535u);
+    dispatch[1] = (groups + 65534u) / 65535u;
+    dispatch[2] = 1u;
+}
+
+@compute @workgroup_size(64)
+fn cast_listed(@builtin(global_invocation_id) id: vec3<u32>) {
+    let k = id.x + id.y * 65535u * 64u;
+    if (k >= atomicLoad(&counters[3])) { return; }
+    let entry = cast_list[k];
+    let i = entry & 0x7fffffffu;
+    let p = vec2<f32>(f32(i % params.width) + 0.5, f32(i / params.width) + 0.5);
+    let s = trace(p);
+    var layer = 3u;
+    if ((entry & 0x80000000u) != 0u) { layer = 1u; }
+    pixels[i] = pack(colour(p, s), s.hit, layer);
 }

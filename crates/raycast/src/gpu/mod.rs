@@ -106,6 +106,7 @@ struct FovTarget {
     buffers: Vec<wgpu::Buffer>,
     counters_readback: wgpu::Buffer,
     bind_group: wgpu::BindGroup,
+    dispatch_group: wgpu::BindGroup,
 }
 
 /// Bytes per vertex hit record in `foveated.wgsl` (`Sample`: 32 bytes).
@@ -116,8 +117,9 @@ pub struct GpuRenderer {
     device: wgpu::Device,
     queue: wgpu::Queue,
     pipeline: wgpu::ComputePipeline,
-    fov_pipelines: [wgpu::ComputePipeline; 5],
+    fov_pipelines: [wgpu::ComputePipeline; 7],
     fov_layout: wgpu::BindGroupLayout,
+    dispatch_layout: wgpu::BindGroupLayout,
     fov_params: wgpu::Buffer,
     fov_target: Option<FovTarget>,
     layout: wgpu::BindGroupLayout,
@@ -130,6 +132,97 @@ pub struct GpuRenderer {
     target: Option<Target>,
     adapter: String,
     max_binding: u64,
+    timer: Option<Timer>,
+    stage_ms: Vec<(&'static str, f64)>,
+}
+
+/// The foveated frame's stages, one compute pass each (`foveated.wgsl`).
+pub const FOVEATED_STAGES: [&str; 7] = [
+    "cast vertices",
+    "classify cells",
+    "silhouette margin",
+    "count refined cells",
+    "interpolate or list pixels",
+    "prepare dispatch",
+    "cast listed pixels",
+];
+
+/// Timestamp queries around each pass, where the adapter has them.
+#[derive(Clone)]
+struct Timer {
+    set: wgpu::QuerySet,
+    resolve: wgpu::Buffer,
+    readback: wgpu::Buffer,
+    period_ns: f32,
+}
+
+impl Timer {
+    fn new(device: &wgpu::Device, queue: &wgpu::Queue) -> Self {
+        let n = 2 * FOVEATED_STAGES.len() as u32;
+        let set = device.create_query_set(&wgpu::QuerySetDescriptor {
+            label: Some("stage times"),
+            ty: wgpu::QueryType::Timestamp,
+            count: n,
+        });
+        let buffer = |label, usage| {
+            device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some(label),
+                size: 8 * u64::from(n),
+                usage,
+                mapped_at_creation: false,
+            })
+        };
+        Self {
+            set,
+            resolve: buffer(
+                "stage times",
+                wgpu::BufferUsages::QUERY_RESOLVE | wgpu::BufferUsages::COPY_SRC,
+            ),
+            readback: buffer(
+                "stage times readback",
+                wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+            ),
+            period_ns: queue.get_timestamp_period(),
+        }
+    }
+
+    fn resolve(&self, encoder: &mut wgpu::CommandEncoder, stages: u32) {
+        encoder.resolve_query_set(&self.set, 0..2 * stages, &self.resolve, 0);
+        encoder.copy_buffer_to_buffer(&self.resolve, 0, &self.readback, 0, 16 * u64::from(stages));
+    }
+
+    fn read(
+        &self,
+        device: &wgpu::Device,
+        stages: &[&'static str],
+    ) -> Result<Vec<(&'static str, f64)>, GpuError> {
+        let words = read_back(device, &self.readback, 16 * stages.len() as u64)?;
+        let tick = |k: usize| u64::from(words[2 * k]) | (u64::from(words[2 * k + 1]) << 32);
+        Ok(stages
+            .iter()
+            .enumerate()
+            .map(|(k, s)| {
+                let ticks = tick(2 * k + 1).saturating_sub(tick(2 * k));
+                (*s, ticks as f64 * f64::from(self.period_ns) * 1e-6)
+            })
+            .collect())
+    }
+}
+
+fn begin_pass<'e>(
+    encoder: &'e mut wgpu::CommandEncoder,
+    timer: Option<&Timer>,
+    stage: u32,
+    label: &str,
+) -> wgpu::ComputePass<'e> {
+    encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+        label: Some(label),
+        timestamp_writes: timer.map(|t| wgpu::ComputePassTimestampWrites {
+            query_set: &t.set,
+            beginning_of_pass_write_index: Some(2 * stage),
+            end_of_pass_write_index: Some(2 * stage + 1),
+        }),
+    })
 }
 
 /// Binding 0 of both groups: a uniform buffer.
@@ -203,12 +296,19 @@ impl GpuRenderer {
             info.name, info.backend, info.device_type, info.driver, info.driver_info
         );
         let limits = adapter.limits();
+        let timestamps = adapter.features().contains(wgpu::Features::TIMESTAMP_QUERY);
         let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
             label: Some("gazecast"),
             required_limits: limits.clone(),
+            required_features: if timestamps {
+                wgpu::Features::TIMESTAMP_QUERY
+            } else {
+                wgpu::Features::empty()
+            },
             ..Default::default()
         }))
         .map_err(|e| GpuError::Device(e.to_string()))?;
+        let timer = timestamps.then(|| Timer::new(&device, &queue));
         let max_binding = limits.max_storage_buffer_binding_size;
 
         let nodes: &[u8] = bytemuck::cast_slice(&scene.bvh.nodes);
@@ -332,7 +432,7 @@ impl GpuRenderer {
         });
         let mut fov_entries = vec![uniform_entry()];
         fov_entries.extend((1..=3).map(|b| storage_entry(b, true)));
-        fov_entries.extend((4..=7).map(|b| storage_entry(b, false)));
+        fov_entries.extend((4..=8).map(|b| storage_entry(b, false)));
         let fov_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("foveated"),
             entries: &fov_entries,
@@ -342,10 +442,24 @@ impl GpuRenderer {
             bind_group_layouts: &[Some(&layout), Some(&fov_layout)],
             immediate_size: 0,
         });
+        let dispatch_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("indirect dispatch"),
+            entries: &[storage_entry(0, false)],
+        });
+        let prepare_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("prepare cast"),
+            bind_group_layouts: &[Some(&layout), Some(&fov_layout), Some(&dispatch_layout)],
+            immediate_size: 0,
+        });
         let fov_pipeline = |entry: &str| {
+            let layout = if entry == "prepare_cast" {
+                &prepare_layout
+            } else {
+                &fov_pipeline_layout
+            };
             device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
                 label: Some(entry),
-                layout: Some(&fov_pipeline_layout),
+                layout: Some(layout),
                 module: &module,
                 entry_point: Some(entry),
                 compilation_options: Default::default(),
@@ -358,6 +472,8 @@ impl GpuRenderer {
             fov_pipeline("widen"),
             fov_pipeline("count_cells"),
             fov_pipeline("pixels_foveated"),
+            fov_pipeline("prepare_cast"),
+            fov_pipeline("cast_listed"),
         ];
         let fov_params = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("foveated params"),
@@ -372,6 +488,7 @@ impl GpuRenderer {
             pipeline,
             fov_pipelines,
             fov_layout,
+            dispatch_layout,
             fov_params,
             fov_target: None,
             layout,
@@ -384,12 +501,20 @@ impl GpuRenderer {
             target: None,
             adapter: adapter_name,
             max_binding,
+            timer,
+            stage_ms: Vec::new(),
         })
     }
 
     /// The largest storage buffer one binding may hold on this device (bytes).
     pub fn max_binding_bytes(&self) -> u64 {
         self.max_binding
+    }
+
+    /// GPU time of each stage of the last frame (ms), from timestamp
+    /// queries; empty when the adapter has none.
+    pub fn stage_ms(&self) -> &[(&'static str, f64)] {
+        &self.stage_ms
     }
 
     /// The adapter in words (name, backend, type, driver).
@@ -491,15 +616,13 @@ impl GpuRenderer {
         let pipeline = self.pipeline.clone();
         let device = self.device.clone();
         let queue = self.queue.clone();
+        let timer = self.timer.clone();
         let target = self.target(pixels)?;
         let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
             label: Some("frame"),
         });
         {
-            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
-                label: Some("full"),
-                timestamp_writes: None,
-            });
+            let mut pass = begin_pass(&mut encoder, timer.as_ref(), 0, "cast and shade");
             pass.set_pipeline(&pipeline);
             pass.set_bind_group(0, &target.bind_group, &[]);
             pass.dispatch_workgroups(w.div_ceil(8), h.div_ceil(8), 1);
@@ -508,12 +631,19 @@ impl GpuRenderer {
         if bytes > 0 {
             encoder.copy_buffer_to_buffer(&target.out, 0, &target.readback, 0, bytes);
         }
+        if let Some(t) = &timer {
+            t.resolve(&mut encoder, 1);
+        }
         queue.submit(Some(encoder.finish()));
         let mut frame = blank_frame(w, h);
         if bytes > 0 {
             let words = read_back(&device, &target.readback, bytes)?;
             unpack(&words, &mut frame);
         }
+        self.stage_ms = match &timer {
+            Some(t) => t.read(&device, &["cast and shade"])?,
+            None => Vec::new(),
+        };
         let stats = Stats {
             rays_total: u64::from(pixels),
             rays_refine: u64::from(pixels),
@@ -573,17 +703,44 @@ impl GpuRenderer {
                 | wgpu::BufferUsages::COPY_SRC,
             mapped_at_creation: false,
         }));
+        if 4 * np > self.max_binding {
+            return Err(GpuError::TooLarge {
+                what: "the list of pixels to cast",
+                bytes: 4 * np,
+                limit: self.max_binding,
+            });
+        }
+        buffers.push(self.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("pixels to cast"),
+            size: 4 * np,
+            usage: wgpu::BufferUsages::STORAGE,
+            mapped_at_creation: false,
+        }));
+        buffers.push(self.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("indirect dispatch"),
+            size: 16,
+            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::INDIRECT,
+            mapped_at_creation: false,
+        }));
         let counters_readback = self.device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("counters readback"),
             size: 16,
             usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
             mapped_at_creation: false,
         });
+        let dispatch_group = self.device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("indirect dispatch"),
+            layout: &self.dispatch_layout,
+            entries: &[wgpu::BindGroupEntry {
+                binding: 0,
+                resource: buffers[8].as_entire_binding(),
+            }],
+        });
         let mut entries = vec![wgpu::BindGroupEntry {
             binding: 0,
             resource: self.fov_params.as_entire_binding(),
         }];
-        for (k, b) in buffers.iter().enumerate() {
+        for (k, b) in buffers[..8].iter().enumerate() {
             entries.push(wgpu::BindGroupEntry {
                 binding: k as u32 + 1,
                 resource: b.as_entire_binding(),
@@ -601,6 +758,7 @@ impl GpuRenderer {
             buffers,
             counters_readback,
             bind_group,
+            dispatch_group,
         });
         Ok(())
     }
@@ -665,24 +823,36 @@ impl GpuRenderer {
             let g = n.div_ceil(64).max(1);
             ((g.min(65_535)) as u32, g.div_ceil(65_535) as u32)
         };
-        {
-            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
-                label: Some("foveated"),
-                timestamp_writes: None,
-            });
+        let timer = self.timer.clone();
+        // One pass per stage, so that each can be timed.
+        for (k, stage) in FOVEATED_STAGES.iter().enumerate() {
+            let mut pass = begin_pass(&mut encoder, timer.as_ref(), k as u32, stage);
             pass.set_bind_group(0, &bind0, &[]);
             pass.set_bind_group(1, &ft.bind_group, &[]);
-            for (k, n) in [(0, nv), (1, nc), (2, nc), (3, nc)] {
-                pass.set_pipeline(&pipelines[k]);
-                let (x, y) = groups(n);
-                pass.dispatch_workgroups(x, y, 1);
+            pass.set_pipeline(&pipelines[k]);
+            match k {
+                0 => {
+                    let (x, y) = groups(nv);
+                    pass.dispatch_workgroups(x, y, 1);
+                }
+                1..=3 => {
+                    let (x, y) = groups(nc);
+                    pass.dispatch_workgroups(x, y, 1);
+                }
+                4 => pass.dispatch_workgroups(w.div_ceil(8), h.div_ceil(8), 1),
+                5 => {
+                    pass.set_bind_group(2, &ft.dispatch_group, &[]);
+                    pass.dispatch_workgroups(1, 1, 1);
+                }
+                _ => pass.dispatch_workgroups_indirect(&b[8], 0),
             }
-            pass.set_pipeline(&pipelines[4]);
-            pass.dispatch_workgroups(w.div_ceil(8), h.div_ceil(8), 1);
         }
         let bytes = 4 * u64::from(pixels);
         if bytes > 0 {
             encoder.copy_buffer_to_buffer(&out, 0, &readback, 0, bytes);
+        }
+        if let Some(t) = &timer {
+            t.resolve(&mut encoder, FOVEATED_STAGES.len() as u32);
         }
         encoder.copy_buffer_to_buffer(&b[6], 0, &ft.counters_readback, 0, 16);
         queue.submit(Some(encoder.finish()));
@@ -692,6 +862,10 @@ impl GpuRenderer {
             unpack(&words, &mut frame);
         }
         let counters = read_back(&device, &ft.counters_readback, 16)?;
+        self.stage_ms = match &timer {
+            Some(t) => t.read(&device, &FOVEATED_STAGES)?,
+            None => Vec::new(),
+        };
         let stats = Stats {
             rays_fovea: u64::from(counters[0]),
             rays_mask: nv,

@@ -4,6 +4,7 @@
 
 pub mod bench_cmd;
 pub mod config;
+pub mod demo_cmd;
 pub mod mask_cmd;
 pub mod plots;
 pub mod render_cmd;
@@ -38,6 +39,10 @@ pub enum Command {
     /// Measure what accuracy costs in time (`accuracy`) and how the cost
     /// scales with triangles and pixels (`scaling`).
     Bench(bench_cmd::BenchArgs),
+    /// The search task along a built-in scanpath, rendered foveated to an
+    /// animated PNG and a contact sheet (headless; the live window is not
+    /// built yet).
+    Demo(demo_cmd::DemoArgs),
 }
 
 /// Runs a parsed command line, writing normal output to `out`.
@@ -50,5 +55,6 @@ pub fn run(cli: Cli, out: &mut dyn std::io::Write) -> Result<(), String> {
         Command::Devices => tracker_cmd::devices(out),
         Command::Simulate(args) => tracker_cmd::simulate(&args, out),
         Command::Bench(args) => bench_cmd::run(&args, out),
+        Command::Demo(args) => demo_cmd::run(&args, out),
     }
 }

@@ -291,16 +291,21 @@ pub fn run(args: &RenderArgs, out: &mut dyn Write) -> Result<(), String> {
 }
 
 /// The seed's POR box: a 2-px yellow square, 64 px across, around the gaze.
-fn draw_por_box(rgb: &mut [u8], w: u32, h: u32, gaze: [f64; 2]) {
-    let (cx, cy) = (gaze[0].round() as i64, gaze[1].round() as i64);
+pub fn draw_por_box(rgb: &mut [u8], w: u32, h: u32, gaze: [f64; 2]) {
+    draw_box(rgb, w, h, gaze, 32);
+}
+
+/// A 2-px yellow square of half-size `r` px around `centre`.
+pub fn draw_box(rgb: &mut [u8], w: u32, h: u32, centre: [f64; 2], r: i64) {
+    let (cx, cy) = (centre[0].round() as i64, centre[1].round() as i64);
     let mut put = |x: i64, y: i64| {
         if (0..i64::from(w)).contains(&x) && (0..i64::from(h)).contains(&y) {
             let i = 3 * (y as usize * w as usize + x as usize);
             rgb[i..i + 3].copy_from_slice(&[255, 220, 0]);
         }
     };
-    for d in -32..=32 {
-        for t in [-32, -31, 31, 32] {
+    for d in -r..=r {
+        for t in [-r, -r + 1, r - 1, r] {
             put(cx + d, cy + t);
             put(cx + t, cy + d);
         }

@@ -6,8 +6,10 @@ set -euo pipefail
 
 # gcc/libc6-dev: linking; pkg-config + libudev-dev: serial ports (serialport);
 # mesa-vulkan-drivers: the software Vulkan (lavapipe) the GPU tests run on;
-# glmark2-data: the Stanford bunny (/usr/share/glmark2/models/bunny.obj).
-packages=(gcc libc6-dev pkg-config libudev-dev mesa-vulkan-drivers glmark2-data)
+# glmark2-data: the Stanford bunny (/usr/share/glmark2/models/bunny.obj);
+# xvfb + libxcursor1 libxi6 libxkbcommon-x11-0: the viewer's window (winit,
+# X11), which the tests open under a virtual X server.
+packages=(gcc libc6-dev pkg-config libudev-dev mesa-vulkan-drivers glmark2-data xvfb libxcursor1 libxi6 libxkbcommon-x11-0)
 
 missing=()
 for p in "${packages[@]}"; do

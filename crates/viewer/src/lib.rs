@@ -9,6 +9,7 @@ pub mod mask_cmd;
 pub mod plots;
 pub mod render_cmd;
 pub mod tracker_cmd;
+pub mod view_cmd;
 
 use clap::{Parser, Subcommand};
 
@@ -43,6 +44,9 @@ pub enum Command {
     /// animated PNG and a contact sheet (headless; the live window is not
     /// built yet).
     Demo(demo_cmd::DemoArgs),
+    /// The live gaze-contingent window: a tracker (or a replayed recording,
+    /// or the mouse) drives the point of regard.
+    View(view_cmd::ViewArgs),
 }
 
 /// Runs a parsed command line, writing normal output to `out`.
@@ -56,5 +60,6 @@ pub fn run(cli: Cli, out: &mut dyn std::io::Write) -> Result<(), String> {
         Command::Simulate(args) => tracker_cmd::simulate(&args, out),
         Command::Bench(args) => bench_cmd::run(&args, out),
         Command::Demo(args) => demo_cmd::run(&args, out),
+        Command::View(args) => view_cmd::run(&args, out),
     }
 }

@@ -11,7 +11,7 @@ type DrawResult = Result<(), Box<dyn std::error::Error>>;
 
 const FONT: &[u8] = include_bytes!("../assets/fonts/DejaVuSansMono.ttf");
 
-fn register_font() {
+pub(crate) fn register_font() {
     static ONCE: std::sync::Once = std::sync::Once::new();
     ONCE.call_once(|| {
         // The embedded font is valid; registration can only fail on a bad font file.
@@ -452,4 +452,26 @@ pub fn draw_log_log(
             .draw()?;
         Ok(())
     })
+}
+
+/// Draws text lines (HUD, status) in the top-left corner of an RGB frame,
+/// white on a dark band.
+pub fn draw_text_lines(rgb: &mut [u8], (w, h): (u32, u32), lines: &[&str]) -> DrawResult {
+    register_font();
+    let root = BitMapBackend::with_buffer(rgb, (w, h)).into_drawing_area();
+    for (k, line) in lines.iter().enumerate() {
+        let y = 4 + 18 * k as i32;
+        let width = 8 * line.chars().count() as i32 + 8;
+        root.draw(&Rectangle::new(
+            [(0, y - 2), (width, y + 16)],
+            RGBColor(10, 10, 12).mix(0.75).filled(),
+        ))?;
+        root.draw(&Text::new(
+            line.to_string(),
+            (4, y),
+            ("sans-serif", 14).into_font().color(&WHITE),
+        ))?;
+    }
+    root.present()?;
+    Ok(())
 }

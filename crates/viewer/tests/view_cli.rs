@@ -1,0 +1,132 @@
+//! `gazecast view` in a real window under a virtual X server (Xvfb, which
+//! `scripts/system-deps.sh` installs), rendering with the replayed gaze of a
+//! recording: the POR box must be where the replayed gaze says.
+
+mod common;
+
+use std::process::{Child, Command, Stdio};
+
+use common::{gazecast, Run};
+
+/// A private Xvfb on a free display number, killed on drop.
+struct Xvfb {
+    child: Child,
+    display: String,
+}
+
+impl Xvfb {
+    fn start() -> Self {
+        for n in 0..50 {
+            let num = 70 + (std::process::id() as usize + n) % 200;
+            if std::path::Path::new(&format!("/tmp/.X11-unix/X{num}")).exists() {
+                continue;
+            }
+            let display = format!(":{num}");
+            let mut child = Command::new("Xvfb")
+                .args([&display, "-screen", "0", "1600x1200x24", "-nolisten", "tcp"])
+                .stdout(Stdio::null())
+                .stderr(Stdio::null())
+                .spawn()
+                .expect("Xvfb runs (scripts/system-deps.sh installs the xvfb package)");
+            for _ in 0..100 {
+                if std::path::Path::new(&format!("/tmp/.X11-unix/X{num}")).exists() {
+                    return Self { child, display };
+                }
+                if let Ok(Some(_)) = child.try_wait() {
+                    break;
+                }
+                std::thread::sleep(std::time::Duration::from_millis(50));
+            }
+            let _ = child.kill();
+        }
+        panic!("no Xvfb display could be started");
+    }
+}
+
+impl Drop for Xvfb {
+    fn drop(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}
+
+#[test]
+fn a_replayed_session_renders_in_a_window_with_the_por_box_at_the_gaze() {
+    let x = Xvfb::start();
+    let dir = tempfile::tempdir().expect("tempdir");
+    let shot = dir.path().join("shot.png");
+    let out = gazecast()
+        .env("DISPLAY", &x.display)
+        .env_remove("WAYLAND_DISPLAY")
+        .args([
+            "view",
+            "--scene",
+            "config/scenes/search-task.ron",
+            "--display",
+            "config/displays/tobii-et1750-17in.ron",
+            "--replay",
+            "tests/data/mouse-120hz.gzrec",
+            "--frames",
+            "4",
+            "--overlay",
+            "por",
+            "--backend",
+            "cpu",
+            "--screenshot",
+        ])
+        .arg(&shot)
+        .succeed();
+    let text = String::from_utf8_lossy(&out.stdout);
+    let frames: Vec<&str> = text.lines().filter(|l| l.starts_with("frame ")).collect();
+    assert_eq!(frames.len(), 4, "{text}");
+    assert!(text.contains("gaze age at submit p50"), "{text}");
+    // The last frame's gaze, from the session log: "frame 3 gaze (x, y) …".
+    let last = frames[3];
+    let inner = &last[last.find('(').expect("(") + 1..last.find(')').expect(")")];
+    let xy: Vec<f64> = inner
+        .split(',')
+        .map(|v| v.trim().parse().expect("number"))
+        .collect();
+    let png = std::fs::File::open(&shot).expect("screenshot");
+    let mut reader = png::Decoder::new(std::io::BufReader::new(png))
+        .read_info()
+        .expect("png");
+    let mut buf = vec![0; reader.output_buffer_size()];
+    let info = reader.next_frame(&mut buf).expect("frame");
+    assert_eq!((info.width, info.height), (1280, 1024));
+    let rgb = |px: i64, py: i64| -> [u8; 3] {
+        let i = (py as usize * info.width as usize + px as usize) * info.color_type.samples();
+        match info.color_type {
+            png::ColorType::Rgb => [buf[i], buf[i + 1], buf[i + 2]],
+            other => panic!("unexpected colour type {other:?}"),
+        }
+    };
+    let (cx, cy) = (xy[0].round() as i64, xy[1].round() as i64);
+    // The box's top and left edges, 32 px from the gaze.
+    assert_eq!(
+        rgb(cx, cy - 32),
+        [255, 220, 0],
+        "top edge at the gaze {xy:?}"
+    );
+    assert_eq!(
+        rgb(cx - 32, cy),
+        [255, 220, 0],
+        "left edge at the gaze {xy:?}"
+    );
+}
+
+#[test]
+fn without_a_tracker_or_a_display_the_viewer_says_what_to_do() {
+    let out = gazecast()
+        .args([
+            "view",
+            "--scene",
+            "config/scenes/search-task.ron",
+            "--display",
+            "config/displays/tobii-et1750-17in.ron",
+        ])
+        .output()
+        .expect("runs");
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("--tracker"));
+}

@@ -244,7 +244,8 @@ fn gpu_foveated_frames_match_the_cpu_reference() {
             assert_eq!(frame.layer, cpu.layer, "{name} {gaze:?}: layers");
             // Per-stage GPU times, where the adapter has timestamp queries.
             let stages = g.stage_ms();
-            assert!(stages.is_empty() || stages.len() == raycast::gpu::FOVEATED_STAGES.len());
+            let want = raycast::gpu::foveated_stages(&Triggers::from_scene(&scene));
+            assert!(stages.is_empty() || stages.len() == want.len());
             assert!(stages.iter().all(|(_, ms)| ms.is_finite() && *ms >= 0.0));
         }
     }
@@ -362,4 +363,54 @@ fn a_frame_beyond_the_storage_binding_limit_is_a_clear_error() {
     assert!(g
         .render_full(&Camera::new(&d.geometry().expect("geometry")))
         .is_ok());
+}
+
+#[test]
+fn passes_follow_the_scene_effects() {
+    use raycast::gpu::{foveated_stages, FOVEATED_STAGES};
+    use raycast::scene::Effect;
+    let names = |scene: &Scene| -> Vec<&str> {
+        foveated_stages(&Triggers::from_scene(scene))
+            .iter()
+            .map(|&k| FOVEATED_STAGES[k])
+            .collect()
+    };
+    // No refinement effects: no classification, no margin.
+    let mut plain = sphere_scene(120.0);
+    plain.effects = vec![Effect::FoveatedSampling];
+    assert_eq!(
+        names(&plain),
+        [
+            "cast vertices",
+            "interpolate or list pixels",
+            "prepare dispatch",
+            "cast listed pixels"
+        ]
+    );
+    let mut crease_only = sphere_scene(120.0);
+    crease_only.effects = vec![Effect::FoveatedSampling, Effect::CreaseRefinement];
+    assert!(!names(&crease_only).contains(&"silhouette margin"));
+    assert!(names(&crease_only).contains(&"classify cells"));
+    // Rendering without refinement matches the CPU, and the GPU ran exactly
+    // the listed passes (where it has timestamps).
+    let d = display(160, 128);
+    let mut g = gpu(&plain);
+    let (cpu, cs) = cpu_foveated(&plain, &d, [80.0, 64.0]);
+    let (frame, gs) = gpu_foveated(&mut g, &plain, &d, [80.0, 64.0]);
+    assert_eq!(compare(&cpu, &frame).0, 0);
+    assert_eq!(
+        (gs.cells_refined, gs.rays_total),
+        (cs.cells_refined, cs.rays_total)
+    );
+    let ran: Vec<&str> = g.stage_ms().iter().map(|(s, _)| *s).collect();
+    assert!(ran.is_empty() || ran == names(&plain), "{ran:?}");
+    // A full-resolution scene (no FoveatedSampling) never allocates the
+    // foveated stages' buffers.
+    let mut full = sphere_scene(120.0);
+    full.effects.clear();
+    let mut gf = gpu(&full);
+    gf.render_full(&Camera::new(&d.geometry().expect("geometry")))
+        .expect("renders");
+    assert!(!gf.has_foveated_buffers());
+    assert!(g.has_foveated_buffers());
 }

@@ -66,6 +66,54 @@ pub struct ViewArgs {
     /// Fullscreen on the current monitor.
     #[arg(long)]
     pub fullscreen: bool,
+    /// Print the passes the scene's effects make the pipeline run, and exit.
+    #[arg(long)]
+    pub explain: bool,
+}
+
+/// The passes a scene's effect list makes the pipeline run (and what it
+/// leaves out), as `--explain` prints them.
+pub fn explain(scene: &Scene, overlay: bool) -> Vec<String> {
+    use raycast::scene::Effect;
+    let mut out = vec![format!("scene {}: effects {:?}", scene.name, scene.effects)];
+    if scene.has(Effect::FoveatedSampling) {
+        let t = Triggers::from_scene(scene);
+        out.push("per gaze (CPU): ray mask and pixel ownership, uploaded to the GPU core".into());
+        let stages: Vec<&str> = raycast::gpu::foveated_stages(&t)
+            .iter()
+            .map(|&k| raycast::gpu::FOVEATED_STAGES[k])
+            .collect();
+        out.push(format!("per frame: {}", stages.join(" → ")));
+        let mut triggers = Vec::new();
+        if t.silhouette {
+            triggers.push("silhouette (+ one-cell margin)".to_string());
+        }
+        if let Some(d) = t.crease_deg {
+            triggers.push(format!("crease > {d}°"));
+        }
+        if let Some(j) = t.depth_jump {
+            triggers.push(format!("depth jump > {:.0} %", 100.0 * j));
+        }
+        out.push(format!(
+            "refinement triggers: {}",
+            if triggers.is_empty() {
+                "none (no cell is classified or refined)".to_string()
+            } else {
+                triggers.join(", ")
+            }
+        ));
+    } else {
+        out.push("per frame: cast and shade every pixel (FoveatedSampling is not in the scene's effects: no mask, no foveated buffers)".into());
+    }
+    out.push(format!(
+        "overlay: {}",
+        if overlay {
+            "POR box"
+        } else {
+            "none (P toggles the POR box)"
+        }
+    ));
+    out
 }
 
 /// What the tracker thread tells the window.
@@ -534,6 +582,13 @@ pub fn run(args: &ViewArgs, out: &mut dyn Write) -> Result<(), String> {
         }
     }
     let scene = load_scene(&args.scene)?;
+    if args.explain {
+        let overlay = args.overlay.is_some() || scene.has(raycast::scene::Effect::PorOverlay);
+        for l in explain(&scene, overlay) {
+            writeln!(out, "{l}").map_err(|e| e.to_string())?;
+        }
+        return Ok(());
+    }
     let display = config::load_display(&args.display).map_err(|e| e.to_string())?;
     let geometry = display.geometry().map_err(|e| e.to_string())?;
     let model = SamplingModel::new(

@@ -130,3 +130,121 @@ fn without_a_tracker_or_a_display_the_viewer_says_what_to_do() {
     assert!(!out.status.success());
     assert!(String::from_utf8_lossy(&out.stderr).contains("--tracker"));
 }
+
+#[test]
+fn explain_prints_the_passes_of_the_scene_effects() {
+    let out = gazecast()
+        .args([
+            "view",
+            "--explain",
+            "--scene",
+            "config/scenes/search-task.ron",
+            "--display",
+            "config/displays/tobii-et1750-17in.ron",
+        ])
+        .succeed();
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        text.contains("cast vertices → classify cells → silhouette margin"),
+        "{text}"
+    );
+    assert!(text.contains("crease > 30°"), "{text}");
+    // A scene without FoveatedSampling runs the full-resolution pass only.
+    let dir = tempfile::tempdir().expect("tempdir");
+    let plain = dir.path().join("plain.ron");
+    let text = std::fs::read_to_string("../../config/scenes/bunny.ron").expect("bunny");
+    let text = text.replace(
+        "effects: [FoveatedSampling, SilhouetteRefinement, CreaseRefinement, DepthRefinement],",
+        "effects: [],",
+    );
+    std::fs::write(&plain, text).expect("write");
+    let out = gazecast()
+        .args(["view", "--explain", "--scene"])
+        .arg(&plain)
+        .args(["--display", "config/displays/tobii-et1750-17in.ron"])
+        .succeed();
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(text.contains("cast and shade every pixel"), "{text}");
+    assert!(!text.contains("classify"), "{text}");
+}
+
+#[test]
+fn a_lost_or_ended_tracker_keeps_the_viewer_rendering_with_a_status_line() {
+    let x = Xvfb::start();
+    let dir = tempfile::tempdir().expect("tempdir");
+    // A tracker whose serial port does not exist: reopened with backoff.
+    let tracker = dir.path().join("gone.ron");
+    std::fs::write(
+        &tracker,
+        std::fs::read_to_string("../../config/trackers/iscan-binary.ron")
+            .expect("tracker")
+            .replace("Some(\"/dev/ttyUSB0\")", "Some(\"/nonexistent/tty\")"),
+    )
+    .expect("write");
+    let out = gazecast()
+        .env("DISPLAY", &x.display)
+        .args([
+            "view",
+            "--scene",
+            "config/scenes/search-task.ron",
+            "--display",
+            "config/displays/tobii-et1750-17in.ron",
+            "--backend",
+            "cpu",
+            "--frames",
+            "3",
+            "--tracker",
+        ])
+        .arg(&tracker)
+        .succeed();
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert_eq!(
+        text.lines().filter(|l| l.starts_with("frame ")).count(),
+        3,
+        "{text}"
+    );
+    assert!(
+        text.contains("tracker: ") && text.contains("retrying"),
+        "{text}"
+    );
+    assert!(text.contains("no gaze sample arrived"), "{text}");
+    // A recording that ends after 0.2 s: the last gaze stays, a status says so.
+    let rec = dir.path().join("short.gzrec");
+    gazecast()
+        .args([
+            "simulate",
+            "--tracker",
+            "tests/data/mouse-realistic.ron",
+            "--seconds",
+            "0.2",
+            "--out",
+        ])
+        .arg(&rec)
+        .succeed();
+    let out = gazecast()
+        .env("DISPLAY", &x.display)
+        .args([
+            "view",
+            "--scene",
+            "config/scenes/search-task.ron",
+            "--display",
+            "config/displays/tobii-et1750-17in.ron",
+            "--backend",
+            "cpu",
+            "--frames",
+            "5",
+            "--replay",
+        ])
+        .arg(&rec)
+        .succeed();
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert_eq!(
+        text.lines().filter(|l| l.starts_with("frame ")).count(),
+        5,
+        "{text}"
+    );
+    assert!(
+        text.contains("end of stream; keeping the last gaze"),
+        "{text}"
+    );
+}

@@ -147,6 +147,25 @@ pub const FOVEATED_STAGES: [&str; 7] = [
     "cast listed pixels",
 ];
 
+/// The stages (indices into [`FOVEATED_STAGES`]) a foveated frame runs with
+/// these triggers: a scene's effects decide, and a pass for an effect the
+/// scene does not list is not dispatched. Without any refinement trigger no
+/// cell is classified (none can be refined); without the silhouette margin
+/// the widening pass does not run.
+pub fn foveated_stages(t: &Triggers) -> Vec<usize> {
+    let classify = t.silhouette || t.crease_deg.is_some() || t.depth_jump.is_some();
+    let mut out = vec![0];
+    if classify {
+        out.push(1);
+        if t.margin {
+            out.push(2);
+        }
+        out.push(3);
+    }
+    out.extend([4, 5, 6]);
+    out
+}
+
 /// Timestamp queries around each pass, where the adapter has them.
 #[derive(Clone)]
 struct Timer {
@@ -506,6 +525,12 @@ impl GpuRenderer {
         })
     }
 
+    /// Whether the foveated stages' buffers exist (they are made by the first
+    /// foveated frame; a full-resolution scene never allocates them).
+    pub fn has_foveated_buffers(&self) -> bool {
+        self.fov_target.is_some()
+    }
+
     /// The largest storage buffer one binding may hold on this device (bytes).
     pub fn max_binding_bytes(&self) -> u64 {
         self.max_binding
@@ -676,7 +701,7 @@ impl GpuRenderer {
                 SAMPLE_BYTES * nv,
                 wgpu::BufferUsages::empty(),
             ),
-            ("the refined flags", 4 * nc, wgpu::BufferUsages::empty()),
+            ("the refined flags", 4 * nc, wgpu::BufferUsages::COPY_DST),
             ("the touched vertices", 4 * nv, wgpu::BufferUsages::COPY_DST),
         ];
         let mut buffers = Vec::new();
@@ -818,15 +843,24 @@ impl GpuRenderer {
         let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
             label: Some("foveated frame"),
         });
-        encoder.clear_buffer(&b[5], 0, None);
+        let stages = foveated_stages(triggers);
+        let names: Vec<&'static str> = stages.iter().map(|&k| FOVEATED_STAGES[k]).collect();
+        if triggers.margin {
+            encoder.clear_buffer(&b[5], 0, None);
+        }
+        if !stages.contains(&1) {
+            // Nothing is classified: no cell is refined.
+            encoder.clear_buffer(&b[4], 0, None);
+        }
         let groups = |n: u64| {
             let g = n.div_ceil(64).max(1);
             ((g.min(65_535)) as u32, g.div_ceil(65_535) as u32)
         };
         let timer = self.timer.clone();
         // One pass per stage, so that each can be timed.
-        for (k, stage) in FOVEATED_STAGES.iter().enumerate() {
-            let mut pass = begin_pass(&mut encoder, timer.as_ref(), k as u32, stage);
+        for (slot, &k) in stages.iter().enumerate() {
+            let stage = FOVEATED_STAGES[k];
+            let mut pass = begin_pass(&mut encoder, timer.as_ref(), slot as u32, stage);
             pass.set_bind_group(0, &bind0, &[]);
             pass.set_bind_group(1, &ft.bind_group, &[]);
             pass.set_pipeline(&pipelines[k]);
@@ -852,7 +886,7 @@ impl GpuRenderer {
             encoder.copy_buffer_to_buffer(&out, 0, &readback, 0, bytes);
         }
         if let Some(t) = &timer {
-            t.resolve(&mut encoder, FOVEATED_STAGES.len() as u32);
+            t.resolve(&mut encoder, stages.len() as u32);
         }
         encoder.copy_buffer_to_buffer(&b[6], 0, &ft.counters_readback, 0, 16);
         queue.submit(Some(encoder.finish()));
@@ -863,7 +897,7 @@ impl GpuRenderer {
         }
         let counters = read_back(&device, &ft.counters_readback, 16)?;
         self.stage_ms = match &timer {
-            Some(t) => t.read(&device, &FOVEATED_STAGES)?,
+            Some(t) => t.read(&device, &names)?,
             None => Vec::new(),
         };
         let stats = Stats {

@@ -741,13 +741,7 @@ fn scaling_point(
 ) -> Result<ScalingPoint, String> {
     let geometry = display.geometry().map_err(|e| e.to_string())?;
     let camera = Camera::new(&geometry);
-    let model = SamplingModel::new(
-        geometry,
-        GeislerPerry::default(),
-        1.0,
-        foveation::sampling::SEED_MAX_SPACING_PX,
-    )
-    .map_err(|e| e.to_string())?;
+    let model = crate::render_cmd::sampling_model(geometry, 1.0).map_err(|e| e.to_string())?;
     let gaze = geometry.centre_px();
     let mut settings = Settings {
         mode: Mode::Full,

@@ -9,9 +9,9 @@
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
-use foveation::{GeislerPerry, SamplingModel, ScreenGeometry};
+use foveation::ScreenGeometry;
 use rand::{Rng, SeedableRng};
-use raycast::render::{render, Mode, Settings, Triggers};
+use raycast::render::render;
 use raycast::{Camera, SceneFile};
 
 use crate::config;
@@ -167,20 +167,8 @@ pub fn run(args: &DemoArgs, out: &mut dyn Write) -> Result<(), String> {
         .map(|i| objects[i])
         .ok_or_else(|| format!("{SCENE}: no object with mesh `target`"))?;
     let gazes = scanpath(&g, &objects, target, f64::from(args.fps), args.seed);
-    let model = SamplingModel::new(
-        g,
-        GeislerPerry::default(),
-        1.0,
-        foveation::sampling::SEED_MAX_SPACING_PX,
-    )
-    .map_err(|e| e.to_string())?;
-    let settings = Settings {
-        mode: Mode::Foveated,
-        layout: foveation::Layout::Nyquist,
-        triggers: Triggers::from_scene(&scene),
-        test: raycast::ray::TriangleTest::Watertight,
-        check_coverage: false,
-    };
+    let model = crate::render_cmd::sampling_model(g, 1.0).map_err(|e| e.to_string())?;
+    let settings = crate::render_cmd::foveated_settings(&scene);
     std::fs::create_dir_all(&args.out)
         .map_err(|e| format!("{}: cannot create: {e}", args.out.display()))?;
     let (w, h) = (g.width_px as usize, g.height_px as usize);

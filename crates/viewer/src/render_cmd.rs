@@ -119,6 +119,32 @@ pub struct StageTime {
     pub ms: f64,
 }
 
+/// The sampling model the commands use: the Geisler–Perry CSF at contrast
+/// `contrast`, spacing up to the seed's n_max (17 px).
+pub fn sampling_model(
+    geometry: foveation::ScreenGeometry,
+    contrast: f64,
+) -> Result<SamplingModel, foveation::ParamError> {
+    SamplingModel::new(
+        geometry,
+        GeislerPerry::default(),
+        contrast,
+        foveation::sampling::SEED_MAX_SPACING_PX,
+    )
+}
+
+/// The default foveated settings for a scene: nyquist layout, the scene's
+/// refinement triggers, the watertight test.
+pub fn foveated_settings(scene: &Scene) -> Settings {
+    Settings {
+        mode: Mode::Foveated,
+        layout: Layout::Nyquist,
+        triggers: Triggers::from_scene(scene),
+        test: TriangleTest::Watertight,
+        check_coverage: false,
+    }
+}
+
 /// Loads and builds a scene; errors name the file, line and field.
 pub fn load_scene(path: &Path) -> Result<Scene, String> {
     let (file, text): (SceneFile, String) = config::load(path).map_err(|e| e.to_string())?;
@@ -139,13 +165,8 @@ pub fn run(args: &RenderArgs, out: &mut dyn Write) -> Result<(), String> {
     }
     let display = config::load_display(&args.display).map_err(|e| e.to_string())?;
     let geometry = display.geometry().map_err(|e| e.to_string())?;
-    let model = SamplingModel::new(
-        geometry,
-        GeislerPerry::default(),
-        args.contrast,
-        foveation::sampling::SEED_MAX_SPACING_PX,
-    )
-    .map_err(|e| format!("--{}: {e}", e.field.replace('_', "-")))?;
+    let model = sampling_model(geometry, args.contrast)
+        .map_err(|e| format!("--{}: {e}", e.field.replace('_', "-")))?;
     let gaze = args.gaze.unwrap_or_else(|| geometry.centre_px());
     let camera = Camera::new(&geometry);
     let settings = Settings {

@@ -20,9 +20,9 @@ use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use crossbeam_channel::{Receiver, Sender};
-use foveation::{GeislerPerry, SamplingModel};
+use foveation::SamplingModel;
 use raycast::gpu::GpuRenderer;
-use raycast::render::{layers_rgb, render, Frame, Mode, Settings, Stats, Triggers};
+use raycast::render::{layers_rgb, render, Frame, Settings, Stats, Triggers};
 use raycast::{Camera, Scene};
 use tracker_hal::clock::monotonic_us;
 use tracker_hal::mouse::{spawn_device, CursorEvent};
@@ -591,13 +591,7 @@ pub fn run(args: &ViewArgs, out: &mut dyn Write) -> Result<(), String> {
     }
     let display = config::load_display(&args.display).map_err(|e| e.to_string())?;
     let geometry = display.geometry().map_err(|e| e.to_string())?;
-    let model = SamplingModel::new(
-        geometry,
-        GeislerPerry::default(),
-        1.0,
-        foveation::sampling::SEED_MAX_SPACING_PX,
-    )
-    .map_err(|e| e.to_string())?;
+    let model = crate::render_cmd::sampling_model(geometry, 1.0).map_err(|e| e.to_string())?;
     let (cursor_tx, cursor_rx) = crossbeam_channel::unbounded();
     let (open, map, ends, source_name) = tracker_source(args, cursor_rx)?;
     let gpu = match args.backend {
@@ -622,13 +616,7 @@ pub fn run(args: &ViewArgs, out: &mut dyn Write) -> Result<(), String> {
     })?;
     let mut viewer = Viewer {
         args,
-        settings: Settings {
-            mode: Mode::Foveated,
-            layout: foveation::Layout::Nyquist,
-            triggers: Triggers::from_scene(&scene),
-            test: raycast::ray::TriangleTest::Watertight,
-            check_coverage: false,
-        },
+        settings: crate::render_cmd::foveated_settings(&scene),
         cam: Camera::new(&geometry),
         scene,
         model,

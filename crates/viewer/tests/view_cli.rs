@@ -50,13 +50,11 @@ impl Drop for Xvfb {
     }
 }
 
-#[test]
-fn a_replayed_session_renders_in_a_window_with_the_por_box_at_the_gaze() {
-    let x = Xvfb::start();
-    let dir = tempfile::tempdir().expect("tempdir");
-    let shot = dir.path().join("shot.png");
-    let out = gazecast()
-        .env("DISPLAY", &x.display)
+/// `gazecast view` of the search task on the seed's display, CPU backend, in
+/// the given X display.
+fn view(x: &Xvfb) -> std::process::Command {
+    let mut c = gazecast();
+    c.env("DISPLAY", &x.display)
         .env_remove("WAYLAND_DISPLAY")
         .args([
             "view",
@@ -64,14 +62,25 @@ fn a_replayed_session_renders_in_a_window_with_the_por_box_at_the_gaze() {
             "config/scenes/search-task.ron",
             "--display",
             "config/displays/tobii-et1750-17in.ron",
+            "--backend",
+            "cpu",
+        ]);
+    c
+}
+
+#[test]
+fn a_replayed_session_renders_in_a_window_with_the_por_box_at_the_gaze() {
+    let x = Xvfb::start();
+    let dir = tempfile::tempdir().expect("tempdir");
+    let shot = dir.path().join("shot.png");
+    let out = view(&x)
+        .args([
             "--replay",
             "tests/data/mouse-120hz.gzrec",
             "--frames",
             "4",
             "--overlay",
             "por",
-            "--backend",
-            "cpu",
             "--screenshot",
         ])
         .arg(&shot)
@@ -181,20 +190,8 @@ fn a_lost_or_ended_tracker_keeps_the_viewer_rendering_with_a_status_line() {
             .replace("Some(\"/dev/ttyUSB0\")", "Some(\"/nonexistent/tty\")"),
     )
     .expect("write");
-    let out = gazecast()
-        .env("DISPLAY", &x.display)
-        .args([
-            "view",
-            "--scene",
-            "config/scenes/search-task.ron",
-            "--display",
-            "config/displays/tobii-et1750-17in.ron",
-            "--backend",
-            "cpu",
-            "--frames",
-            "3",
-            "--tracker",
-        ])
+    let out = view(&x)
+        .args(["--frames", "3", "--tracker"])
         .arg(&tracker)
         .succeed();
     let text = String::from_utf8_lossy(&out.stdout);
@@ -221,20 +218,8 @@ fn a_lost_or_ended_tracker_keeps_the_viewer_rendering_with_a_status_line() {
         ])
         .arg(&rec)
         .succeed();
-    let out = gazecast()
-        .env("DISPLAY", &x.display)
-        .args([
-            "view",
-            "--scene",
-            "config/scenes/search-task.ron",
-            "--display",
-            "config/displays/tobii-et1750-17in.ron",
-            "--backend",
-            "cpu",
-            "--frames",
-            "5",
-            "--replay",
-        ])
+    let out = view(&x)
+        .args(["--frames", "5", "--replay"])
         .arg(&rec)
         .succeed();
     let text = String::from_utf8_lossy(&out.stdout);

@@ -15,31 +15,37 @@ struct Xvfb {
 }
 
 impl Xvfb {
+    /// Xvfb picks a free display number itself (`-displayfd`) and writes it
+    /// once it accepts connections, so tests running in parallel never share
+    /// or race for a display.
     fn start() -> Self {
-        for n in 0..50 {
-            let num = 70 + (std::process::id() as usize + n) % 200;
-            if std::path::Path::new(&format!("/tmp/.X11-unix/X{num}")).exists() {
-                continue;
-            }
-            let display = format!(":{num}");
-            let mut child = Command::new("Xvfb")
-                .args([&display, "-screen", "0", "1600x1200x24", "-nolisten", "tcp"])
-                .stdout(Stdio::null())
-                .stderr(Stdio::null())
-                .spawn()
-                .expect("Xvfb runs (scripts/system-deps.sh installs the xvfb package)");
-            for _ in 0..100 {
-                if std::path::Path::new(&format!("/tmp/.X11-unix/X{num}")).exists() {
-                    return Self { child, display };
-                }
-                if let Ok(Some(_)) = child.try_wait() {
-                    break;
-                }
-                std::thread::sleep(std::time::Duration::from_millis(50));
-            }
-            let _ = child.kill();
+        use std::io::BufRead;
+        let mut child = Command::new("Xvfb")
+            .args([
+                "-displayfd",
+                "1",
+                "-screen",
+                "0",
+                "1600x1200x24",
+                "-nolisten",
+                "tcp",
+            ])
+            .stdout(Stdio::piped())
+            .stderr(Stdio::null())
+            .spawn()
+            .expect("Xvfb runs (scripts/system-deps.sh installs the xvfb package)");
+        let mut line = String::new();
+        if let Some(out) = child.stdout.take() {
+            let _ = std::io::BufReader::new(out).read_line(&mut line);
         }
-        panic!("no Xvfb display could be started");
+        let num: u32 = line
+            .trim()
+            .parse()
+            .unwrap_or_else(|_| panic!("Xvfb did not report a display: {line:?}"));
+        Self {
+            child,
+            display: format!(":{num}"),
+        }
     }
 }
 

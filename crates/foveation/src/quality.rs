@@ -158,6 +158,51 @@ fn weight(geometry: &ScreenGeometry, csf: &GeislerPerry, e_deg: f64, p_px: [f64;
     (csf.cutoff_frequency_cpd(1.0, e_deg) / nyquist_cpd).clamp(0.0, 1.0)
 }
 
+/// What each pixel contributes for one gaze: its eccentricity and its
+/// visibility weight. Depends on the display and the gaze only, so a sweep
+/// computes it once per gaze and compares every configuration against it.
+#[derive(Debug, Clone)]
+pub struct GazeWeights {
+    width: u32,
+    height: u32,
+    eccentricity_deg: Vec<f32>,
+    visibility: Vec<f32>,
+}
+
+impl GazeWeights {
+    /// For the gaze `gaze_px` (finite, anywhere, also off the screen).
+    pub fn new(
+        geometry: &ScreenGeometry,
+        csf: &GeislerPerry,
+        gaze_px: [f64; 2],
+    ) -> Result<Self, ParamError> {
+        csf.validate()?;
+        if !(gaze_px[0].is_finite() && gaze_px[1].is_finite()) {
+            return Err(ParamError::new(
+                "gaze_px",
+                format!("{gaze_px:?}"),
+                "must be finite",
+            ));
+        }
+        let (w, h) = (geometry.width_px as usize, geometry.height_px as usize);
+        let per_pixel: Vec<(f32, f32)> = (0..w * h)
+            .into_par_iter()
+            .map(|i| {
+                let p = [(i % w) as f64 + 0.5, (i / w) as f64 + 0.5];
+                let e = geometry.eccentricity_deg(gaze_px, p);
+                (e as f32, weight(geometry, csf, e, p) as f32)
+            })
+            .collect();
+        let (eccentricity_deg, visibility) = per_pixel.into_iter().unzip();
+        Ok(Self {
+            width: geometry.width_px,
+            height: geometry.height_px,
+            eccentricity_deg,
+            visibility,
+        })
+    }
+}
+
 /// Compares `test` with `reference` (same size; the geometry's size) for the
 /// gaze `gaze_px` (finite, anywhere, also off the screen).
 pub fn compare(
@@ -167,26 +212,27 @@ pub fn compare(
     reference: &Image,
     test: &Image,
 ) -> Result<Quality, ParamError> {
-    csf.validate()?;
+    compare_with(&GazeWeights::new(geometry, csf, gaze_px)?, reference, test)
+}
+
+/// [`compare`] with the per-gaze weights computed beforehand.
+pub fn compare_with(
+    weights: &GazeWeights,
+    reference: &Image,
+    test: &Image,
+) -> Result<Quality, ParamError> {
     let n = reference.check("reference")?;
     test.check("test")?;
     if (reference.width, reference.height) != (test.width, test.height)
-        || (reference.width, reference.height) != (geometry.width_px, geometry.height_px)
+        || (reference.width, reference.height) != (weights.width, weights.height)
     {
         return Err(ParamError::new(
             "test",
             format!("{}x{}", test.width, test.height),
             format!(
                 "reference is {}x{} and the display {}x{}: all three must agree",
-                reference.width, reference.height, geometry.width_px, geometry.height_px
+                reference.width, reference.height, weights.width, weights.height
             ),
-        ));
-    }
-    if !(gaze_px[0].is_finite() && gaze_px[1].is_finite()) {
-        return Err(ParamError::new(
-            "gaze_px",
-            format!("{gaze_px:?}"),
-            "must be finite",
         ));
     }
     let w = reference.width as usize;
@@ -195,23 +241,21 @@ pub fn compare(
     }
     let rows = (0..reference.height as usize).into_par_iter().map(|y| {
         let mut q = Quality::default();
-        for x in 0..w {
-            let i = y * w + x;
+        for i in y * w..(y + 1) * w {
             let sq: f64 = (0..3)
                 .map(|c| {
                     let d = f64::from(reference.rgb[3 * i + c]) - f64::from(test.rgb[3 * i + c]);
                     d * d
                 })
                 .sum();
-            let p = [x as f64 + 0.5, y as f64 + 0.5];
-            let e = geometry.eccentricity_deg(gaze_px, p);
+            let e = f64::from(weights.eccentricity_deg[i]);
             q.screen.add(sq, 3.0);
             for (r, sum) in REGION_RADII_DEG.iter().zip(&mut q.within) {
                 if e <= *r {
                     sum.add(sq, 3.0);
                 }
             }
-            let v = weight(geometry, csf, e, p);
+            let v = f64::from(weights.visibility[i]);
             q.foveated.add(v * sq / 3.0, v);
             q.hit_mismatch += u64::from(reference.hit[i] != test.hit[i]);
             q.pixels += 1;

@@ -15,7 +15,7 @@ use std::fmt::Write as _;
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
-use foveation::quality::{self, Image, Quality};
+use foveation::quality::{self, GazeWeights, Image, Quality};
 use foveation::{Display, GeislerPerry, Layout, SamplingModel, ScreenGeometry};
 use indicatif::{ProgressBar, ProgressStyle};
 use rand::{Rng, SeedableRng};
@@ -419,7 +419,10 @@ fn accuracy(args: &AccuracyArgs, out: &mut dyn Write) -> Result<(), String> {
     for &g in &gazes {
         let (frame, _) =
             render(&scene, &camera, &full_model, &full_settings, g).map_err(|e| e.to_string())?;
-        references.push(frame);
+        // The gaze's per-pixel eccentricity and visibility: computed once,
+        // shared by every configuration.
+        let weights = GazeWeights::new(&geometry, &csf, g).map_err(|e| e.to_string())?;
+        references.push((frame, weights));
         bar.inc(1);
     }
 
@@ -429,9 +432,9 @@ fn accuracy(args: &AccuracyArgs, out: &mut dyn Write) -> Result<(), String> {
         let model = SamplingModel::new(geometry, csf, config.contrast, config.max_spacing_px)
             .map_err(|e| format!("{}: {e}", config.name()))?;
         let settings = settings_for(config, &scene);
-        for (k, (&g, reference)) in gazes.iter().zip(&references).enumerate() {
+        for (k, (&g, (reference, weights))) in gazes.iter().zip(&references).enumerate() {
             let (frame, stats) = timed(&scene, &camera, &model, &settings, g, repeats)?;
-            let quality = quality::compare(&geometry, &csf, g, &image(reference), &image(&frame))
+            let quality = quality::compare_with(weights, &image(reference), &image(&frame))
                 .map_err(|e| e.to_string())?;
             rows.push(Row {
                 config: *config,

@@ -333,50 +333,40 @@ pub fn simulated(
     if !(args.seconds.is_finite() && args.seconds > 0.0 && args.seconds <= 3600.0) {
         return Err(format!("--seconds {}: must be in (0, 3600]", args.seconds));
     }
+    let script = |rate_hz, frame, units_per_degree| {
+        gaze_script(&Script {
+            seconds: args.seconds,
+            rate_hz,
+            frame,
+            units_per_degree,
+            seed: args.seed,
+        })
+    };
     let (stream, rate) = match &tracker.driver {
         Driver::Iscan(c) => {
             let rate = args.rate.unwrap_or(60.0);
             // The seed's ISCAN covers about ±20° with 512 units: 12.8 units/deg.
-            let script = Script {
-                seconds: args.seconds,
-                rate_hz: rate,
-                frame: c.frame,
-                units_per_degree: 12.8,
-                seed: args.seed,
-            };
-            (simulate_iscan(c, &gaze_script(&script), args.seed), rate)
+            (
+                simulate_iscan(c, &script(rate, c.frame, 12.8), args.seed),
+                rate,
+            )
         }
         Driver::Mouse(c) => {
             let rate = args.rate.unwrap_or(c.rate_hz);
-            let script = Script {
-                seconds: args.seconds,
-                rate_hz: rate,
-                frame: (1280.0, 1024.0),
-                units_per_degree: c.pixels_per_degree,
-                seed: args.seed,
-            };
-            (
-                simulate_mouse(c, &gaze_script(&script), 1.0, args.seed),
-                rate,
-            )
+            let truth = script(rate, (1280.0, 1024.0), c.pixels_per_degree);
+            (simulate_mouse(c, &truth, 1.0, args.seed), rate)
         }
         Driver::TobiiHid(c) => {
             // The seed's Tobii ET-1750 ran at 50 Hz (Murphy 2007 §7.1).
             let rate = args.rate.unwrap_or(50.0);
-            let script = Script {
-                seconds: args.seconds,
-                rate_hz: rate,
-                frame: c.screen_um,
-                // 1° at 60 cm is 10.47 mm on the screen.
-                units_per_degree: 10_470.0,
-                seed: args.seed,
-            };
+            // 1° at 60 cm is 10.47 mm on the screen.
+            let truth = script(rate, c.screen_um, 10_470.0);
             let layout = match args.hid_layout {
                 HidLayoutArg::Reference => HidLayout::Reference,
                 HidLayoutArg::Compact => HidLayout::Compact,
             };
             (
-                simulate_hid(layout, &gaze_script(&script), c.screen_um, rate, args.seed),
+                simulate_hid(layout, &truth, c.screen_um, rate, args.seed),
                 rate,
             )
         }

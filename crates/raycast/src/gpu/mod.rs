@@ -244,6 +244,28 @@ fn begin_pass<'e>(
     })
 }
 
+/// A bind group binding each buffer at its index (0, 1, 2, …).
+fn bind_all(
+    device: &wgpu::Device,
+    layout: &wgpu::BindGroupLayout,
+    label: &str,
+    buffers: &[&wgpu::Buffer],
+) -> wgpu::BindGroup {
+    let entries: Vec<wgpu::BindGroupEntry> = buffers
+        .iter()
+        .enumerate()
+        .map(|(k, b)| wgpu::BindGroupEntry {
+            binding: k as u32,
+            resource: b.as_entire_binding(),
+        })
+        .collect();
+    device.create_bind_group(&wgpu::BindGroupDescriptor {
+        label: Some(label),
+        layout,
+        entries: &entries,
+    })
+}
+
 /// Binding 0 of both groups: a uniform buffer.
 fn uniform_entry() -> wgpu::BindGroupLayoutEntry {
     wgpu::BindGroupLayoutEntry {
@@ -569,25 +591,10 @@ impl GpuRenderer {
                 usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
                 mapped_at_creation: false,
             });
-            let mut entries = vec![wgpu::BindGroupEntry {
-                binding: 0,
-                resource: self.params.as_entire_binding(),
-            }];
-            for (k, b) in self.scene_buffers.iter().enumerate() {
-                entries.push(wgpu::BindGroupEntry {
-                    binding: k as u32 + 1,
-                    resource: b.as_entire_binding(),
-                });
-            }
-            entries.push(wgpu::BindGroupEntry {
-                binding: 6,
-                resource: out.as_entire_binding(),
-            });
-            let bind_group = self.device.create_bind_group(&wgpu::BindGroupDescriptor {
-                label: Some("cast"),
-                layout: &self.layout,
-                entries: &entries,
-            });
+            let mut all: Vec<&wgpu::Buffer> = vec![&self.params];
+            all.extend(self.scene_buffers.iter());
+            all.push(&out);
+            let bind_group = bind_all(&self.device, &self.layout, "cast", &all);
             self.target = Some(Target {
                 pixels,
                 out,
@@ -753,29 +760,15 @@ impl GpuRenderer {
             usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
             mapped_at_creation: false,
         });
-        let dispatch_group = self.device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("indirect dispatch"),
-            layout: &self.dispatch_layout,
-            entries: &[wgpu::BindGroupEntry {
-                binding: 0,
-                resource: buffers[8].as_entire_binding(),
-            }],
-        });
-        let mut entries = vec![wgpu::BindGroupEntry {
-            binding: 0,
-            resource: self.fov_params.as_entire_binding(),
-        }];
-        for (k, b) in buffers[..8].iter().enumerate() {
-            entries.push(wgpu::BindGroupEntry {
-                binding: k as u32 + 1,
-                resource: b.as_entire_binding(),
-            });
-        }
-        let bind_group = self.device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("foveated"),
-            layout: &self.fov_layout,
-            entries: &entries,
-        });
+        let dispatch_group = bind_all(
+            &self.device,
+            &self.dispatch_layout,
+            "indirect dispatch",
+            &[&buffers[8]],
+        );
+        let mut all: Vec<&wgpu::Buffer> = vec![&self.fov_params];
+        all.extend(buffers[..8].iter());
+        let bind_group = bind_all(&self.device, &self.fov_layout, "foveated", &all);
         self.fov_target = Some(FovTarget {
             vertices: nv,
             cells: nc,

@@ -3,8 +3,9 @@
 
 use std::path::{Path, PathBuf};
 
+use gazecast_viewer::calibrate_cmd::PlanArgs;
 use gazecast_viewer::config;
-use gazecast_viewer::tracker_cmd::{simulated, HidLayoutArg, SimulateArgs};
+use gazecast_viewer::tracker_cmd::{simulated, HidLayoutArg, ScriptArg, SimulateArgs};
 use tracker_hal::csv::{csv_row, CSV_HEADER};
 use tracker_hal::Recording;
 
@@ -69,6 +70,16 @@ fn test_data_matches_the_simulator() {
             seed,
             hid_layout,
             hid_log: None,
+            script: ScriptArg::Search,
+            display: None,
+            plan: PlanArgs {
+                points: 9,
+                validation_points: 4,
+                settle_ms: 400,
+                collect_ms: 800,
+                shuffle: None,
+            },
+            closed_target: None,
         };
         let (header, stream) = simulated(&cfg, &args).unwrap_or_else(|e| panic!("{e}"));
         let rec = Recording::read(&repo().join(format!("tests/data/{name}.gzrec")))

@@ -1,10 +1,10 @@
-//! `gazecast demo`: the seed's search task seen through a built-in scanpath
-//! — a plausible search of the 5×5 grid that ends on the target — rendered
-//! foveated frame by frame, headless, to an animated PNG and a contact
-//! sheet, with rays and times per frame.
-//!
-//! The live window (mouse or tracker driving the gaze) is issue 7 and not
-//! built yet; the demo says so and renders headless.
+//! `gazecast demo`: the seed's search task. With a display (`DISPLAY` or
+//! `WAYLAND_DISPLAY` set) it opens the live window in mouse mode: the cursor
+//! is the point of regard, through the same tracker path as a physical
+//! tracker. Without one (or with `--headless`) it follows a built-in
+//! scanpath — a plausible search of the 5×5 grid that ends on the target —
+//! rendered foveated frame by frame to an animated PNG and a contact sheet,
+//! with rays and times per frame.
 
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -28,6 +28,21 @@ pub struct DemoArgs {
     /// Seed of the scanpath.
     #[arg(long, default_value_t = 7)]
     pub seed: u64,
+    /// Render the scanpath to files even when a display is available.
+    #[arg(long)]
+    pub headless: bool,
+    /// Window mode: exit after this many frames.
+    #[arg(long, value_name = "N")]
+    pub frames: Option<u64>,
+}
+
+const MOUSE: &str = "config/trackers/mouse.ron";
+
+/// Whether a window can be tried: a display server is named.
+fn has_display() -> bool {
+    ["DISPLAY", "WAYLAND_DISPLAY"]
+        .iter()
+        .any(|v| std::env::var_os(v).is_some_and(|s| !s.is_empty()))
 }
 
 const SCENE: &str = "config/scenes/search-task.ron";
@@ -143,11 +158,47 @@ pub fn run(args: &DemoArgs, out: &mut dyn Write) -> Result<(), String> {
         return Err(format!("--fps {}: must be in 1..=120", args.fps));
     }
     let line = |out: &mut dyn Write, s: String| writeln!(out, "{s}").map_err(|e| e.to_string());
+    if !args.headless && has_display() {
+        line(
+            out,
+            format!(
+                "gazecast demo: the search task in a window; the mouse is the gaze ({MOUSE}). \
+                 Keys: P POR box, L layers, H HUD, S screenshot, Esc quit. \
+                 (--headless renders the built-in scanpath to {} instead.)",
+                args.out.display()
+            ),
+        )?;
+        let view = crate::view_cmd::ViewArgs {
+            scene: SCENE.into(),
+            display: DISPLAY.into(),
+            tracker: Some(MOUSE.into()),
+            replay: None,
+            calibration: None,
+            record: None,
+            frames: args.frames,
+            screenshot: None,
+            overlay: Some("por".into()),
+            backend: crate::render_cmd::Backend::Auto,
+            fullscreen: false,
+            explain: false,
+        };
+        match crate::view_cmd::run(&view, out) {
+            Err(e) if e.starts_with("cannot open a window") => {
+                line(out, format!("{e}; rendering headless instead"))?;
+            }
+            other => return other,
+        }
+    }
     line(
         out,
-        "gazecast demo: the live window is not built yet (issue 7); rendering the search task \
-         headless along a built-in scanpath"
-            .into(),
+        format!(
+            "gazecast demo ({}): rendering the search task headless along a built-in scanpath",
+            if args.headless {
+                "--headless"
+            } else {
+                "no display"
+            }
+        ),
     )?;
     let scene = load_scene(Path::new(SCENE))?;
     let (file, _): (SceneFile, String) =

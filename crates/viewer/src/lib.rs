@@ -1,13 +1,17 @@
 //! The `gazecast` binary's library: command-line wiring, configuration
-//! loading and pictures. It owns no maths (see `foveation`) and, later, the
-//! threads and the window.
+//! loading, pictures, the tracker thread and the windows (viewer,
+//! calibration). It owns no maths (see `foveation`, `raycast`,
+//! `tracker_hal`).
 
 pub mod bench_cmd;
+pub mod calibrate_cmd;
 pub mod config;
 pub mod demo_cmd;
+pub mod gaze_feed;
 pub mod mask_cmd;
 pub mod plots;
 pub mod render_cmd;
+pub mod screen;
 pub mod tracker_cmd;
 pub mod view_cmd;
 
@@ -40,13 +44,16 @@ pub enum Command {
     /// Measure what accuracy costs in time (`accuracy`) and how the cost
     /// scales with triangles and pixels (`scaling`).
     Bench(bench_cmd::BenchArgs),
-    /// The search task along a built-in scanpath, rendered foveated to an
-    /// animated PNG and a contact sheet (headless; the live window is not
-    /// built yet).
+    /// The search task: in a window with the mouse as the gaze when there is
+    /// a display; otherwise along a built-in scanpath, rendered foveated to
+    /// an animated PNG and a contact sheet.
     Demo(demo_cmd::DemoArgs),
     /// The live gaze-contingent window: a tracker (or a replayed recording,
     /// or the mouse) drives the point of regard.
     View(view_cmd::ViewArgs),
+    /// The calibration screen: targets in order, a fit, validation in
+    /// degrees (arrows per point), redo of bad points, saved as RON.
+    Calibrate(calibrate_cmd::CalibrateArgs),
 }
 
 /// Runs a parsed command line, writing normal output to `out`.
@@ -61,5 +68,6 @@ pub fn run(cli: Cli, out: &mut dyn std::io::Write) -> Result<(), String> {
         Command::Bench(args) => bench_cmd::run(&args, out),
         Command::Demo(args) => demo_cmd::run(&args, out),
         Command::View(args) => view_cmd::run(&args, out),
+        Command::Calibrate(args) => calibrate_cmd::run(&args, out),
     }
 }

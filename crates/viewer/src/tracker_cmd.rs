@@ -91,6 +91,30 @@ pub struct SimulateArgs {
     /// HID trackers: also write the device side as a hid-log text file.
     #[arg(long, value_name = "FILE")]
     pub hid_log: Option<PathBuf>,
+    /// What the simulated person does: `search` (fixations anywhere,
+    /// saccades, blinks, a lost eye; --seconds long) or `calibration`
+    /// (follows `gazecast calibrate`'s targets, then its validation
+    /// targets, given the same plan options and --display; the tracker is
+    /// uncalibrated: it sees the screen in perspective).
+    #[arg(long, value_enum, default_value = "search")]
+    pub script: ScriptArg,
+    /// --script calibration: the display the targets are on.
+    #[arg(long, value_name = "FILE")]
+    pub display: Option<PathBuf>,
+    #[command(flatten)]
+    pub plan: crate::calibrate_cmd::PlanArgs,
+    /// --script calibration: the eyes are closed through this calibration
+    /// target (0-based, in presentation order), so it is rejected and
+    /// shown again.
+    #[arg(long, value_name = "I")]
+    pub closed_target: Option<usize>,
+}
+
+/// Behaviours the simulator scripts.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum ScriptArg {
+    Search,
+    Calibration,
 }
 
 /// Report layouts of the simulated HID tracker.
@@ -228,7 +252,7 @@ pub fn record(args: &RecordArgs, out: &mut dyn Write) -> Result<(), String> {
     let tracker = load_tracker(&args.tracker)?;
     let Driver::Iscan(iscan) = &tracker.driver else {
         return Err(format!(
-            "{}: `record` talks to a serial tracker; the {} driver needs the viewer window (gazecast view --record, not built yet)",
+            "{}: `record` talks to a serial tracker; the {} driver needs the viewer window: gazecast view --record FILE (or calibrate --record FILE)",
             args.tracker.display(),
             tracker.driver_name()
         ));
@@ -333,34 +357,58 @@ pub fn simulated(
     if !(args.seconds.is_finite() && args.seconds > 0.0 && args.seconds <= 3600.0) {
         return Err(format!("--seconds {}: must be in (0, 3600]", args.seconds));
     }
-    let script = |rate_hz, frame, units_per_degree| {
-        gaze_script(&Script {
+    let screen_px = match (&args.script, &args.display) {
+        (ScriptArg::Calibration, Some(d)) => Some(
+            config::load_display(d)
+                .map_err(|e| e.to_string())?
+                .resolution_px,
+        ),
+        (ScriptArg::Calibration, None) => {
+            return Err(
+                "--script calibration needs --display FILE (the screen of the targets)".into(),
+            )
+        }
+        (ScriptArg::Search, _) => None,
+    };
+    let stops = |frame| -> Result<Vec<tracker_hal::sim::Stop>, String> {
+        let screen = screen_px.unwrap_or((1280, 1024));
+        crate::calibrate_cmd::session_stops(&args.plan, screen, frame, args.closed_target)
+    };
+    let script = |rate_hz: f64, frame: (f64, f64), units_per_degree: f64| match args.script {
+        ScriptArg::Search => Ok(gaze_script(&Script {
             seconds: args.seconds,
             rate_hz,
             frame,
             units_per_degree,
             seed: args.seed,
-        })
+        })),
+        ScriptArg::Calibration => Ok::<_, String>(tracker_hal::sim::fixation_script(
+            &stops(frame)?,
+            rate_hz,
+            units_per_degree,
+            0.03 * units_per_degree,
+            args.seed,
+        )),
     };
     let (stream, rate) = match &tracker.driver {
         Driver::Iscan(c) => {
             let rate = args.rate.unwrap_or(60.0);
             // The seed's ISCAN covers about ±20° with 512 units: 12.8 units/deg.
             (
-                simulate_iscan(c, &script(rate, c.frame, 12.8), args.seed),
+                simulate_iscan(c, &script(rate, c.frame, 12.8)?, args.seed),
                 rate,
             )
         }
         Driver::Mouse(c) => {
             let rate = args.rate.unwrap_or(c.rate_hz);
-            let truth = script(rate, (1280.0, 1024.0), c.pixels_per_degree);
+            let truth = script(rate, (1280.0, 1024.0), c.pixels_per_degree)?;
             (simulate_mouse(c, &truth, 1.0, args.seed), rate)
         }
         Driver::TobiiHid(c) => {
             // The seed's Tobii ET-1750 ran at 50 Hz (Murphy 2007 §7.1).
             let rate = args.rate.unwrap_or(50.0);
             // 1° at 60 cm is 10.47 mm on the screen.
-            let truth = script(rate, c.screen_um, 10_470.0);
+            let truth = script(rate, c.screen_um, 10_470.0)?;
             let layout = match args.hid_layout {
                 HidLayoutArg::Reference => HidLayout::Reference,
                 HidLayoutArg::Compact => HidLayout::Compact,
@@ -377,10 +425,22 @@ pub fn simulated(
     let header = RecordingHeader {
         tracker: tracker.clone(),
         display: None,
-        note: format!(
-            "SYNTHESISED by gazecast simulate (tracker_hal::sim), seed {}, {} s at {} Hz: not captured from a real device",
-            args.seed, args.seconds, rate
-        ),
+        note: match args.script {
+            ScriptArg::Search => format!(
+                "SYNTHESISED by gazecast simulate (tracker_hal::sim), seed {}, {} s at {} Hz: not captured from a real device",
+                args.seed, args.seconds, rate
+            ),
+            ScriptArg::Calibration => format!(
+                "SYNTHESISED by gazecast simulate (tracker_hal::sim), calibration script ({} + {} targets, settle {} ms, collect {} ms, closed target {:?}), seed {} at {} Hz: not captured from a real device",
+                args.plan.points,
+                args.plan.validation_points,
+                args.plan.settle_ms,
+                args.plan.collect_ms,
+                args.closed_target,
+                args.seed,
+                rate
+            ),
+        },
     };
     Ok((header, stream))
 }

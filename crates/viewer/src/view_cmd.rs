@@ -1,43 +1,40 @@
 //! `gazecast view`: the live gaze-contingent loop in a window.
 //!
-//! Threads: a tracker thread runs the driver (a replayed recording at its
-//! original pacing, the mouse emulator fed by the window's cursor, an ISCAN
-//! on its serial port or a HID tracker) and sends samples over a
-//! `crossbeam-channel`; the window thread drains the channel to the newest
-//! sample each frame (never an old gaze, never waiting for the tracker),
-//! renders foveated (CPU or GPU core), and presents by copying the frame into
-//! the window's surface (wgpu). Invalid samples (blinks) keep the last valid
-//! gaze; a tracker that fails is reopened with backoff while rendering goes
-//! on with a status line. Closing the window or the frame limit ends it.
+//! Threads: a tracker thread ([`crate::gaze_feed`]) runs the driver and
+//! sends samples over a `crossbeam-channel`, optionally tapping every byte
+//! into a recording (its own writer thread); the window thread, once the
+//! surface has a texture for the next frame, drains the channel to the
+//! newest sample (never an old gaze, never waiting for the tracker),
+//! renders foveated (CPU or GPU core), and presents by copying the frame
+//! into the window's surface (wgpu). Invalid samples (blinks) keep the last
+//! valid gaze; a tracker that fails is reopened with backoff while
+//! rendering goes on with a status line. Closing the window, `Esc`, Ctrl-C,
+//! SIGTERM or the frame limit end it; the recording is then closed properly.
 //!
 //! Keys: `P` POR box, `L` layers view, `H` HUD, `S` screenshot (to
 //! `gazecast-screenshot.png`), `Esc` quit.
 
 use std::io::Write;
 use std::path::{Path, PathBuf};
-use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::Arc;
-use std::time::{Duration, Instant};
+use std::time::Instant;
 
-use crossbeam_channel::{Receiver, Sender};
+use crossbeam_channel::Receiver;
 use foveation::SamplingModel;
 use raycast::gpu::GpuRenderer;
 use raycast::render::{layers_rgb, render, Frame, Settings, Stats, Triggers};
 use raycast::{Camera, Scene};
 use tracker_hal::clock::monotonic_us;
-use tracker_hal::mouse::{spawn_device, CursorEvent};
-use tracker_hal::{
-    Driver, ErrorKind, GazeSource, MonotonicClock, Pacing, Recording, ReplayTransport,
-    StreamDriver, TrackerConfig,
-};
+use tracker_hal::mouse::CursorEvent;
 use winit::application::ApplicationHandler;
 use winit::event::{ElementState, KeyEvent, WindowEvent};
 use winit::event_loop::{ActiveEventLoop, EventLoop};
 use winit::keyboard::{Key, NamedKey};
-use winit::window::{Window, WindowId};
+use winit::window::WindowId;
 
 use crate::config;
+use crate::gaze_feed::{GazeSetup, TrackerMsg};
 use crate::render_cmd::{draw_por_box, load_scene, Backend};
+use crate::screen::Screen;
 
 #[derive(Debug, Clone, clap::Args)]
 pub struct ViewArgs {
@@ -52,6 +49,14 @@ pub struct ViewArgs {
     /// Play a tracker-hal recording at its original pacing as the gaze.
     #[arg(long, value_name = "FILE.gzrec")]
     pub replay: Option<PathBuf>,
+    /// Map raw gaze with this calibration (from `gazecast calibrate`)
+    /// instead of the tracker file's mapping.
+    #[arg(long, value_name = "FILE.ron")]
+    pub calibration: Option<PathBuf>,
+    /// Record the session losslessly (every byte from and to the tracker,
+    /// with arrival times) for `gazecast replay` / `view --replay`.
+    #[arg(long, value_name = "FILE.gzrec")]
+    pub record: Option<PathBuf>,
     /// Exit after this many frames.
     #[arg(long, value_name = "N")]
     pub frames: Option<u64>,
@@ -116,162 +121,6 @@ pub fn explain(scene: &Scene, overlay: bool) -> Vec<String> {
     out
 }
 
-/// What the tracker thread tells the window.
-#[derive(Debug, Clone)]
-pub enum TrackerMsg {
-    /// A sample: host arrival (µs, monotonic) and the gaze in screen pixels
-    /// (`None`: invalid, e.g. a blink).
-    Gaze {
-        host_us: u64,
-        gaze_px: Option<[f64; 2]>,
-    },
-    /// A status line (disconnect, reconnect, end of recording).
-    Status(String),
-}
-
-type Source = Box<dyn GazeSource + Send>;
-
-/// Opens the configured tracker (again, after a failure).
-type Opener = Box<dyn FnMut() -> Result<Source, String> + Send>;
-
-/// Runs a tracker until `stop`: samples to `tx`, reopening with backoff
-/// (0.25 s doubling to 4 s) when the device fails; a replay ends at its end.
-pub fn tracker_thread(
-    mut open: Opener,
-    map: Box<dyn Fn([f64; 2]) -> [f64; 2] + Send>,
-    tx: Sender<TrackerMsg>,
-    stop: Arc<AtomicBool>,
-    ends: bool,
-) {
-    let mut backoff = Duration::from_millis(250);
-    while !stop.load(Ordering::Relaxed) {
-        let mut source = match open() {
-            Ok(s) => s,
-            Err(e) => {
-                let _ = tx.send(TrackerMsg::Status(format!(
-                    "tracker: {e}; retrying in {:.2} s",
-                    backoff.as_secs_f64()
-                )));
-                std::thread::sleep(backoff);
-                backoff = (backoff * 2).min(Duration::from_secs(4));
-                continue;
-            }
-        };
-        if let Err(e) = source.start() {
-            let _ = tx.send(TrackerMsg::Status(format!("tracker: {e}")));
-        }
-        let _ = tx.send(TrackerMsg::Status(String::new()));
-        backoff = Duration::from_millis(250);
-        while !stop.load(Ordering::Relaxed) {
-            match source.next_sample() {
-                Ok(Some(s)) => {
-                    let _ = tx.send(TrackerMsg::Gaze {
-                        host_us: monotonic_us(),
-                        gaze_px: s.gaze().map(&map),
-                    });
-                }
-                Ok(None) => {
-                    let _ = tx.send(TrackerMsg::Status(
-                        "tracker: end of stream; keeping the last gaze".into(),
-                    ));
-                    if ends {
-                        return;
-                    }
-                    break;
-                }
-                Err(e) if e.kind == ErrorKind::TimedOut => {}
-                Err(e) => {
-                    let _ = tx.send(TrackerMsg::Status(format!(
-                        "tracker: {e}; keeping the last gaze, reconnecting"
-                    )));
-                    break;
-                }
-            }
-        }
-        let _ = source.stop();
-    }
-}
-
-/// The gaze source the arguments describe, with its mapping to pixels.
-#[allow(clippy::type_complexity)]
-fn tracker_source(
-    args: &ViewArgs,
-    cursor_rx: Receiver<CursorEvent>,
-) -> Result<
-    (
-        Opener,
-        Box<dyn Fn([f64; 2]) -> [f64; 2] + Send>,
-        bool,
-        String,
-    ),
-    String,
-> {
-    if let Some(path) = &args.replay {
-        let rec = Recording::read(path).map_err(|e| e.to_string())?;
-        let tracker = rec.header.tracker.clone();
-        let (frame, mapping) = (tracker.frame(), tracker.mapping.clone());
-        let mut once = Some(rec);
-        let open: Opener = Box::new(move || {
-            let rec = once.take().ok_or("the recording has been played")?;
-            let t = ReplayTransport::from_recording(&rec, Pacing::RealTime);
-            let clock = t.clock();
-            Ok(Box::new(StreamDriver::new(t, tracker.decoder(), Box::new(clock))) as Source)
-        });
-        let map = Box::new(move |p| mapping.to_screen(p, frame));
-        return Ok((open, map, true, format!("replay of {}", path.display())));
-    }
-    let Some(path) = &args.tracker else {
-        return Err(
-            "give --tracker FILE.ron (config/trackers/mouse.ron for the mouse) or --replay FILE"
-                .into(),
-        );
-    };
-    let tracker: TrackerConfig = config::load_tracker(path).map_err(|e| e.to_string())?;
-    let (frame, mapping) = (tracker.frame(), tracker.mapping.clone());
-    let map = Box::new(move |p| mapping.to_screen(p, frame));
-    let name = format!("{} ({})", tracker.driver_name(), path.display());
-    let open: Opener = match tracker.driver.clone() {
-        Driver::Mouse(c) => {
-            let mut cursor = Some(cursor_rx);
-            Box::new(move || {
-                let rx = cursor.take().ok_or("the mouse device has stopped")?;
-                let link = spawn_device(c.clone(), rx).map_err(|e| e.to_string())?;
-                Ok(Box::new(StreamDriver::new(
-                    link,
-                    tracker_hal::mouse::MouseDecoder::new(),
-                    Box::new(MonotonicClock),
-                )) as Source)
-            })
-        }
-        Driver::Iscan(c) => {
-            let tracker = tracker.clone();
-            Box::new(move || {
-                let name = c
-                    .port
-                    .clone()
-                    .ok_or("the ISCAN tracker file has no `port`")?;
-                let port = tracker_hal::serial::open(&name, c.baud, Duration::from_millis(250))
-                    .map_err(|e| e.to_string())?;
-                Ok(Box::new(StreamDriver::new(
-                    port,
-                    tracker.decoder(),
-                    Box::new(MonotonicClock),
-                )) as Source)
-            })
-        }
-        Driver::TobiiHid(c) => Box::new(move || {
-            let t = tracker_hal::hid::driver::hidapi_transport::HidApiTransport::open(&c)
-                .map_err(|e| e.to_string())?;
-            Ok(Box::new(tracker_hal::hid::driver::HidDriver::new(
-                t,
-                c.clone(),
-                Box::new(MonotonicClock),
-            )) as Source)
-        }),
-    };
-    Ok((open, map, false, name))
-}
-
 /// Percentile (nearest rank) of sorted values.
 fn percentile(sorted: &[f64], p: f64) -> f64 {
     if sorted.is_empty() {
@@ -281,13 +130,53 @@ fn percentile(sorted: &[f64], p: f64) -> f64 {
     sorted[k.min(sorted.len() - 1)]
 }
 
-struct Gfx {
-    window: Arc<Window>,
-    surface: wgpu::Surface<'static>,
-    device: wgpu::Device,
-    queue: wgpu::Queue,
-    config: wgpu::SurfaceConfiguration,
-    bgra: bool,
+/// p50, p95 and p99 of `v` (NaN when empty).
+fn p50_95_99(v: &[f64]) -> [f64; 3] {
+    let mut s = v.to_vec();
+    s.sort_by(f64::total_cmp);
+    [50.0, 95.0, 99.0].map(|p| percentile(&s, p))
+}
+
+/// Gaze-to-photon figures (ms), one entry per frame that showed a gaze
+/// sample for the first time (a sample's later frames add no latency).
+#[derive(Debug, Default)]
+pub struct Latency {
+    /// Host arrival → latched by the frame (after the surface gave it a
+    /// texture, so a vsync wait is not counted as gaze age).
+    pub latch: Vec<f64>,
+    /// Host arrival → the frame's copy submitted to the GPU queue.
+    pub submit: Vec<f64>,
+    /// Host arrival → the present call returned.
+    pub present: Vec<f64>,
+    /// Submit-to-submit time of those frames.
+    pub interval: Vec<f64>,
+    /// Age at submit minus the frame interval: what the software adds
+    /// beyond the frame (the goal is ≤ 2 ms).
+    pub excess: Vec<f64>,
+}
+
+impl Latency {
+    /// The session log's summary lines.
+    pub fn summary(&self) -> Vec<String> {
+        if self.submit.is_empty() {
+            return vec!["gaze age: no gaze sample arrived".into()];
+        }
+        let f = |name: &str, v: &[f64]| {
+            let [a, b, c] = p50_95_99(v);
+            format!("{name} p50 {a:.1} ms, p95 {b:.1} ms, p99 {c:.1} ms")
+        };
+        vec![
+            f("gaze age at latch", &self.latch),
+            f("gaze age at submit", &self.submit),
+            f("gaze age when the present call returned", &self.present),
+            f("interval between frames", &self.interval),
+            format!(
+                "{} (goal ≤ 2 ms)",
+                f("software-added latency (age at submit − frame interval)", &self.excess)
+            ),
+            "scan-out time: not reported (wgpu 30 exposes no presentation timestamps); the present call's return is the last instant measured".into(),
+        ]
+    }
 }
 
 struct Viewer<'a> {
@@ -297,105 +186,70 @@ struct Viewer<'a> {
     model: SamplingModel,
     settings: Settings,
     gpu: Option<GpuRenderer>,
-    rx: Receiver<TrackerMsg>,
-    cursor_tx: Option<Sender<CursorEvent>>,
-    gfx: Option<Gfx>,
+    feed: crate::gaze_feed::GazeFeed,
+    screen: Option<Screen>,
     gaze: [f64; 2],
+    /// Host arrival of the gaze in use, and whether a frame has shown it.
     gaze_host_us: Option<u64>,
+    gaze_shown: bool,
     status: String,
     por: bool,
     layers: bool,
     hud: bool,
     frames: u64,
-    ages_ms: Vec<f64>,
+    fresh_frames: u64,
+    latency: Latency,
+    last_submit_us: Option<u64>,
     last: Option<(Frame, Stats)>,
     started: Instant,
     log: Vec<String>,
     error: Option<String>,
 }
 
-impl Viewer<'_> {
-    fn create(&mut self, el: &ActiveEventLoop) -> Result<(), String> {
-        let (w, h) = (self.cam.width_px, self.cam.height_px);
-        let mut attrs = Window::default_attributes()
-            .with_title(format!("gazecast — {}", self.scene.name))
-            .with_inner_size(winit::dpi::PhysicalSize::new(w, h))
-            .with_resizable(false);
-        if self.args.fullscreen {
-            attrs = attrs.with_fullscreen(Some(winit::window::Fullscreen::Borderless(None)));
-        }
-        let window = Arc::new(
-            el.create_window(attrs)
-                .map_err(|e| format!("window: {e}"))?,
-        );
-        let mut desc = wgpu::InstanceDescriptor::new_without_display_handle_from_env();
-        desc.backends = wgpu::Backends::from_env().unwrap_or(wgpu::Backends::PRIMARY);
-        let instance = wgpu::Instance::new(desc);
-        let surface = instance
-            .create_surface(window.clone())
-            .map_err(|e| format!("window surface: {e}"))?;
-        let adapter = pollster::block_on(instance.request_adapter(&wgpu::RequestAdapterOptions {
-            power_preference: wgpu::PowerPreference::HighPerformance,
-            compatible_surface: Some(&surface),
-            ..Default::default()
-        }))
-        .map_err(|e| format!("no adapter can present to the window: {e}"))?;
-        let (device, queue) =
-            pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor::default()))
-                .map_err(|e| format!("device: {e}"))?;
-        let caps = surface.get_capabilities(&adapter);
-        if !caps.usages.contains(wgpu::TextureUsages::COPY_DST) {
-            return Err("the window surface cannot be copied into (no COPY_DST)".into());
-        }
-        let size = window.inner_size();
-        let mut config = surface
-            .get_default_config(&adapter, size.width.max(1), size.height.max(1))
-            .ok_or("the window surface is not supported by the adapter")?;
-        // Plain 8-bit formats: the frame's bytes are already gamma-encoded.
-        let format = [
-            wgpu::TextureFormat::Bgra8Unorm,
-            wgpu::TextureFormat::Rgba8Unorm,
-        ]
-        .into_iter()
-        .find(|f| caps.formats.contains(f))
-        .ok_or("the window surface has no plain 8-bit RGBA/BGRA format")?;
-        config.format = format;
-        config.usage = wgpu::TextureUsages::COPY_DST;
-        config.present_mode = wgpu::PresentMode::Fifo;
-        surface.configure(&device, &config);
-        self.gfx = Some(Gfx {
-            window,
-            surface,
-            device,
-            queue,
-            config,
-            bgra: format == wgpu::TextureFormat::Bgra8Unorm,
-        });
-        Ok(())
-    }
-
-    fn drain(&mut self) {
-        for m in self.rx.try_iter() {
-            match m {
-                TrackerMsg::Gaze { host_us, gaze_px } => {
-                    // Invalid samples keep the last valid gaze.
-                    if let Some(g) = gaze_px.filter(|g| g[0].is_finite() && g[1].is_finite()) {
-                        self.gaze = g;
-                        self.gaze_host_us = Some(host_us);
-                    }
-                }
-                TrackerMsg::Status(s) => {
-                    if !s.is_empty() {
-                        self.log.push(s.clone());
-                    }
-                    self.status = s;
+/// Drains `rx` to its newest valid gaze; returns it with its host arrival
+/// time, and applies status lines. Invalid samples keep the last valid gaze.
+pub fn drain_newest(
+    rx: &Receiver<TrackerMsg>,
+    mut on_status: impl FnMut(String),
+) -> Option<([f64; 2], u64)> {
+    let mut newest = None;
+    for m in rx.try_iter() {
+        match m {
+            TrackerMsg::Gaze {
+                host_us, gaze_px, ..
+            } => {
+                if let Some(g) = gaze_px.filter(|g| g[0].is_finite() && g[1].is_finite()) {
+                    newest = Some((g, host_us));
                 }
             }
+            TrackerMsg::Status(s) => on_status(s),
+        }
+    }
+    newest
+}
+
+impl Viewer<'_> {
+    fn drain(&mut self) {
+        let (log, status) = (&mut self.log, &mut self.status);
+        if let Some((g, t)) = drain_newest(&self.feed.rx, |s| {
+            if !s.is_empty() {
+                log.push(s.clone());
+            }
+            *status = s;
+        }) {
+            self.gaze = g;
+            self.gaze_host_us = Some(t);
+            self.gaze_shown = false;
         }
     }
 
     fn frame(&mut self) -> Result<(), String> {
+        // The texture first: under FIFO this is where the display makes us
+        // wait, and the gaze is latched after it.
+        let tex = self.screen.as_ref().and_then(Screen::acquire);
         self.drain();
+        let latch_us = monotonic_us();
+        let fresh = !self.gaze_shown && self.gaze_host_us.is_some();
         let gaze = self.gaze;
         let (mut frame, stats) = match self.gpu.as_mut() {
             Some(g) => {
@@ -413,24 +267,13 @@ impl Viewer<'_> {
         if self.por {
             draw_por_box(&mut frame.rgb, frame.width, frame.height, gaze);
         }
-        let submit_us = monotonic_us();
-        let age_ms = self
-            .gaze_host_us
-            .map(|t| submit_us.saturating_sub(t) as f64 / 1e3);
-        if let Some(a) = age_ms {
-            self.ages_ms.push(a);
-        }
         if self.hud || !self.status.is_empty() {
-            let mut sorted = self.ages_ms.clone();
-            sorted.sort_by(f64::total_cmp);
             let fps = self.frames as f64 / self.started.elapsed().as_secs_f64().max(1e-9);
+            let [a, b, c] = p50_95_99(&self.latency.submit);
+            let [_, e95, _] = p50_95_99(&self.latency.excess);
             let hud = format!(
-                "{:.1} fps  {} rays  gaze age p50 {:.1} p95 {:.1} p99 {:.1} ms",
-                fps,
+                "{fps:.1} fps  {} rays  gaze→submit p50 {a:.1} p95 {b:.1} p99 {c:.1} ms  beyond frame p95 {e95:.1} ms",
                 stats.rays_total,
-                percentile(&sorted, 50.0),
-                percentile(&sorted, 95.0),
-                percentile(&sorted, 99.0)
             );
             let lines: Vec<&str> = [self.hud.then_some(hud.as_str()), Some(self.status.as_str())]
                 .into_iter()
@@ -440,70 +283,36 @@ impl Viewer<'_> {
             crate::plots::draw_text_lines(&mut frame.rgb, (frame.width, frame.height), &lines)
                 .map_err(|e| e.to_string())?;
         }
-        self.present(&frame)?;
+        let submit_us = match (&self.screen, tex) {
+            (Some(s), Some(t)) => s.present(t, &frame.rgb, (frame.width, frame.height)),
+            _ => monotonic_us(),
+        };
+        let present_us = monotonic_us();
+        let interval_ms = self
+            .last_submit_us
+            .map(|t| submit_us.saturating_sub(t) as f64 / 1e3);
+        self.last_submit_us = Some(submit_us);
+        let mut age = "held".to_string();
+        if let (true, Some(t)) = (fresh, self.gaze_host_us) {
+            let ms = |u: u64| u.saturating_sub(t) as f64 / 1e3;
+            let l = &mut self.latency;
+            l.latch.push(ms(latch_us));
+            l.submit.push(ms(submit_us));
+            l.present.push(ms(present_us));
+            if let Some(i) = interval_ms {
+                l.interval.push(i);
+                l.excess.push(ms(submit_us) - i);
+            }
+            self.gaze_shown = true;
+            self.fresh_frames += 1;
+            age = format!("{:.1} ms", ms(submit_us));
+        }
         self.log.push(format!(
-            "frame {} gaze ({:.1}, {:.1}) age {} ms rays {} render {:.1} ms",
-            self.frames,
-            gaze[0],
-            gaze[1],
-            age_ms.map_or("-".into(), |a| format!("{a:.1}")),
-            stats.rays_total,
-            stats.time_ms
+            "frame {} gaze ({:.1}, {:.1}) age {age} rays {} render {:.1} ms",
+            self.frames, gaze[0], gaze[1], stats.rays_total, stats.time_ms
         ));
         self.frames += 1;
         self.last = Some((frame, stats));
-        Ok(())
-    }
-
-    fn present(&mut self, frame: &Frame) -> Result<(), String> {
-        let Some(g) = &self.gfx else { return Ok(()) };
-        let tex = match g.surface.get_current_texture() {
-            wgpu::CurrentSurfaceTexture::Success(t)
-            | wgpu::CurrentSurfaceTexture::Suboptimal(t) => t,
-            wgpu::CurrentSurfaceTexture::Outdated | wgpu::CurrentSurfaceTexture::Lost => {
-                g.surface.configure(&g.device, &g.config);
-                return Ok(());
-            }
-            _ => return Ok(()), // timeout or occluded: skip this present
-        };
-        let (w, h) = (
-            frame.width.min(g.config.width),
-            frame.height.min(g.config.height),
-        );
-        let mut rgba = Vec::with_capacity(4 * (w * h) as usize);
-        for y in 0..h as usize {
-            for x in 0..w as usize {
-                let i = 3 * (y * frame.width as usize + x);
-                let (r, gg, b) = (frame.rgb[i], frame.rgb[i + 1], frame.rgb[i + 2]);
-                if g.bgra {
-                    rgba.extend_from_slice(&[b, gg, r, 255]);
-                } else {
-                    rgba.extend_from_slice(&[r, gg, b, 255]);
-                }
-            }
-        }
-        g.queue.write_texture(
-            wgpu::TexelCopyTextureInfo {
-                texture: &tex.texture,
-                mip_level: 0,
-                origin: wgpu::Origin3d::ZERO,
-                aspect: wgpu::TextureAspect::All,
-            },
-            &rgba,
-            wgpu::TexelCopyBufferLayout {
-                offset: 0,
-                bytes_per_row: Some(4 * w),
-                rows_per_image: Some(h),
-            },
-            wgpu::Extent3d {
-                width: w,
-                height: h,
-                depth_or_array_layers: 1,
-            },
-        );
-        g.queue.submit([]);
-        g.window.pre_present_notify();
-        g.queue.present(tex);
         Ok(())
     }
 
@@ -515,9 +324,12 @@ impl Viewer<'_> {
 
 impl ApplicationHandler for Viewer<'_> {
     fn resumed(&mut self, el: &ActiveEventLoop) {
-        if self.gfx.is_none() {
-            if let Err(e) = self.create(el) {
-                self.fail(el, e);
+        if self.screen.is_none() {
+            let title = format!("gazecast — {}", self.scene.name);
+            let size = (self.cam.width_px, self.cam.height_px);
+            match Screen::open(el, &title, size, self.args.fullscreen) {
+                Ok(s) => self.screen = Some(s),
+                Err(e) => self.fail(el, e),
             }
         }
     }
@@ -526,7 +338,7 @@ impl ApplicationHandler for Viewer<'_> {
         match event {
             WindowEvent::CloseRequested => el.exit(),
             WindowEvent::CursorMoved { position, .. } => {
-                if let Some(tx) = &self.cursor_tx {
+                if let Some(tx) = &self.feed.cursor_tx {
                     let _ = tx.send(CursorEvent {
                         t_us: monotonic_us(),
                         position_px: [position.x, position.y],
@@ -559,14 +371,19 @@ impl ApplicationHandler for Viewer<'_> {
                 _ => {}
             },
             WindowEvent::RedrawRequested => {
+                if crate::gaze_feed::interrupted() {
+                    self.log
+                        .push("interrupted (Ctrl-C or SIGTERM): shutting down".into());
+                    return el.exit();
+                }
                 if let Err(e) = self.frame() {
                     return self.fail(el, e);
                 }
                 if self.args.frames.is_some_and(|n| self.frames >= n) {
                     return el.exit();
                 }
-                if let Some(g) = &self.gfx {
-                    g.window.request_redraw();
+                if let Some(s) = &self.screen {
+                    s.window.request_redraw();
                 }
             }
             _ => {}
@@ -592,8 +409,12 @@ pub fn run(args: &ViewArgs, out: &mut dyn Write) -> Result<(), String> {
     let display = config::load_display(&args.display).map_err(|e| e.to_string())?;
     let geometry = display.geometry().map_err(|e| e.to_string())?;
     let model = crate::render_cmd::sampling_model(geometry, 1.0).map_err(|e| e.to_string())?;
-    let (cursor_tx, cursor_rx) = crossbeam_channel::unbounded();
-    let (open, map, ends, source_name) = tracker_source(args, cursor_rx)?;
+    let calibration = match &args.calibration {
+        Some(p) => Some(config::load_calibration(p).map_err(|e| e.to_string())?),
+        None => None,
+    };
+    let setup = GazeSetup::resolve(args.tracker.as_deref(), args.replay.as_deref())?;
+    let source_name = setup.name.clone();
     let gpu = match args.backend {
         Backend::Cpu => None,
         Backend::Gpu => Some(GpuRenderer::new(&scene).map_err(|e| format!("--backend gpu: {e}"))?),
@@ -602,18 +423,14 @@ pub fn run(args: &ViewArgs, out: &mut dyn Write) -> Result<(), String> {
             _ => None,
         },
     };
-    let (tx, rx) = crossbeam_channel::unbounded();
-    let stop = Arc::new(AtomicBool::new(false));
-    let tracker = {
-        let stop = stop.clone();
-        std::thread::Builder::new()
-            .name("tracker".into())
-            .spawn(move || tracker_thread(open, map, tx, stop, ends))
-            .map_err(|e| e.to_string())?
-    };
     let event_loop = EventLoop::new().map_err(|e| {
         format!("cannot open a window ({e}); on a machine without a display use `gazecast demo` or run under Xvfb")
     })?;
+    crate::gaze_feed::catch_interrupts();
+    let feed = setup.spawn(
+        calibration,
+        args.record.as_deref().map(|p| (p, display.name.as_str())),
+    )?;
     let mut viewer = Viewer {
         args,
         settings: crate::render_cmd::foveated_settings(&scene),
@@ -621,17 +438,19 @@ pub fn run(args: &ViewArgs, out: &mut dyn Write) -> Result<(), String> {
         scene,
         model,
         gpu,
-        rx,
-        cursor_tx: Some(cursor_tx),
-        gfx: None,
+        feed,
+        screen: None,
         gaze: geometry.centre_px(),
         gaze_host_us: None,
+        gaze_shown: false,
         status: String::new(),
         por: args.overlay.is_some(),
         layers: false,
         hud: true,
         frames: 0,
-        ages_ms: Vec::new(),
+        fresh_frames: 0,
+        latency: Latency::default(),
+        last_submit_us: None,
         last: None,
         started: Instant::now(),
         log: Vec::new(),
@@ -639,40 +458,43 @@ pub fn run(args: &ViewArgs, out: &mut dyn Write) -> Result<(), String> {
     };
     viewer.por |= viewer.scene.has(raycast::scene::Effect::PorOverlay);
     let result = event_loop.run_app(&mut viewer);
-    // Shut the tracker down: the flag, and the mouse device's cursor channel.
-    stop.store(true, Ordering::Relaxed);
-    viewer.cursor_tx = None;
-    let _ = tracker.join();
+    // Shut the tracker down and close the recording; then the last statuses.
+    let recorded = viewer.feed.finish();
     viewer.drain();
     let w = |out: &mut dyn Write, s: &str| writeln!(out, "{s}").map_err(|e| e.to_string());
     w(
         out,
         &format!(
-            "gazecast view: {} on {}, gaze from {}",
+            "gazecast view: {} on {}, gaze from {}{}",
             viewer.scene.name,
             viewer
                 .gpu
                 .as_ref()
                 .map_or("cpu".to_string(), |g| format!("gpu ({})", g.adapter())),
-            source_name
+            source_name,
+            args.calibration
+                .as_ref()
+                .map_or(String::new(), |p| format!(" through {}", p.display()))
         ),
     )?;
     for l in &viewer.log {
         w(out, l)?;
     }
-    let mut sorted = viewer.ages_ms.clone();
-    sorted.sort_by(f64::total_cmp);
-    let ages = if sorted.is_empty() {
-        "no gaze sample arrived".to_string()
-    } else {
-        format!(
-            "gaze age at submit p50 {:.1} ms, p95 {:.1} ms, p99 {:.1} ms",
-            percentile(&sorted, 50.0),
-            percentile(&sorted, 95.0),
-            percentile(&sorted, 99.0)
-        )
-    };
-    w(out, &format!("{} frames; {ages}", viewer.frames))?;
+    w(
+        out,
+        &format!(
+            "{} frames, {} showed a new gaze sample",
+            viewer.frames, viewer.fresh_frames
+        ),
+    )?;
+    for l in viewer.latency.summary() {
+        w(out, &l)?;
+    }
+    match recorded {
+        Ok(Some(line)) => w(out, &line)?,
+        Ok(None) => {}
+        Err(e) => return Err(e),
+    }
     if let Some(e) = viewer.error {
         return Err(e);
     }
@@ -683,4 +505,66 @@ pub fn run(args: &ViewArgs, out: &mut dyn Write) -> Result<(), String> {
         w(out, &format!("wrote {}", path.display()))?;
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A flood of samples (a 1000 Hz tracker behind a slow frame) drains to
+    /// the newest valid one in one go: blinks and non-finite points keep the
+    /// last valid gaze, statuses are all seen, nothing is left queued.
+    #[test]
+    fn draining_takes_the_newest_valid_sample_and_leaves_nothing() {
+        let (tx, rx) = crossbeam_channel::unbounded();
+        for k in 0..1000u64 {
+            let g = [k as f64, 2.0 * k as f64];
+            tx.send(TrackerMsg::Gaze {
+                host_us: k,
+                sample_us: k,
+                raw: Some(g),
+                gaze_px: Some(g),
+            })
+            .expect("send");
+        }
+        tx.send(TrackerMsg::Status("lost".into())).expect("send");
+        for bad in [None, Some([f64::NAN, 1.0]), Some([1.0, f64::INFINITY])] {
+            tx.send(TrackerMsg::Gaze {
+                host_us: 5000,
+                sample_us: 5000,
+                raw: None,
+                gaze_px: bad,
+            })
+            .expect("send");
+        }
+        let mut statuses = Vec::new();
+        let newest = drain_newest(&rx, |s| statuses.push(s));
+        assert_eq!(newest, Some(([999.0, 1998.0], 999)));
+        assert_eq!(statuses, vec!["lost".to_string()]);
+        assert!(rx.is_empty());
+        assert_eq!(drain_newest(&rx, |_| {}), None);
+    }
+
+    #[test]
+    fn latency_percentiles_and_an_empty_session() {
+        let mut l = Latency::default();
+        assert!(l.summary()[0].contains("no gaze sample arrived"));
+        for k in 1..=100 {
+            let a = f64::from(k);
+            l.latch.push(0.5);
+            l.submit.push(a);
+            l.present.push(a + 1.0);
+            l.interval.push(a - 0.5);
+            l.excess.push(0.5);
+        }
+        let s = l.summary().join("\n");
+        assert!(
+            s.contains("gaze age at submit p50 51.0 ms, p95 95.0 ms, p99 99.0 ms"),
+            "{s}"
+        );
+        assert!(
+            s.contains("(age at submit − frame interval) p50 0.5 ms"),
+            "{s}"
+        );
+    }
 }

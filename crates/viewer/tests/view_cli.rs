@@ -4,57 +4,7 @@
 
 mod common;
 
-use std::process::{Child, Command, Stdio};
-
-use common::{gazecast, Run};
-
-/// A private Xvfb on a free display number, killed on drop.
-struct Xvfb {
-    child: Child,
-    display: String,
-}
-
-impl Xvfb {
-    /// Xvfb picks a free display number itself (`-displayfd`) and writes it
-    /// once it accepts connections, so tests running in parallel never share
-    /// or race for a display.
-    fn start() -> Self {
-        use std::io::BufRead;
-        let mut child = Command::new("Xvfb")
-            .args([
-                "-displayfd",
-                "1",
-                "-screen",
-                "0",
-                "1600x1200x24",
-                "-nolisten",
-                "tcp",
-            ])
-            .stdout(Stdio::piped())
-            .stderr(Stdio::null())
-            .spawn()
-            .expect("Xvfb runs (scripts/system-deps.sh installs the xvfb package)");
-        let mut line = String::new();
-        if let Some(out) = child.stdout.take() {
-            let _ = std::io::BufReader::new(out).read_line(&mut line);
-        }
-        let num: u32 = line
-            .trim()
-            .parse()
-            .unwrap_or_else(|_| panic!("Xvfb did not report a display: {line:?}"));
-        Self {
-            child,
-            display: format!(":{num}"),
-        }
-    }
-}
-
-impl Drop for Xvfb {
-    fn drop(&mut self) {
-        let _ = self.child.kill();
-        let _ = self.child.wait();
-    }
-}
+use common::{gazecast, Run, Xvfb};
 
 /// `gazecast view` of the search task on the seed's display, CPU backend, in
 /// the given X display.
@@ -236,6 +186,226 @@ fn a_lost_or_ended_tracker_keeps_the_viewer_rendering_with_a_status_line() {
     );
     assert!(
         text.contains("end of stream; keeping the last gaze"),
+        "{text}"
+    );
+}
+
+/// A 640×512 display with the seed's pixel pitch (a quarter of the pixels,
+/// so the CPU renderer keeps up in a debug build).
+fn small_display(dir: &std::path::Path) -> std::path::PathBuf {
+    let path = dir.join("small.ron");
+    std::fs::write(
+        &path,
+        "Display(name: \"small\", resolution_px: (640, 512), size_mm: (168.95, 135.15), eye_distance_mm: 600.0)",
+    )
+    .expect("write display");
+    path
+}
+
+/// A live ISCAN session over a real pseudo-terminal: the viewer records it,
+/// the device disconnects mid-session (rendering goes on, with a status
+/// line), then Ctrl-C ends the session and the recording is closed
+/// properly and holds every byte the device sent.
+#[test]
+fn a_live_session_survives_a_disconnect_and_ctrl_c_leaves_a_valid_recording() {
+    use serialport::SerialPort;
+    use std::io::{Read, Write};
+    use std::time::{Duration, Instant};
+
+    let x = Xvfb::start();
+    let dir = tempfile::tempdir().expect("tempdir");
+    let (mut master, slave) = serialport::TTYPort::pair().expect("pty pair");
+    let slave_name = slave.name().expect("pty name");
+    drop(slave); // ports are locked exclusively: the viewer opens it by path
+    master
+        .set_timeout(Duration::from_millis(100))
+        .expect("timeout");
+    let tracker = dir.path().join("iscan.ron");
+    std::fs::write(
+        &tracker,
+        std::fs::read_to_string("../../config/trackers/iscan-binary.ron")
+            .expect("tracker")
+            .replace("Some(\"/dev/ttyUSB0\")", &format!("Some({slave_name:?})"))
+            .replace("screen_px: (1280, 1024)", "screen_px: (640, 512)"),
+    )
+    .expect("write tracker");
+    // What the device sends: a simulated ISCAN stream, 1.5 s at 60 Hz.
+    let stream = dir.path().join("device.gzrec");
+    gazecast()
+        .args([
+            "simulate",
+            "--tracker",
+            "config/trackers/iscan-binary.ron",
+            "--seconds",
+            "1.5",
+            "--out",
+        ])
+        .arg(&stream)
+        .succeed();
+    let device = tracker_hal::Recording::read(&stream).expect("simulated stream");
+    let record = dir.path().join("session.gzrec");
+    let mut child = gazecast()
+        .env("DISPLAY", &x.display)
+        .env_remove("WAYLAND_DISPLAY")
+        .args([
+            "view",
+            "--scene",
+            "config/scenes/search-task.ron",
+            "--backend",
+            "cpu",
+            "--display",
+        ])
+        .arg(small_display(dir.path()))
+        .arg("--tracker")
+        .arg(&tracker)
+        .arg("--record")
+        .arg(&record)
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .expect("viewer starts");
+    // The driver's start command (0x84) says the viewer has the port open.
+    let deadline = Instant::now() + Duration::from_secs(60);
+    let mut byte = [0u8; 1];
+    loop {
+        assert!(
+            Instant::now() < deadline,
+            "no start command from the viewer"
+        );
+        if let Ok(1) = master.read(&mut byte) {
+            if byte[0] == 0x84 {
+                break;
+            }
+        }
+    }
+    let mut sent = Vec::new();
+    let t0 = device.device_chunks().next().map_or(0, |c| c.time_us);
+    let start = Instant::now();
+    for c in device.device_chunks() {
+        let due = Duration::from_micros(c.time_us - t0);
+        if let Some(wait) = due.checked_sub(start.elapsed()) {
+            std::thread::sleep(wait);
+        }
+        master.write_all(&c.payload).expect("write to the pty");
+        sent.extend_from_slice(&c.payload);
+    }
+    std::thread::sleep(Duration::from_millis(500)); // let the viewer read it all
+    drop(master); // the device goes away
+                  // Silent for 2 s, the device is reopened (and the pty is gone).
+    std::thread::sleep(Duration::from_millis(3500));
+    let ok = std::process::Command::new("kill")
+        .args(["-INT", &child.id().to_string()])
+        .status()
+        .expect("kill runs");
+    assert!(ok.success());
+    let deadline = Instant::now() + Duration::from_secs(60);
+    while child.try_wait().expect("wait").is_none() {
+        assert!(
+            Instant::now() < deadline,
+            "the viewer did not stop on Ctrl-C"
+        );
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    let out = child.wait_with_output().expect("output");
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{text}\n{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    // Rendering went on after the disconnect, with a status line.
+    let lines: Vec<&str> = text.lines().collect();
+    let lost = lines
+        .iter()
+        .position(|l| l.starts_with("tracker: ") && l.contains("keeping the last gaze"))
+        .unwrap_or_else(|| panic!("no disconnect status: {text}"));
+    assert!(
+        lines[lost..].iter().any(|l| l.starts_with("frame ")),
+        "no frame after the disconnect: {text}"
+    );
+    assert!(text.contains("interrupted (Ctrl-C or SIGTERM)"), "{text}");
+    assert!(text.contains("gaze age at submit p50"), "{text}");
+    assert!(text.contains("closed"), "{text}");
+    // The recording is closed and holds exactly what the device sent, and
+    // the start command the viewer wrote.
+    let rec = tracker_hal::Recording::read(&record).expect("the recording reads");
+    assert!(rec.closed, "no end chunk");
+    assert!(rec.torn_tail.is_none(), "{:?}", rec.torn_tail);
+    assert_eq!(rec.lost_chunks, 0);
+    let got: Vec<u8> = rec
+        .device_chunks()
+        .flat_map(|c| c.payload.iter().copied())
+        .collect();
+    assert_eq!(got.len(), sent.len());
+    assert!(got == sent, "the recorded bytes differ from the sent ones");
+    assert!(rec
+        .chunks
+        .iter()
+        .any(|c| c.kind == tracker_hal::recording::ChunkKind::HostToDevice && c.payload == [0x84]));
+}
+
+/// A 1000 Hz tracker floods the channel; the window still takes the newest
+/// sample each frame, so every frame shows a new gaze.
+#[test]
+fn a_1000_hz_replay_gives_every_frame_a_new_sample() {
+    let x = Xvfb::start();
+    let dir = tempfile::tempdir().expect("tempdir");
+    let rec = dir.path().join("fast.gzrec");
+    gazecast()
+        .args([
+            "simulate",
+            "--tracker",
+            "config/trackers/mouse.ron",
+            "--rate",
+            "1000",
+            "--seconds",
+            "30",
+            "--out",
+        ])
+        .arg(&rec)
+        .succeed();
+    let out = gazecast()
+        .env("DISPLAY", &x.display)
+        .env_remove("WAYLAND_DISPLAY")
+        .args([
+            "view",
+            "--scene",
+            "config/scenes/search-task.ron",
+            "--backend",
+            "cpu",
+            "--display",
+        ])
+        .arg(small_display(dir.path()))
+        .args(["--frames", "6", "--replay"])
+        .arg(&rec)
+        .succeed();
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        text.contains("6 frames, 6 showed a new gaze sample"),
+        "{text}"
+    );
+    assert!(text.contains("software-added latency"), "{text}");
+}
+
+/// With a display, the demo opens the window on the search task in mouse
+/// mode.
+#[test]
+fn the_demo_opens_the_window_in_mouse_mode_when_there_is_a_display() {
+    let x = Xvfb::start();
+    let out = gazecast()
+        .env("DISPLAY", &x.display)
+        .env_remove("WAYLAND_DISPLAY")
+        .args(["demo", "--frames", "2"])
+        .succeed();
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        text.contains("gazecast view: search-task")
+            && text.contains("mouse (config/trackers/mouse.ron)"),
+        "{text}"
+    );
+    assert_eq!(
+        text.lines().filter(|l| l.starts_with("frame ")).count(),
+        2,
         "{text}"
     );
 }

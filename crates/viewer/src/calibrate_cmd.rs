@@ -1,0 +1,896 @@
+//! `gazecast calibrate`: the calibration screen. It shows
+//! `tracker_hal::calibration`'s targets one at a time, fits the mapping
+//! from raw tracker units to screen pixels on the accepted ones, validates
+//! it on separate targets (per-point offsets drawn as arrows, accuracy and
+//! precision in degrees), offers to show rejected or bad points again, and
+//! saves the calibration that `view --calibration` and `replay
+//! --calibration` load.
+//!
+//! The procedure runs on the samples' own clock, so a recorded calibration
+//! session (`--record`, or `gazecast simulate --script calibration`)
+//! replays through `--replay` to the same result.
+//!
+//! Keys: `Space` start; `R` show rejected / bad points again; `Enter`
+//! continue or save; `V` validate again; `Esc` quit without saving.
+
+use std::io::Write;
+use std::path::PathBuf;
+
+use foveation::ScreenGeometry;
+use plotters::prelude::*;
+use tracker_hal::calibration::{
+    validate, Calibration, Model, Order, Plan, PointValidation, Procedure, TimedPoint,
+};
+use winit::application::ApplicationHandler;
+use winit::event::{ElementState, KeyEvent, WindowEvent};
+use winit::event_loop::{ActiveEventLoop, EventLoop};
+use winit::keyboard::{Key, NamedKey};
+use winit::window::WindowId;
+
+use crate::config;
+use crate::gaze_feed::{GazeFeed, GazeSetup, TrackerMsg};
+use crate::screen::Screen;
+
+/// The targets of a calibration run and of its validation.
+#[derive(Debug, Clone, clap::Args)]
+pub struct PlanArgs {
+    /// Calibration targets: 5 (the centre and the corners) or a square
+    /// number (4, 9, 16, …), 10 % in from the edges.
+    #[arg(long, default_value_t = 9, value_name = "N")]
+    pub points: usize,
+    /// Validation targets: a square number, 25 % in from the edges (between
+    /// the calibration targets).
+    #[arg(long, default_value_t = 4, value_name = "N")]
+    pub validation_points: usize,
+    /// Ignored at the start of each target (the saccade, settling).
+    #[arg(long, default_value_t = 400, value_name = "MS")]
+    pub settle_ms: u32,
+    /// Collected per target after settling.
+    #[arg(long, default_value_t = 800, value_name = "MS")]
+    pub collect_ms: u32,
+    /// Show the targets in a seeded shuffle instead of row by row.
+    #[arg(long, value_name = "SEED")]
+    pub shuffle: Option<u64>,
+}
+
+impl PlanArgs {
+    /// (calibration plan, validation plan) on a `w × h` px screen.
+    pub fn plans(&self, screen_px: (u32, u32)) -> Result<(Plan, Plan), String> {
+        if self.collect_ms < 100 || self.collect_ms > 10_000 || self.settle_ms > 10_000 {
+            return Err(format!(
+                "--collect-ms {} must be in [100, 10000] and --settle-ms {} at most 10000",
+                self.collect_ms, self.settle_ms
+            ));
+        }
+        let order = self
+            .shuffle
+            .map_or(Order::RowMajor, |seed| Order::Shuffled { seed });
+        let timed = |mut p: Plan| {
+            p.settle_ms = self.settle_ms;
+            p.collect_ms = self.collect_ms;
+            p.window_ms = p.window_ms.min(self.collect_ms / 2);
+            p
+        };
+        let cal =
+            Plan::grid(self.points, screen_px, 0.1, order).map_err(|e| format!("--points: {e}"))?;
+        let val = Plan::grid(self.validation_points, screen_px, 0.25, order)
+            .map_err(|e| format!("--validation-points: {e}"))?;
+        Ok((timed(cal), timed(val)))
+    }
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum ModelArg {
+    Affine,
+    Homography,
+    Polynomial2,
+}
+
+impl From<ModelArg> for Model {
+    fn from(m: ModelArg) -> Self {
+        match m {
+            ModelArg::Affine => Model::Affine,
+            ModelArg::Homography => Model::Homography,
+            ModelArg::Polynomial2 => Model::Polynomial2,
+        }
+    }
+}
+
+#[derive(Debug, Clone, clap::Args)]
+pub struct CalibrateArgs {
+    /// Tracker file (RON); not needed with --replay.
+    #[arg(long, value_name = "FILE.ron")]
+    pub tracker: Option<PathBuf>,
+    /// Run the procedure on a recorded session (implies --yes).
+    #[arg(long, value_name = "FILE.gzrec")]
+    pub replay: Option<PathBuf>,
+    #[arg(long, value_name = "FILE")]
+    pub display: PathBuf,
+    /// Where the calibration is saved (RON).
+    #[arg(long, value_name = "FILE.ron")]
+    pub out: PathBuf,
+    #[command(flatten)]
+    pub plan: PlanArgs,
+    #[arg(long, value_enum, default_value = "homography")]
+    pub model: ModelArg,
+    /// A validation point whose accuracy is worse than this is bad.
+    #[arg(long, default_value_t = 1.0, value_name = "DEG")]
+    pub max_error_deg: f64,
+    /// Record the session (every byte from and to the tracker).
+    #[arg(long, value_name = "FILE.gzrec")]
+    pub record: Option<PathBuf>,
+    /// Write the last screen (the validation result) here on exit.
+    #[arg(long, value_name = "FILE.png")]
+    pub screenshot: Option<PathBuf>,
+    #[arg(long)]
+    pub fullscreen: bool,
+    /// No keys: start at once, show rejected targets once more, save.
+    #[arg(long)]
+    pub yes: bool,
+}
+
+/// Where the run is.
+#[derive(Debug, Clone, PartialEq)]
+enum Phase {
+    Intro,
+    Calibrating,
+    /// Targets that were not accepted, waiting for R or Enter.
+    Rejected(Vec<usize>),
+    Validating,
+    Result,
+    Failed(String),
+}
+
+/// One validation point's outcome.
+type PointResult = Result<PointValidation, String>;
+
+struct Calibrator<'a> {
+    args: &'a CalibrateArgs,
+    geometry: ScreenGeometry,
+    size: (u32, u32),
+    model: Model,
+    val_plan: Plan,
+    cal: Procedure,
+    val: Procedure,
+    phase: Phase,
+    auto: bool,
+    auto_redos: u32,
+    calibration: Option<Calibration>,
+    points: Vec<PointResult>,
+    feed: GazeFeed,
+    screen: Option<Screen>,
+    status: String,
+    stream_ended: bool,
+    /// Set when the result should be saved once it has been drawn.
+    save_after_draw: bool,
+    saved: bool,
+    rgb: Vec<u8>,
+    log: Vec<String>,
+    error: Option<String>,
+}
+
+/// Circle + dot, as labs draw calibration targets.
+fn draw_target<DB: DrawingBackend>(
+    root: &DrawingArea<DB, plotters::coord::Shift>,
+    p: [f64; 2],
+    outer: RGBColor,
+) -> Result<(), DrawingAreaErrorKind<DB::ErrorType>> {
+    let c = (p[0].round() as i32, p[1].round() as i32);
+    root.draw(&Circle::new(c, 14, outer.filled()))?;
+    root.draw(&Circle::new(c, 3, BLACK.filled()))
+}
+
+/// An arrow from `a` to `b`.
+fn draw_arrow<DB: DrawingBackend>(
+    root: &DrawingArea<DB, plotters::coord::Shift>,
+    a: [f64; 2],
+    b: [f64; 2],
+    colour: RGBColor,
+) -> Result<(), DrawingAreaErrorKind<DB::ErrorType>> {
+    let pt = |p: [f64; 2]| (p[0].round() as i32, p[1].round() as i32);
+    let style = colour.stroke_width(3);
+    root.draw(&PathElement::new(vec![pt(a), pt(b)], style))?;
+    let (dx, dy) = (b[0] - a[0], b[1] - a[1]);
+    let len = dx.hypot(dy);
+    if len > 1.0 {
+        let (ux, uy) = (dx / len, dy / len);
+        let head = 10.0_f64.min(len / 2.0).max(5.0);
+        for s in [-0.45f64, 0.45] {
+            let (c, sn) = (s.cos(), s.sin());
+            let back = [
+                b[0] - head * (ux * c - uy * sn),
+                b[1] - head * (ux * sn + uy * c),
+            ];
+            root.draw(&PathElement::new(vec![pt(b), pt(back)], style))?;
+        }
+    }
+    Ok(())
+}
+
+/// An arrow scale that makes the largest offset about 60 px long: 1, 2, 5,
+/// 10 or 20×.
+fn arrow_scale(max_offset_px: f64) -> f64 {
+    [20.0, 10.0, 5.0, 2.0]
+        .into_iter()
+        .find(|s| s * max_offset_px <= 60.0)
+        .unwrap_or(1.0)
+}
+
+impl Calibrator<'_> {
+    fn log(&mut self, s: String) {
+        self.log.push(s);
+    }
+
+    /// Feeds every queued sample (in order: the procedure's clock is the
+    /// samples' own) and moves through the phases between samples.
+    fn pump(&mut self) {
+        loop {
+            let m = match self.feed.rx.try_recv() {
+                Ok(m) => m,
+                Err(crossbeam_channel::TryRecvError::Empty) => break,
+                Err(crossbeam_channel::TryRecvError::Disconnected) => {
+                    self.stream_ended = true;
+                    break;
+                }
+            };
+            match m {
+                TrackerMsg::Gaze { sample_us, raw, .. } => {
+                    let s = TimedPoint {
+                        t_us: sample_us,
+                        raw,
+                    };
+                    match self.phase {
+                        Phase::Calibrating => self.cal.feed(s),
+                        Phase::Validating => self.val.feed(s),
+                        _ => continue,
+                    }
+                    self.advance();
+                }
+                TrackerMsg::Status(s) => {
+                    if !s.is_empty() {
+                        self.log(s.clone());
+                    }
+                    self.status = s;
+                }
+            }
+        }
+    }
+
+    /// Phase changes after a sample or a key.
+    fn advance(&mut self) {
+        match self.phase {
+            Phase::Calibrating if self.cal.done() => {
+                let rejected = self.cal.rejected();
+                if rejected.is_empty() {
+                    self.fit();
+                } else if !self.auto {
+                    self.phase = Phase::Rejected(rejected);
+                } else if self.auto_redos == 0 {
+                    self.auto_redos += 1;
+                    self.log(format!(
+                        "calibration targets {rejected:?} rejected: shown again"
+                    ));
+                    for i in rejected {
+                        self.cal.redo(i);
+                    }
+                } else {
+                    self.log(format!(
+                        "calibration targets {rejected:?} rejected again: fitting without them"
+                    ));
+                    self.fit();
+                }
+            }
+            Phase::Validating if self.val.done() => {
+                self.points = self.validation_points();
+                self.phase = Phase::Result;
+                if self.auto {
+                    self.save_after_draw = true;
+                }
+            }
+            _ => {}
+        }
+    }
+
+    fn fit(&mut self) {
+        match self.cal.fit(self.model) {
+            Ok(c) => {
+                self.log(format!(
+                    "fitted {:?} on {} targets: RMS residual {:.2} px",
+                    c.model,
+                    c.points.len(),
+                    c.rms_residual_px
+                ));
+                self.calibration = Some(c);
+                self.val = Procedure::new(self.val_plan.clone());
+                self.val.follow(&self.cal);
+                self.phase = Phase::Validating;
+            }
+            Err(e) => {
+                self.log(format!("the fit failed: {e}"));
+                if self.auto {
+                    self.error = Some(format!("calibration failed: {e}"));
+                }
+                self.phase = Phase::Failed(e.to_string());
+            }
+        }
+    }
+
+    fn validation_points(&self) -> Vec<PointResult> {
+        let Some(c) = &self.calibration else {
+            return Vec::new();
+        };
+        self.val
+            .results()
+            .map(|r| {
+                let run = [(r.target_px, r.samples.clone())];
+                validate(c, &self.geometry, &run)
+                    .map(|v| v.points[0])
+                    .map_err(|e| e.to_string())
+            })
+            .collect()
+    }
+
+    /// Accuracy, precision (RMS, STD) means over the good points, and how
+    /// many points are bad (failed or worse than `--max-error-deg`).
+    fn overall(&self) -> Option<([f64; 3], usize)> {
+        let ok: Vec<&PointValidation> = self.points.iter().flatten().collect();
+        if ok.is_empty() {
+            return None;
+        }
+        let n = ok.len() as f64;
+        let mean = |f: fn(&PointValidation) -> f64| ok.iter().map(|p| f(p)).sum::<f64>() / n;
+        let bad = self.bad_points().len();
+        Some((
+            [
+                mean(|p| p.accuracy_deg),
+                mean(|p| p.precision_rms_deg),
+                mean(|p| p.precision_std_deg),
+            ],
+            bad,
+        ))
+    }
+
+    /// Validation targets (px) that failed or missed by more than the limit.
+    fn bad_points(&self) -> Vec<[f64; 2]> {
+        self.val
+            .results()
+            .zip(&self.points)
+            .filter(|(_, p)| {
+                p.as_ref()
+                    .map_or(true, |p| p.accuracy_deg > self.args.max_error_deg)
+            })
+            .map(|(r, _)| r.target_px)
+            .collect()
+    }
+
+    /// R on the result: the calibration target nearest each bad validation
+    /// point is shown again, then the fit and the whole validation rerun.
+    fn redo_bad(&mut self) {
+        let targets = &self.cal.plan.targets_px;
+        let mut redo: Vec<usize> = Vec::new();
+        for b in self.bad_points() {
+            let nearest = (0..targets.len()).min_by(|&i, &j| {
+                let d = |k: usize| (targets[k][0] - b[0]).hypot(targets[k][1] - b[1]);
+                d(i).total_cmp(&d(j))
+            });
+            if let Some(i) = nearest.filter(|i| !redo.contains(i)) {
+                redo.push(i);
+            }
+        }
+        self.log(format!(
+            "redoing calibration targets {redo:?} (nearest the bad validation points)"
+        ));
+        for i in redo {
+            self.cal.redo(i);
+        }
+        self.cal.restart();
+        self.phase = Phase::Calibrating;
+    }
+
+    fn key(&mut self, el: &ActiveEventLoop, key: Key<&str>) {
+        match (&self.phase, key) {
+            (_, Key::Named(NamedKey::Escape)) => {
+                self.log("quit without saving".into());
+                el.exit();
+            }
+            (Phase::Intro, Key::Named(NamedKey::Space)) => {
+                // Samples from before the start are not the person's.
+                while self.feed.rx.try_recv().is_ok() {}
+                self.phase = Phase::Calibrating;
+            }
+            (Phase::Rejected(r), Key::Character("r")) => {
+                for &i in r.clone().iter() {
+                    self.cal.redo(i);
+                }
+                self.cal.restart();
+                self.phase = Phase::Calibrating;
+            }
+            (Phase::Rejected(_), Key::Named(NamedKey::Enter)) => {
+                self.cal.restart();
+                self.fit();
+            }
+            (Phase::Failed(_), Key::Character("r")) => {
+                self.cal = Procedure::new(self.cal.plan.clone());
+                self.phase = Phase::Calibrating;
+            }
+            (Phase::Result, Key::Character("r")) if !self.bad_points().is_empty() => {
+                self.redo_bad()
+            }
+            (Phase::Result, Key::Character("v")) => {
+                self.val = Procedure::new(self.val_plan.clone());
+                self.phase = Phase::Validating;
+            }
+            (Phase::Result, Key::Named(NamedKey::Enter) | Key::Character("s")) => {
+                if let Err(e) = self.save() {
+                    self.error = Some(e);
+                }
+                el.exit();
+            }
+            _ => {}
+        }
+    }
+
+    /// Writes the calibration (RON) with the validation as comments.
+    fn save(&mut self) -> Result<(), String> {
+        let c = self
+            .calibration
+            .as_ref()
+            .ok_or("there is no calibration to save")?;
+        let mut text = format!(
+            "// gazecast calibrate: {:?} on {} targets, RMS residual {:.2} px, display {:.0}×{:.0} px\n",
+            c.model,
+            c.points.len(),
+            c.rms_residual_px,
+            self.size.0,
+            self.size.1
+        );
+        if let Some(([a, r, s], bad)) = self.overall() {
+            text += &format!(
+                "// validation on {} points: accuracy {a:.2}°, precision RMS {r:.3}°, STD {s:.3}°; {bad} worse than {}°\n",
+                self.points.len(),
+                self.args.max_error_deg
+            );
+        }
+        text += &ron::ser::to_string_pretty(c, ron::ser::PrettyConfig::default())
+            .map_err(|e| e.to_string())?;
+        text.push('\n');
+        std::fs::write(&self.args.out, text)
+            .map_err(|e| format!("{}: cannot write: {e}", self.args.out.display()))?;
+        self.saved = true;
+        Ok(())
+    }
+
+    /// Draws the screen for the current phase into `self.rgb`.
+    fn draw(&mut self) -> Result<(), String> {
+        let (w, h) = self.size;
+        self.rgb.clear();
+        self.rgb.resize(3 * (w * h) as usize, 128);
+        let mut lines: Vec<String> = Vec::new();
+        let overall = self.overall();
+        let mut rgb = std::mem::take(&mut self.rgb);
+        {
+            crate::plots::register_font();
+            let root = BitMapBackend::with_buffer(&mut rgb, (w, h)).into_drawing_area();
+            let e = |e: DrawingAreaErrorKind<_>| e.to_string();
+            match &self.phase {
+                Phase::Intro => {
+                    // For the participant, in the middle of the screen.
+                    let say = [
+                        "Look at the centre of each dot until it moves on.".to_string(),
+                        format!(
+                            "{} dots, then {} to check.",
+                            self.cal.plan.targets_px.len(),
+                            self.val_plan.targets_px.len()
+                        ),
+                        "Space: start     Esc: quit".to_string(),
+                    ];
+                    let style = ("sans-serif", 30).into_font().color(&BLACK).pos(
+                        plotters::style::text_anchor::Pos::new(
+                            plotters::style::text_anchor::HPos::Center,
+                            plotters::style::text_anchor::VPos::Center,
+                        ),
+                    );
+                    for (k, l) in say.iter().enumerate() {
+                        let y = h as i32 / 2 + 48 * (k as i32 - 1);
+                        root.draw(&Text::new(l.clone(), (w as i32 / 2, y), style.clone()))
+                            .map_err(e)?;
+                    }
+                }
+                Phase::Calibrating | Phase::Validating => {
+                    let (p, name) = if self.phase == Phase::Calibrating {
+                        (&self.cal, "calibration")
+                    } else {
+                        (&self.val, "validation")
+                    };
+                    if let Some((_, at)) = p.target() {
+                        draw_target(&root, at, WHITE).map_err(e)?;
+                    }
+                    lines.push(format!(
+                        "{name} target {} of {}",
+                        (p.results().count() + 1).min(p.plan.targets_px.len()),
+                        p.plan.targets_px.len()
+                    ));
+                }
+                Phase::Rejected(r) => {
+                    for (i, &t) in self.cal.plan.targets_px.iter().enumerate() {
+                        let c = if r.contains(&i) { RED } else { GREEN };
+                        draw_target(&root, t, c).map_err(e)?;
+                    }
+                    lines.push(format!(
+                        "{} of {} targets rejected (too few valid samples or unsteady): R: show them again   Enter: fit without them   Esc: quit",
+                        r.len(),
+                        self.cal.plan.targets_px.len()
+                    ));
+                }
+                Phase::Failed(msg) => {
+                    lines.push(format!("calibration failed: {msg}"));
+                    lines.push("R: start again   Esc: quit".into());
+                }
+                Phase::Result => {
+                    for &t in &self.cal.plan.targets_px {
+                        root.draw(&Circle::new(
+                            (t[0].round() as i32, t[1].round() as i32),
+                            4,
+                            RGBColor(90, 90, 90).filled(),
+                        ))
+                        .map_err(e)?;
+                    }
+                    let max_px = self
+                        .points
+                        .iter()
+                        .flatten()
+                        .map(|p| {
+                            (p.mean_gaze_px[0] - p.target_px[0])
+                                .hypot(p.mean_gaze_px[1] - p.target_px[1])
+                        })
+                        .fold(0.0, f64::max);
+                    let scale = arrow_scale(max_px);
+                    for (r, p) in self.val.results().zip(&self.points) {
+                        let t = r.target_px;
+                        draw_target(&root, t, WHITE).map_err(e)?;
+                        let at = (t[0].round() as i32 + 18, t[1].round() as i32 + 10);
+                        let font = ("sans-serif", 16).into_font();
+                        match p {
+                            Ok(p) => {
+                                let c = if p.accuracy_deg > self.args.max_error_deg {
+                                    RED
+                                } else {
+                                    RGBColor(0, 140, 0)
+                                };
+                                let end = [
+                                    t[0] + scale * (p.mean_gaze_px[0] - t[0]),
+                                    t[1] + scale * (p.mean_gaze_px[1] - t[1]),
+                                ];
+                                draw_arrow(&root, t, end, c).map_err(e)?;
+                                root.draw(&Text::new(
+                                    format!(
+                                        "{:.2}° (RMS {:.2}°, n={})",
+                                        p.accuracy_deg, p.precision_rms_deg, p.samples
+                                    ),
+                                    at,
+                                    font.color(&BLACK),
+                                ))
+                                .map_err(e)?;
+                            }
+                            Err(m) => {
+                                root.draw(&Text::new(m.clone(), at, font.color(&RED)))
+                                    .map_err(e)?;
+                            }
+                        }
+                    }
+                    match overall {
+                        Some(([a, rms, std], bad)) => {
+                            lines.push(format!(
+                                "accuracy {a:.2}°   precision RMS {rms:.3}°  STD {std:.3}°   ({} points, {bad} worse than {}°)",
+                                self.points.len(),
+                                self.args.max_error_deg
+                            ));
+                        }
+                        None => lines.push("no validation point has data".into()),
+                    }
+                    if let Some(c) = &self.calibration {
+                        lines.push(format!(
+                            "{:?} fit on {} targets, residual {:.2} px; arrows: target → mean gaze, drawn {scale}× long",
+                            c.model,
+                            c.points.len(),
+                            c.rms_residual_px
+                        ));
+                    }
+                    let bad = self.bad_points().len();
+                    lines.push(format!(
+                        "Enter: save to {}   {}V: validate again   Esc: quit without saving",
+                        self.args.out.display(),
+                        if bad > 0 {
+                            format!("R: redo the {bad} bad points   ")
+                        } else {
+                            String::new()
+                        }
+                    ));
+                }
+            }
+            root.present().map_err(|e| e.to_string())?;
+        }
+        if !self.status.is_empty() {
+            lines.push(self.status.clone());
+        }
+        let refs: Vec<&str> = lines.iter().map(String::as_str).collect();
+        let drawn =
+            crate::plots::draw_text_lines(&mut rgb, (w, h), &refs).map_err(|e| e.to_string());
+        self.rgb = rgb;
+        drawn
+    }
+
+    fn frame(&mut self, el: &ActiveEventLoop) -> Result<(), String> {
+        let tex = self.screen.as_ref().and_then(Screen::acquire);
+        self.pump();
+        if self.error.is_some() {
+            el.exit();
+            return Ok(());
+        }
+        if self.stream_ended && self.phase != Phase::Result {
+            return Err(format!(
+                "the recording ended before the calibration finished (phase {:?})",
+                self.phase
+            ));
+        }
+        self.draw()?;
+        if let (Some(s), Some(t)) = (&self.screen, tex) {
+            s.present(t, &self.rgb, self.size);
+        }
+        if self.save_after_draw {
+            self.save_after_draw = false;
+            self.save()?;
+            el.exit();
+        }
+        Ok(())
+    }
+}
+
+impl ApplicationHandler for Calibrator<'_> {
+    fn resumed(&mut self, el: &ActiveEventLoop) {
+        if self.screen.is_none() {
+            match Screen::open(
+                el,
+                "gazecast — calibration",
+                self.size,
+                self.args.fullscreen,
+            ) {
+                Ok(s) => self.screen = Some(s),
+                Err(e) => {
+                    self.error = Some(e);
+                    el.exit();
+                }
+            }
+        }
+    }
+
+    fn window_event(&mut self, el: &ActiveEventLoop, _id: WindowId, event: WindowEvent) {
+        match event {
+            WindowEvent::CloseRequested => el.exit(),
+            WindowEvent::CursorMoved { position, .. } => {
+                if let Some(tx) = &self.feed.cursor_tx {
+                    let _ = tx.send(tracker_hal::mouse::CursorEvent {
+                        t_us: tracker_hal::clock::monotonic_us(),
+                        position_px: [position.x, position.y],
+                        blink: false,
+                    });
+                }
+            }
+            WindowEvent::KeyboardInput {
+                event:
+                    KeyEvent {
+                        logical_key,
+                        state: ElementState::Pressed,
+                        ..
+                    },
+                ..
+            } => {
+                self.key(el, logical_key.as_ref());
+                self.advance();
+            }
+            WindowEvent::RedrawRequested => {
+                if crate::gaze_feed::interrupted() {
+                    self.log("interrupted (Ctrl-C or SIGTERM): not saved".into());
+                    return el.exit();
+                }
+                if let Err(e) = self.frame(el) {
+                    self.error = Some(e);
+                    return el.exit();
+                }
+                if let Some(s) = &self.screen {
+                    s.window.request_redraw();
+                }
+            }
+            _ => {}
+        }
+    }
+}
+
+/// Runs `gazecast calibrate`.
+pub fn run(args: &CalibrateArgs, out: &mut dyn Write) -> Result<(), String> {
+    if !(args.max_error_deg.is_finite() && args.max_error_deg > 0.0) {
+        return Err(format!(
+            "--max-error-deg {}: must be a positive number",
+            args.max_error_deg
+        ));
+    }
+    let display = config::load_display(&args.display).map_err(|e| e.to_string())?;
+    let geometry = display.geometry().map_err(|e| e.to_string())?;
+    let size = display.resolution_px;
+    let (cal_plan, val_plan) = args.plan.plans(size)?;
+    let model = Model::from(args.model);
+    if cal_plan.targets_px.len() < model.min_points() {
+        return Err(format!(
+            "--points {}: {model:?} needs at least {}",
+            cal_plan.targets_px.len(),
+            model.min_points()
+        ));
+    }
+    let setup = GazeSetup::resolve(args.tracker.as_deref(), args.replay.as_deref())?;
+    let auto = args.yes || setup.is_replay();
+    let source = setup.name.clone();
+    let event_loop = EventLoop::new().map_err(|e| {
+        format!("cannot open a window ({e}); the calibration screen needs a display (or Xvfb)")
+    })?;
+    crate::gaze_feed::catch_interrupts();
+    let feed = setup.spawn(
+        None,
+        args.record.as_deref().map(|p| (p, display.name.as_str())),
+    )?;
+    let mut c = Calibrator {
+        args,
+        geometry,
+        size,
+        model,
+        cal: Procedure::new(cal_plan),
+        val: Procedure::new(val_plan.clone()),
+        val_plan,
+        phase: if auto {
+            Phase::Calibrating
+        } else {
+            Phase::Intro
+        },
+        auto,
+        auto_redos: 0,
+        calibration: None,
+        points: Vec::new(),
+        feed,
+        screen: None,
+        status: String::new(),
+        stream_ended: false,
+        save_after_draw: false,
+        saved: false,
+        rgb: Vec::new(),
+        log: Vec::new(),
+        error: None,
+    };
+    let result = event_loop.run_app(&mut c);
+    let recorded = c.feed.finish();
+    report(&c, &source, out)?;
+    if let Some(line) = recorded? {
+        writeln!(out, "{line}").map_err(|e| e.to_string())?;
+    }
+    if let Some(path) = &args.screenshot {
+        if !c.rgb.is_empty() {
+            crate::plots::save_png(path, size, &c.rgb)
+                .map_err(|e| format!("{}: {e}", path.display()))?;
+            writeln!(out, "wrote {}", path.display()).map_err(|e| e.to_string())?;
+        }
+    }
+    if let Some(e) = c.error {
+        return Err(e);
+    }
+    result.map_err(|e| format!("window: {e}"))?;
+    if !c.saved {
+        return Err(format!("not saved: {} was not written", args.out.display()));
+    }
+    Ok(())
+}
+
+/// The session log: targets, fit, validation.
+fn report(c: &Calibrator, source: &str, out: &mut dyn Write) -> Result<(), String> {
+    let w = |out: &mut dyn Write, s: String| writeln!(out, "{s}").map_err(|e| e.to_string());
+    w(out, format!("gazecast calibrate: gaze from {source}"))?;
+    for l in &c.log {
+        w(out, l.clone())?;
+    }
+    for r in c.cal.results() {
+        let t = r.target_px;
+        w(
+            out,
+            match &r.window {
+                Ok(win) if r.accepted(&c.cal.plan) => format!(
+                    "target ({:.0}, {:.0}): accepted, raw ({:.2}, {:.2}), {} of {} samples, dispersion {:.3}",
+                    t[0], t[1], win.raw[0], win.raw[1], win.kept, win.in_window, win.dispersion
+                ),
+                Ok(win) => format!(
+                    "target ({:.0}, {:.0}): rejected, dispersion {:.3} too large",
+                    t[0], t[1], win.dispersion
+                ),
+                Err(why) => format!("target ({:.0}, {:.0}): rejected, {why}", t[0], t[1]),
+            },
+        )?;
+    }
+    for (r, p) in c.val.results().zip(&c.points) {
+        let t = r.target_px;
+        w(
+            out,
+            match p {
+                Ok(p) => format!(
+                    "validation ({:.0}, {:.0}): accuracy {:.3}°, precision RMS {:.3}°, STD {:.3}°, {} samples",
+                    t[0], t[1], p.accuracy_deg, p.precision_rms_deg, p.precision_std_deg, p.samples
+                ),
+                Err(e) => format!("validation ({:.0}, {:.0}): {e}", t[0], t[1]),
+            },
+        )?;
+    }
+    if let Some(([a, r, s], bad)) = c.overall() {
+        w(
+            out,
+            format!(
+                "validation: accuracy {a:.3}°, precision RMS {r:.3}°, STD {s:.3}°; {bad} of {} points worse than {}°",
+                c.points.len(),
+                c.args.max_error_deg
+            ),
+        )?;
+    }
+    if c.saved {
+        w(out, format!("saved {}", c.args.out.display()))?;
+    }
+    Ok(())
+}
+
+/// Raw tracker units an uncalibrated tracker reports for a screen point,
+/// for the simulated calibration session: the screen seen in perspective in
+/// the tracker's frame (a homography, as a camera off the screen's axis sees
+/// it) plus a bow that grows with the square of the distance from the
+/// centre (the eye is a sphere, not a plane), which a homography cannot
+/// follow and a second-order polynomial can.
+pub fn uncalibrated_raw(px: [f64; 2], screen_px: (u32, u32), frame: (f64, f64)) -> [f64; 2] {
+    let u = px[0] / f64::from(screen_px.0);
+    let v = px[1] / f64::from(screen_px.1);
+    let w = 1.0 + 0.08 * u - 0.05 * v;
+    let (du, dv) = (u - 0.5, v - 0.5);
+    [
+        frame.0 * ((0.10 + 0.78 * u + 0.04 * v) / w + BOW * du * dv),
+        frame.1 * ((0.12 + 0.03 * u + 0.70 * v) / w + BOW * du * du),
+    ]
+}
+
+/// Strength of the simulated tracker's second-order bow.
+const BOW: f64 = 0.12;
+
+/// The stops of a simulated calibration session: the calibration targets
+/// (the eye closed on `closed_target`, which is then shown again), then the
+/// validation targets, in raw units of a tracker with `frame`.
+pub fn session_stops(
+    plan: &PlanArgs,
+    screen_px: (u32, u32),
+    frame: (f64, f64),
+    closed_target: Option<usize>,
+) -> Result<Vec<tracker_hal::sim::Stop>, String> {
+    let (cal, val) = plan.plans(screen_px)?;
+    let dwell = u64::from(plan.settle_ms + plan.collect_ms) * 1000;
+    let stop = |p: [f64; 2], closed| tracker_hal::sim::Stop {
+        at: uncalibrated_raw(p, screen_px, frame),
+        dwell_us: dwell,
+        closed,
+    };
+    let mut stops: Vec<_> = cal
+        .targets_px
+        .iter()
+        .enumerate()
+        .map(|(i, &p)| stop(p, Some(i) == closed_target))
+        .collect();
+    if let Some(i) = closed_target {
+        let p = *cal.targets_px.get(i).ok_or_else(|| {
+            format!(
+                "--closed-target {i}: there are {} targets",
+                cal.targets_px.len()
+            )
+        })?;
+        stops.push(stop(p, false));
+    }
+    stops.extend(val.targets_px.iter().map(|&p| stop(p, false)));
+    Ok(stops)
+}

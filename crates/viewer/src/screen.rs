@@ -1,0 +1,140 @@
+//! A window with a `wgpu` surface that shows frames rendered elsewhere (the
+//! CPU renderer, the GPU core's read-back, the calibration screen): each
+//! frame is copied into the surface texture, which is a plain 8-bit
+//! RGBA/BGRA format because the bytes are already gamma-encoded.
+
+use std::sync::Arc;
+
+use winit::event_loop::ActiveEventLoop;
+use winit::window::Window;
+
+pub struct Screen {
+    pub window: Arc<Window>,
+    surface: wgpu::Surface<'static>,
+    device: wgpu::Device,
+    queue: wgpu::Queue,
+    config: wgpu::SurfaceConfiguration,
+    bgra: bool,
+}
+
+impl Screen {
+    /// Opens a `w × h` window (fullscreen on the current monitor if asked)
+    /// and configures its surface for copies, with FIFO (vsync) presents.
+    pub fn open(
+        el: &ActiveEventLoop,
+        title: &str,
+        (w, h): (u32, u32),
+        fullscreen: bool,
+    ) -> Result<Self, String> {
+        let mut attrs = Window::default_attributes()
+            .with_title(title)
+            .with_inner_size(winit::dpi::PhysicalSize::new(w, h))
+            .with_resizable(false);
+        if fullscreen {
+            attrs = attrs.with_fullscreen(Some(winit::window::Fullscreen::Borderless(None)));
+        }
+        let window = Arc::new(
+            el.create_window(attrs)
+                .map_err(|e| format!("window: {e}"))?,
+        );
+        let mut desc = wgpu::InstanceDescriptor::new_without_display_handle_from_env();
+        desc.backends = wgpu::Backends::from_env().unwrap_or(wgpu::Backends::PRIMARY);
+        let instance = wgpu::Instance::new(desc);
+        let surface = instance
+            .create_surface(window.clone())
+            .map_err(|e| format!("window surface: {e}"))?;
+        let adapter = pollster::block_on(instance.request_adapter(&wgpu::RequestAdapterOptions {
+            power_preference: wgpu::PowerPreference::HighPerformance,
+            compatible_surface: Some(&surface),
+            ..Default::default()
+        }))
+        .map_err(|e| format!("no adapter can present to the window: {e}"))?;
+        let (device, queue) =
+            pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor::default()))
+                .map_err(|e| format!("device: {e}"))?;
+        let caps = surface.get_capabilities(&adapter);
+        if !caps.usages.contains(wgpu::TextureUsages::COPY_DST) {
+            return Err("the window surface cannot be copied into (no COPY_DST)".into());
+        }
+        let size = window.inner_size();
+        let mut config = surface
+            .get_default_config(&adapter, size.width.max(1), size.height.max(1))
+            .ok_or("the window surface is not supported by the adapter")?;
+        let format = [
+            wgpu::TextureFormat::Bgra8Unorm,
+            wgpu::TextureFormat::Rgba8Unorm,
+        ]
+        .into_iter()
+        .find(|f| caps.formats.contains(f))
+        .ok_or("the window surface has no plain 8-bit RGBA/BGRA format")?;
+        config.format = format;
+        config.usage = wgpu::TextureUsages::COPY_DST;
+        config.present_mode = wgpu::PresentMode::Fifo;
+        surface.configure(&device, &config);
+        Ok(Self {
+            window,
+            surface,
+            device,
+            queue,
+            config,
+            bgra: format == wgpu::TextureFormat::Bgra8Unorm,
+        })
+    }
+
+    /// The next surface texture (this is where FIFO waits for the display);
+    /// `None` when this frame cannot be shown (surface lost and
+    /// reconfigured, timeout, occluded) — skip the present, not the frame.
+    pub fn acquire(&self) -> Option<wgpu::SurfaceTexture> {
+        match self.surface.get_current_texture() {
+            wgpu::CurrentSurfaceTexture::Success(t)
+            | wgpu::CurrentSurfaceTexture::Suboptimal(t) => Some(t),
+            wgpu::CurrentSurfaceTexture::Outdated | wgpu::CurrentSurfaceTexture::Lost => {
+                self.surface.configure(&self.device, &self.config);
+                None
+            }
+            _ => None,
+        }
+    }
+
+    /// Copies a `w × h` RGB frame into `tex` (cropped to the surface),
+    /// submits and presents; returns the host time (µs) of the submit.
+    pub fn present(&self, tex: wgpu::SurfaceTexture, rgb: &[u8], (fw, fh): (u32, u32)) -> u64 {
+        let (w, h) = (fw.min(self.config.width), fh.min(self.config.height));
+        let mut bytes = Vec::with_capacity(4 * (w * h) as usize);
+        for y in 0..h as usize {
+            for x in 0..w as usize {
+                let i = 3 * (y * fw as usize + x);
+                let (r, g, b) = (rgb[i], rgb[i + 1], rgb[i + 2]);
+                if self.bgra {
+                    bytes.extend_from_slice(&[b, g, r, 255]);
+                } else {
+                    bytes.extend_from_slice(&[r, g, b, 255]);
+                }
+            }
+        }
+        self.queue.write_texture(
+            wgpu::TexelCopyTextureInfo {
+                texture: &tex.texture,
+                mip_level: 0,
+                origin: wgpu::Origin3d::ZERO,
+                aspect: wgpu::TextureAspect::All,
+            },
+            &bytes,
+            wgpu::TexelCopyBufferLayout {
+                offset: 0,
+                bytes_per_row: Some(4 * w),
+                rows_per_image: Some(h),
+            },
+            wgpu::Extent3d {
+                width: w,
+                height: h,
+                depth_or_array_layers: 1,
+            },
+        );
+        self.queue.submit([]);
+        let submitted = tracker_hal::clock::monotonic_us();
+        self.window.pre_present_notify();
+        self.queue.present(tex);
+        submitted
+    }
+}

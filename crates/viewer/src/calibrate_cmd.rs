@@ -122,8 +122,12 @@ pub struct CalibrateArgs {
     /// Write the last screen (the validation result) here on exit.
     #[arg(long, value_name = "FILE.png")]
     pub screenshot: Option<PathBuf>,
+    /// Fullscreen on the current monitor.
     #[arg(long)]
     pub fullscreen: bool,
+    /// Fullscreen on this monitor (0-based; an out-of-range index lists them).
+    #[arg(long, value_name = "INDEX")]
+    pub monitor: Option<usize>,
     /// No keys: start at once, show rejected targets once more, save.
     #[arg(long)]
     pub yes: bool,
@@ -654,6 +658,7 @@ impl ApplicationHandler for Calibrator<'_> {
                 "gazecast — calibration",
                 self.size,
                 self.args.fullscreen,
+                self.args.monitor,
             ) {
                 Ok(s) => self.screen = Some(s),
                 Err(e) => {

@@ -180,6 +180,7 @@ pub fn run(args: &DemoArgs, out: &mut dyn Write) -> Result<(), String> {
             overlay: Some("por".into()),
             backend: crate::render_cmd::Backend::Auto,
             fullscreen: false,
+            monitor: None,
             explain: false,
         };
         match crate::view_cmd::run(&view, out) {

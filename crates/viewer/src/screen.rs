@@ -18,20 +18,56 @@ pub struct Screen {
 }
 
 impl Screen {
-    /// Opens a `w × h` window (fullscreen on the current monitor if asked)
-    /// and configures its surface for copies, with FIFO (vsync) presents.
+    /// Opens a `w × h` window — fullscreen on monitor `monitor` (0-based,
+    /// in the platform's order) or on the current one when asked — and
+    /// configures its surface for copies, with FIFO (vsync) presents.
     pub fn open(
         el: &ActiveEventLoop,
         title: &str,
         (w, h): (u32, u32),
         fullscreen: bool,
+        monitor: Option<usize>,
     ) -> Result<Self, String> {
         let mut attrs = Window::default_attributes()
             .with_title(title)
             .with_inner_size(winit::dpi::PhysicalSize::new(w, h))
             .with_resizable(false);
-        if fullscreen {
-            attrs = attrs.with_fullscreen(Some(winit::window::Fullscreen::Borderless(None)));
+        let on = match monitor {
+            Some(i) => {
+                let all: Vec<_> = el.available_monitors().collect();
+                let names: Vec<String> = all
+                    .iter()
+                    .enumerate()
+                    .map(|(k, m)| {
+                        let s = m.size();
+                        format!(
+                            "{k}: {} {}×{}",
+                            m.name().unwrap_or_default(),
+                            s.width,
+                            s.height
+                        )
+                    })
+                    .collect();
+                let m = all.get(i).cloned().ok_or_else(|| {
+                    format!(
+                        "--monitor {i}: this display has {} monitors ({})",
+                        all.len(),
+                        names.join(", ")
+                    )
+                })?;
+                let s = m.size();
+                if (s.width, s.height) != (w, h) {
+                    eprintln!(
+                        "gazecast: monitor {i} is {}×{} px, the display file says {w}×{h}: the frame is drawn at the file's size from the top left",
+                        s.width, s.height
+                    );
+                }
+                Some(Some(m))
+            }
+            None => fullscreen.then_some(None),
+        };
+        if let Some(m) = on {
+            attrs = attrs.with_fullscreen(Some(winit::window::Fullscreen::Borderless(m)));
         }
         let window = Arc::new(
             el.create_window(attrs)

@@ -71,6 +71,9 @@ pub struct ViewArgs {
     /// Fullscreen on the current monitor.
     #[arg(long)]
     pub fullscreen: bool,
+    /// Fullscreen on this monitor (0-based; an out-of-range index lists them).
+    #[arg(long, value_name = "INDEX")]
+    pub monitor: Option<usize>,
     /// Print the passes the scene's effects make the pipeline run, and exit.
     #[arg(long)]
     pub explain: bool,
@@ -162,6 +165,9 @@ impl Latency {
             return vec!["gaze age: no gaze sample arrived".into()];
         }
         let f = |name: &str, v: &[f64]| {
+            if v.is_empty() {
+                return format!("{name}: none (it needs two frames)");
+            }
             let [a, b, c] = p50_95_99(v);
             format!("{name} p50 {a:.1} ms, p95 {b:.1} ms, p99 {c:.1} ms")
         };
@@ -327,7 +333,7 @@ impl ApplicationHandler for Viewer<'_> {
         if self.screen.is_none() {
             let title = format!("gazecast — {}", self.scene.name);
             let size = (self.cam.width_px, self.cam.height_px);
-            match Screen::open(el, &title, size, self.args.fullscreen) {
+            match Screen::open(el, &title, size, self.args.fullscreen, self.args.monitor) {
                 Ok(s) => self.screen = Some(s),
                 Err(e) => self.fail(el, e),
             }

@@ -22,14 +22,14 @@ use tracker_hal::calibration::{
     validate, Calibration, Model, Order, Plan, PointValidation, Procedure, TimedPoint,
 };
 use winit::application::ApplicationHandler;
-use winit::event::{ElementState, KeyEvent, WindowEvent};
+use winit::event::WindowEvent;
 use winit::event_loop::{ActiveEventLoop, EventLoop};
 use winit::keyboard::{Key, NamedKey};
 use winit::window::WindowId;
 
 use crate::config;
 use crate::gaze_feed::{GazeFeed, GazeSetup, TrackerMsg};
-use crate::screen::Screen;
+use crate::screen::{Input, Screen};
 
 /// The targets of a calibration run and of its validation.
 #[derive(Debug, Clone, clap::Args)]
@@ -670,30 +670,14 @@ impl ApplicationHandler for Calibrator<'_> {
     }
 
     fn window_event(&mut self, el: &ActiveEventLoop, _id: WindowId, event: WindowEvent) {
-        match event {
-            WindowEvent::CloseRequested => el.exit(),
-            WindowEvent::CursorMoved { position, .. } => {
-                if let Some(tx) = &self.feed.cursor_tx {
-                    let _ = tx.send(tracker_hal::mouse::CursorEvent {
-                        t_us: tracker_hal::clock::monotonic_us(),
-                        position_px: [position.x, position.y],
-                        blink: false,
-                    });
-                }
-            }
-            WindowEvent::KeyboardInput {
-                event:
-                    KeyEvent {
-                        logical_key,
-                        state: ElementState::Pressed,
-                        ..
-                    },
-                ..
-            } => {
-                self.key(el, logical_key.as_ref());
+        match Input::from(event) {
+            Input::Close => el.exit(),
+            Input::Cursor(x, y) => self.feed.cursor_moved(x, y),
+            Input::Key(key) => {
+                self.key(el, key.as_ref());
                 self.advance();
             }
-            WindowEvent::RedrawRequested => {
+            Input::Redraw => {
                 if crate::gaze_feed::interrupted() {
                     self.log("interrupted (Ctrl-C or SIGTERM): not saved".into());
                     return el.exit();
@@ -706,7 +690,7 @@ impl ApplicationHandler for Calibrator<'_> {
                     s.window.request_redraw();
                 }
             }
-            _ => {}
+            Input::Other => {}
         }
     }
 }

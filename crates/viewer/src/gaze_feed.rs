@@ -319,6 +319,18 @@ fn opener(
 }
 
 impl GazeFeed {
+    /// The window's cursor moved (window pixels): input for the mouse
+    /// device; ignored with other trackers.
+    pub fn cursor_moved(&self, x: f64, y: f64) {
+        if let Some(tx) = &self.cursor_tx {
+            let _ = tx.send(CursorEvent {
+                t_us: monotonic_us(),
+                position_px: [x, y],
+                blink: false,
+            });
+        }
+    }
+
     /// Stops the thread (the flag, and the mouse device's cursor channel),
     /// joins it, and closes the recording: queued chunks, an overflow chunk
     /// if any were lost, the end chunk. Returns a line for the session log.

@@ -5,8 +5,42 @@
 
 use std::sync::Arc;
 
+use winit::event::{ElementState, KeyEvent, WindowEvent};
 use winit::event_loop::ActiveEventLoop;
+use winit::keyboard::Key;
 use winit::window::Window;
+
+/// What a window event means to gazecast's windows.
+pub enum Input {
+    Close,
+    /// The cursor, in window pixels.
+    Cursor(f64, f64),
+    /// A key pressed (not released, not repeated).
+    Key(Key),
+    Redraw,
+    Other,
+}
+
+impl From<WindowEvent> for Input {
+    fn from(event: WindowEvent) -> Self {
+        match event {
+            WindowEvent::CloseRequested => Input::Close,
+            WindowEvent::CursorMoved { position, .. } => Input::Cursor(position.x, position.y),
+            WindowEvent::KeyboardInput {
+                event:
+                    KeyEvent {
+                        logical_key,
+                        state: ElementState::Pressed,
+                        repeat: false,
+                        ..
+                    },
+                ..
+            } => Input::Key(logical_key),
+            WindowEvent::RedrawRequested => Input::Redraw,
+            _ => Input::Other,
+        }
+    }
+}
 
 pub struct Screen {
     pub window: Arc<Window>,

@@ -24,9 +24,8 @@ use raycast::gpu::GpuRenderer;
 use raycast::render::{layers_rgb, render, Frame, Settings, Stats, Triggers};
 use raycast::{Camera, Scene};
 use tracker_hal::clock::monotonic_us;
-use tracker_hal::mouse::CursorEvent;
 use winit::application::ApplicationHandler;
-use winit::event::{ElementState, KeyEvent, WindowEvent};
+use winit::event::WindowEvent;
 use winit::event_loop::{ActiveEventLoop, EventLoop};
 use winit::keyboard::{Key, NamedKey};
 use winit::window::WindowId;
@@ -34,7 +33,7 @@ use winit::window::WindowId;
 use crate::config;
 use crate::gaze_feed::{GazeSetup, TrackerMsg};
 use crate::render_cmd::{draw_por_box, load_scene, Backend};
-use crate::screen::Screen;
+use crate::screen::{Input, Screen};
 
 #[derive(Debug, Clone, clap::Args)]
 pub struct ViewArgs {
@@ -341,26 +340,10 @@ impl ApplicationHandler for Viewer<'_> {
     }
 
     fn window_event(&mut self, el: &ActiveEventLoop, _id: WindowId, event: WindowEvent) {
-        match event {
-            WindowEvent::CloseRequested => el.exit(),
-            WindowEvent::CursorMoved { position, .. } => {
-                if let Some(tx) = &self.feed.cursor_tx {
-                    let _ = tx.send(CursorEvent {
-                        t_us: monotonic_us(),
-                        position_px: [position.x, position.y],
-                        blink: false,
-                    });
-                }
-            }
-            WindowEvent::KeyboardInput {
-                event:
-                    KeyEvent {
-                        logical_key,
-                        state: ElementState::Pressed,
-                        ..
-                    },
-                ..
-            } => match logical_key.as_ref() {
+        match Input::from(event) {
+            Input::Close => el.exit(),
+            Input::Cursor(x, y) => self.feed.cursor_moved(x, y),
+            Input::Key(key) => match key.as_ref() {
                 Key::Named(NamedKey::Escape) => el.exit(),
                 Key::Character("p") => self.por = !self.por,
                 Key::Character("l") => self.layers = !self.layers,
@@ -376,7 +359,7 @@ impl ApplicationHandler for Viewer<'_> {
                 }
                 _ => {}
             },
-            WindowEvent::RedrawRequested => {
+            Input::Redraw => {
                 if crate::gaze_feed::interrupted() {
                     self.log
                         .push("interrupted (Ctrl-C or SIGTERM): shutting down".into());
@@ -392,7 +375,7 @@ impl ApplicationHandler for Viewer<'_> {
                     s.window.request_redraw();
                 }
             }
-            _ => {}
+            Input::Other => {}
         }
     }
 }

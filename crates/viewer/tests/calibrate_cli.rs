@@ -4,7 +4,7 @@
 
 mod common;
 
-use common::{gazecast, Run, Xvfb};
+use common::{gazecast, windowed, Run, Xvfb};
 
 const DISPLAY: &str = "config/displays/tobii-et1750-17in.ron";
 /// Short targets keep the replay at about 9 s.
@@ -35,9 +35,7 @@ fn a_recorded_iscan_session_calibrates_validates_and_saves() {
     let rec = simulate(dir.path(), "config/trackers/iscan-binary.ron");
     let cal = dir.path().join("cal.ron");
     let shot = dir.path().join("cal.png");
-    let out = gazecast()
-        .env("DISPLAY", &x.display)
-        .env_remove("WAYLAND_DISPLAY")
+    let out = windowed(&x)
         .args(["calibrate", "--display", DISPLAY, "--model", "polynomial2"])
         .args(TIMING)
         .arg("--replay")
@@ -86,9 +84,7 @@ fn a_recorded_iscan_session_calibrates_validates_and_saves() {
     let green = buf.chunks(3).filter(|p| *p == [0, 140, 0]).count();
     assert!(green > 20, "{green} arrow pixels");
     // The calibration maps the replayed session in `view` too.
-    let out = gazecast()
-        .env("DISPLAY", &x.display)
-        .env_remove("WAYLAND_DISPLAY")
+    let out = windowed(&x)
         .args([
             "view",
             "--scene",

@@ -4,23 +4,21 @@
 
 mod common;
 
-use common::{gazecast, Run, Xvfb};
+use common::{gazecast, windowed, Run, Xvfb};
 
 /// `gazecast view` of the search task on the seed's display, CPU backend, in
 /// the given X display.
 fn view(x: &Xvfb) -> std::process::Command {
-    let mut c = gazecast();
-    c.env("DISPLAY", &x.display)
-        .env_remove("WAYLAND_DISPLAY")
-        .args([
-            "view",
-            "--scene",
-            "config/scenes/search-task.ron",
-            "--display",
-            "config/displays/tobii-et1750-17in.ron",
-            "--backend",
-            "cpu",
-        ]);
+    let mut c = windowed(x);
+    c.args([
+        "view",
+        "--scene",
+        "config/scenes/search-task.ron",
+        "--display",
+        "config/displays/tobii-et1750-17in.ron",
+        "--backend",
+        "cpu",
+    ]);
     c
 }
 
@@ -202,6 +200,21 @@ fn small_display(dir: &std::path::Path) -> std::path::PathBuf {
     path
 }
 
+/// `gazecast view` of the search task on [`small_display`], CPU backend.
+fn small_view(x: &Xvfb, dir: &std::path::Path) -> std::process::Command {
+    let mut c = windowed(x);
+    c.args([
+        "view",
+        "--scene",
+        "config/scenes/search-task.ron",
+        "--backend",
+        "cpu",
+        "--display",
+    ])
+    .arg(small_display(dir));
+    c
+}
+
 /// A live ISCAN session over a real pseudo-terminal: the viewer records it,
 /// the device disconnects mid-session (rendering goes on, with a status
 /// line), then Ctrl-C ends the session and the recording is closed
@@ -244,18 +257,7 @@ fn a_live_session_survives_a_disconnect_and_ctrl_c_leaves_a_valid_recording() {
         .succeed();
     let device = tracker_hal::Recording::read(&stream).expect("simulated stream");
     let record = dir.path().join("session.gzrec");
-    let mut child = gazecast()
-        .env("DISPLAY", &x.display)
-        .env_remove("WAYLAND_DISPLAY")
-        .args([
-            "view",
-            "--scene",
-            "config/scenes/search-task.ron",
-            "--backend",
-            "cpu",
-            "--display",
-        ])
-        .arg(small_display(dir.path()))
+    let mut child = small_view(&x, dir.path())
         .arg("--tracker")
         .arg(&tracker)
         .arg("--record")
@@ -364,18 +366,7 @@ fn a_1000_hz_replay_gives_every_frame_a_new_sample() {
         ])
         .arg(&rec)
         .succeed();
-    let out = gazecast()
-        .env("DISPLAY", &x.display)
-        .env_remove("WAYLAND_DISPLAY")
-        .args([
-            "view",
-            "--scene",
-            "config/scenes/search-task.ron",
-            "--backend",
-            "cpu",
-            "--display",
-        ])
-        .arg(small_display(dir.path()))
+    let out = small_view(&x, dir.path())
         .args(["--frames", "6", "--replay"])
         .arg(&rec)
         .succeed();
@@ -392,11 +383,7 @@ fn a_1000_hz_replay_gives_every_frame_a_new_sample() {
 #[test]
 fn the_demo_opens_the_window_in_mouse_mode_when_there_is_a_display() {
     let x = Xvfb::start();
-    let out = gazecast()
-        .env("DISPLAY", &x.display)
-        .env_remove("WAYLAND_DISPLAY")
-        .args(["demo", "--frames", "2"])
-        .succeed();
+    let out = windowed(&x).args(["demo", "--frames", "2"]).succeed();
     let text = String::from_utf8_lossy(&out.stdout);
     assert!(
         text.contains("gazecast view: search-task")

@@ -76,3 +76,10 @@ impl Drop for Xvfb {
         let _ = self.child.wait();
     }
 }
+
+/// The binary, showing its windows on `x` (never on a Wayland session).
+pub fn windowed(x: &Xvfb) -> Command {
+    let mut c = gazecast();
+    c.env("DISPLAY", &x.display).env_remove("WAYLAND_DISPLAY");
+    c
+}

@@ -563,10 +563,13 @@ impl Procedure {
         // A sample past the current target's end closes it, and any target
         // whose whole time passed without data (closed empty, so rejected).
         while let Some(&i) = self.queue.front() {
-            let next = self.next_since_us.take();
-            let since = *self
-                .shown_since_us
-                .get_or_insert(next.unwrap_or(sample.t_us));
+            // Due on the schedule, or now when there is none.
+            let since = match self.shown_since_us {
+                Some(t) => t,
+                None => *self
+                    .shown_since_us
+                    .insert(self.next_since_us.take().unwrap_or(sample.t_us)),
+            };
             let t = sample.t_us.saturating_sub(since);
             if t + CHANGE_TOLERANCE_US < total {
                 if t >= settle {

@@ -153,12 +153,12 @@ struct Calibrator<'a> {
     geometry: ScreenGeometry,
     size: (u32, u32),
     model: Model,
-    val_plan: Plan,
     cal: Procedure,
     val: Procedure,
     phase: Phase,
     auto: bool,
-    auto_redos: u32,
+    /// Rejected targets were shown again once already (auto mode).
+    redone: bool,
     calibration: Option<Calibration>,
     points: Vec<PointResult>,
     feed: GazeFeed,
@@ -269,8 +269,8 @@ impl Calibrator<'_> {
                     self.fit();
                 } else if !self.auto {
                     self.phase = Phase::Rejected(rejected);
-                } else if self.auto_redos == 0 {
-                    self.auto_redos += 1;
+                } else if !self.redone {
+                    self.redone = true;
                     self.log(format!(
                         "calibration targets {rejected:?} rejected: shown again"
                     ));
@@ -305,7 +305,7 @@ impl Calibrator<'_> {
                     c.rms_residual_px
                 ));
                 self.calibration = Some(c);
-                self.val = Procedure::new(self.val_plan.clone());
+                self.val = Procedure::new(self.val.plan.clone());
                 self.val.follow(&self.cal);
                 self.phase = Phase::Validating;
             }
@@ -403,7 +403,7 @@ impl Calibrator<'_> {
                 self.phase = Phase::Calibrating;
             }
             (Phase::Rejected(r), Key::Character("r")) => {
-                for &i in r.clone().iter() {
+                for i in r.clone() {
                     self.cal.redo(i);
                 }
                 self.cal.restart();
@@ -421,7 +421,7 @@ impl Calibrator<'_> {
                 self.redo_bad()
             }
             (Phase::Result, Key::Character("v")) => {
-                self.val = Procedure::new(self.val_plan.clone());
+                self.val = Procedure::new(self.val.plan.clone());
                 self.phase = Phase::Validating;
             }
             (Phase::Result, Key::Named(NamedKey::Enter) | Key::Character("s")) => {
@@ -484,7 +484,7 @@ impl Calibrator<'_> {
                         format!(
                             "{} dots, then {} to check.",
                             self.cal.plan.targets_px.len(),
-                            self.val_plan.targets_px.len()
+                            self.val.plan.targets_px.len()
                         ),
                         "Space: start     Esc: quit".to_string(),
                     ];
@@ -638,7 +638,7 @@ impl Calibrator<'_> {
             ));
         }
         self.draw()?;
-        if let (Some(s), Some(t)) = (&self.screen, tex) {
+        if let (Some(s), Some(t)) = (&mut self.screen, tex) {
             s.present(t, &self.rgb, self.size);
         }
         if self.save_after_draw {
@@ -732,15 +732,14 @@ pub fn run(args: &CalibrateArgs, out: &mut dyn Write) -> Result<(), String> {
         size,
         model,
         cal: Procedure::new(cal_plan),
-        val: Procedure::new(val_plan.clone()),
-        val_plan,
+        val: Procedure::new(val_plan),
         phase: if auto {
             Phase::Calibrating
         } else {
             Phase::Intro
         },
         auto,
-        auto_redos: 0,
+        redone: false,
         calibration: None,
         points: Vec::new(),
         feed,

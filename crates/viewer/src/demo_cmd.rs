@@ -184,7 +184,7 @@ pub fn run(args: &DemoArgs, out: &mut dyn Write) -> Result<(), String> {
             explain: false,
         };
         match crate::view_cmd::run(&view, out) {
-            Err(e) if e.starts_with("cannot open a window") => {
+            Err(e) if e.starts_with(crate::view_cmd::NO_WINDOW) => {
                 line(out, format!("{e}; rendering headless instead"))?;
             }
             other => return other,

@@ -49,6 +49,8 @@ pub struct Screen {
     queue: wgpu::Queue,
     config: wgpu::SurfaceConfiguration,
     bgra: bool,
+    /// The frame in the surface's byte order, reused from frame to frame.
+    staging: Vec<u8>,
 }
 
 impl Screen {
@@ -148,6 +150,7 @@ impl Screen {
             queue,
             config,
             bgra: format == wgpu::TextureFormat::Bgra8Unorm,
+            staging: Vec::new(),
         })
     }
 
@@ -168,17 +171,16 @@ impl Screen {
 
     /// Copies a `w × h` RGB frame into `tex` (cropped to the surface),
     /// submits and presents; returns the host time (µs) of the submit.
-    pub fn present(&self, tex: wgpu::SurfaceTexture, rgb: &[u8], (fw, fh): (u32, u32)) -> u64 {
+    pub fn present(&mut self, tex: wgpu::SurfaceTexture, rgb: &[u8], (fw, fh): (u32, u32)) -> u64 {
         let (w, h) = (fw.min(self.config.width), fh.min(self.config.height));
-        let mut bytes = Vec::with_capacity(4 * (w * h) as usize);
-        for y in 0..h as usize {
-            for x in 0..w as usize {
-                let i = 3 * (y * fw as usize + x);
-                let (r, g, b) = (rgb[i], rgb[i + 1], rgb[i + 2]);
+        let bytes = &mut self.staging;
+        bytes.clear();
+        for row in rgb.chunks_exact(3 * fw as usize).take(h as usize) {
+            for p in row[..3 * w as usize].chunks_exact(3) {
                 if self.bgra {
-                    bytes.extend_from_slice(&[b, g, r, 255]);
+                    bytes.extend_from_slice(&[p[2], p[1], p[0], 255]);
                 } else {
-                    bytes.extend_from_slice(&[r, g, b, 255]);
+                    bytes.extend_from_slice(&[p[0], p[1], p[2], 255]);
                 }
             }
         }
@@ -189,7 +191,7 @@ impl Screen {
                 origin: wgpu::Origin3d::ZERO,
                 aspect: wgpu::TextureAspect::All,
             },
-            &bytes,
+            &self.staging,
             wgpu::TexelCopyBufferLayout {
                 offset: 0,
                 bytes_per_row: Some(4 * w),

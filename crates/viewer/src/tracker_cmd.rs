@@ -357,22 +357,13 @@ pub fn simulated(
     if !(args.seconds.is_finite() && args.seconds > 0.0 && args.seconds <= 3600.0) {
         return Err(format!("--seconds {}: must be in (0, 3600]", args.seconds));
     }
-    let screen_px = match (&args.script, &args.display) {
-        (ScriptArg::Calibration, Some(d)) => Some(
+    let screen_px = match &args.display {
+        Some(d) => Some(
             config::load_display(d)
                 .map_err(|e| e.to_string())?
                 .resolution_px,
         ),
-        (ScriptArg::Calibration, None) => {
-            return Err(
-                "--script calibration needs --display FILE (the screen of the targets)".into(),
-            )
-        }
-        (ScriptArg::Search, _) => None,
-    };
-    let stops = |frame| -> Result<Vec<tracker_hal::sim::Stop>, String> {
-        let screen = screen_px.unwrap_or((1280, 1024));
-        crate::calibrate_cmd::session_stops(&args.plan, screen, frame, args.closed_target)
+        None => None,
     };
     let script = |rate_hz: f64, frame: (f64, f64), units_per_degree: f64| match args.script {
         ScriptArg::Search => Ok(gaze_script(&Script {
@@ -382,13 +373,19 @@ pub fn simulated(
             units_per_degree,
             seed: args.seed,
         })),
-        ScriptArg::Calibration => Ok::<_, String>(tracker_hal::sim::fixation_script(
-            &stops(frame)?,
-            rate_hz,
-            units_per_degree,
-            0.03 * units_per_degree,
-            args.seed,
-        )),
+        ScriptArg::Calibration => {
+            let screen = screen_px
+                .ok_or("--script calibration needs --display FILE (the screen of the targets)")?;
+            let stops =
+                crate::calibrate_cmd::session_stops(&args.plan, screen, frame, args.closed_target)?;
+            Ok::<_, String>(tracker_hal::sim::fixation_script(
+                &stops,
+                rate_hz,
+                units_per_degree,
+                0.03 * units_per_degree,
+                args.seed,
+            ))
+        }
     };
     let (stream, rate) = match &tracker.driver {
         Driver::Iscan(c) => {

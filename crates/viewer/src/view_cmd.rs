@@ -132,6 +132,9 @@ fn percentile(sorted: &[f64], p: f64) -> f64 {
     sorted[k.min(sorted.len() - 1)]
 }
 
+/// Frames the HUD's latency percentiles cover.
+const HUD_FRAMES: usize = 300;
+
 /// p50, p95 and p99 of `v` (NaN when empty).
 fn p50_95_99(v: &[f64]) -> [f64; 3] {
     let mut s = v.to_vec();
@@ -186,6 +189,11 @@ impl Latency {
 
 struct Viewer<'a> {
     args: &'a ViewArgs,
+    /// The session log, written as it happens (a long session keeps
+    /// nothing in memory and a crash loses nothing written).
+    out: &'a mut dyn Write,
+    /// The first failure to write the log (the session goes on).
+    log_error: Option<String>,
     scene: Scene,
     cam: Camera,
     model: SamplingModel,
@@ -207,7 +215,6 @@ struct Viewer<'a> {
     last_submit_us: Option<u64>,
     last: Option<(Frame, Stats)>,
     started: Instant,
-    log: Vec<String>,
     error: Option<String>,
 }
 
@@ -234,11 +241,16 @@ pub fn drain_newest(
 }
 
 impl Viewer<'_> {
+    /// One line of the session log.
+    fn say(&mut self, line: &str) {
+        emit(self.out, &mut self.log_error, line);
+    }
+
     fn drain(&mut self) {
-        let (log, status) = (&mut self.log, &mut self.status);
+        let (out, log_error, status) = (&mut *self.out, &mut self.log_error, &mut self.status);
         if let Some((g, t)) = drain_newest(&self.feed.rx, |s| {
             if !s.is_empty() {
-                log.push(s.clone());
+                emit(out, log_error, &s);
             }
             *status = s;
         }) {
@@ -274,8 +286,11 @@ impl Viewer<'_> {
         }
         if self.hud || !self.status.is_empty() {
             let fps = self.frames as f64 / self.started.elapsed().as_secs_f64().max(1e-9);
-            let [a, b, c] = p50_95_99(&self.latency.submit);
-            let [_, e95, _] = p50_95_99(&self.latency.excess);
+            // The HUD's percentiles cover the last frames only: sorting the
+            // whole session every frame would grow with its length.
+            let recent = |v: &[f64]| p50_95_99(&v[v.len().saturating_sub(HUD_FRAMES)..]);
+            let [a, b, c] = recent(&self.latency.submit);
+            let [_, e95, _] = recent(&self.latency.excess);
             let hud = format!(
                 "{fps:.1} fps  {} rays  gaze→submit p50 {a:.1} p95 {b:.1} p99 {c:.1} ms  beyond frame p95 {e95:.1} ms",
                 stats.rays_total,
@@ -288,7 +303,7 @@ impl Viewer<'_> {
             crate::plots::draw_text_lines(&mut frame.rgb, (frame.width, frame.height), &lines)
                 .map_err(|e| e.to_string())?;
         }
-        let submit_us = match (&self.screen, tex) {
+        let submit_us = match (&mut self.screen, tex) {
             (Some(s), Some(t)) => s.present(t, &frame.rgb, (frame.width, frame.height)),
             _ => monotonic_us(),
         };
@@ -312,7 +327,7 @@ impl Viewer<'_> {
             self.fresh_frames += 1;
             age = format!("{:.1} ms", ms(submit_us));
         }
-        self.log.push(format!(
+        self.say(&format!(
             "frame {} gaze ({:.1}, {:.1}) age {age} rays {} render {:.1} ms",
             self.frames, gaze[0], gaze[1], stats.rays_total, stats.time_ms
         ));
@@ -351,18 +366,18 @@ impl ApplicationHandler for Viewer<'_> {
                 Key::Character("s") => {
                     if let Some((f, _)) = &self.last {
                         let p = Path::new("gazecast-screenshot.png");
-                        match crate::plots::save_png(p, (f.width, f.height), &f.rgb) {
-                            Ok(()) => self.log.push(format!("screenshot: {}", p.display())),
-                            Err(e) => self.log.push(format!("screenshot failed: {e}")),
-                        }
+                        let line = match crate::plots::save_png(p, (f.width, f.height), &f.rgb) {
+                            Ok(()) => format!("screenshot: {}", p.display()),
+                            Err(e) => format!("screenshot failed: {e}"),
+                        };
+                        self.say(&line);
                     }
                 }
                 _ => {}
             },
             Input::Redraw => {
                 if crate::gaze_feed::interrupted() {
-                    self.log
-                        .push("interrupted (Ctrl-C or SIGTERM): shutting down".into());
+                    self.say("interrupted (Ctrl-C or SIGTERM): shutting down");
                     return el.exit();
                 }
                 if let Err(e) = self.frame() {
@@ -379,6 +394,10 @@ impl ApplicationHandler for Viewer<'_> {
         }
     }
 }
+
+/// How `run`'s error begins when no window can be opened (the demo then
+/// renders headless).
+pub const NO_WINDOW: &str = "cannot open a window";
 
 /// Runs `gazecast view`.
 pub fn run(args: &ViewArgs, out: &mut dyn Write) -> Result<(), String> {
@@ -403,7 +422,6 @@ pub fn run(args: &ViewArgs, out: &mut dyn Write) -> Result<(), String> {
         None => None,
     };
     let setup = GazeSetup::resolve(args.tracker.as_deref(), args.replay.as_deref())?;
-    let source_name = setup.name.clone();
     let gpu = match args.backend {
         Backend::Cpu => None,
         Backend::Gpu => Some(GpuRenderer::new(&scene).map_err(|e| format!("--backend gpu: {e}"))?),
@@ -413,15 +431,27 @@ pub fn run(args: &ViewArgs, out: &mut dyn Write) -> Result<(), String> {
         },
     };
     let event_loop = EventLoop::new().map_err(|e| {
-        format!("cannot open a window ({e}); on a machine without a display use `gazecast demo` or run under Xvfb")
+        format!("{NO_WINDOW} ({e}); on a machine without a display use `gazecast demo` or run under Xvfb")
     })?;
     crate::gaze_feed::catch_interrupts();
+    let header = format!(
+        "gazecast view: {} on {}, gaze from {}{}",
+        scene.name,
+        gpu.as_ref()
+            .map_or("cpu".to_string(), |g| format!("gpu ({})", g.adapter())),
+        setup.name,
+        args.calibration
+            .as_ref()
+            .map_or(String::new(), |p| format!(" through {}", p.display()))
+    );
     let feed = setup.spawn(
         calibration,
         args.record.as_deref().map(|p| (p, display.name.as_str())),
     )?;
     let mut viewer = Viewer {
         args,
+        out,
+        log_error: None,
         settings: crate::render_cmd::foveated_settings(&scene),
         cam: Camera::new(&geometry),
         scene,
@@ -442,58 +472,44 @@ pub fn run(args: &ViewArgs, out: &mut dyn Write) -> Result<(), String> {
         last_submit_us: None,
         last: None,
         started: Instant::now(),
-        log: Vec::new(),
         error: None,
     };
     viewer.por |= viewer.scene.has(raycast::scene::Effect::PorOverlay);
+    viewer.say(&header);
     let result = event_loop.run_app(&mut viewer);
     // Shut the tracker down and close the recording; then the last statuses.
     let recorded = viewer.feed.finish();
     viewer.drain();
-    let w = |out: &mut dyn Write, s: &str| writeln!(out, "{s}").map_err(|e| e.to_string());
-    w(
-        out,
-        &format!(
-            "gazecast view: {} on {}, gaze from {}{}",
-            viewer.scene.name,
-            viewer
-                .gpu
-                .as_ref()
-                .map_or("cpu".to_string(), |g| format!("gpu ({})", g.adapter())),
-            source_name,
-            args.calibration
-                .as_ref()
-                .map_or(String::new(), |p| format!(" through {}", p.display()))
-        ),
-    )?;
-    for l in &viewer.log {
-        w(out, l)?;
-    }
-    w(
-        out,
-        &format!(
-            "{} frames, {} showed a new gaze sample",
-            viewer.frames, viewer.fresh_frames
-        ),
-    )?;
+    let frames = format!(
+        "{} frames, {} showed a new gaze sample",
+        viewer.frames, viewer.fresh_frames
+    );
+    viewer.say(&frames);
     for l in viewer.latency.summary() {
-        w(out, &l)?;
+        viewer.say(&l);
     }
-    match recorded {
-        Ok(Some(line)) => w(out, &line)?,
-        Ok(None) => {}
-        Err(e) => return Err(e),
+    if let Ok(Some(line)) = &recorded {
+        viewer.say(line);
     }
-    if let Some(e) = viewer.error {
+    recorded?;
+    if let Some(e) = viewer.error.take() {
         return Err(e);
     }
     result.map_err(|e| format!("window: {e}"))?;
     if let (Some(path), Some((f, _))) = (&args.screenshot, &viewer.last) {
         crate::plots::save_png(path, (f.width, f.height), &f.rgb)
             .map_err(|e| format!("{}: {e}", path.display()))?;
-        w(out, &format!("wrote {}", path.display()))?;
+        let line = format!("wrote {}", path.display());
+        viewer.say(&line);
     }
-    Ok(())
+    viewer.log_error.map_or(Ok(()), Err)
+}
+
+/// Writes one log line; the first failure is kept (the session goes on).
+fn emit(out: &mut dyn Write, error: &mut Option<String>, line: &str) {
+    if let Err(e) = writeln!(out, "{line}") {
+        error.get_or_insert(format!("writing the session log: {e}"));
+    }
 }
 
 #[cfg(test)]

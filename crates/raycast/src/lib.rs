@@ -1,26 +1,40 @@
-//! # raycast — the hybrid foveated ray caster (CPU reference)
+//! # raycast — the hybrid foveated ray caster
 //!
-//! Scenes ([`scene`]), meshes ([`mesh`]), the BVH ([`bvh`], binary and flat
-//! for the GPU; [`bvh4`], 4-wide for the CPU), the seed's uniform grid
-//! ([`grid`]), robust ray/box and ray/triangle tests ([`ray`]), the eye-through-the-display
-//! camera ([`camera`]), Blinn–Phong shading ([`shade`]) and the full and
-//! foveated renderers ([`render`]) of Murphy 2007 ch. 4–6, and the GPU core
-//! ([`gpu`], wgpu compute over the flat binary BVH; full resolution so far),
-//! which must match these images.
+//! Modules:
+//! - [`scene`]: scene files and the world they describe ([`Scene`]);
+//! - [`mesh`]: triangle meshes, loaded from OBJ or generated;
+//! - [`accel`]: acceleration structures — the binary BVH ([`bvh`], flat for
+//!   the GPU), the 4-wide BVH the CPU traverses ([`bvh4`]) and the seed's
+//!   uniform grid ([`grid`]); `raycast::bvh`, `raycast::bvh4` and
+//!   `raycast::grid` are re-exports of `raycast::accel::*`;
+//! - [`ray`]: robust ray/box and ray/triangle tests;
+//! - [`camera`]: the eye-through-the-display camera;
+//! - [`shade`]: Blinn–Phong shading and the gamma table;
+//! - [`frame`]: the G-buffer a frame fills ([`Frame`]: colour, hit, depth,
+//!   object id, normal, layer);
+//! - [`render`](mod@render): the CPU reference renderers, full resolution and foveated
+//!   (Murphy 2007 ch. 4–6);
+//! - [`gpu`]: the GPU core (wgpu compute over the flat binary BVH): the
+//!   full-resolution frame and the foveated stages (mask vertices, cell
+//!   classification, silhouette margin, interpolation, compacted refined
+//!   pixels cast by an indirect dispatch), timed with timestamp queries
+//!   where the adapter has them; it fills the same G-buffer as the CPU;
+//! - [`error`]: scene and mesh errors.
 
-pub mod bvh;
-pub mod bvh4;
+pub mod accel;
 pub mod camera;
 pub mod error;
+pub mod frame;
 pub mod gpu;
-pub mod grid;
 pub mod mesh;
 pub mod ray;
 pub mod render;
 pub mod scene;
 pub mod shade;
 
+pub use accel::{bvh, bvh4, grid};
 pub use camera::Camera;
 pub use error::SceneError;
-pub use render::{render, Frame, Layer, Mode, Settings, Stats, Triggers};
+pub use frame::{layers_rgb, Frame, Layer, NO_OBJECT};
+pub use render::{render, Mode, Settings, Stats, Triggers};
 pub use scene::{Scene, SceneFile};

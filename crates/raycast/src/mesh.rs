@@ -49,9 +49,32 @@ impl TriangleMesh {
                 format!("triangle {t} uses vertex {tri:?}, but the mesh has {n} vertices"),
             ));
         }
+        Ok(Self::with_normals(positions, indices))
+    }
+
+    /// A mesh from finite positions and in-range indices (checked by the
+    /// callers), with its vertex normals.
+    ///
+    /// The normals are computed on the positions scaled by a power of two
+    /// that brings the largest coordinate into [1, 2): exact, so ordinary
+    /// meshes get bit-for-bit the normals of the unscaled sums, while meshes
+    /// with coordinates near `f32::MAX` (whose cross products would
+    /// overflow) or near zero (which would underflow) still get their true
+    /// normals. A vertex whose normal is still zero (degenerate triangles
+    /// only) gets +z; every normal is finite and unit length.
+    fn with_normals(positions: Vec<Vec3>, indices: Vec<[u32; 3]>) -> Self {
+        let largest = positions
+            .iter()
+            .map(|p| p.abs().max_element())
+            .fold(0.0f32, f32::max);
+        let scale = if largest > 0.0 && largest.is_finite() {
+            pow2(-(largest.log2().floor() as i32))
+        } else {
+            1.0
+        };
         let mut normals = vec![Vec3::ZERO; positions.len()];
         for t in &indices {
-            let [a, b, c] = t.map(|i| positions[i as usize]);
+            let [a, b, c] = t.map(|i| positions[i as usize] * scale);
             let n = (b - a).cross(c - a); // length = 2·area: area weighting
             for &i in t {
                 normals[i as usize] += n;
@@ -60,11 +83,11 @@ impl TriangleMesh {
         for n in &mut normals {
             *n = n.try_normalize().unwrap_or(Vec3::Z);
         }
-        Ok(Self {
+        Self {
             positions,
             normals,
             indices,
-        })
+        }
     }
 
     pub fn triangle(&self, i: usize) -> [Vec3; 3] {
@@ -156,13 +179,46 @@ impl TriangleMesh {
             }
             indices = next;
         }
-        Self::new(positions, indices, "icosphere").unwrap_or_else(|e| unreachable!("{e}"))
+        // Unit vectors and their normalised midpoints: finite, indices in
+        // range by construction.
+        Self::with_normals(positions, indices)
     }
 
-    /// A torus around the y axis: ring radius `major`, tube radius `minor`.
-    pub fn torus(major: f32, minor: f32, segments: u32, sides: u32) -> Self {
+    /// A torus around the y axis: ring radius `major`, tube radius `minor`,
+    /// at least 3 segments and 3 sides. Refused (naming `origin`) when the
+    /// radii are not positive and finite, when `major + minor` overflows
+    /// f32 (the outermost vertices would not be finite), or when
+    /// `segments × sides` vertices cannot be indexed by u32.
+    pub fn torus(
+        major: f32,
+        minor: f32,
+        segments: u32,
+        sides: u32,
+        origin: &str,
+    ) -> Result<Self, SceneError> {
+        if !(major.is_finite() && minor.is_finite() && major > 0.0 && minor > 0.0) {
+            return Err(SceneError::mesh(
+                origin,
+                None,
+                format!("torus radii must be positive and finite (major {major}, minor {minor})"),
+            ));
+        }
+        if !(major + minor).is_finite() {
+            return Err(SceneError::mesh(
+                origin,
+                None,
+                format!("torus radii {major} + {minor} overflow f32"),
+            ));
+        }
         let (segments, sides) = (segments.max(3), sides.max(3));
-        let mut positions = Vec::with_capacity((segments * sides) as usize);
+        if u64::from(segments) * u64::from(sides) > u64::from(u32::MAX) {
+            return Err(SceneError::mesh(
+                origin,
+                None,
+                format!("{segments} × {sides} torus vertices cannot be indexed"),
+            ));
+        }
+        let mut positions = Vec::with_capacity(segments as usize * sides as usize);
         for i in 0..segments {
             let u = i as f32 / segments as f32 * std::f32::consts::TAU;
             for j in 0..sides {
@@ -172,7 +228,7 @@ impl TriangleMesh {
             }
         }
         let idx = |i: u32, j: u32| (i % segments) * sides + (j % sides);
-        let mut indices = Vec::with_capacity((segments * sides * 2) as usize);
+        let mut indices = Vec::with_capacity(2 * segments as usize * sides as usize);
         for i in 0..segments {
             for j in 0..sides {
                 let (a, b, c, d) = (idx(i, j), idx(i + 1, j), idx(i + 1, j + 1), idx(i, j + 1));
@@ -180,12 +236,27 @@ impl TriangleMesh {
                 indices.push([a, d, c]);
             }
         }
-        Self::new(positions, indices, "torus").unwrap_or_else(|e| unreachable!("{e}"))
+        // |coordinates| ≤ major + minor, which is finite.
+        Self::new(positions, indices, origin)
     }
 
     /// An icosphere with at least `triangles` triangles whose radius is
-    /// displaced by a smooth seeded pattern of relative `amplitude`.
-    pub fn bumpy(triangles: u32, amplitude: f32, seed: u64) -> Self {
+    /// displaced by a smooth seeded pattern of relative `amplitude`,
+    /// which must be finite and below 1 in magnitude (the surface would
+    /// fold through the centre otherwise); refused naming `origin`.
+    pub fn bumpy(
+        triangles: u32,
+        amplitude: f32,
+        seed: u64,
+        origin: &str,
+    ) -> Result<Self, SceneError> {
+        if !(amplitude.is_finite() && amplitude.abs() < 1.0) {
+            return Err(SceneError::mesh(
+                origin,
+                None,
+                format!("bump amplitude {amplitude} must be finite and below 1 in magnitude"),
+            ));
+        }
         let mut s = 0;
         while 20u64 * 4u64.pow(s) < u64::from(triangles) && s < 9 {
             s += 1;
@@ -215,8 +286,14 @@ impl TriangleMesh {
                 / waves.len() as f32;
             *p *= 1.0 + amplitude * bump;
         }
-        Self::new(m.positions, m.indices, "bumpy").unwrap_or_else(|e| unreachable!("{e}"))
+        // Radii within (0, 2): finite.
+        Self::new(m.positions, m.indices, origin)
     }
+}
+
+/// 2^k as f32, for k clamped to the normal range [-126, 127].
+fn pow2(k: i32) -> f32 {
+    f32::from_bits(((k.clamp(-126, 127) + 127) as u32) << 23)
 }
 
 #[cfg(test)]
@@ -227,8 +304,8 @@ mod tests {
     fn generated_meshes_are_closed_two_manifolds() {
         for m in [
             TriangleMesh::icosphere(2),
-            TriangleMesh::torus(1.0, 0.3, 24, 12),
-            TriangleMesh::bumpy(3000, 0.1, 5),
+            TriangleMesh::torus(1.0, 0.3, 24, 12, "torus").expect("torus"),
+            TriangleMesh::bumpy(3000, 0.1, 5, "bumpy").expect("bumpy"),
         ] {
             let mut edges: HashMap<(u32, u32), i32> = HashMap::new();
             for t in &m.indices {
@@ -243,7 +320,47 @@ mod tests {
             );
         }
         assert_eq!(TriangleMesh::icosphere(3).indices.len(), 20 * 64);
-        assert!(TriangleMesh::bumpy(20_000, 0.1, 1).indices.len() >= 20_000);
+        let bumpy = TriangleMesh::bumpy(20_000, 0.1, 1, "bumpy").expect("bumpy");
+        assert!(bumpy.indices.len() >= 20_000);
+    }
+
+    #[test]
+    fn generators_refuse_what_they_cannot_represent() {
+        for (major, minor) in [
+            (f32::MAX, f32::MAX),
+            (3e38, 1e38),
+            (f32::NAN, 1.0),
+            (1.0, f32::INFINITY),
+            (0.0, 1.0),
+            (1.0, -1.0),
+        ] {
+            let e = TriangleMesh::torus(major, minor, 8, 6, "t").expect_err("refused");
+            assert!(e.to_string().starts_with("t:"), "{e}");
+        }
+        assert!(TriangleMesh::torus(1.0, 0.5, u32::MAX, 2, "t").is_err());
+        for a in [1.0, -1.5, f32::NAN, f32::INFINITY] {
+            assert!(TriangleMesh::bumpy(100, a, 1, "b").is_err(), "{a}");
+        }
+        // Just representable: finite positions and unit normals.
+        let m = TriangleMesh::torus(2e38, 1e38, 8, 6, "t").expect("fits");
+        assert!(m.positions.iter().all(|p| p.is_finite()));
+        assert!(m.normals.iter().all(|n| (n.length() - 1.0).abs() < 1e-5));
+    }
+
+    #[test]
+    fn normals_do_not_depend_on_the_scale() {
+        let unit = TriangleMesh::torus(1.0, 0.3, 16, 8, "t").expect("torus");
+        for s in [1e-38f32, 1e-20, 4.0, 1e30, 1e38] {
+            let scaled = TriangleMesh::new(
+                unit.positions.iter().map(|p| *p * s).collect(),
+                unit.indices.clone(),
+                "t",
+            )
+            .expect("finite");
+            for (a, b) in unit.normals.iter().zip(&scaled.normals) {
+                assert!((*a - *b).length() < 1e-5, "scale {s}: {a} vs {b}");
+            }
+        }
     }
 
     #[test]

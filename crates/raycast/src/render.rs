@@ -29,6 +29,7 @@ use glam::Vec3;
 use rayon::prelude::*;
 
 use crate::camera::Camera;
+use crate::frame::{Frame, Layer, Texel};
 use crate::ray::TriangleTest;
 use crate::scene::{Effect, Hit, Scene};
 use crate::shade::{shade, to_rgb8};
@@ -91,37 +92,19 @@ pub struct Settings {
     pub check_coverage: bool,
 }
 
-/// Which path produced a pixel.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-#[repr(u8)]
-pub enum Layer {
-    /// Cast in full-resolution mode.
-    Full = 0,
-    Fovea = 1,
-    Interpolated = 2,
-    Refined = 3,
-    /// No owner found (numerically impossible in a correct mesh): cast.
-    Gap = 4,
-}
-
-/// A rendered frame.
-#[derive(Debug, Clone)]
-pub struct Frame {
-    pub width: u32,
-    pub height: u32,
-    pub rgb: Vec<u8>,
-    /// Per pixel: did the (cast or reconstructed) sample hit geometry?
-    pub hit: Vec<bool>,
-    pub layer: Vec<Layer>,
-}
-
 /// Counts and time of one frame (the `--stats` JSON of `gazecast render`).
 #[derive(Debug, Clone, Copy, Default, PartialEq, serde::Serialize)]
 pub struct Stats {
+    /// Hybrid: rays cast one per pixel in the fovea disc.
     pub rays_fovea: u64,
-    /// Rays through mesh vertices, including those just off the screen.
+    /// Hybrid: rays through mesh vertices, including those just off the screen.
     pub rays_mask: u64,
+    /// Hybrid: rays cast for the pixels of refined cells (and any gap).
     pub rays_refine: u64,
+    /// Full resolution: one ray per pixel (0 in a hybrid frame).
+    pub rays_full: u64,
+    /// Every ray of the frame: `rays_fovea + rays_mask + rays_refine +
+    /// rays_full`.
     pub rays_total: u64,
     pub cells_total: u64,
     pub cells_refined: u64,
@@ -154,6 +137,19 @@ fn colour_of(scene: &Scene, cam: &Camera, p: [f32; 2], hit: Option<Hit>) -> Vec3
     }
 }
 
+/// The G-buffer values of the sample at `p`: colour, and the eye distance
+/// (mm), object and normal of what it hit.
+fn texel(scene: &Scene, cam: &Camera, p: [f32; 2], hit: Option<Hit>, layer: Layer) -> Texel {
+    Texel {
+        rgb: rgb8(scene, colour_of(scene, cam, p, hit)),
+        surface: hit.map(|h| {
+            let depth_mm = h.t * (cam.screen_point(p) - cam.eye).length();
+            (depth_mm, h.object, h.normal)
+        }),
+        layer,
+    }
+}
+
 /// Renders one frame. `model` gives the mask (foveated mode only).
 pub fn render(
     scene: &Scene,
@@ -164,18 +160,17 @@ pub fn render(
 ) -> Result<(Frame, Stats), foveation::ParamError> {
     let start = Instant::now();
     let (w, h) = (cam.width_px as usize, cam.height_px as usize);
-    let mut frame = Frame {
-        width: cam.width_px,
-        height: cam.height_px,
-        rgb: vec![0; w * h * 3],
-        hit: vec![false; w * h],
-        layer: vec![Layer::Full; w * h],
-    };
+    let mut frame = Frame::blank(
+        cam.width_px,
+        cam.height_px,
+        scene.background_rgb8,
+        Layer::Full,
+    );
     let mut stats = Stats::default();
     if settings.mode == Mode::Full || !scene.has(Effect::FoveatedSampling) {
         full(scene, cam, settings.test, &mut frame);
-        stats.rays_total = (w * h) as u64;
-        stats.rays_refine = stats.rays_total;
+        stats.rays_full = (w * h) as u64;
+        stats.rays_total = stats.rays_full;
     } else {
         let m = mask::build(model, settings.layout, gaze_px)?;
         foveated(scene, cam, &m, settings, &mut frame, &mut stats);
@@ -195,18 +190,15 @@ fn rgb8(scene: &Scene, colour: Vec3) -> [u8; 3] {
 }
 
 fn full(scene: &Scene, cam: &Camera, test: TriangleTest, frame: &mut Frame) {
-    let w = frame.width as usize;
     frame
-        .rgb
-        .par_chunks_mut(w * 3)
-        .zip(frame.hit.par_chunks_mut(w))
+        .rows_mut()
+        .into_par_iter()
         .enumerate()
-        .for_each(|(y, (row, hits))| {
-            for x in 0..w {
+        .for_each(|(y, mut row)| {
+            for x in 0..row.hit.len() {
                 let p = [x as f32 + 0.5, y as f32 + 0.5];
                 let hit = cast(scene, cam, p, test);
-                hits[x] = hit.is_some();
-                row[3 * x..3 * x + 3].copy_from_slice(&rgb8(scene, colour_of(scene, cam, p, hit)));
+                row.put(x, texel(scene, cam, p, hit, Layer::Full));
             }
         });
 }
@@ -261,7 +253,7 @@ fn foveated(
     frame: &mut Frame,
     stats: &mut Stats,
 ) {
-    let (w, h) = (frame.width as usize, frame.height as usize);
+    let (w, h) = (frame.width_px as usize, frame.height_px as usize);
     let test = settings.test;
     // 2. Mask rays.
     let vertex_hits: Vec<Option<Hit>> = m
@@ -308,18 +300,16 @@ fn foveated(
     });
     // 5. Cast or interpolate, and shade.
     let counts: (u64, u64, u64) = frame
-        .rgb
-        .par_chunks_mut(w * 3)
-        .zip(frame.hit.par_chunks_mut(w))
-        .zip(frame.layer.par_chunks_mut(w))
+        .rows_mut()
+        .into_par_iter()
         .enumerate()
-        .map(|(y, ((row, hits), layers))| {
+        .map(|(y, mut row)| {
             let mut n = (0u64, 0u64, 0u64); // fovea, refine, gap
             for x in 0..w {
                 let p = [x as f32 + 0.5, y as f32 + 0.5];
                 let o = owner[y * w + x];
-                let (layer, hit, colour) = if o == UNOWNED && !settings.check_coverage {
-                    (Layer::Interpolated, false, scene.background)
+                let t = if o == UNOWNED && !settings.check_coverage {
+                    texel(scene, cam, p, None, Layer::Interpolated)
                 } else if o == FOVEA || o == UNOWNED || refined[o as usize] {
                     let hit = cast(scene, cam, p, test);
                     let layer = match o {
@@ -336,15 +326,12 @@ fn foveated(
                             Layer::Refined
                         }
                     };
-                    (layer, hit.is_some(), colour_of(scene, cam, p, hit))
+                    texel(scene, cam, p, hit, layer)
                 } else {
-                    let (hit, colour) =
-                        interpolate(scene, cam, m, &m.cells[o as usize], &vertex_hits, p);
-                    (Layer::Interpolated, hit, colour)
+                    let hit = interpolate(m, &m.cells[o as usize], &vertex_hits, p);
+                    texel(scene, cam, p, hit, Layer::Interpolated)
                 };
-                layers[x] = layer;
-                hits[x] = hit;
-                row[3 * x..3 * x + 3].copy_from_slice(&rgb8(scene, colour));
+                row.put(x, t);
             }
             n
         })
@@ -451,19 +438,10 @@ fn rasterise(m: &RayMask, corners: &[u32], w: usize, h: usize, mut own: impl FnM
 }
 
 /// Interpolates distance and normal at `p` from a homogeneous cell's corners
-/// (quads as two triangles), and shades.
-fn interpolate(
-    scene: &Scene,
-    cam: &Camera,
-    m: &RayMask,
-    cell: &[u32; 4],
-    hits: &[Option<Hit>],
-    p: [f32; 2],
-) -> (bool, Vec3) {
+/// (quads as two triangles): the hit the interpolated sample stands for.
+fn interpolate(m: &RayMask, cell: &[u32; 4], hits: &[Option<Hit>], p: [f32; 2]) -> Option<Hit> {
     let corners = corners_of(cell);
-    let Some(first) = hits[corners[0] as usize] else {
-        return (false, scene.background);
-    };
+    let first = hits[corners[0] as usize]?;
     let pos = |v: u32| m.vertices[v as usize];
     let tris: &[[usize; 3]] = if corners.len() == 4 {
         &[[0, 1, 2], [0, 2, 3]]
@@ -489,7 +467,7 @@ fn interpolate(
         }
     }
     let Some((t, wts)) = weights else {
-        return (true, colour_of(scene, cam, p, Some(first)));
+        return Some(first);
     };
     let mut dist = 0.0;
     let mut normal = Vec3::ZERO;
@@ -498,30 +476,10 @@ fn interpolate(
         dist += wts[k] * h.t;
         normal += wts[k] * h.normal;
     }
-    let hit = Hit {
+    Some(Hit {
         t: dist,
         object: first.object,
         triangle: first.triangle,
         normal: normal.try_normalize().unwrap_or(first.normal),
-    };
-    (true, colour_of(scene, cam, p, Some(hit)))
-}
-
-/// The layers picture: the image blended with a colour per layer
-/// (fovea red, interpolated green, refined blue, gaps magenta).
-pub fn layers_rgb(frame: &Frame) -> Vec<u8> {
-    let mut out = frame.rgb.clone();
-    for (i, l) in frame.layer.iter().enumerate() {
-        let tint: [u8; 3] = match l {
-            Layer::Full => continue,
-            Layer::Fovea => [230, 40, 40],
-            Layer::Interpolated => [40, 200, 70],
-            Layer::Refined => [40, 90, 240],
-            Layer::Gap => [255, 0, 255],
-        };
-        for k in 0..3 {
-            out[3 * i + k] = ((u16::from(out[3 * i + k]) + u16::from(tint[k])) / 2) as u8;
-        }
-    }
-    out
+    })
 }

@@ -9,10 +9,8 @@ use std::path::Path;
 use glam::{EulerRot, Mat3, Vec3};
 use serde::{Deserialize, Serialize};
 
-use crate::bvh::Bvh;
-use crate::bvh4::Bvh4;
+use crate::accel::{Bvh, Bvh4, UniformGrid};
 use crate::error::SceneError;
-use crate::grid::UniformGrid;
 use crate::mesh::TriangleMesh;
 use crate::ray::{moller_trumbore, watertight, Aabb, Ray, TriangleTest, WatertightRay};
 
@@ -189,7 +187,10 @@ pub struct Scene {
     pub background: Vec3,
     /// The background as the renderer writes it.
     pub background_rgb8: [u8; 3],
-    pub materials: Vec<Material>,
+    /// The material of each object, indexed by object id (`Hit::object`,
+    /// `WorldTriangle::object`): the scene file's named materials resolved
+    /// per object.
+    pub object_materials: Vec<Material>,
     pub lights: Vec<Light>,
     pub effects: Vec<Effect>,
     pub crease_deg: f32,
@@ -235,7 +236,7 @@ impl Scene {
                 MeshSource::Icosphere { subdivisions } => {
                     if *subdivisions > 8 {
                         return Err(SceneError::field(
-                            field,
+                            format!("{field}.subdivisions"),
                             "subdivisions above 8 (1.3 M triangles) are not supported",
                         ));
                     }
@@ -247,34 +248,61 @@ impl Scene {
                     segments,
                     sides,
                 } => {
-                    if !(major_radius.is_finite()
-                        && minor_radius.is_finite()
-                        && *major_radius > 0.0
-                        && *minor_radius > 0.0)
-                    {
-                        return Err(SceneError::field(field, "radii must be positive"));
+                    for (f, r) in [
+                        ("major_radius", major_radius),
+                        ("minor_radius", minor_radius),
+                    ] {
+                        if !(r.is_finite() && *r > 0.0) {
+                            return Err(SceneError::field(
+                                format!("{field}.{f}"),
+                                "must be a positive number",
+                            ));
+                        }
+                    }
+                    // The outermost ring lies at major + minor.
+                    if !(major_radius + minor_radius).is_finite() {
+                        return Err(SceneError::field(
+                            format!("{field}.major_radius"),
+                            format!(
+                                "major_radius + minor_radius ({major_radius} + {minor_radius}) overflows f32"
+                            ),
+                        ));
                     }
                     if u64::from(*segments) * u64::from(*sides) > 20_000_000 {
-                        return Err(SceneError::field(field, "segments × sides is too large"));
+                        return Err(SceneError::field(
+                            format!("{field}.segments"),
+                            "segments × sides is too large (more than 20 M)",
+                        ));
                     }
-                    TriangleMesh::torus(*major_radius, *minor_radius, *segments, *sides)
+                    TriangleMesh::torus(*major_radius, *minor_radius, *segments, *sides, &field)?
                 }
                 MeshSource::Bumpy {
                     triangles,
                     amplitude,
                     seed,
                 } => {
-                    if *triangles > 20_000_000 || !amplitude.is_finite() || amplitude.abs() >= 1.0 {
+                    if *triangles > 20_000_000 {
                         return Err(SceneError::field(
-                            field,
-                            "needs triangles ≤ 20 M and |amplitude| < 1",
+                            format!("{field}.triangles"),
+                            "more than 20 M triangles are not supported",
                         ));
                     }
-                    TriangleMesh::bumpy(*triangles, *amplitude, *seed)
+                    if !(amplitude.is_finite() && amplitude.abs() < 1.0) {
+                        return Err(SceneError::field(
+                            format!("{field}.amplitude"),
+                            "must be finite with |amplitude| < 1",
+                        ));
+                    }
+                    TriangleMesh::bumpy(*triangles, *amplitude, *seed, &field)?
                 }
                 MeshSource::Triangle { a, b, c } => {
-                    if !(finite3(*a) && finite3(*b) && finite3(*c)) {
-                        return Err(SceneError::field(field, "corners must be finite"));
+                    for (f, p) in [("a", a), ("b", b), ("c", c)] {
+                        if !finite3(*p) {
+                            return Err(SceneError::field(
+                                format!("{field}.{f}"),
+                                "corners must be finite",
+                            ));
+                        }
                     }
                     let v = |t: (f32, f32, f32)| Vec3::new(t.0, t.1, t.2);
                     TriangleMesh::new(vec![v(*a), v(*b), v(*c)], vec![[0, 1, 2]], &field)?
@@ -335,14 +363,33 @@ impl Scene {
                 r.0.to_radians(),
             );
             let t = Vec3::new(o.translate_mm.0, o.translate_mm.1, o.translate_mm.2);
-            let place = |p: Vec3| rot * (p * o.scale_mm) + t;
-            for tri in &mesh.indices {
-                let p = tri.map(|i| place(mesh.positions[i as usize]));
-                let n = tri.map(|i| rot * mesh.normals[i as usize]);
-                if p.iter().any(|v| !v.is_finite()) {
+            // Every placed vertex must be finite: scaling (and rotating)
+            // may overflow f32, and so may translating.
+            let mut placed = Vec::with_capacity(mesh.positions.len());
+            for p in &mesh.positions {
+                let turned = rot * (*p * o.scale_mm);
+                if !turned.is_finite() {
                     return Err(SceneError::field(
                         field("scale_mm"),
-                        "the placed mesh overflows f32",
+                        "the scaled mesh overflows f32",
+                    ));
+                }
+                let moved = turned + t;
+                if !moved.is_finite() {
+                    return Err(SceneError::field(
+                        field("translate_mm"),
+                        "the translated mesh overflows f32",
+                    ));
+                }
+                placed.push(moved);
+            }
+            for tri in &mesh.indices {
+                let p = tri.map(|i| placed[i as usize]);
+                let n = tri.map(|i| rot * mesh.normals[i as usize]);
+                if n.iter().any(|v| !v.is_finite()) {
+                    return Err(SceneError::field(
+                        field("rotate_deg"),
+                        "the rotated normals are not finite",
                     ));
                 }
                 triangles.push(WorldTriangle {
@@ -391,7 +438,7 @@ impl Scene {
             .collect();
         let bvh = Bvh::build(&bounds);
         let triangles = bvh.order.iter().map(|&i| triangles[i as usize]).collect();
-        let materials = object_material
+        let object_materials = object_material
             .iter()
             .map(|&m| materials[m as usize])
             .collect();
@@ -400,7 +447,7 @@ impl Scene {
             name: file.name.clone(),
             background: Vec3::new(c.0, c.1, c.2),
             background_rgb8: crate::shade::to_rgb8(Vec3::new(c.0, c.1, c.2)),
-            materials,
+            object_materials,
             lights: file.lights.clone(),
             effects: file.effects.clone(),
             crease_deg: file.crease_deg,

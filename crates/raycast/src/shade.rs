@@ -9,7 +9,7 @@ const AMBIENT: f32 = 0.08;
 /// Linear colour of a surface point of `object` at `position` with normal
 /// `normal`, seen from `eye`.
 pub fn shade(scene: &Scene, object: u32, position: Vec3, normal: Vec3, eye: Vec3) -> Vec3 {
-    let m = &scene.materials[object as usize];
+    let m = &scene.object_materials[object as usize];
     let diffuse = Vec3::new(m.diffuse.0, m.diffuse.1, m.diffuse.2);
     let specular = Vec3::new(m.specular.0, m.specular.1, m.specular.2);
     let v = (eye - position).try_normalize().unwrap_or(Vec3::Z);

@@ -94,7 +94,7 @@ proptest! {
 
     #[test]
     fn rays_at_shared_edges_and_vertices_never_slip_through(seed in any::<u64>(), torus in any::<bool>()) {
-        let m = if torus { TriangleMesh::torus(1.0, 0.35, 40, 20) } else { TriangleMesh::icosphere(3) };
+        let m = if torus { TriangleMesh::torus(1.0, 0.35, 40, 20, "torus").expect("torus") } else { TriangleMesh::icosphere(3) };
         let fan = fans(&m);
         for (origin, target, a, b) in edge_rays(&m, 1000, seed) {
             let ray = Ray::new(origin, target - origin);
@@ -119,7 +119,7 @@ fn rays_through_the_bvh_at_edges_hit_closed_meshes_even_near_1e6() {
             (0.0, 0.0, 0.0),
         ),
         (
-            TriangleMesh::torus(1.0, 0.3, 64, 24),
+            TriangleMesh::torus(1.0, 0.3, 64, 24, "torus").expect("torus"),
             MeshSource::Torus {
                 major_radius: 1.0,
                 minor_radius: 0.3,

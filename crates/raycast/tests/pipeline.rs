@@ -8,8 +8,9 @@ use std::path::Path;
 
 use foveation::{Display, GeislerPerry, Layout, SamplingModel};
 use raycast::ray::TriangleTest;
-use raycast::render::{render, Layer, Mode, Settings, Triggers};
+use raycast::render::{render, Mode, Settings, Triggers};
 use raycast::scene::{Effect, Light, MeshSource, Object};
+use raycast::Layer;
 use raycast::{Camera, Scene, SceneFile};
 
 fn frames(
@@ -195,7 +196,7 @@ fn every_pixel_has_exactly_one_owner() {
             .iter()
             .enumerate()
             .filter(|(_, l)| **l == Layer::Gap)
-            .map(|(i, _)| (i % fov.width as usize, i / fov.width as usize))
+            .map(|(i, _)| (i % fov.width_px as usize, i / fov.width_px as usize))
             .collect();
         assert_eq!(
             stats.pixels_uncovered, 0,

@@ -1,6 +1,7 @@
 // gazecast GPU core: one primary ray per pixel through the flattened binary
 // BVH, the watertight ray/triangle test (Woop, Benthin & Wald 2013) and
-// Blinn-Phong shading, written as 8-bit RGB with a hit flag. The same
+// Blinn-Phong shading, written as 8-bit RGB with a hit flag and the layer,
+// plus the G-buffer: eye distance (mm), object id and shading normal. The same
 // arithmetic as the CPU reference (crates/raycast/src/{ray,bvh,shade}.rs),
 // in f32, without the CPU's f64 re-test of exactly-zero edge functions.
 
@@ -44,10 +45,18 @@ struct Light {
 @group(0) @binding(0) var<uniform> params: Params;
 @group(0) @binding(1) var<storage, read> nodes: array<Node>;
 @group(0) @binding(2) var<storage, read> triangles: array<Triangle>;
-@group(0) @binding(3) var<storage, read> materials: array<Material>;
+@group(0) @binding(3) var<storage, read> object_materials: array<Material>;  // by object id
 @group(0) @binding(4) var<storage, read> lights: array<Light>;
 @group(0) @binding(5) var<storage, read> gamma: array<u32>;
+// Per pixel: colour, hit flag and layer (`pack`).
 @group(0) @binding(6) var<storage, read_write> pixels: array<u32>;
+// Per pixel: eye distance in mm (f32 max for the background; the CPU reads
+// misses as infinity from the hit flag).
+@group(0) @binding(7) var<storage, read_write> depth: array<f32>;
+// Per pixel: object id, 0xffffffff (`NO_OBJECT`) for the background.
+@group(0) @binding(8) var<storage, read_write> object_ids: array<u32>;
+// Per pixel: shading normal x, y, z (zero for the background).
+@group(0) @binding(9) var<storage, read_write> normals: array<f32>;
 
 const EPS: f32 = 1.1920929e-7;
 const INF: f32 = 3.4028235e38;
@@ -211,7 +220,7 @@ fn try_normalize(v: vec3<f32>) -> vec3<f32> {
 }
 
 fn shade(object: u32, position: vec3<f32>, normal: vec3<f32>, eye: vec3<f32>) -> vec3<f32> {
-    let m = materials[object];
+    let m = object_materials[object];
     let diffuse = m.diffuse.xyz;
     var v = try_normalize(eye - position);
     if (all(v == vec3<f32>(0.0))) { v = vec3<f32>(0.0, 0.0, 1.0); }
@@ -263,7 +272,7 @@ fn trace(p: vec2<f32>) -> Sample {
     let dir = screen_point(p) - eye;
     let r = Ray(eye, dir, 1.0 / dir, dir.x == 0.0 || dir.y == 0.0 || dir.z == 0.0);
     let h = intersect(r);
-    if (h.t < 0.0) { return Sample(0u, 0u, 0.0, vec3<f32>(0.0)); }
+    if (h.t < 0.0) { return MISS; }
     let tr = triangles[h.tri];
     let s = 1.0 - h.u - h.v;
     var n = try_normalize(tr.n0.xyz * s + tr.n1.xyz * h.u + tr.n2.xyz * h.v);
@@ -289,10 +298,31 @@ fn pack(rgb: vec3<u32>, hit: u32, layer: u32) -> u32 {
     return rgb.x | (rgb.y << 8u) | (rgb.z << 16u) | (hit << 24u) | (layer << 25u);
 }
 
+const MISS: Sample = Sample(0u, 0u, 0.0, vec3<f32>(0.0));
+
+// Writes pixel i of the frame: the colour word, and the G-buffer of sample s
+// seen through screen point p — the CPU's `texel`: eye distance
+// t·|screen point − eye|, object and normal; background values for a miss.
+fn put(i: u32, p: vec2<f32>, s: Sample, layer: u32) {
+    pixels[i] = pack(colour(p, s), s.hit, layer);
+    if (s.hit == 1u) {
+        depth[i] = s.t * length(screen_point(p) - params.eye.xyz);
+        object_ids[i] = s.object;
+        normals[3u * i] = s.normal.x;
+        normals[3u * i + 1u] = s.normal.y;
+        normals[3u * i + 2u] = s.normal.z;
+    } else {
+        depth[i] = INF;
+        object_ids[i] = 0xffffffffu;
+        normals[3u * i] = 0.0;
+        normals[3u * i + 1u] = 0.0;
+        normals[3u * i + 2u] = 0.0;
+    }
+}
+
 @compute @workgroup_size(8, 8)
 fn full(@builtin(global_invocation_id) id: vec3<u32>) {
     if (id.x >= params.width || id.y >= params.height) { return; }
     let p = vec2<f32>(f32(id.x) + 0.5, f32(id.y) + 0.5);
-    let s = trace(p);
-    pixels[id.y * params.width + id.x] = pack(colour(p, s), s.hit, 0u);
+    put(id.y * params.width + id.x, p, trace(p), 0u);
 }

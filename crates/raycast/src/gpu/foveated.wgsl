@@ -1,7 +1,7 @@
 // The foveated stages (appended to cast.wgsl): cast the mask vertices,
 // classify the intermediate-mesh cells, widen the refined set by one vertex
 // ring, then per pixel cast (fovea, refined cells) or interpolate
-// (homogeneous cells) and shade — the CPU's `render::foveated`, stage by
+// (homogeneous cells), shade and fill the G-buffer — the CPU's `render::foveated`, stage by
 // stage. The mask and the pixel ownership (which depend on the gaze only)
 // come from the CPU.
 
@@ -117,7 +117,7 @@ fn count_cells(@builtin(global_invocation_id) id: vec3<u32>) {
 // triangles), the CPU's `interpolate`.
 fn interpolate(c: vec4<u32>, p: vec2<f32>) -> Sample {
     let first = vhits[c[0]];
-    if (first.hit == 0u) { return Sample(0u, 0u, 0.0, vec3<f32>(0.0)); }
+    if (first.hit == 0u) { return MISS; }
     let n = corner_count(c);
     var ntri = 1u;
     if (n == 4u) { ntri = 2u; }
@@ -165,7 +165,7 @@ fn pixels_foveated(@builtin(global_invocation_id) id: vec3<u32>) {
     let p = vec2<f32>(f32(id.x) + 0.5, f32(id.y) + 0.5);
     let o = owner[i];
     if (o == UNOWNED) {
-        pixels[i] = pack(params.background_rgb8.xyz, 0u, 2u);
+        put(i, p, MISS, 2u);
         return;
     }
     if (o == FOVEA || refined[o] == 1u) {
@@ -188,11 +188,10 @@ fn pixels_foveated(@builtin(global_invocation_id) id: vec3<u32>) {
         if (vhits[c[k]].hit == 1u) { all_miss = false; }
     }
     if (all_miss) {
-        pixels[i] = pack(params.background_rgb8.xyz, 0u, 2u);
+        put(i, p, MISS, 2u);
         return;
     }
-    let s = interpolate(c, p);
-    pixels[i] = pack(colour(p, s), s.hit, 2u);
+    put(i, p, interpolate(c, p), 2u);
 }
 
 // One thread: the workgroup counts for `cast_listed` (64 per group, at most
@@ -213,8 +212,7 @@ fn cast_listed(@builtin(global_invocation_id) id: vec3<u32>) {
     let entry = cast_list[k];
     let i = entry & 0x7fffffffu;
     let p = vec2<f32>(f32(i % params.width) + 0.5, f32(i / params.width) + 0.5);
-    let s = trace(p);
     var layer = 3u;
     if ((entry & 0x80000000u) != 0u) { layer = 1u; }
-    pixels[i] = pack(colour(p, s), s.hit, layer);
+    put(i, p, trace(p), layer);
 }

@@ -1,12 +1,12 @@
 //! A 4-wide BVH collapsed from the binary one: each node holds its (up to)
 //! four children's boxes in structure-of-arrays form, so one SIMD pass tests
 //! all four. This is what the CPU caster traverses (the binary BVH remains
-//! the layout the GPU issue uploads, and the path for rays with a zero
+//! the layout the GPU core uploads, and the path for rays with a zero
 //! direction component, which need the exact slab test).
 
 use glam::{Vec3A, Vec4};
 
-use crate::bvh::Bvh;
+use super::bvh::Bvh;
 use crate::ray::Ray;
 
 /// Marks an unused child slot.
@@ -116,7 +116,7 @@ impl Bvh4 {
         let (ix, iy, iz) = (Vec4::splat(inv.x), Vec4::splat(inv.y), Vec4::splat(inv.z));
         let grow = 1.0 + 2.0 * f32::EPSILON;
         // (reference, triangle count or 0 for a node, entry distance)
-        let mut stack = [(0u32, 0u32, 0f32); 4 * crate::bvh::MAX_DEPTH];
+        let mut stack = [(0u32, 0u32, 0f32); 4 * super::bvh::MAX_DEPTH];
         let mut sp = 1;
         while sp > 0 {
             sp -= 1;

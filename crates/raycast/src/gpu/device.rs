@@ -1,0 +1,70 @@
+//! Adapter selection and the device: a real GPU first, a software one
+//! (Mesa's lavapipe) if that is all there is.
+
+use super::GpuError;
+
+/// The adapter `GpuRenderer::new` would use.
+fn adapter() -> Result<wgpu::Adapter, GpuError> {
+    let mut desc = wgpu::InstanceDescriptor::new_without_display_handle_from_env();
+    // Vulkan, Metal or DX12 unless WGPU_BACKEND says otherwise: probing
+    // OpenGL would only print EGL noise on headless machines.
+    desc.backends = wgpu::Backends::from_env().unwrap_or(wgpu::Backends::PRIMARY);
+    let instance = wgpu::Instance::new(desc);
+    pollster::block_on(instance.request_adapter(&wgpu::RequestAdapterOptions {
+        power_preference: wgpu::PowerPreference::HighPerformance,
+        ..Default::default()
+    }))
+    .map_err(|e| GpuError::NoAdapter(e.to_string()))
+}
+
+/// What adapter there is, without creating a device: `Ok((name, software))`
+/// where `software` means a CPU implementation such as lavapipe (slower
+/// than the CPU backend; `--backend auto` does not pick it).
+pub fn probe() -> Result<(String, bool), GpuError> {
+    let info = adapter()?.get_info();
+    Ok((info.name, info.device_type == wgpu::DeviceType::Cpu))
+}
+
+/// A device on the chosen adapter, with what the renderer needs to know of it.
+pub(super) struct Opened {
+    pub device: wgpu::Device,
+    pub queue: wgpu::Queue,
+    /// The adapter in words (name, backend, type, driver).
+    pub name: String,
+    /// The adapter reports `TIMESTAMP_QUERY` (and the device was created
+    /// with it).
+    pub timestamps: bool,
+    /// `max_storage_buffer_binding_size` of the adapter (bytes).
+    pub max_binding: u64,
+}
+
+/// Opens a device with the adapter's own limits and, where it has them,
+/// timestamp queries.
+pub(super) fn open() -> Result<Opened, GpuError> {
+    let adapter = adapter()?;
+    let info = adapter.get_info();
+    let name = format!(
+        "{} ({:?}, {:?}, driver {} {})",
+        info.name, info.backend, info.device_type, info.driver, info.driver_info
+    );
+    let limits = adapter.limits();
+    let timestamps = adapter.features().contains(wgpu::Features::TIMESTAMP_QUERY);
+    let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
+        label: Some("gazecast"),
+        required_limits: limits.clone(),
+        required_features: if timestamps {
+            wgpu::Features::TIMESTAMP_QUERY
+        } else {
+            wgpu::Features::empty()
+        },
+        ..Default::default()
+    }))
+    .map_err(|e| GpuError::Device(e.to_string()))?;
+    Ok(Opened {
+        device,
+        queue,
+        name,
+        timestamps,
+        max_binding: limits.max_storage_buffer_binding_size,
+    })
+}

@@ -1,0 +1,252 @@
+//! The foveated frame (`foveated.wgsl`): the CPU's `render::foveated`,
+//! stage for stage, one compute pass per [`Stage`]. The CPU builds the ray
+//! mask and the pixel ownership for the gaze and uploads them.
+
+use std::time::Instant;
+
+use foveation::mask::{RayMask, NO_VERTEX};
+
+use super::buffers::{FovParams, FoveatedTarget};
+use super::readback::{copy_out, read_back, read_frame};
+use super::timer::begin_pass;
+use super::{GpuError, GpuRenderer};
+use crate::camera::Camera;
+use crate::frame::Frame;
+use crate::render::{Stats, Triggers};
+
+/// A stage of the foveated frame: one compute pass each, in this order.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum Stage {
+    /// Cast a ray through every mask vertex.
+    CastVertices,
+    /// Mark the cells that are not homogeneous under the triggers.
+    ClassifyCells,
+    /// Also mark the cells that share a vertex with a marked one.
+    SilhouetteMargin,
+    /// Count the refined cells (for the stats).
+    CountRefinedCells,
+    /// Interpolate the pixels of homogeneous cells; list the fovea and
+    /// refined pixels to cast.
+    InterpolateOrList,
+    /// Write the indirect dispatch arguments for the listed pixels.
+    PrepareDispatch,
+    /// Cast and shade the listed pixels.
+    CastListed,
+}
+
+impl Stage {
+    /// Every stage, in pass order.
+    pub const ALL: [Stage; 7] = [
+        Stage::CastVertices,
+        Stage::ClassifyCells,
+        Stage::SilhouetteMargin,
+        Stage::CountRefinedCells,
+        Stage::InterpolateOrList,
+        Stage::PrepareDispatch,
+        Stage::CastListed,
+    ];
+
+    /// The stage in words (the names [`GpuRenderer::stage_ms`] reports).
+    pub fn name(self) -> &'static str {
+        match self {
+            Stage::CastVertices => "cast vertices",
+            Stage::ClassifyCells => "classify cells",
+            Stage::SilhouetteMargin => "silhouette margin",
+            Stage::CountRefinedCells => "count refined cells",
+            Stage::InterpolateOrList => "interpolate or list pixels",
+            Stage::PrepareDispatch => "prepare dispatch",
+            Stage::CastListed => "cast listed pixels",
+        }
+    }
+
+    /// Its entry point in `foveated.wgsl`.
+    pub(super) fn entry_point(self) -> &'static str {
+        match self {
+            Stage::CastVertices => "cast_vertices",
+            Stage::ClassifyCells => "classify",
+            Stage::SilhouetteMargin => "widen",
+            Stage::CountRefinedCells => "count_cells",
+            Stage::InterpolateOrList => "pixels_foveated",
+            Stage::PrepareDispatch => "prepare_cast",
+            Stage::CastListed => "cast_listed",
+        }
+    }
+}
+
+impl std::fmt::Display for Stage {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+/// The stages a foveated frame runs with these triggers, in order: a
+/// scene's effects decide, and a pass for an effect the scene does not list
+/// is not dispatched. Without any refinement trigger no cell is classified
+/// (none can be refined); without the silhouette margin the widening pass
+/// does not run.
+pub fn foveated_stages(t: &Triggers) -> Vec<Stage> {
+    let classify = t.silhouette || t.crease_deg.is_some() || t.depth_jump.is_some();
+    let mut out = vec![Stage::CastVertices];
+    if classify {
+        out.push(Stage::ClassifyCells);
+        if t.margin {
+            out.push(Stage::SilhouetteMargin);
+        }
+        out.push(Stage::CountRefinedCells);
+    }
+    out.extend([
+        Stage::InterpolateOrList,
+        Stage::PrepareDispatch,
+        Stage::CastListed,
+    ]);
+    out
+}
+
+/// Workgroups (x, y) for `n` threads in groups of 64, at most 65535 in x
+/// (the shaders index `x + y · 65535 · 64`).
+fn groups(n: u64) -> (u32, u32) {
+    let g = n.div_ceil(64).max(1);
+    (g.min(65_535) as u32, g.div_ceil(65_535) as u32)
+}
+
+impl GpuRenderer {
+    /// Makes sure the foveated buffers hold this many vertices, cells and
+    /// pixels.
+    fn foveated_target(&mut self, vertices: u64, cells: u64, pixels: u64) -> Result<(), GpuError> {
+        if self
+            .fov_target
+            .as_ref()
+            .is_some_and(|t| t.fits(vertices, cells, pixels))
+        {
+            return Ok(());
+        }
+        self.fov_target = Some(FoveatedTarget::new(
+            &self.device,
+            &self.layouts,
+            &self.fov_params,
+            (vertices, cells, pixels),
+            self.max_binding,
+        )?);
+        Ok(())
+    }
+
+    /// Renders one foveated frame for the ray mask `mask` (built for the
+    /// gaze on the CPU) with the refinement `triggers`, and reads it back.
+    pub fn render_foveated(
+        &mut self,
+        cam: &Camera,
+        mask: &RayMask,
+        triggers: &Triggers,
+    ) -> Result<(Frame, Stats), GpuError> {
+        let start = Instant::now();
+        let (w, h) = (cam.width_px, cam.height_px);
+        let pixels = self.write_params(cam)?;
+        let owner = crate::render::ownership(mask, w as usize, h as usize);
+        let (nv, nc) = (mask.vertices.len() as u64, mask.cells.len() as u64);
+        let too_many = |what, n: u64| GpuError::TooLarge {
+            what,
+            bytes: n,
+            limit: u64::from(u32::MAX),
+        };
+        let n_vertices = u32::try_from(nv).map_err(|_| too_many("the mask vertices", nv))?;
+        let n_cells = u32::try_from(nc).map_err(|_| too_many("the mask cells", nc))?;
+        self.foveated_target(nv, nc, u64::from(pixels))?;
+        let fov = FovParams {
+            n_vertices,
+            n_cells,
+            silhouette: u32::from(triggers.silhouette),
+            margin: u32::from(triggers.margin),
+            crease_cos: triggers.crease_deg.map_or(-2.0, |d| d.to_radians().cos()),
+            depth_jump: triggers.depth_jump.unwrap_or(-1.0),
+            pad: [0; 2],
+        };
+        self.queue
+            .write_buffer(&self.fov_params, 0, bytemuck::bytes_of(&fov));
+        // Triangles carry NO_VERTEX (u32::MAX) as their fourth corner, as
+        // `foveated.wgsl` expects.
+        const _: () = assert!(NO_VERTEX == u32::MAX);
+        let device = self.device.clone();
+        let queue = self.queue.clone();
+        let timer = self.timer.clone();
+        self.frame_target(pixels)?;
+        let (Some(target), Some(ft)) = (self.target.as_ref(), self.fov_target.as_ref()) else {
+            return Err(GpuError::Readback("no frame or foveated buffers".into()));
+        };
+        let pipelines = &self.pipelines;
+        if nv > 0 {
+            queue.write_buffer(&ft.mask_vertices, 0, bytemuck::cast_slice(&mask.vertices));
+        }
+        if nc > 0 {
+            queue.write_buffer(&ft.mask_cells, 0, bytemuck::cast_slice(&mask.cells));
+        }
+        if !owner.is_empty() {
+            queue.write_buffer(&ft.owner, 0, bytemuck::cast_slice(&owner));
+        }
+        queue.write_buffer(&ft.counters, 0, &[0u8; 16]);
+        let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
+            label: Some("foveated frame"),
+        });
+        let stages = foveated_stages(triggers);
+        if triggers.margin {
+            encoder.clear_buffer(&ft.touched, 0, None);
+        }
+        if !stages.contains(&Stage::ClassifyCells) {
+            // Nothing is classified: no cell is refined.
+            encoder.clear_buffer(&ft.refined, 0, None);
+        }
+        // One pass per stage, so that each can be timed.
+        for (slot, &stage) in stages.iter().enumerate() {
+            let mut pass = begin_pass(&mut encoder, timer.as_ref(), slot as u32, stage.name());
+            pass.set_bind_group(0, &target.bind_group, &[]);
+            pass.set_bind_group(1, &ft.bind_group, &[]);
+            pass.set_pipeline(pipelines.stage(stage));
+            match stage {
+                Stage::CastVertices => {
+                    let (x, y) = groups(nv);
+                    pass.dispatch_workgroups(x, y, 1);
+                }
+                Stage::ClassifyCells | Stage::SilhouetteMargin | Stage::CountRefinedCells => {
+                    let (x, y) = groups(nc);
+                    pass.dispatch_workgroups(x, y, 1);
+                }
+                Stage::InterpolateOrList => {
+                    pass.dispatch_workgroups(w.div_ceil(8), h.div_ceil(8), 1)
+                }
+                Stage::PrepareDispatch => {
+                    pass.set_bind_group(2, &ft.dispatch_group, &[]);
+                    pass.dispatch_workgroups(1, 1, 1);
+                }
+                Stage::CastListed => pass.dispatch_workgroups_indirect(&ft.dispatch, 0),
+            }
+        }
+        copy_out(&mut encoder, &target.out, &target.readback, pixels);
+        if let Some(t) = &timer {
+            t.resolve(&mut encoder, stages.len() as u32);
+        }
+        encoder.copy_buffer_to_buffer(&ft.counters, 0, &ft.counters_readback, 0, 16);
+        queue.submit(Some(encoder.finish()));
+        let frame = read_frame(&device, &target.readback, w, h)?;
+        let counters = read_back(&device, &ft.counters_readback, 16)?;
+        let [fovea, refine, cells_refined, _listed] =
+            [0, 1, 2, 3].map(|k| counters.get(k).copied().map_or(0, u64::from));
+        self.stage_ms = match &timer {
+            Some(t) => {
+                let names: Vec<&'static str> = stages.iter().map(|s| s.name()).collect();
+                t.read(&device, &names)?
+            }
+            None => Vec::new(),
+        };
+        let stats = Stats {
+            rays_fovea: fovea,
+            rays_mask: nv,
+            rays_refine: refine,
+            rays_full: 0,
+            rays_total: fovea + nv + refine,
+            cells_total: nc,
+            cells_refined,
+            pixels_uncovered: 0,
+            time_ms: start.elapsed().as_secs_f64() * 1e3,
+        };
+        Ok((frame, stats))
+    }
+}

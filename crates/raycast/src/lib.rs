@@ -14,7 +14,7 @@
 //!   object id, normal, layer);
 //! - [`render`](mod@render): the CPU reference renderers, full resolution and foveated
 //!   (Murphy 2007 ch. 4–6);
-//! - [`gpu`]: the GPU core (wgpu compute over the flat binary BVH): the
+//! - `gpu` (feature `gpu`, on by default): the GPU core (wgpu compute over the flat binary BVH): the
 //!   full-resolution frame and the foveated stages (mask vertices, cell
 //!   classification, silhouette margin, interpolation, compacted refined
 //!   pixels cast by an indirect dispatch), timed with timestamp queries
@@ -25,6 +25,7 @@ pub mod accel;
 pub mod camera;
 pub mod error;
 pub mod frame;
+#[cfg(feature = "gpu")]
 pub mod gpu;
 pub mod mesh;
 pub mod ray;

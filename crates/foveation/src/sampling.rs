@@ -162,11 +162,4 @@ impl PorSampler {
 }
 
 /// Euclidean norm; plain square root when it cannot overflow or underflow.
-pub(crate) fn norm3(v: [f64; 3]) -> f64 {
-    let s = v[0] * v[0] + v[1] * v[1] + v[2] * v[2];
-    if s.is_normal() && s < 1e300 {
-        s.sqrt()
-    } else {
-        v[0].hypot(v[1]).hypot(v[2])
-    }
-}
+pub(crate) use screen_geometry::norm3;

@@ -1,11 +1,29 @@
 //! Finding trackers: USB devices of known eye-tracker vendors (`rusb`) and
 //! HID interfaces with an Eye Tracker collection (`hidapi`, usage page 0x12).
-//! Machines without USB (containers, CI) get an error message, not a panic.
+//! Machines without USB (containers, CI) get an error message, not a panic,
+//! and so does a build without the `hid-usb` feature (on by default).
 
 /// USB vendors whose devices are eye trackers.
 pub const KNOWN_VENDORS: &[(u16, &str)] = &[(0x2104, "Tobii")];
 
+/// What a build without the `hid-usb` feature says instead of a list.
+#[cfg(not(feature = "hid-usb"))]
+const NO_HID_USB: &str = "built without the `hid-usb` feature of tracker-hal";
+
 /// USB devices of [`KNOWN_VENDORS`], one line each.
+#[cfg(not(feature = "hid-usb"))]
+pub fn usb_trackers() -> Result<Vec<String>, String> {
+    Err(format!("USB unavailable: {NO_HID_USB}"))
+}
+
+/// HID interfaces with usage page 0x12 (what the `TobiiHid` driver opens).
+#[cfg(not(feature = "hid-usb"))]
+pub fn hid_trackers() -> Result<Vec<String>, String> {
+    Err(format!("HID unavailable: {NO_HID_USB}"))
+}
+
+/// USB devices of [`KNOWN_VENDORS`], one line each.
+#[cfg(feature = "hid-usb")]
 pub fn usb_trackers() -> Result<Vec<String>, String> {
     use rusb::UsbContext;
     // `rusb::Context::new()`, not the global context, which panics where
@@ -33,6 +51,7 @@ pub fn usb_trackers() -> Result<Vec<String>, String> {
 }
 
 /// HID interfaces with usage page 0x12 (what the `TobiiHid` driver opens).
+#[cfg(feature = "hid-usb")]
 pub fn hid_trackers() -> Result<Vec<String>, String> {
     let api = hidapi::HidApi::new().map_err(|e| format!("HID unavailable: {e}"))?;
     Ok(api

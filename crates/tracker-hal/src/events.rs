@@ -3,7 +3,7 @@
 //! threshold fixation/saccade classification (I-VT), blinks from validity
 //! gaps, and the device-to-host clock model.
 
-use foveation::ScreenGeometry;
+use screen_geometry::ScreenGeometry;
 use serde::Serialize;
 
 /// A 3-D gaze point from the two eyes' points in the near view plane
@@ -219,8 +219,11 @@ pub struct ClockModel {
     pub host0_us: f64,
     /// Host µs per device µs (1 + drift).
     pub rate: f64,
-    /// Median host − model over the fit samples, µs (the typical latency
-    /// above the fastest arrivals is absorbed into `host0_us`).
+    /// Median absolute deviation of host − model over the fit samples, µs:
+    /// the median of |host − model|, the typical spread of arrival times
+    /// around the model. (host − model itself has median 0 by construction:
+    /// the median latency is absorbed into `host0_us`.) Not scaled to a
+    /// standard deviation.
     pub residual_mad_us: f64,
 }
 
@@ -241,10 +244,14 @@ impl ClockModel {
         self.host_time_us(device_us) - device_us as f64
     }
 
-    /// Robust fit (Theil–Sen on pairs half the series apart, median
-    /// intercept) of `(device_us, host_us)` pairs. Outliers (late
-    /// arrivals) up to nearly half the samples do not move it. `None` with
-    /// fewer than 4 pairs or no time span.
+    /// Robust fit of `(device_us, host_us)` pairs: the slope is the median
+    /// of the slopes between pairs half the series apart (a Theil–Sen
+    /// estimator, Theil 1950, Sen 1968, on the pairs (i, i + ⌊n/2⌋) instead
+    /// of all n(n−1)/2), the intercept the median of host − slope·device.
+    /// Outliers (late arrivals) up to nearly half the samples do not move
+    /// it. "Median" is the middle element after sorting, the upper of the
+    /// two middle ones for an even count. `None` with fewer than 4 pairs or
+    /// no time span.
     pub fn fit(pairs: &[(u64, u64)]) -> Option<Self> {
         if pairs.len() < 4 {
             return None;
@@ -335,7 +342,7 @@ mod tests {
     }
 
     fn geometry() -> ScreenGeometry {
-        foveation::Display {
+        screen_geometry::Display {
             name: "t".into(),
             resolution_px: (1280, 1024),
             size_mm: (337.9, 270.3),

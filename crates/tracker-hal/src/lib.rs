@@ -58,9 +58,19 @@
 //! ## Calibration, binocular gaze, events, clocks
 //!
 //! [`calibration`]: targets, stable windows, affine / homography /
-//! polynomial fits, validation in degrees. [`events`]: vergence depth,
-//! cyclopean gaze, I-VT fixations and saccades, blinks, the device-to-host
-//! clock model.
+//! polynomial fits, validation in degrees, and the policy of a whole
+//! calibration session (what the calibration window does between keys).
+//! [`events`]: vergence depth, cyclopean gaze, I-VT fixations and
+//! saccades, blinks, the device-to-host clock model.
+//!
+//! ## Dependencies
+//!
+//! Display geometry (pixels, millimetres, where the eye is, visual angle)
+//! comes from the small `screen-geometry` crate, which `foveation` shares;
+//! tracker-hal and `foveation` know nothing of each other. USB discovery
+//! and the live HID transport (`hidapi`, `rusb`) are the default feature
+//! `hid-usb`; without it ([`discovery`] then answers with an error) the
+//! crate still decodes, records, replays, simulates and calibrates.
 
 pub mod calibration;
 pub mod clock;

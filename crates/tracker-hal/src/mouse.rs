@@ -9,9 +9,11 @@
 //!
 //! Optional realism, all off by default and deterministic for a given seed:
 //! fixation jitter (Gaussian, RMS in degrees), saccades that follow the main
-//! sequence when the cursor jumps (duration ≈ 2.2·amplitude_deg + 21 ms, as
-//! PsychoPy's MouseGaze models it), added latency, and blinks (a held button
-//! makes both eyes invalid).
+//! sequence when the cursor jumps (duration
+//! [`main_sequence_duration_ms`](crate::sim::main_sequence_duration_ms),
+//! 2.2·amplitude_deg + 21 ms after Carpenter 1988, as PsychoPy's MouseGaze
+//! models it), added latency, and blinks (a held button makes both eyes
+//! invalid).
 //!
 //! Record (23 bytes, little-endian): `47 5A` ("GZ"), device time µs (u64),
 //! flags (u8, bit 0 = valid), x px (f32), y px (f32), CRC-32 of the 17 bytes
@@ -176,9 +178,9 @@ impl MouseEmulator {
         let eye = match self.saccade {
             Some(sac) if sac.to == target => {
                 if effective < sac.start_us + sac.duration_us {
-                    // Cosine velocity profile: smooth start and end.
+                    // Raised-cosine position profile: smooth start and end.
                     let p = effective.saturating_sub(sac.start_us) as f64 / sac.duration_us as f64;
-                    let k = 0.5 - 0.5 * (std::f64::consts::PI * p).cos();
+                    let k = crate::sim::saccade_profile(p);
                     [
                         sac.from[0] + (sac.to[0] - sac.from[0]) * k,
                         sac.from[1] + (sac.to[1] - sac.from[1]) * k,
@@ -197,8 +199,8 @@ impl MouseEmulator {
                         let amplitude_deg = (target[0] - from[0]).hypot(target[1] - from[1])
                             / self.config.pixels_per_degree;
                         if amplitude_deg >= self.config.saccade_threshold_deg {
-                            // Main sequence (PsychoPy MouseGaze): 2.2 ms/deg + 21 ms.
-                            let duration_us = ((2.2 * amplitude_deg + 21.0) * 1000.0) as u64;
+                            let duration_us = (crate::sim::main_sequence_duration_ms(amplitude_deg)
+                                * 1000.0) as u64;
                             self.saccade = Some(Saccade {
                                 from,
                                 to: target,

@@ -252,6 +252,8 @@ impl HidTransport for HidLogTransport {
 }
 
 /// The `hidapi` transport (pure Linux backend: no system hidapi library).
+/// Only with the `hid-usb` feature (on by default).
+#[cfg(feature = "hid-usb")]
 pub mod hidapi_transport {
     use super::*;
 

@@ -1,0 +1,260 @@
+//! # screen-geometry — where the pixels are and where the eye is
+//!
+//! The display geometry gazecast's crates share: a [`Display`] as a lab
+//! describes it (`config/displays/*.ron`), its validated [`ScreenGeometry`]
+//! (pixel pitch, eye position), and the visual angle between two screen
+//! points seen from the eye. `foveation` (the perceptual maths) and
+//! `tracker-hal` (gaze sources, calibration) both need it and know nothing
+//! of each other, so it lives here, below both; `foveation` re-exports it
+//! (`foveation::Display`, `foveation::ScreenGeometry`,
+//! `foveation::ParamError`), so its users need not name this crate.
+//!
+//! The eye sits on the screen normal through a configurable point (default the
+//! screen centre) at `eye_distance_mm`. Screen coordinates are pixels with the
+//! origin at the top-left corner, x to the right, y down; a pixel's centre is at
+//! `(x + 0.5, y + 0.5)`.
+
+use serde::{Deserialize, Serialize};
+
+/// A value the maths refuses, named by the field it came from so a caller
+/// (the config loader, the CLI) can point a person at the right place. The
+/// one error type of this crate and of `foveation`, which re-exports it.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("{field} = {value}: {reason}")]
+pub struct ParamError {
+    /// Dotted path of the offending field, e.g. `size_mm.0` or `contrast`.
+    pub field: &'static str,
+    /// The value as given, formatted.
+    pub value: String,
+    /// What is wrong and what would be accepted.
+    pub reason: String,
+}
+
+impl ParamError {
+    pub fn new(
+        field: &'static str,
+        value: impl std::fmt::Display,
+        reason: impl Into<String>,
+    ) -> Self {
+        Self {
+            field,
+            value: value.to_string(),
+            reason: reason.into(),
+        }
+    }
+}
+
+/// Checks that `value` is finite and strictly positive.
+fn positive(field: &'static str, value: f64) -> Result<f64, ParamError> {
+    if value.is_finite() && value > 0.0 {
+        Ok(value)
+    } else {
+        Err(ParamError::new(
+            field,
+            value,
+            "must be a finite number greater than zero",
+        ))
+    }
+}
+
+/// Euclidean norm of a 3-vector; the plain square root when the sum of
+/// squares can neither overflow nor underflow, `hypot` otherwise.
+pub fn norm3(v: [f64; 3]) -> f64 {
+    let s = v[0] * v[0] + v[1] * v[1] + v[2] * v[2];
+    if s.is_normal() && s < 1e300 {
+        s.sqrt()
+    } else {
+        v[0].hypot(v[1]).hypot(v[2])
+    }
+}
+
+/// A physical display as a lab describes it (`config/displays/*.ron`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Display {
+    /// Human-readable name, shown in reports.
+    pub name: String,
+    /// Resolution in pixels, (width, height).
+    pub resolution_px: (u32, u32),
+    /// Physical size of the active area in millimetres, (width, height).
+    pub size_mm: (f64, f64),
+    /// Distance from the eye to the screen plane along the normal, mm.
+    pub eye_distance_mm: f64,
+    /// Screen point (pixels) the eye's normal passes through; `None` = centre.
+    #[serde(default)]
+    pub eye_point_px: Option<(f64, f64)>,
+}
+
+impl Display {
+    /// Checks every field and returns the derived geometry.
+    pub fn geometry(&self) -> Result<ScreenGeometry, ParamError> {
+        let (w, h) = self.resolution_px;
+        if w == 0 {
+            return Err(ParamError::new(
+                "resolution_px.0",
+                w,
+                "must be at least 1 pixel",
+            ));
+        }
+        if h == 0 {
+            return Err(ParamError::new(
+                "resolution_px.1",
+                h,
+                "must be at least 1 pixel",
+            ));
+        }
+        let width_mm = positive("size_mm.0", self.size_mm.0)?;
+        let height_mm = positive("size_mm.1", self.size_mm.1)?;
+        let eye_distance_mm = positive("eye_distance_mm", self.eye_distance_mm)?;
+        let (ex, ey) = self
+            .eye_point_px
+            .unwrap_or((f64::from(w) / 2.0, f64::from(h) / 2.0));
+        if !ex.is_finite() {
+            return Err(ParamError::new(
+                "eye_point_px.0",
+                ex,
+                "must be a finite pixel coordinate",
+            ));
+        }
+        if !ey.is_finite() {
+            return Err(ParamError::new(
+                "eye_point_px.1",
+                ey,
+                "must be a finite pixel coordinate",
+            ));
+        }
+        Ok(ScreenGeometry {
+            width_px: w,
+            height_px: h,
+            pitch_x_mm: width_mm / f64::from(w),
+            pitch_y_mm: height_mm / f64::from(h),
+            eye_point_px: [ex, ey],
+            eye_distance_mm,
+        })
+    }
+}
+
+/// Validated, derived geometry of one display and one eye position. Cheap to copy.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ScreenGeometry {
+    pub width_px: u32,
+    pub height_px: u32,
+    pub pitch_x_mm: f64,
+    pub pitch_y_mm: f64,
+    pub eye_point_px: [f64; 2],
+    pub eye_distance_mm: f64,
+}
+
+impl ScreenGeometry {
+    /// Screen size in pixels as floats, (width, height).
+    pub fn size_px(&self) -> [f64; 2] {
+        [f64::from(self.width_px), f64::from(self.height_px)]
+    }
+
+    /// The larger of the two pixel pitches. Used wherever a conservative
+    /// isotropic pitch is needed (real displays have square pixels to within
+    /// a fraction of a percent).
+    pub fn max_pitch_mm(&self) -> f64 {
+        self.pitch_x_mm.max(self.pitch_y_mm)
+    }
+
+    /// Vector from the eye to screen point `p_px`, in millimetres. The screen
+    /// is the plane z = 0 and the eye is at z = `eye_distance_mm`.
+    pub fn eye_to_point_mm(&self, p_px: [f64; 2]) -> [f64; 3] {
+        [
+            (p_px[0] - self.eye_point_px[0]) * self.pitch_x_mm,
+            (p_px[1] - self.eye_point_px[1]) * self.pitch_y_mm,
+            -self.eye_distance_mm,
+        ]
+    }
+
+    /// Distance from the eye to screen point `p_px`, mm.
+    pub fn eye_distance_to_mm(&self, p_px: [f64; 2]) -> f64 {
+        norm3(self.eye_to_point_mm(p_px))
+    }
+
+    /// Eccentricity of `b_px` seen from the eye while it fixates `a_px`: the
+    /// angle at the eye between the two lines of sight, in degrees.
+    ///
+    /// Computed as `atan2(|a×b|, a·b)` (DESIGN.md; Murphy 2007 §4.4.3 needs
+    /// e(x, y) for eq. 4.3), with `b = a + d` and `d` taken directly from the
+    /// pixel difference, so `a×b = a×d` has no cancellation: identical points
+    /// give exactly 0 and nearly identical points keep full relative precision.
+    pub fn eccentricity_deg(&self, a_px: [f64; 2], b_px: [f64; 2]) -> f64 {
+        let a = self.eye_to_point_mm(a_px);
+        let d = [
+            (b_px[0] - a_px[0]) * self.pitch_x_mm,
+            (b_px[1] - a_px[1]) * self.pitch_y_mm,
+            0.0,
+        ];
+        let cross = [
+            a[1] * d[2] - a[2] * d[1],
+            a[2] * d[0] - a[0] * d[2],
+            a[0] * d[1] - a[1] * d[0],
+        ];
+        let dot = a[0] * (a[0] + d[0]) + a[1] * (a[1] + d[1]) + a[2] * (a[2] + d[2]);
+        norm3(cross).atan2(dot).to_degrees()
+    }
+
+    /// Conservative local pixels per degree at `p_px`: the fewest pixels per
+    /// degree over all directions on the screen at that point.
+    ///
+    /// A step of one pixel perpendicular to the line of sight subtends
+    /// `pitch / R` radians (R = eye-to-point distance); a step along the
+    /// oblique direction subtends less (`pitch·cosθ / R`). Using the larger
+    /// angle per pixel means a spacing converted with this value never exceeds
+    /// its angular bound in any direction.
+    pub fn local_ppd(&self, p_px: [f64; 2]) -> f64 {
+        self.eye_distance_to_mm(p_px) / self.max_pitch_mm() * std::f64::consts::PI / 180.0
+    }
+
+    /// Screen centre in pixels.
+    pub fn centre_px(&self) -> [f64; 2] {
+        let [w, h] = self.size_px();
+        [w / 2.0, h / 2.0]
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    pub(crate) fn dissertation_display() -> Display {
+        Display {
+            name: "17in".into(),
+            resolution_px: (1280, 1024),
+            size_mm: (337.9, 270.3),
+            eye_distance_mm: 540.0,
+            eye_point_px: None,
+        }
+    }
+
+    #[test]
+    fn eccentricity_along_the_axis_is_the_arctangent() {
+        let g = dissertation_display().geometry().unwrap();
+        let c = g.centre_px();
+        let p = [c[0] + 100.0, c[1]];
+        let expected = (100.0 * g.pitch_x_mm / 540.0_f64).atan().to_degrees();
+        assert!((g.eccentricity_deg(c, p) - expected).abs() < 1e-12);
+    }
+
+    #[test]
+    fn zero_pixels_are_rejected_with_the_field_named() {
+        let mut d = dissertation_display();
+        d.resolution_px.1 = 0;
+        assert_eq!(d.geometry().unwrap_err().field, "resolution_px.1");
+        let mut d = dissertation_display();
+        d.size_mm.0 = f64::NAN;
+        assert_eq!(d.geometry().unwrap_err().field, "size_mm.0");
+    }
+
+    #[test]
+    fn ppd_at_the_centre_matches_the_small_angle_formula() {
+        let g = dissertation_display().geometry().unwrap();
+        let ppd = g.local_ppd(g.centre_px());
+        let expected = 540.0 / g.max_pitch_mm() * std::f64::consts::PI / 180.0;
+        assert!((ppd - expected).abs() < 1e-9, "{ppd} vs {expected}");
+        // The dissertation's set-up: about 37 px/deg at the centre.
+        assert!((35.0..40.0).contains(&ppd));
+    }
+}

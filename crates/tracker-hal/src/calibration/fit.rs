@@ -1,0 +1,405 @@
+//! The mapping from raw tracker coordinates to screen pixels: affine (6
+//! parameters), homography (8, projective) or second-order polynomial (12),
+//! fitted by least squares (SVD, `nalgebra`) on coordinates normalised to
+//! zero mean and mean distance √2 (Hartley 1997, "In defense of the
+//! eight-point algorithm", IEEE TPAMI 19(6)), so the conditioning does not
+//! depend on the units. The homography is the normalised direct linear
+//! transform (Hartley & Zisserman 2004, *Multiple View Geometry*, 2nd ed.,
+//! §4.1 and Algorithm 4.2).
+//!
+//! Degenerate input — too few distinct targets for the model, collinear
+//! targets, non-finite values — is an error that says so, never NaN and
+//! never a silently wrong mapping.
+
+use nalgebra::{DMatrix, DVector};
+use serde::{Deserialize, Serialize};
+
+/// The mapping model.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub enum Model {
+    /// `u = a·x + b·y + c` (and v): 6 parameters, 3 points.
+    Affine,
+    /// Projective (8 parameters, 4 points).
+    Homography,
+    /// Second-order polynomial in x and y per axis: 12 parameters, 6 points.
+    Polynomial2,
+}
+
+impl Model {
+    /// Distinct targets needed.
+    pub fn min_points(self) -> usize {
+        match self {
+            Model::Affine => 3,
+            Model::Homography => 4,
+            Model::Polynomial2 => 6,
+        }
+    }
+}
+
+/// Why a calibration could not be made.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum CalibrationError {
+    #[error("{model:?} needs at least {need} distinct targets with data, got {got}")]
+    TooFewPoints {
+        model: Model,
+        need: usize,
+        got: usize,
+    },
+    #[error("the targets are degenerate for {model:?} (collinear, or too close to each other): the fit is not determined")]
+    Degenerate { model: Model },
+    #[error("non-finite coordinate in the input: {0}")]
+    NonFinite(String),
+    #[error("target {index}: {reason}")]
+    Target { index: usize, reason: String },
+}
+
+/// Hartley normalisation: `(p − c)·s`.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct Normaliser {
+    pub centre: [f64; 2],
+    pub scale: f64,
+}
+
+impl Normaliser {
+    fn of(points: &[[f64; 2]]) -> Self {
+        let n = points.len().max(1) as f64;
+        let c = [
+            points.iter().map(|p| p[0]).sum::<f64>() / n,
+            points.iter().map(|p| p[1]).sum::<f64>() / n,
+        ];
+        let mean_dist = points
+            .iter()
+            .map(|p| (p[0] - c[0]).hypot(p[1] - c[1]))
+            .sum::<f64>()
+            / n;
+        let scale = if mean_dist > 0.0 {
+            std::f64::consts::SQRT_2 / mean_dist
+        } else {
+            1.0
+        };
+        Self { centre: c, scale }
+    }
+    fn apply(&self, p: [f64; 2]) -> [f64; 2] {
+        [
+            (p[0] - self.centre[0]) * self.scale,
+            (p[1] - self.centre[1]) * self.scale,
+        ]
+    }
+    fn invert(&self, p: [f64; 2]) -> [f64; 2] {
+        [
+            p[0] / self.scale + self.centre[0],
+            p[1] / self.scale + self.centre[1],
+        ]
+    }
+}
+
+/// A fitted mapping from raw tracker coordinates to screen pixels.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(rename = "Calibration")]
+pub struct Calibration {
+    pub model: Model,
+    /// Parameters in normalised coordinates (see [`Model`] for the count).
+    pub params: Vec<f64>,
+    pub raw: Normaliser,
+    pub screen: Normaliser,
+    /// RMS distance (px) between the fitted targets and where the fit puts
+    /// their raw points.
+    pub rms_residual_px: f64,
+    /// The (raw, target px) pairs it was fitted on.
+    pub points: Vec<([f64; 2], [f64; 2])>,
+}
+
+fn monomials(model: Model, p: [f64; 2]) -> Vec<f64> {
+    let [x, y] = p;
+    match model {
+        Model::Affine => vec![x, y, 1.0],
+        Model::Polynomial2 => vec![1.0, x, y, x * y, x * x, y * y],
+        Model::Homography => unreachable!("the homography has no linear design"),
+    }
+}
+
+/// Ratio below which a design matrix counts as rank-deficient.
+const RANK_TOL: f64 = 1e-9;
+
+impl Calibration {
+    /// Fits `model` to `(raw, target_px)` pairs (one per target, e.g. from
+    /// [`stable_window`](super::stable_window)).
+    pub fn fit(model: Model, pairs: &[([f64; 2], [f64; 2])]) -> Result<Self, CalibrationError> {
+        for (r, t) in pairs {
+            if !(r.iter().chain(t).all(|v| v.is_finite())) {
+                return Err(CalibrationError::NonFinite(format!("{r:?} → {t:?}")));
+            }
+        }
+        let mut distinct: Vec<[f64; 2]> = Vec::new();
+        for (_, t) in pairs {
+            if !distinct
+                .iter()
+                .any(|d| (d[0] - t[0]).abs() < 1e-6 && (d[1] - t[1]).abs() < 1e-6)
+            {
+                distinct.push(*t);
+            }
+        }
+        if distinct.len() < model.min_points() {
+            return Err(CalibrationError::TooFewPoints {
+                model,
+                need: model.min_points(),
+                got: distinct.len(),
+            });
+        }
+        let raw_n = Normaliser::of(&pairs.iter().map(|p| p.0).collect::<Vec<_>>());
+        let scr_n = Normaliser::of(&pairs.iter().map(|p| p.1).collect::<Vec<_>>());
+        let xs: Vec<[f64; 2]> = pairs.iter().map(|p| raw_n.apply(p.0)).collect();
+        let us: Vec<[f64; 2]> = pairs.iter().map(|p| scr_n.apply(p.1)).collect();
+        // The targets themselves must span the plane (collinear targets
+        // determine nothing across the line), and so must the raw points.
+        for pts in [&xs, &us] {
+            let m = DMatrix::from_fn(pts.len(), 3, |i, j| [pts[i][0], pts[i][1], 1.0][j]);
+            if !full_rank(&m) {
+                return Err(CalibrationError::Degenerate { model });
+            }
+        }
+        let params = match model {
+            Model::Affine | Model::Polynomial2 => {
+                let k = monomials(model, [0.0, 0.0]).len();
+                let m = DMatrix::from_fn(xs.len(), k, |i, j| monomials(model, xs[i])[j]);
+                if !full_rank(&m) {
+                    return Err(CalibrationError::Degenerate { model });
+                }
+                let svd = m.svd(true, true);
+                let mut params = Vec::with_capacity(2 * k);
+                for axis in 0..2 {
+                    let b = DVector::from_iterator(us.len(), us.iter().map(|u| u[axis]));
+                    let p = svd
+                        .solve(&b, RANK_TOL)
+                        .map_err(|_| CalibrationError::Degenerate { model })?;
+                    params.extend(p.iter());
+                }
+                params
+            }
+            Model::Homography => {
+                // DLT: A h = 0, h the right singular vector of the smallest
+                // singular value.
+                let n = xs.len();
+                let a = DMatrix::from_fn(2 * n, 9, |r, c| {
+                    let (i, row) = (r / 2, r % 2);
+                    let ([x, y], [u, v]) = (xs[i], us[i]);
+                    let rows = [
+                        [-x, -y, -1.0, 0.0, 0.0, 0.0, u * x, u * y, u],
+                        [0.0, 0.0, 0.0, -x, -y, -1.0, v * x, v * y, v],
+                    ];
+                    rows[row][c]
+                });
+                // Pad to at least 9 rows so the SVD has 9 right vectors.
+                let a = if a.nrows() < 9 {
+                    a.resize_vertically(9, 0.0)
+                } else {
+                    a
+                };
+                let svd = a.svd(false, true);
+                let Some(vt) = svd.v_t else {
+                    return Err(CalibrationError::Degenerate { model });
+                };
+                let sv = &svd.singular_values;
+                let mut order: Vec<usize> = (0..sv.len()).collect();
+                order.sort_by(|&i, &j| sv[i].total_cmp(&sv[j]));
+                // Rank 8 needed: the second-smallest singular value must not vanish.
+                if sv[order[1]] <= RANK_TOL * sv[order[sv.len() - 1]] {
+                    return Err(CalibrationError::Degenerate { model });
+                }
+                let h: Vec<f64> = vt.row(order[0]).iter().copied().collect();
+                let s = h[8];
+                if s.abs() < 1e-12 {
+                    return Err(CalibrationError::Degenerate { model });
+                }
+                h.iter().map(|v| v / s).collect()
+            }
+        };
+        let mut c = Calibration {
+            model,
+            params,
+            raw: raw_n,
+            screen: scr_n,
+            rms_residual_px: 0.0,
+            points: pairs.to_vec(),
+        };
+        let mut sq = 0.0;
+        for (r, t) in pairs {
+            let Some(p) = c.map(*r) else {
+                return Err(CalibrationError::Degenerate { model });
+            };
+            sq += (p[0] - t[0]).powi(2) + (p[1] - t[1]).powi(2);
+        }
+        c.rms_residual_px = (sq / pairs.len() as f64).sqrt();
+        Ok(c)
+    }
+
+    /// Maps a raw point to screen pixels. `None` for non-finite input or a
+    /// point on the homography's horizon.
+    pub fn map(&self, raw: [f64; 2]) -> Option<[f64; 2]> {
+        if !(raw[0].is_finite() && raw[1].is_finite()) {
+            return None;
+        }
+        let x = self.raw.apply(raw);
+        let u = match self.model {
+            Model::Affine | Model::Polynomial2 => {
+                let m = monomials(self.model, x);
+                let k = m.len();
+                let dot = |o: usize| {
+                    m.iter()
+                        .zip(&self.params[o..o + k])
+                        .map(|(a, b)| a * b)
+                        .sum()
+                };
+                [dot(0), dot(k)]
+            }
+            Model::Homography => {
+                let h = &self.params;
+                let w = h[6] * x[0] + h[7] * x[1] + h[8];
+                if w.abs() < 1e-12 {
+                    return None;
+                }
+                [
+                    (h[0] * x[0] + h[1] * x[1] + h[2]) / w,
+                    (h[3] * x[0] + h[4] * x[1] + h[5]) / w,
+                ]
+            }
+        };
+        let p = self.screen.invert(u);
+        (p[0].is_finite() && p[1].is_finite()).then_some(p)
+    }
+}
+
+fn full_rank(m: &DMatrix<f64>) -> bool {
+    if m.nrows() < m.ncols() {
+        return false;
+    }
+    let sv = m.clone().svd(false, false).singular_values;
+    let max = sv.iter().copied().fold(0.0, f64::max);
+    let min = sv.iter().copied().fold(f64::INFINITY, f64::min);
+    max > 0.0 && min > RANK_TOL * max
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::calibration::testing::{distort, grid, procedure_on};
+    use crate::calibration::{Order, Plan, Procedure, TimedPoint};
+    use proptest::prelude::*;
+
+    #[test]
+    fn each_model_recovers_its_own_distortion() {
+        for (model, targets) in [
+            (Model::Affine, grid(9)),
+            (Model::Homography, grid(9)),
+            (Model::Polynomial2, grid(16)),
+        ] {
+            let p = procedure_on(model, &targets, 0.3, 1);
+            let c = p.fit(model).expect("fits");
+            // Check between the targets too.
+            let mut worst: f64 = 0.0;
+            for t in grid(25) {
+                let got = c.map(distort(model, t)).expect("maps");
+                worst = worst.max((got[0] - t[0]).hypot(got[1] - t[1]));
+            }
+            assert!(worst < 3.0, "{model:?}: worst error {worst} px");
+            assert!(c.rms_residual_px < 3.0, "{model:?}: {}", c.rms_residual_px);
+        }
+    }
+
+    #[test]
+    fn an_affine_fit_cannot_follow_a_projective_distortion() {
+        let p = procedure_on(Model::Homography, &grid(9), 0.0, 2);
+        let affine = p.fit(Model::Affine).expect("fits");
+        let homography = p.fit(Model::Homography).expect("fits");
+        assert!(
+            homography.rms_residual_px < 1e-6,
+            "{}",
+            homography.rms_residual_px
+        );
+        assert!(affine.rms_residual_px > 5.0, "{}", affine.rms_residual_px);
+    }
+
+    #[test]
+    fn degenerate_input_is_an_error() {
+        let line: Vec<([f64; 2], [f64; 2])> = (0..9)
+            .map(|i| {
+                let t = [100.0 * f64::from(i), 50.0 * f64::from(i)];
+                (distort(Model::Affine, t), t)
+            })
+            .collect();
+        for m in [Model::Affine, Model::Homography, Model::Polynomial2] {
+            assert!(
+                matches!(
+                    Calibration::fit(m, &line),
+                    Err(CalibrationError::Degenerate { .. })
+                ),
+                "{m:?} on collinear targets"
+            );
+        }
+        let same: Vec<_> = (0..9).map(|_| ([1.0, 2.0], [640.0, 512.0])).collect();
+        assert!(matches!(
+            Calibration::fit(Model::Affine, &same),
+            Err(CalibrationError::TooFewPoints { got: 1, .. })
+        ));
+        let five: Vec<_> = grid(9)[..5]
+            .iter()
+            .map(|t| (distort(Model::Affine, *t), *t))
+            .collect();
+        assert!(matches!(
+            Calibration::fit(Model::Polynomial2, &five),
+            Err(CalibrationError::TooFewPoints {
+                need: 6,
+                got: 5,
+                ..
+            })
+        ));
+        let mut nan = five.clone();
+        nan[2].0[1] = f64::NAN;
+        assert!(matches!(
+            Calibration::fit(Model::Affine, &nan),
+            Err(CalibrationError::NonFinite(_))
+        ));
+        // All samples invalid: the target is rejected, never averaged.
+        let mut p = Procedure::new(Plan::grid(5, (1280, 1024), 0.1, Order::RowMajor).expect("5"));
+        let mut t = 0;
+        while !p.done() {
+            p.feed(TimedPoint { t_us: t, raw: None });
+            t += 10_000;
+        }
+        assert_eq!(p.rejected().len(), 5);
+        assert!(p.fit(Model::Affine).is_err());
+    }
+
+    #[test]
+    fn calibrations_round_trip_through_ron() {
+        let c = procedure_on(Model::Homography, &grid(9), 0.2, 4)
+            .fit(Model::Homography)
+            .expect("fits");
+        let text = ron::ser::to_string_pretty(&c, ron::ser::PrettyConfig::default()).expect("ron");
+        let back: Calibration = ron::from_str(&text).expect("parses");
+        assert_eq!(back.map([100.0, 200.0]), c.map([100.0, 200.0]));
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(300))]
+        /// Any input — huge, tiny, repeated, collinear, NaN — gives a
+        /// mapping that maps finitely or an error; never NaN.
+        #[test]
+        fn fits_never_produce_nan(
+            pts in prop::collection::vec(
+                ((-1e12f64..1e12, -1e12f64..1e12), (prop_oneof![Just(0.0), -1e-9f64..1e-9, 0.0f64..2000.0], 0.0f64..2000.0)),
+                0..12),
+            model in prop_oneof![Just(Model::Affine), Just(Model::Homography), Just(Model::Polynomial2)],
+        ) {
+            let pairs: Vec<([f64; 2], [f64; 2])> = pts.iter().map(|((a, b), (c, d))| ([*a, *b], [*c, *d])).collect();
+            if let Ok(c) = Calibration::fit(model, &pairs) {
+                prop_assert!(c.rms_residual_px.is_finite());
+                for (r, _) in &pairs {
+                    if let Some(p) = c.map(*r) {
+                        prop_assert!(p[0].is_finite() && p[1].is_finite());
+                    }
+                }
+            }
+        }
+    }
+}

@@ -1,0 +1,77 @@
+//! Where a frame is rendered: the CPU (rayon) or the GPU core (wgpu), and
+//! the one rule that chooses between them.
+
+use raycast::gpu::{self, GpuRenderer};
+use raycast::ray::TriangleTest;
+use raycast::scene::Accel;
+use raycast::Scene;
+
+use crate::renderer::RenderError;
+
+/// The backend asked for on a command line.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, clap::ValueEnum)]
+pub enum BackendChoice {
+    /// rayon on the CPU: every method, structure and intersector.
+    Cpu,
+    /// wgpu compute: every method, with the BVH and the watertight test.
+    Gpu,
+    /// A real GPU where one can render the scene, else the CPU; says which.
+    #[default]
+    Auto,
+}
+
+/// The backend in use.
+pub(crate) enum Backend {
+    Cpu,
+    Gpu(Box<GpuRenderer>),
+}
+
+impl Backend {
+    /// Chooses the backend for `scene` (its acceleration structure) and the
+    /// triangle test; the note says why `auto` chose what it did.
+    pub(crate) fn choose(
+        choice: BackendChoice,
+        scene: &Scene,
+        test: TriangleTest,
+    ) -> Result<(Backend, Option<String>), RenderError> {
+        let gpu_able = scene.accel == Accel::Bvh && test == TriangleTest::Watertight;
+        let open = |scene| GpuRenderer::new(scene).map(|g| Backend::Gpu(Box::new(g)));
+        Ok(match (choice, gpu_able) {
+            (BackendChoice::Cpu, _) => (Backend::Cpu, None),
+            (BackendChoice::Gpu, false) => {
+                return Err(RenderError::Unsupported(
+                    "--backend gpu: the GPU core has the BVH and the watertight test only; \
+                     use --backend cpu for --accel grid or --intersector moller-trumbore"
+                        .into(),
+                ))
+            }
+            (BackendChoice::Gpu, true) => (open(scene)?, None),
+            (BackendChoice::Auto, false) => (
+                Backend::Cpu,
+                Some(
+                    "auto: the CPU renders this (the grid and Möller–Trumbore are CPU-only)".into(),
+                ),
+            ),
+            (BackendChoice::Auto, true) => match gpu::probe() {
+                Ok((name, true)) => (
+                    Backend::Cpu,
+                    Some(format!(
+                        "auto: the only adapter is a software one ({name}), slower than the CPU \
+                         backend; rendering on the CPU (--backend gpu forces it)"
+                    )),
+                ),
+                Ok(_) => match open(scene) {
+                    Ok(b) => (b, None),
+                    Err(e) => (
+                        Backend::Cpu,
+                        Some(format!("auto: {e}; rendering on the CPU")),
+                    ),
+                },
+                Err(e) => (
+                    Backend::Cpu,
+                    Some(format!("auto: {e}; rendering on the CPU")),
+                ),
+            },
+        })
+    }
+}

@@ -1,0 +1,52 @@
+//! Effects: passes over a filled G-buffer, assembled from the scene's effect
+//! list. An effect the scene does not list is never constructed: it
+//! allocates nothing and runs nothing.
+//!
+//! Adding an effect: a variant of `raycast::scene::Effect` (with its
+//! parameters, parsed from the scene file), a module here implementing
+//! [`Pass`], and one arm in [`pass_for`].
+
+pub mod por_overlay;
+
+use raycast::scene::Effect;
+use raycast::{Camera, Frame, Scene};
+
+/// What a pass may read besides the frame.
+#[derive(Debug, Clone, Copy)]
+pub struct PassInput<'a> {
+    pub scene: &'a Scene,
+    pub camera: &'a Camera,
+    /// The point of regard the frame was rendered for (screen px).
+    pub gaze_px: [f64; 2],
+}
+
+/// One pass over a rendered frame.
+pub trait Pass: Send {
+    /// The name `--explain` prints.
+    fn name(&self) -> &'static str;
+    /// Reads and writes the frame in place.
+    fn run(&mut self, frame: &mut Frame, input: &PassInput<'_>);
+}
+
+/// The pass an effect of the scene file runs after the method, if any.
+/// Sampling and refinement effects configure the hybrid method and run no
+/// pass of their own.
+pub fn pass_for(effect: &Effect) -> Option<Box<dyn Pass>> {
+    match effect {
+        Effect::PorOverlay => Some(Box::new(por_overlay::PorOverlay)),
+        Effect::FoveatedSampling
+        | Effect::SilhouetteRefinement
+        | Effect::CreaseRefinement
+        | Effect::DepthRefinement => None,
+    }
+}
+
+/// The passes for `scene`, in the order its file lists them, plus the POR
+/// overlay when `por_overlay` asks for it and the scene does not.
+pub fn passes_for(scene: &Scene, por_overlay: bool) -> Vec<Box<dyn Pass>> {
+    let mut passes: Vec<Box<dyn Pass>> = scene.effects.iter().filter_map(pass_for).collect();
+    if por_overlay && !scene.has(Effect::PorOverlay) {
+        passes.push(Box::new(por_overlay::PorOverlay));
+    }
+    passes
+}

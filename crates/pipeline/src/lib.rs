@@ -1,0 +1,34 @@
+//! # pipeline — one entry for a frame
+//!
+//! Every command that renders (`render`, `view`, `demo`, `bench`, and what
+//! comes) goes through [`Renderer`]:
+//!
+//! ```text
+//! gaze ──► Renderer::render ──► method (Method::Full | Method::Hybrid) on a
+//!          backend (CPU | GPU) fills the G-buffer Frame
+//!          ──► the scene's effects run as passes over it ──► Frame
+//! ```
+//!
+//! - A **method** ([`Method`]) is a value dispatched in exactly one place,
+//!   [`Renderer::render`]. A new rendering method is one module and one arm
+//!   there (and a variant of [`Method`]).
+//! - The **G-buffer** is [`raycast::Frame`]: colour, hit, depth (eye distance,
+//!   mm), object id, normal and layer per pixel, filled identically by both
+//!   backends.
+//! - **Effects** are passes ([`effects::Pass`]) assembled from the scene's
+//!   effect list by [`effects::passes_for`]: a new effect is one module and
+//!   one registration arm there. An effect the scene does not list
+//!   allocates nothing and runs no pass. The refinement effects
+//!   (`FoveatedSampling`, `SilhouetteRefinement`, …) are not passes: they
+//!   configure the hybrid method.
+
+pub mod backend;
+pub mod effects;
+pub mod method;
+pub mod model;
+pub mod renderer;
+
+pub use backend::BackendChoice;
+pub use method::Method;
+pub use model::sampling_model;
+pub use renderer::{Options, RenderError, Renderer};

@@ -1,0 +1,36 @@
+//! Rendering methods: what fills the G-buffer.
+
+use raycast::scene::Effect;
+use raycast::Scene;
+
+/// How a frame's G-buffer is filled.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, clap::ValueEnum)]
+pub enum Method {
+    /// One ray per pixel (the control condition).
+    Full,
+    /// Murphy 2007's hybrid: the CSF ray mask, reconstruction from the
+    /// intermediate mesh, refinement where the scene's effects ask.
+    #[default]
+    #[value(alias = "foveated")]
+    Hybrid,
+}
+
+impl Method {
+    /// The method that will run for `scene` when `self` is asked for: the
+    /// hybrid needs the scene to list `FoveatedSampling`; without it the
+    /// scene is rendered at full resolution, on every backend.
+    pub fn for_scene(self, scene: &Scene) -> Method {
+        match self {
+            Method::Hybrid if !scene.has(Effect::FoveatedSampling) => Method::Full,
+            m => m,
+        }
+    }
+
+    /// The name used in reports and `--stats`.
+    pub fn name(self) -> &'static str {
+        match self {
+            Method::Full => "full",
+            Method::Hybrid => "foveated",
+        }
+    }
+}

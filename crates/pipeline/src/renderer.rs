@@ -1,0 +1,278 @@
+//! [`Renderer`]: the one entry that renders a frame.
+
+use foveation::{Layout, SamplingModel};
+use raycast::gpu::{self, GpuError};
+use raycast::ray::TriangleTest;
+use raycast::render::{Mode, Settings, Stats, Triggers};
+use raycast::{Camera, Frame, Scene};
+
+use crate::backend::{Backend, BackendChoice};
+use crate::effects::por_overlay::PorOverlay;
+use crate::effects::{passes_for, Pass, PassInput};
+use crate::method::Method;
+
+/// Why a frame could not be rendered.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum RenderError {
+    /// The gaze (or the sampling model) cannot give a ray mask.
+    #[error("--gaze: {0}")]
+    Gaze(#[from] foveation::ParamError),
+    #[error("--backend gpu: {0}")]
+    Gpu(#[from] GpuError),
+    #[error("{0}")]
+    Unsupported(String),
+}
+
+/// How to render: what a command line chooses.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Options {
+    pub method: Method,
+    pub backend: BackendChoice,
+    /// The ray mask's layout (hybrid method).
+    pub layout: Layout,
+    pub test: TriangleTest,
+    /// Refinement triggers; `None`: the scene's effects decide.
+    pub triggers: Option<Triggers>,
+    /// Rasterise every cell so that an unowned pixel shows as a gap (tests).
+    pub check_coverage: bool,
+    /// Draw the POR box even when the scene does not list `PorOverlay`.
+    pub por_overlay: bool,
+}
+
+impl Default for Options {
+    fn default() -> Self {
+        Self {
+            method: Method::Hybrid,
+            backend: BackendChoice::Cpu,
+            layout: Layout::Nyquist,
+            test: TriangleTest::Watertight,
+            triggers: None,
+            check_coverage: false,
+            por_overlay: false,
+        }
+    }
+}
+
+/// A scene on a backend, with the method and the effect passes chosen.
+pub struct Renderer<'s> {
+    scene: &'s Scene,
+    camera: Camera,
+    model: SamplingModel,
+    settings: Settings,
+    method: Method,
+    backend: Backend,
+    passes: Vec<Box<dyn Pass>>,
+    note: Option<String>,
+}
+
+impl<'s> Renderer<'s> {
+    /// Chooses the backend (the GPU's scene upload happens here), the method
+    /// the scene allows, and the passes its effects ask for.
+    pub fn new(
+        scene: &'s Scene,
+        camera: Camera,
+        model: SamplingModel,
+        options: &Options,
+    ) -> Result<Self, RenderError> {
+        let (backend, note) = Backend::choose(options.backend, scene, options.test)?;
+        let method = options.method.for_scene(scene);
+        let settings = Settings {
+            mode: match method {
+                Method::Full => Mode::Full,
+                Method::Hybrid => Mode::Foveated,
+            },
+            layout: options.layout,
+            triggers: options
+                .triggers
+                .unwrap_or_else(|| Triggers::from_scene(scene)),
+            test: options.test,
+            check_coverage: options.check_coverage,
+        };
+        Ok(Self {
+            scene,
+            camera,
+            model,
+            settings,
+            method,
+            backend,
+            passes: passes_for(scene, options.por_overlay),
+            note,
+        })
+    }
+
+    /// Renders one frame for the point of regard `gaze_px` (screen pixels):
+    /// the method fills the G-buffer, then the effect passes run. `Stats`
+    /// time the method.
+    pub fn render(&mut self, gaze_px: [f64; 2]) -> Result<(Frame, Stats), RenderError> {
+        let (mut frame, stats) = match (self.method, &mut self.backend) {
+            (Method::Full | Method::Hybrid, Backend::Cpu) => raycast::render(
+                self.scene,
+                &self.camera,
+                &self.model,
+                &self.settings,
+                gaze_px,
+            )?,
+            (Method::Full, Backend::Gpu(g)) => g.render_full(&self.camera)?,
+            (Method::Hybrid, Backend::Gpu(g)) => {
+                let mask = foveation::mask::build(&self.model, self.settings.layout, gaze_px)?;
+                g.render_foveated(&self.camera, &mask, &self.settings.triggers)?
+            }
+        };
+        let input = PassInput {
+            scene: self.scene,
+            camera: &self.camera,
+            gaze_px,
+        };
+        for pass in &mut self.passes {
+            pass.run(&mut frame, &input);
+        }
+        Ok((frame, stats))
+    }
+
+    /// The method that runs (the one asked for, or `Full` when the scene
+    /// does not list `FoveatedSampling`).
+    pub fn method(&self) -> Method {
+        self.method
+    }
+
+    /// The scene being rendered.
+    pub fn scene(&self) -> &'s Scene {
+        self.scene
+    }
+
+    /// The camera (the eye through the display).
+    pub fn camera(&self) -> &Camera {
+        &self.camera
+    }
+
+    /// `"cpu"` or `"gpu"`.
+    pub fn backend_name(&self) -> &'static str {
+        match self.backend {
+            Backend::Cpu => "cpu",
+            Backend::Gpu(_) => "gpu",
+        }
+    }
+
+    /// The GPU adapter (name, API, type, driver) when the GPU renders.
+    pub fn adapter(&self) -> Option<&str> {
+        match &self.backend {
+            Backend::Cpu => None,
+            Backend::Gpu(g) => Some(g.adapter()),
+        }
+    }
+
+    /// GPU time per stage of the last frame (ms), when the GPU renders and
+    /// its adapter has timestamp queries; empty otherwise.
+    pub fn stage_ms(&self) -> &[(&'static str, f64)] {
+        match &self.backend {
+            Backend::Cpu => &[],
+            Backend::Gpu(g) => g.stage_ms(),
+        }
+    }
+
+    /// Whether the GPU backend holds the hybrid method's buffers (false on
+    /// the CPU): a full-resolution scene must never allocate them.
+    pub fn has_foveated_buffers(&self) -> bool {
+        match &self.backend {
+            Backend::Cpu => false,
+            Backend::Gpu(g) => g.has_foveated_buffers(),
+        }
+    }
+
+    /// Why `auto` chose the backend it did, when that needs saying.
+    pub fn note(&self) -> Option<&str> {
+        self.note.as_deref()
+    }
+
+    /// Turns the POR box on or off (the viewer's `P` key), whether or not
+    /// the scene lists `PorOverlay`.
+    pub fn set_por_overlay(&mut self, on: bool) {
+        let name = PorOverlay.name();
+        self.passes.retain(|p| p.name() != name);
+        if on {
+            self.passes.push(Box::new(PorOverlay));
+        }
+    }
+
+    /// Whether the POR box is drawn.
+    pub fn por_overlay(&self) -> bool {
+        let name = PorOverlay.name();
+        self.passes.iter().any(|p| p.name() == name)
+    }
+
+    /// The effect passes that run after the method, in order.
+    pub fn pass_names(&self) -> Vec<&'static str> {
+        self.passes.iter().map(|p| p.name()).collect()
+    }
+
+    /// What runs for one frame, as `view --explain` prints it.
+    pub fn explain(&self) -> Vec<String> {
+        let s = self.scene;
+        let on = match &self.backend {
+            Backend::Cpu => "cpu".to_string(),
+            Backend::Gpu(g) => format!("gpu ({})", g.adapter()),
+        };
+        let mut out = vec![
+            format!("scene {}: effects {:?}", s.name, s.effects),
+            format!("method: {} on {on}", self.method.name()),
+        ];
+        match (self.method, &self.backend) {
+            (Method::Full, _) => out.push(
+                "per frame: cast and shade every pixel (no mask, no foveated buffers)".into(),
+            ),
+            (Method::Hybrid, backend) => {
+                let t = &self.settings.triggers;
+                let stages: Vec<&str> = match backend {
+                    Backend::Gpu(_) => {
+                        out.push(
+                            "per gaze (CPU): ray mask and pixel ownership, uploaded to the GPU core"
+                                .into(),
+                        );
+                        gpu::foveated_stages(t).iter().map(|s| s.name()).collect()
+                    }
+                    Backend::Cpu => {
+                        out.push("per gaze: ray mask".into());
+                        let mut v = vec!["cast vertices"];
+                        if t.silhouette || t.crease_deg.is_some() || t.depth_jump.is_some() {
+                            v.push("classify cells");
+                        }
+                        if t.margin {
+                            v.push("silhouette margin");
+                        }
+                        v.extend(["pixel ownership", "cast or interpolate pixels, and shade"]);
+                        v
+                    }
+                };
+                out.push(format!("per frame: {}", stages.join(" → ")));
+                let mut triggers = Vec::new();
+                if t.silhouette {
+                    triggers.push("silhouette (+ one-cell margin)".to_string());
+                }
+                if let Some(d) = t.crease_deg {
+                    triggers.push(format!("crease > {d}°"));
+                }
+                if let Some(j) = t.depth_jump {
+                    triggers.push(format!("depth jump > {:.0} %", 100.0 * j));
+                }
+                out.push(format!(
+                    "refinement triggers: {}",
+                    if triggers.is_empty() {
+                        "none (no cell is classified or refined)".to_string()
+                    } else {
+                        triggers.join(", ")
+                    }
+                ));
+            }
+        }
+        let passes = self.pass_names();
+        out.push(format!(
+            "effect passes: {}",
+            if passes.is_empty() {
+                "none".to_string()
+            } else {
+                passes.join(" → ")
+            }
+        ));
+        out
+    }
+}

@@ -1,0 +1,220 @@
+//! The one frame entry: the method a scene's effects allow runs on both
+//! backends, the G-buffer is complete, and an effect the scene does not list
+//! runs no pass. The GPU runs on whatever adapter the machine has (Mesa's
+//! lavapipe where there is none; `scripts/system-deps.sh` installs it).
+
+use std::path::Path;
+
+use foveation::Display;
+use pipeline::{BackendChoice, Method, Options, Renderer};
+use raycast::scene::Effect;
+use raycast::{Camera, Frame, Layer, Scene, SceneFile, NO_OBJECT};
+
+fn repo() -> &'static Path {
+    Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../.."))
+}
+
+/// The seed's 17" display at a reduced pixel count (same size and distance).
+fn display(w: u32, h: u32) -> Display {
+    Display {
+        name: "17in".into(),
+        resolution_px: (w, h),
+        size_mm: (337.9, 270.3),
+        eye_distance_mm: 540.0,
+        eye_point_px: None,
+    }
+}
+
+/// A shipped scene with its effect list replaced.
+fn scene(name: &str, effects: &[Effect]) -> Scene {
+    let path = repo().join("config/scenes").join(format!("{name}.ron"));
+    let text = std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    let mut file: SceneFile = ron::from_str(&text).unwrap_or_else(|e| panic!("{name}: {e}"));
+    file.effects = effects.to_vec();
+    Scene::build(&file, path.parent().expect("dir")).unwrap_or_else(|e| panic!("{name}: {e}"))
+}
+
+const ALL_SAMPLING: [Effect; 4] = [
+    Effect::FoveatedSampling,
+    Effect::SilhouetteRefinement,
+    Effect::CreaseRefinement,
+    Effect::DepthRefinement,
+];
+
+fn renderer<'s>(scene: &'s Scene, backend: BackendChoice, options: Options) -> Renderer<'s> {
+    let g = display(W, H).geometry().expect("geometry");
+    let model = pipeline::sampling_model(g, 1.0).expect("model");
+    Renderer::new(
+        scene,
+        Camera::new(&g),
+        model,
+        &Options {
+            backend,
+            ..options
+        },
+    )
+    .unwrap_or_else(|e| {
+        panic!("{e} — install Mesa's software Vulkan (Debian: mesa-vulkan-drivers; scripts/system-deps.sh does)")
+    })
+}
+
+/// Large enough that the hybrid method's fovea does not cover the screen.
+const W: u32 = 640;
+const H: u32 = 512;
+
+const BACKENDS: [BackendChoice; 2] = [BackendChoice::Cpu, BackendChoice::Gpu];
+
+/// `view --backend gpu` once rendered foveated frames for a scene without
+/// `FoveatedSampling`: through the one entry, neither backend does, and the
+/// GPU never allocates the hybrid method's buffers for it.
+#[test]
+fn a_scene_without_foveated_sampling_renders_full_on_every_backend() {
+    let plain = scene("bunny", &[]);
+    let gaze = [200.0, 150.0];
+    let mut frames = Vec::new();
+    for backend in BACKENDS {
+        let mut r = renderer(&plain, backend, Options::default());
+        assert_eq!(r.method(), Method::Full, "{backend:?}");
+        let (frame, stats) = r.render(gaze).expect("renders");
+        assert!(frame.layer.iter().all(|l| *l == Layer::Full), "{backend:?}");
+        assert_eq!(stats.rays_total, u64::from(W * H), "{backend:?}");
+        assert!(!r.has_foveated_buffers(), "{backend:?}");
+        frames.push(frame);
+    }
+    assert_eq!(frames[0].hit, frames[1].hit);
+    // With the effect listed, both backends run the hybrid method.
+    let foveated = scene("bunny", &ALL_SAMPLING);
+    for backend in BACKENDS {
+        let mut r = renderer(&foveated, backend, Options::default());
+        assert_eq!(r.method(), Method::Hybrid, "{backend:?}");
+        let (frame, stats) = r.render(gaze).expect("renders");
+        assert!(!frame.layer.contains(&Layer::Full), "{backend:?}");
+        assert!(frame.layer.contains(&Layer::Interpolated), "{backend:?}");
+        assert!(stats.rays_total < u64::from(W * H), "{backend:?}");
+        assert_eq!(r.has_foveated_buffers(), backend == BackendChoice::Gpu);
+    }
+}
+
+/// Every buffer of the G-buffer agrees with the hit buffer, on both backends
+/// and for both methods.
+fn check_gbuffer(frame: &Frame, what: &str) {
+    let n = (frame.width_px * frame.height_px) as usize;
+    assert_eq!(frame.rgb.len(), 3 * n, "{what}");
+    for buf in [
+        frame.hit.len(),
+        frame.depth_mm.len(),
+        frame.object.len(),
+        frame.normal.len(),
+        frame.layer.len(),
+    ] {
+        assert_eq!(buf, n, "{what}");
+    }
+    let mut hits = 0;
+    for i in 0..n {
+        if frame.hit[i] {
+            hits += 1;
+            assert_ne!(frame.object[i], NO_OBJECT, "{what} pixel {i}");
+            let d = frame.depth_mm[i];
+            // The eye is 540 mm from the screen; the bunny lies just behind it.
+            assert!(
+                d.is_finite() && d > 400.0 && d < 1000.0,
+                "{what} pixel {i}: depth {d}"
+            );
+            let len = frame.normal[i].iter().map(|c| c * c).sum::<f32>().sqrt();
+            assert!((len - 1.0).abs() < 1e-3, "{what} pixel {i}: |n| = {len}");
+        } else {
+            assert_eq!(frame.object[i], NO_OBJECT, "{what} pixel {i}");
+            assert_eq!(frame.depth_mm[i], f32::INFINITY, "{what} pixel {i}");
+            assert_eq!(frame.normal[i], [0.0; 3], "{what} pixel {i}");
+        }
+    }
+    assert!(
+        hits > n / 20,
+        "{what}: the bunny covers part of the screen ({hits} of {n})"
+    );
+}
+
+#[test]
+fn the_g_buffer_is_complete_and_consistent() {
+    let s = scene("bunny", &ALL_SAMPLING);
+    for backend in BACKENDS {
+        for method in [Method::Full, Method::Hybrid] {
+            let mut r = renderer(
+                &s,
+                backend,
+                Options {
+                    method,
+                    ..Options::default()
+                },
+            );
+            let (frame, _) = r.render([90.0, 70.0]).expect("renders");
+            check_gbuffer(&frame, &format!("{backend:?} {method:?}"));
+        }
+    }
+}
+
+/// A scene that does not list an effect runs no pass for it (and builds
+/// none); listing it runs it after the method.
+#[test]
+fn effects_run_as_passes_only_when_the_scene_lists_them() {
+    let gaze = [100.0, 80.0];
+    let without = scene("bunny", &ALL_SAMPLING);
+    let mut with_list = ALL_SAMPLING.to_vec();
+    with_list.push(Effect::PorOverlay);
+    let with = scene("bunny", &with_list);
+    for backend in BACKENDS {
+        let mut plain = renderer(&without, backend, Options::default());
+        assert!(plain.pass_names().is_empty(), "{backend:?}");
+        let (a, _) = plain.render(gaze).expect("renders");
+        let mut por = renderer(&with, backend, Options::default());
+        assert_eq!(por.pass_names(), ["POR box"], "{backend:?}");
+        let (b, _) = por.render(gaze).expect("renders");
+        // The box is drawn, 32 px from the gaze, and nothing else changes.
+        let yellow = |f: &Frame, x: usize, y: usize| {
+            let i = 3 * (y * f.width_px as usize + x);
+            f.rgb[i..i + 3] == [255, 220, 0]
+        };
+        assert!(!yellow(&a, 132, 80) && yellow(&b, 132, 80), "{backend:?}");
+        assert_eq!(a.hit, b.hit, "{backend:?}");
+        assert_eq!(a.depth_mm, b.depth_mm, "{backend:?}");
+        // The command line's overlay adds the pass; the viewer's key removes it.
+        let mut forced = renderer(
+            &without,
+            backend,
+            Options {
+                por_overlay: true,
+                ..Options::default()
+            },
+        );
+        assert_eq!(forced.pass_names(), ["POR box"]);
+        forced.set_por_overlay(false);
+        assert!(forced.pass_names().is_empty());
+        let (c, _) = forced.render(gaze).expect("renders");
+        assert_eq!(a.rgb, c.rgb, "{backend:?}");
+    }
+}
+
+#[test]
+fn explain_names_the_method_stages_and_passes() {
+    let s = scene("search-task", &ALL_SAMPLING);
+    let r = renderer(
+        &s,
+        BackendChoice::Cpu,
+        Options {
+            por_overlay: true,
+            ..Options::default()
+        },
+    );
+    let text = r.explain().join("\n");
+    assert!(text.contains("method: foveated on cpu"), "{text}");
+    assert!(
+        text.contains("cast vertices → classify cells → silhouette margin"),
+        "{text}"
+    );
+    assert!(text.contains("effect passes: POR box"), "{text}");
+    let plain = scene("search-task", &[]);
+    let r = renderer(&plain, BackendChoice::Cpu, Options::default());
+    let text = r.explain().join("\n");
+    assert!(text.contains("method: full on cpu"), "{text}");
+    assert!(text.contains("effect passes: none"), "{text}");
+}

@@ -20,26 +20,48 @@ fn display_files() -> Vec<PathBuf> {
     files
 }
 
+/// The four set-ups the seeds and the lab use, shipped with the geometry
+/// each is named for (resolution, active area, viewing distance): a file
+/// that goes missing, or drifts from its set-up, fails here.
 #[test]
-fn the_issue_names_four_set_ups_and_all_are_shipped() {
-    let names: Vec<String> = display_files()
-        .iter()
-        .map(|p| {
-            p.file_name()
-                .unwrap_or_default()
-                .to_string_lossy()
-                .into_owned()
-        })
-        .collect();
-    for expected in [
-        "tobii-et1750-17in.ron",
-        "v8-hmd.ron",
-        "desktop-24in-1080p.ron",
-        "desktop-27in-4k.ron",
-    ] {
+fn the_four_named_set_ups_are_shipped_with_their_geometry() {
+    // (file, resolution, size mm, eye distance mm)
+    let expected: [(&str, (u32, u32), (f64, f64), f64); 4] = [
+        // Murphy 2007 ch. 7.1: the Tobii ET-1750's 17" LCD, 54 cm.
+        ("tobii-et1750-17in.ron", (1280, 1024), (337.9, 270.3), 540.0),
+        // Murphy & Duchowski 2001: the V8 HMD, 640x480 per eye.
+        ("v8-hmd.ron", (640, 480), (461.9, 346.4), 500.0),
+        (
+            "desktop-24in-1080p.ron",
+            (1920, 1080),
+            (531.4, 298.9),
+            600.0,
+        ),
+        ("desktop-27in-4k.ron", (3840, 2160), (596.7, 335.7), 600.0),
+    ];
+    let files = display_files();
+    for (name, resolution, size, distance) in expected {
+        let path = files
+            .iter()
+            .find(|p| p.file_name().is_some_and(|n| n == name))
+            .unwrap_or_else(|| panic!("missing config/displays/{name}"));
+        let d = config::load_display(path).unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(d.resolution_px, resolution, "{name}");
         assert!(
-            names.iter().any(|n| n == expected),
-            "missing {expected} in {names:?}"
+            (d.size_mm.0 - size.0).abs() < 0.05 && (d.size_mm.1 - size.1).abs() < 0.05,
+            "{name}: size {:?}",
+            d.size_mm
+        );
+        assert!((d.eye_distance_mm - distance).abs() < 0.05, "{name}");
+        // Square pixels within 1 % (a typo in one size would break it).
+        let (px, py) = (
+            d.size_mm.0 / f64::from(resolution.0),
+            d.size_mm.1 / f64::from(resolution.1),
+        );
+        assert!(
+            (px / py - 1.0).abs() < 0.01,
+            "{name}: pixel aspect {}",
+            px / py
         );
     }
 }

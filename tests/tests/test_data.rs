@@ -3,7 +3,7 @@
 
 use std::path::{Path, PathBuf};
 
-use gazecast_viewer::calibrate_cmd::PlanArgs;
+use gazecast_viewer::args::PlanArgs;
 use gazecast_viewer::config;
 use gazecast_viewer::tracker_cmd::{simulated, HidLayoutArg, ScriptArg, SimulateArgs};
 use tracker_hal::csv::{csv_row, CSV_HEADER};

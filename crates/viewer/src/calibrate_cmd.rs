@@ -10,16 +10,20 @@
 //! session (`--record`, or `gazecast simulate --script calibration`)
 //! replays through `--replay` to the same result.
 //!
+//! The session's decisions (rejected targets, when to fit, which targets to
+//! redo after bad validation points, when an unattended run saves) are
+//! [`tracker_hal::calibration::Session`]'s; this module is the window, the
+//! keys, the drawing and the wiring.
+//!
 //! Keys: `Space` start; `R` show rejected / bad points again; `Enter`
 //! continue or save; `V` validate again; `Esc` quit without saving.
 
 use std::io::Write;
 use std::path::PathBuf;
 
-use foveation::ScreenGeometry;
 use plotters::prelude::*;
 use tracker_hal::calibration::{
-    validate, Calibration, Model, Order, Plan, PointValidation, Procedure, TimedPoint,
+    Model, Session, SessionPhase, SessionRequest, TimedPoint, ValidationSummary,
 };
 use winit::application::ApplicationHandler;
 use winit::event::WindowEvent;
@@ -31,53 +35,7 @@ use crate::config;
 use crate::gaze_feed::{GazeFeed, GazeSetup, TrackerMsg};
 use crate::screen::{Input, Screen};
 
-/// The targets of a calibration run and of its validation.
-#[derive(Debug, Clone, clap::Args)]
-pub struct PlanArgs {
-    /// Calibration targets: 5 (the centre and the corners) or a square
-    /// number (4, 9, 16, …), 10 % in from the edges.
-    #[arg(long, default_value_t = 9, value_name = "N")]
-    pub points: usize,
-    /// Validation targets: a square number, 25 % in from the edges (between
-    /// the calibration targets).
-    #[arg(long, default_value_t = 4, value_name = "N")]
-    pub validation_points: usize,
-    /// Ignored at the start of each target (the saccade, settling).
-    #[arg(long, default_value_t = 400, value_name = "MS")]
-    pub settle_ms: u32,
-    /// Collected per target after settling.
-    #[arg(long, default_value_t = 800, value_name = "MS")]
-    pub collect_ms: u32,
-    /// Show the targets in a seeded shuffle instead of row by row.
-    #[arg(long, value_name = "SEED")]
-    pub shuffle: Option<u64>,
-}
-
-impl PlanArgs {
-    /// (calibration plan, validation plan) on a `w × h` px screen.
-    pub fn plans(&self, screen_px: (u32, u32)) -> Result<(Plan, Plan), String> {
-        if self.collect_ms < 100 || self.collect_ms > 10_000 || self.settle_ms > 10_000 {
-            return Err(format!(
-                "--collect-ms {} must be in [100, 10000] and --settle-ms {} at most 10000",
-                self.collect_ms, self.settle_ms
-            ));
-        }
-        let order = self
-            .shuffle
-            .map_or(Order::RowMajor, |seed| Order::Shuffled { seed });
-        let timed = |mut p: Plan| {
-            p.settle_ms = self.settle_ms;
-            p.collect_ms = self.collect_ms;
-            p.window_ms = p.window_ms.min(self.collect_ms / 2);
-            p
-        };
-        let cal =
-            Plan::grid(self.points, screen_px, 0.1, order).map_err(|e| format!("--points: {e}"))?;
-        let val = Plan::grid(self.validation_points, screen_px, 0.25, order)
-            .map_err(|e| format!("--validation-points: {e}"))?;
-        Ok((timed(cal), timed(val)))
-    }
-}
+use crate::args::PlanArgs;
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
 pub enum ModelArg {
@@ -133,34 +91,10 @@ pub struct CalibrateArgs {
     pub yes: bool,
 }
 
-/// Where the run is.
-#[derive(Debug, Clone, PartialEq)]
-enum Phase {
-    Intro,
-    Calibrating,
-    /// Targets that were not accepted, waiting for R or Enter.
-    Rejected(Vec<usize>),
-    Validating,
-    Result,
-    Failed(String),
-}
-
-/// One validation point's outcome.
-type PointResult = Result<PointValidation, String>;
-
 struct Calibrator<'a> {
     args: &'a CalibrateArgs,
-    geometry: ScreenGeometry,
     size: (u32, u32),
-    model: Model,
-    cal: Procedure,
-    val: Procedure,
-    phase: Phase,
-    auto: bool,
-    /// Rejected targets were shown again once already (auto mode).
-    redone: bool,
-    calibration: Option<Calibration>,
-    points: Vec<PointResult>,
+    session: Session,
     feed: GazeFeed,
     screen: Option<Screen>,
     status: String,
@@ -225,8 +159,19 @@ impl Calibrator<'_> {
         self.log.push(s);
     }
 
-    /// Feeds every queued sample (in order: the procedure's clock is the
-    /// samples' own) and moves through the phases between samples.
+    /// Takes the session's log lines and does what it asks.
+    fn sync(&mut self) {
+        self.log.extend(self.session.take_log());
+        for r in self.session.take_requests() {
+            match r {
+                SessionRequest::Save => self.save_after_draw = true,
+                SessionRequest::Abort(e) => self.error = Some(e),
+            }
+        }
+    }
+
+    /// Feeds every queued sample to the session (in order: the
+    /// procedure's clock is the samples' own).
     fn pump(&mut self) {
         loop {
             let m = match self.feed.rx.try_recv() {
@@ -243,12 +188,8 @@ impl Calibrator<'_> {
                         t_us: sample_us,
                         raw,
                     };
-                    match self.phase {
-                        Phase::Calibrating => self.cal.feed(s),
-                        Phase::Validating => self.val.feed(s),
-                        _ => continue,
-                    }
-                    self.advance();
+                    self.session.feed(s);
+                    self.sync();
                 }
                 TrackerMsg::Status(s) => {
                     if !s.is_empty() {
@@ -260,171 +201,29 @@ impl Calibrator<'_> {
         }
     }
 
-    /// Phase changes after a sample or a key.
-    fn advance(&mut self) {
-        match self.phase {
-            Phase::Calibrating if self.cal.done() => {
-                let rejected = self.cal.rejected();
-                if rejected.is_empty() {
-                    self.fit();
-                } else if !self.auto {
-                    self.phase = Phase::Rejected(rejected);
-                } else if !self.redone {
-                    self.redone = true;
-                    self.log(format!(
-                        "calibration targets {rejected:?} rejected: shown again"
-                    ));
-                    for i in rejected {
-                        self.cal.redo(i);
-                    }
-                } else {
-                    self.log(format!(
-                        "calibration targets {rejected:?} rejected again: fitting without them"
-                    ));
-                    self.fit();
-                }
-            }
-            Phase::Validating if self.val.done() => {
-                self.points = self.validation_points();
-                self.phase = Phase::Result;
-                if self.auto {
-                    self.save_after_draw = true;
-                }
-            }
-            _ => {}
-        }
-    }
-
-    fn fit(&mut self) {
-        match self.cal.fit(self.model) {
-            Ok(c) => {
-                self.log(format!(
-                    "fitted {:?} on {} targets: RMS residual {:.2} px",
-                    c.model,
-                    c.points.len(),
-                    c.rms_residual_px
-                ));
-                self.calibration = Some(c);
-                self.val = Procedure::new(self.val.plan.clone());
-                self.val.follow(&self.cal);
-                self.phase = Phase::Validating;
-            }
-            Err(e) => {
-                self.log(format!("the fit failed: {e}"));
-                if self.auto {
-                    self.error = Some(format!("calibration failed: {e}"));
-                }
-                self.phase = Phase::Failed(e.to_string());
-            }
-        }
-    }
-
-    fn validation_points(&self) -> Vec<PointResult> {
-        let Some(c) = &self.calibration else {
-            return Vec::new();
-        };
-        self.val
-            .results()
-            .map(|r| {
-                let run = [(r.target_px, r.samples.clone())];
-                validate(c, &self.geometry, &run)
-                    .map(|v| v.points[0])
-                    .map_err(|e| e.to_string())
-            })
-            .collect()
-    }
-
-    /// Accuracy, precision (RMS, STD) means over the good points, and how
-    /// many points are bad (failed or worse than `--max-error-deg`).
-    fn overall(&self) -> Option<([f64; 3], usize)> {
-        let ok: Vec<&PointValidation> = self.points.iter().flatten().collect();
-        if ok.is_empty() {
-            return None;
-        }
-        let n = ok.len() as f64;
-        let mean = |f: fn(&PointValidation) -> f64| ok.iter().map(|p| f(p)).sum::<f64>() / n;
-        let bad = self.bad_points().len();
-        Some((
-            [
-                mean(|p| p.accuracy_deg),
-                mean(|p| p.precision_rms_deg),
-                mean(|p| p.precision_std_deg),
-            ],
-            bad,
-        ))
-    }
-
-    /// Validation targets (px) that failed or missed by more than the limit.
-    fn bad_points(&self) -> Vec<[f64; 2]> {
-        self.val
-            .results()
-            .zip(&self.points)
-            .filter(|(_, p)| {
-                p.as_ref()
-                    .map_or(true, |p| p.accuracy_deg > self.args.max_error_deg)
-            })
-            .map(|(r, _)| r.target_px)
-            .collect()
-    }
-
-    /// R on the result: the calibration target nearest each bad validation
-    /// point is shown again, then the fit and the whole validation rerun.
-    fn redo_bad(&mut self) {
-        let targets = &self.cal.plan.targets_px;
-        let mut redo: Vec<usize> = Vec::new();
-        for b in self.bad_points() {
-            let nearest = (0..targets.len()).min_by(|&i, &j| {
-                let d = |k: usize| (targets[k][0] - b[0]).hypot(targets[k][1] - b[1]);
-                d(i).total_cmp(&d(j))
-            });
-            if let Some(i) = nearest.filter(|i| !redo.contains(i)) {
-                redo.push(i);
-            }
-        }
-        self.log(format!(
-            "redoing calibration targets {redo:?} (nearest the bad validation points)"
-        ));
-        for i in redo {
-            self.cal.redo(i);
-        }
-        self.cal.restart();
-        self.phase = Phase::Calibrating;
-    }
-
+    /// A key: the session's action for it in this phase.
     fn key(&mut self, el: &ActiveEventLoop, key: Key<&str>) {
-        match (&self.phase, key) {
+        let phase = self.session.phase().clone();
+        match (&phase, key) {
             (_, Key::Named(NamedKey::Escape)) => {
                 self.log("quit without saving".into());
                 el.exit();
             }
-            (Phase::Intro, Key::Named(NamedKey::Space)) => {
+            (SessionPhase::Intro, Key::Named(NamedKey::Space)) => {
                 // Samples from before the start are not the person's.
                 while self.feed.rx.try_recv().is_ok() {}
-                self.phase = Phase::Calibrating;
+                self.session.start();
             }
-            (Phase::Rejected(r), Key::Character("r")) => {
-                for i in r.clone() {
-                    self.cal.redo(i);
-                }
-                self.cal.restart();
-                self.phase = Phase::Calibrating;
+            (SessionPhase::Rejected(_), Key::Character("r")) => self.session.redo_rejected(),
+            (SessionPhase::Rejected(_), Key::Named(NamedKey::Enter)) => {
+                self.session.fit_without_rejected()
             }
-            (Phase::Rejected(_), Key::Named(NamedKey::Enter)) => {
-                self.cal.restart();
-                self.fit();
+            (SessionPhase::Failed(_), Key::Character("r")) => self.session.start_again(),
+            (SessionPhase::Result, Key::Character("r")) => {
+                self.session.redo_bad();
             }
-            (Phase::Failed(_), Key::Character("r")) => {
-                self.cal = Procedure::new(self.cal.plan.clone());
-                self.phase = Phase::Calibrating;
-            }
-            (Phase::Result, Key::Character("r")) if !self.bad_points().is_empty() => {
-                self.redo_bad()
-            }
-            (Phase::Result, Key::Character("v")) => {
-                self.val = Procedure::new(self.val.plan.clone());
-                self.phase = Phase::Validating;
-            }
-            (Phase::Result, Key::Named(NamedKey::Enter) | Key::Character("s")) => {
+            (SessionPhase::Result, Key::Character("v")) => self.session.validate_again(),
+            (SessionPhase::Result, Key::Named(NamedKey::Enter) | Key::Character("s")) => {
                 if let Err(e) = self.save() {
                     self.error = Some(e);
                 }
@@ -432,13 +231,14 @@ impl Calibrator<'_> {
             }
             _ => {}
         }
+        self.sync();
     }
 
     /// Writes the calibration (RON) with the validation as comments.
     fn save(&mut self) -> Result<(), String> {
         let c = self
-            .calibration
-            .as_ref()
+            .session
+            .calibration()
             .ok_or("there is no calibration to save")?;
         let mut text = format!(
             "// gazecast calibrate: {:?} on {} targets, RMS residual {:.2} px, display {:.0}×{:.0} px\n",
@@ -448,10 +248,16 @@ impl Calibrator<'_> {
             self.size.0,
             self.size.1
         );
-        if let Some(([a, r, s], bad)) = self.overall() {
+        if let Some(ValidationSummary {
+            accuracy_deg: a,
+            precision_rms_deg: r,
+            precision_std_deg: s,
+            bad,
+        }) = self.session.summary()
+        {
             text += &format!(
                 "// validation on {} points: accuracy {a:.2}°, precision RMS {r:.3}°, STD {s:.3}°; {bad} worse than {}°\n",
-                self.points.len(),
+                self.session.points().len(),
                 self.args.max_error_deg
             );
         }
@@ -470,21 +276,25 @@ impl Calibrator<'_> {
         self.rgb.clear();
         self.rgb.resize(3 * (w * h) as usize, 128);
         let mut lines: Vec<String> = Vec::new();
-        let overall = self.overall();
+        let overall = self.session.summary();
         let mut rgb = std::mem::take(&mut self.rgb);
+        let (cal, val) = (
+            self.session.calibration_run(),
+            self.session.validation_run(),
+        );
         {
-            crate::plots::register_font();
+            crate::picture::register_font();
             let root = BitMapBackend::with_buffer(&mut rgb, (w, h)).into_drawing_area();
             let e = |e: DrawingAreaErrorKind<_>| e.to_string();
-            match &self.phase {
-                Phase::Intro => {
+            match self.session.phase() {
+                SessionPhase::Intro => {
                     // For the participant, in the middle of the screen.
                     let say = [
                         "Look at the centre of each dot until it moves on.".to_string(),
                         format!(
                             "{} dots, then {} to check.",
-                            self.cal.plan.targets_px.len(),
-                            self.val.plan.targets_px.len()
+                            cal.plan.targets_px.len(),
+                            val.plan.targets_px.len()
                         ),
                         "Space: start     Esc: quit".to_string(),
                     ];
@@ -500,11 +310,11 @@ impl Calibrator<'_> {
                             .map_err(e)?;
                     }
                 }
-                Phase::Calibrating | Phase::Validating => {
-                    let (p, name) = if self.phase == Phase::Calibrating {
-                        (&self.cal, "calibration")
+                SessionPhase::Calibrating | SessionPhase::Validating => {
+                    let (p, name) = if *self.session.phase() == SessionPhase::Calibrating {
+                        (cal, "calibration")
                     } else {
-                        (&self.val, "validation")
+                        (val, "validation")
                     };
                     if let Some((_, at)) = p.target() {
                         draw_target(&root, at, WHITE).map_err(e)?;
@@ -515,23 +325,23 @@ impl Calibrator<'_> {
                         p.plan.targets_px.len()
                     ));
                 }
-                Phase::Rejected(r) => {
-                    for (i, &t) in self.cal.plan.targets_px.iter().enumerate() {
+                SessionPhase::Rejected(r) => {
+                    for (i, &t) in cal.plan.targets_px.iter().enumerate() {
                         let c = if r.contains(&i) { RED } else { GREEN };
                         draw_target(&root, t, c).map_err(e)?;
                     }
                     lines.push(format!(
                         "{} of {} targets rejected (too few valid samples or unsteady): R: show them again   Enter: fit without them   Esc: quit",
                         r.len(),
-                        self.cal.plan.targets_px.len()
+                        cal.plan.targets_px.len()
                     ));
                 }
-                Phase::Failed(msg) => {
+                SessionPhase::Failed(msg) => {
                     lines.push(format!("calibration failed: {msg}"));
                     lines.push("R: start again   Esc: quit".into());
                 }
-                Phase::Result => {
-                    for &t in &self.cal.plan.targets_px {
+                SessionPhase::Result => {
+                    for &t in &cal.plan.targets_px {
                         root.draw(&Circle::new(
                             (t[0].round() as i32, t[1].round() as i32),
                             4,
@@ -540,7 +350,8 @@ impl Calibrator<'_> {
                         .map_err(e)?;
                     }
                     let max_px = self
-                        .points
+                        .session
+                        .points()
                         .iter()
                         .flatten()
                         .map(|p| {
@@ -549,7 +360,7 @@ impl Calibrator<'_> {
                         })
                         .fold(0.0, f64::max);
                     let scale = arrow_scale(max_px);
-                    for (r, p) in self.val.results().zip(&self.points) {
+                    for (r, p) in val.results().zip(self.session.points()) {
                         let t = r.target_px;
                         draw_target(&root, t, WHITE).map_err(e)?;
                         let at = (t[0].round() as i32 + 18, t[1].round() as i32 + 10);
@@ -583,16 +394,21 @@ impl Calibrator<'_> {
                         }
                     }
                     match overall {
-                        Some(([a, rms, std], bad)) => {
+                        Some(ValidationSummary {
+                            accuracy_deg: a,
+                            precision_rms_deg: rms,
+                            precision_std_deg: std,
+                            bad,
+                        }) => {
                             lines.push(format!(
                                 "accuracy {a:.2}°   precision RMS {rms:.3}°  STD {std:.3}°   ({} points, {bad} worse than {}°)",
-                                self.points.len(),
+                                self.session.points().len(),
                                 self.args.max_error_deg
                             ));
                         }
                         None => lines.push("no validation point has data".into()),
                     }
-                    if let Some(c) = &self.calibration {
+                    if let Some(c) = self.session.calibration() {
                         lines.push(format!(
                             "{:?} fit on {} targets, residual {:.2} px; arrows: target → mean gaze, drawn {scale}× long",
                             c.model,
@@ -600,7 +416,7 @@ impl Calibrator<'_> {
                             c.rms_residual_px
                         ));
                     }
-                    let bad = self.bad_points().len();
+                    let bad = self.session.bad_points().len();
                     lines.push(format!(
                         "Enter: save to {}   {}V: validate again   Esc: quit without saving",
                         self.args.out.display(),
@@ -619,7 +435,7 @@ impl Calibrator<'_> {
         }
         let refs: Vec<&str> = lines.iter().map(String::as_str).collect();
         let drawn =
-            crate::plots::draw_text_lines(&mut rgb, (w, h), &refs).map_err(|e| e.to_string());
+            crate::picture::draw_text_lines(&mut rgb, (w, h), &refs).map_err(|e| e.to_string());
         self.rgb = rgb;
         drawn
     }
@@ -631,10 +447,10 @@ impl Calibrator<'_> {
             el.exit();
             return Ok(());
         }
-        if self.stream_ended && self.phase != Phase::Result {
+        if self.stream_ended && *self.session.phase() != SessionPhase::Result {
             return Err(format!(
                 "the recording ended before the calibration finished (phase {:?})",
-                self.phase
+                self.session.phase()
             ));
         }
         self.draw()?;
@@ -673,10 +489,7 @@ impl ApplicationHandler for Calibrator<'_> {
         match Input::from(event) {
             Input::Close => el.exit(),
             Input::Cursor(x, y) => self.feed.cursor_moved(x, y),
-            Input::Key(key) => {
-                self.key(el, key.as_ref());
-                self.advance();
-            }
+            Input::Key(key) => self.key(el, key.as_ref()),
             Input::Redraw => {
                 if crate::gaze_feed::interrupted() {
                     self.log("interrupted (Ctrl-C or SIGTERM): not saved".into());
@@ -728,20 +541,15 @@ pub fn run(args: &CalibrateArgs, out: &mut dyn Write) -> Result<(), String> {
     )?;
     let mut c = Calibrator {
         args,
-        geometry,
         size,
-        model,
-        cal: Procedure::new(cal_plan),
-        val: Procedure::new(val_plan),
-        phase: if auto {
-            Phase::Calibrating
-        } else {
-            Phase::Intro
-        },
-        auto,
-        redone: false,
-        calibration: None,
-        points: Vec::new(),
+        session: Session::new(
+            model,
+            cal_plan,
+            val_plan,
+            geometry,
+            args.max_error_deg,
+            auto,
+        ),
         feed,
         screen: None,
         status: String::new(),
@@ -760,7 +568,7 @@ pub fn run(args: &CalibrateArgs, out: &mut dyn Write) -> Result<(), String> {
     }
     if let Some(path) = &args.screenshot {
         if !c.rgb.is_empty() {
-            crate::plots::save_png(path, size, &c.rgb)
+            crate::picture::save_png(path, size, &c.rgb)
                 .map_err(|e| format!("{}: {e}", path.display()))?;
             writeln!(out, "wrote {}", path.display()).map_err(|e| e.to_string())?;
         }
@@ -782,12 +590,13 @@ fn report(c: &Calibrator, source: &str, out: &mut dyn Write) -> Result<(), Strin
     for l in &c.log {
         w(out, l.clone())?;
     }
-    for r in c.cal.results() {
+    let cal = c.session.calibration_run();
+    for r in cal.results() {
         let t = r.target_px;
         w(
             out,
             match &r.window {
-                Ok(win) if r.accepted(&c.cal.plan) => format!(
+                Ok(win) if r.accepted(&cal.plan) => format!(
                     "target ({:.0}, {:.0}): accepted, raw ({:.2}, {:.2}), {} of {} samples, dispersion {:.3}",
                     t[0], t[1], win.raw[0], win.raw[1], win.kept, win.in_window, win.dispersion
                 ),
@@ -799,7 +608,7 @@ fn report(c: &Calibrator, source: &str, out: &mut dyn Write) -> Result<(), Strin
             },
         )?;
     }
-    for (r, p) in c.val.results().zip(&c.points) {
+    for (r, p) in c.session.validation_run().results().zip(c.session.points()) {
         let t = r.target_px;
         w(
             out,
@@ -812,12 +621,18 @@ fn report(c: &Calibrator, source: &str, out: &mut dyn Write) -> Result<(), Strin
             },
         )?;
     }
-    if let Some(([a, r, s], bad)) = c.overall() {
+    if let Some(ValidationSummary {
+        accuracy_deg: a,
+        precision_rms_deg: r,
+        precision_std_deg: s,
+        bad,
+    }) = c.session.summary()
+    {
         w(
             out,
             format!(
                 "validation: accuracy {a:.3}°, precision RMS {r:.3}°, STD {s:.3}°; {bad} of {} points worse than {}°",
-                c.points.len(),
+                c.session.points().len(),
                 c.args.max_error_deg
             ),
         )?;
@@ -826,59 +641,4 @@ fn report(c: &Calibrator, source: &str, out: &mut dyn Write) -> Result<(), Strin
         w(out, format!("saved {}", c.args.out.display()))?;
     }
     Ok(())
-}
-
-/// Raw tracker units an uncalibrated tracker reports for a screen point,
-/// for the simulated calibration session: the screen seen in perspective in
-/// the tracker's frame (a homography, as a camera off the screen's axis sees
-/// it) plus a bow that grows with the square of the distance from the
-/// centre (the eye is a sphere, not a plane), which a homography cannot
-/// follow and a second-order polynomial can.
-pub fn uncalibrated_raw(px: [f64; 2], screen_px: (u32, u32), frame: (f64, f64)) -> [f64; 2] {
-    let u = px[0] / f64::from(screen_px.0);
-    let v = px[1] / f64::from(screen_px.1);
-    let w = 1.0 + 0.08 * u - 0.05 * v;
-    let (du, dv) = (u - 0.5, v - 0.5);
-    [
-        frame.0 * ((0.10 + 0.78 * u + 0.04 * v) / w + BOW * du * dv),
-        frame.1 * ((0.12 + 0.03 * u + 0.70 * v) / w + BOW * du * du),
-    ]
-}
-
-/// Strength of the simulated tracker's second-order bow.
-const BOW: f64 = 0.12;
-
-/// The stops of a simulated calibration session: the calibration targets
-/// (the eye closed on `closed_target`, which is then shown again), then the
-/// validation targets, in raw units of a tracker with `frame`.
-pub fn session_stops(
-    plan: &PlanArgs,
-    screen_px: (u32, u32),
-    frame: (f64, f64),
-    closed_target: Option<usize>,
-) -> Result<Vec<tracker_hal::sim::Stop>, String> {
-    let (cal, val) = plan.plans(screen_px)?;
-    let dwell = u64::from(plan.settle_ms + plan.collect_ms) * 1000;
-    let stop = |p: [f64; 2], closed| tracker_hal::sim::Stop {
-        at: uncalibrated_raw(p, screen_px, frame),
-        dwell_us: dwell,
-        closed,
-    };
-    let mut stops: Vec<_> = cal
-        .targets_px
-        .iter()
-        .enumerate()
-        .map(|(i, &p)| stop(p, Some(i) == closed_target))
-        .collect();
-    if let Some(i) = closed_target {
-        let p = *cal.targets_px.get(i).ok_or_else(|| {
-            format!(
-                "--closed-target {i}: there are {} targets",
-                cal.targets_px.len()
-            )
-        })?;
-        stops.push(stop(p, false));
-    }
-    stops.extend(val.targets_px.iter().map(|&p| stop(p, false)));
-    Ok(stops)
 }

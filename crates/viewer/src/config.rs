@@ -6,6 +6,8 @@ use std::path::{Path, PathBuf};
 use serde::de::DeserializeOwned;
 use serde::Deserialize;
 
+use raycast::{Scene, SceneError, SceneFile};
+
 /// A configuration file that could not be used.
 #[derive(Debug, thiserror::Error)]
 pub enum ConfigError {
@@ -254,6 +256,18 @@ pub fn default_display_path() -> Result<PathBuf, ConfigError> {
         .parent()
         .unwrap_or(Path::new("."))
         .join(defaults.display))
+}
+
+/// Loads and builds a scene; errors name the file, line and field.
+pub fn load_scene(path: &Path) -> Result<Scene, String> {
+    let (file, text): (SceneFile, String) = load(path).map_err(|e| e.to_string())?;
+    let dir = path.parent().unwrap_or(Path::new("."));
+    Scene::build(&file, dir).map_err(|e| match e {
+        SceneError::Field { field, message } => {
+            invalid_field(path, &text, &field, message).to_string()
+        }
+        mesh @ SceneError::Mesh { .. } => format!("{}: {mesh}", path.display()),
+    })
 }
 
 #[cfg(test)]

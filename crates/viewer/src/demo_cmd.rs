@@ -10,12 +10,11 @@ use std::io::Write;
 use std::path::{Path, PathBuf};
 
 use foveation::ScreenGeometry;
-use rand::{Rng, SeedableRng};
-use raycast::render::render;
 use raycast::{Camera, SceneFile};
 
-use crate::config;
-use crate::render_cmd::{draw_box, draw_por_box, load_scene};
+use crate::config::{self, load_scene};
+use crate::live::{self, LiveError, LiveOptions};
+use crate::picture::{draw_box, half_size, save_apng, save_png};
 
 #[derive(Debug, Clone, clap::Args)]
 pub struct DemoArgs {
@@ -61,97 +60,6 @@ fn screen_px(g: &ScreenGeometry, cam: &Camera, p: (f32, f32, f32)) -> [f64; 2] {
     ]
 }
 
-/// Gaze per frame: a fixation at the centre, then 4–6 objects of the grid in
-/// a seeded order (near ones first, as searches tend to go), then the
-/// target; fixations of 250–450 ms with 0.1° jitter, saccades of
-/// 2.2 ms/° + 21 ms (main sequence) with a smooth profile.
-pub fn scanpath(
-    g: &ScreenGeometry,
-    objects: &[[f64; 2]],
-    target: [f64; 2],
-    fps: f64,
-    seed: u64,
-) -> Vec<[f64; 2]> {
-    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
-    let mut stops = vec![g.centre_px()];
-    let mut left: Vec<[f64; 2]> = objects.iter().copied().filter(|o| *o != target).collect();
-    let visits = rng.random_range(4..=6usize).min(left.len());
-    for _ in 0..visits {
-        let here = stops[stops.len() - 1];
-        // Prefer near objects: pick the nearest of three random candidates.
-        let best = (0..3)
-            .map(|_| rng.random_range(0..left.len()))
-            .min_by(|&a, &b| {
-                let d = |i: usize| (left[i][0] - here[0]).hypot(left[i][1] - here[1]);
-                d(a).total_cmp(&d(b))
-            })
-            .unwrap_or(0);
-        stops.push(left.swap_remove(best));
-    }
-    stops.push(target);
-    let dt = 1.0 / fps;
-    let px_per_deg = g.local_ppd(g.centre_px());
-    let mut frames = Vec::new();
-    for (k, &stop) in stops.iter().enumerate() {
-        if k > 0 {
-            let from = stops[k - 1];
-            let amp = g.eccentricity_deg(from, stop);
-            let dur = (2.2 * amp + 21.0) / 1000.0;
-            let n = (dur / dt).ceil() as usize;
-            for i in 1..n {
-                let s = i as f64 / n as f64;
-                let e = 0.5 - 0.5 * (std::f64::consts::PI * s).cos();
-                frames.push([
-                    from[0] + (stop[0] - from[0]) * e,
-                    from[1] + (stop[1] - from[1]) * e,
-                ]);
-            }
-        }
-        let hold = rng.random_range(0.25..0.45) * if k + 1 == stops.len() { 2.0 } else { 1.0 };
-        for _ in 0..((hold / dt).round() as usize).max(1) {
-            let j = 0.1 * px_per_deg;
-            frames.push([
-                stop[0] + rng.random_range(-j..j),
-                stop[1] + rng.random_range(-j..j),
-            ]);
-        }
-    }
-    frames
-}
-
-fn half(rgb: &[u8], w: usize, h: usize) -> Vec<u8> {
-    let (hw, hh) = (w / 2, h / 2);
-    let mut out = vec![0u8; hw * hh * 3];
-    for y in 0..hh {
-        for x in 0..hw {
-            for c in 0..3 {
-                let at =
-                    |dx: usize, dy: usize| u32::from(rgb[3 * ((2 * y + dy) * w + 2 * x + dx) + c]);
-                out[3 * (y * hw + x) + c] =
-                    ((at(0, 0) + at(1, 0) + at(0, 1) + at(1, 1) + 2) / 4) as u8;
-            }
-        }
-    }
-    out
-}
-
-fn write_apng(path: &Path, (w, h): (u32, u32), fps: u16, frames: &[Vec<u8>]) -> Result<(), String> {
-    let fail = |e: &dyn std::fmt::Display| format!("{}: {e}", path.display());
-    let file = std::fs::File::create(path).map_err(|e| fail(&e))?;
-    let mut enc = png::Encoder::new(std::io::BufWriter::new(file), w, h);
-    enc.set_color(png::ColorType::Rgb);
-    enc.set_depth(png::BitDepth::Eight);
-    enc.set_compression(png::Compression::Fast);
-    enc.set_animated(frames.len() as u32, 0)
-        .map_err(|e| fail(&e))?;
-    enc.set_frame_delay(1, fps).map_err(|e| fail(&e))?;
-    let mut writer = enc.write_header().map_err(|e| fail(&e))?;
-    for f in frames {
-        writer.write_image_data(f).map_err(|e| fail(&e))?;
-    }
-    writer.finish().map_err(|e| fail(&e))
-}
-
 /// Runs `gazecast demo`.
 pub fn run(args: &DemoArgs, out: &mut dyn Write) -> Result<(), String> {
     if !(1..=120).contains(&args.fps) {
@@ -168,26 +76,23 @@ pub fn run(args: &DemoArgs, out: &mut dyn Write) -> Result<(), String> {
                 args.out.display()
             ),
         )?;
-        let view = crate::view_cmd::ViewArgs {
+        let session = LiveOptions {
             scene: SCENE.into(),
             display: DISPLAY.into(),
             tracker: Some(MOUSE.into()),
-            replay: None,
-            calibration: None,
-            record: None,
             frames: args.frames,
-            screenshot: None,
-            overlay: Some("por".into()),
-            backend: crate::render_cmd::Backend::Auto,
-            fullscreen: false,
-            monitor: None,
-            explain: false,
+            por_overlay: true,
+            backend: pipeline::BackendChoice::Auto,
+            ..LiveOptions::default()
         };
-        match crate::view_cmd::run(&view, out) {
-            Err(e) if e.starts_with(crate::view_cmd::NO_WINDOW) => {
-                line(out, format!("{e}; rendering headless instead"))?;
+        match live::run(&session, out) {
+            Err(LiveError::NoWindow(cause)) => {
+                line(
+                    out,
+                    format!("cannot open a window ({cause}); rendering headless instead"),
+                )?;
             }
-            other => return other,
+            other => return other.map_err(|e| e.to_string()),
         }
     }
     line(
@@ -218,18 +123,22 @@ pub fn run(args: &DemoArgs, out: &mut dyn Write) -> Result<(), String> {
         .position(|o| o.mesh == "target")
         .map(|i| objects[i])
         .ok_or_else(|| format!("{SCENE}: no object with mesh `target`"))?;
-    let gazes = scanpath(&g, &objects, target, f64::from(args.fps), args.seed);
-    let model = crate::render_cmd::sampling_model(g, 1.0).map_err(|e| e.to_string())?;
-    let settings = crate::render_cmd::foveated_settings(&scene);
+    let gazes =
+        tracker_hal::sim::search_scanpath(&g, &objects, target, f64::from(args.fps), args.seed);
+    let model = pipeline::sampling_model(g, 1.0).map_err(|e| e.to_string())?;
+    let options = pipeline::Options {
+        por_overlay: true,
+        ..pipeline::Options::default()
+    };
+    let mut renderer =
+        pipeline::Renderer::new(&scene, cam, model, &options).map_err(|e| e.to_string())?;
     std::fs::create_dir_all(&args.out)
         .map_err(|e| format!("{}: cannot create: {e}", args.out.display()))?;
     let (w, h) = (g.width_px as usize, g.height_px as usize);
     let mut frames = Vec::with_capacity(gazes.len());
     let (mut rays, mut ms) = (0u64, 0.0f64);
     for (k, &gaze) in gazes.iter().enumerate() {
-        let (mut frame, stats) =
-            render(&scene, &cam, &model, &settings, gaze).map_err(|e| e.to_string())?;
-        draw_por_box(&mut frame.rgb, frame.width, frame.height, gaze);
+        let (frame, stats) = renderer.render(gaze).map_err(|e| e.to_string())?;
         line(
             out,
             format!(
@@ -244,18 +153,19 @@ pub fn run(args: &DemoArgs, out: &mut dyn Write) -> Result<(), String> {
         )?;
         rays += stats.rays_total;
         ms += stats.time_ms;
-        frames.push(half(&frame.rgb, w, h));
+        frames.push(half_size(&frame.rgb, w, h));
     }
     let (hw, hh) = (w / 2, h / 2);
     let anim = args.out.join("demo.png");
-    write_apng(&anim, (hw as u32, hh as u32), args.fps, &frames)?;
+    save_apng(&anim, (hw as u32, hh as u32), args.fps, &frames)
+        .map_err(|e| format!("{}: {e}", anim.display()))?;
     // Contact sheet: 12 frames evenly spread, 4 × 3, at half the animation's size.
     let (tw, th) = (hw / 2, hh / 2);
     let (cols, rows) = (4usize, 3usize);
     let mut sheet = vec![255u8; cols * tw * rows * th * 3];
     for s in 0..cols * rows {
         let k = s * (frames.len() - 1) / (cols * rows - 1).max(1);
-        let mut thumb = half(&frames[k], hw, hh);
+        let mut thumb = half_size(&frames[k], hw, hh);
         let g = gazes[k];
         draw_box(
             &mut thumb,
@@ -272,7 +182,7 @@ pub fn run(args: &DemoArgs, out: &mut dyn Write) -> Result<(), String> {
         }
     }
     let sheet_path = args.out.join("demo-sheet.png");
-    crate::plots::save_png(
+    save_png(
         &sheet_path,
         ((cols * tw) as u32, (rows * th) as u32),
         &sheet,
@@ -294,41 +204,4 @@ pub fn run(args: &DemoArgs, out: &mut dyn Write) -> Result<(), String> {
             sheet_path.display()
         ),
     )
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn the_scanpath_starts_at_the_centre_and_ends_on_the_target() {
-        let g = foveation::Display {
-            name: "t".into(),
-            resolution_px: (1280, 1024),
-            size_mm: (337.9, 270.3),
-            eye_distance_mm: 540.0,
-            eye_point_px: None,
-        }
-        .geometry()
-        .expect("display");
-        let objects: Vec<[f64; 2]> = (0..25)
-            .map(|i| {
-                [
-                    340.0 + 150.0 * f64::from(i % 5),
-                    212.0 + 150.0 * f64::from(i / 5),
-                ]
-            })
-            .collect();
-        let target = objects[16];
-        let path = scanpath(&g, &objects, target, 30.0, 1);
-        let close = |a: [f64; 2], b: [f64; 2]| (a[0] - b[0]).hypot(a[1] - b[1]) < 5.0;
-        assert!(close(path[0], g.centre_px()));
-        assert!(close(path[path.len() - 1], target));
-        assert_eq!(path, scanpath(&g, &objects, target, 30.0, 1), "seeded");
-        assert!(path.len() > 30 && path.len() < 200, "{}", path.len());
-        // No jump between frames longer than a saccade covers in one frame.
-        for w in path.windows(2) {
-            assert!((w[1][0] - w[0][0]).hypot(w[1][1] - w[0][1]) < 400.0);
-        }
-    }
 }

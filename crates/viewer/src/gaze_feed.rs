@@ -169,6 +169,9 @@ impl GazeSetup {
     pub fn resolve(tracker: Option<&Path>, replay: Option<&Path>) -> Result<Self, String> {
         if let Some(path) = replay {
             let rec = Recording::read(path).map_err(|e| e.to_string())?;
+            for w in rec.warnings() {
+                eprintln!("warning: {}: {w}", path.display());
+            }
             return Ok(Self {
                 tracker: rec.header.tracker.clone(),
                 replay: Some(rec),

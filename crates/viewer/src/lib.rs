@@ -3,15 +3,19 @@
 //! calibration). It owns no maths (see `foveation`, `raycast`,
 //! `tracker_hal`).
 
-pub mod bench_cmd;
+pub mod args;
+pub mod bench;
 pub mod calibrate_cmd;
 pub mod config;
 pub mod demo_cmd;
 pub mod gaze_feed;
+pub mod live;
 pub mod mask_cmd;
+pub mod picture;
 pub mod plots;
 pub mod render_cmd;
 pub mod screen;
+pub mod stats;
 pub mod tracker_cmd;
 pub mod view_cmd;
 
@@ -43,7 +47,7 @@ pub enum Command {
     Simulate(tracker_cmd::SimulateArgs),
     /// Measure what accuracy costs in time (`accuracy`) and how the cost
     /// scales with triangles and pixels (`scaling`).
-    Bench(bench_cmd::BenchArgs),
+    Bench(bench::BenchArgs),
     /// The search task: in a window with the mouse as the gaze when there is
     /// a display; otherwise along a built-in scanpath, rendered foveated to
     /// an animated PNG and a contact sheet.
@@ -65,7 +69,7 @@ pub fn run(cli: Cli, out: &mut dyn std::io::Write) -> Result<(), String> {
         Command::Record(args) => tracker_cmd::record(&args, out),
         Command::Devices => tracker_cmd::devices(out),
         Command::Simulate(args) => tracker_cmd::simulate(&args, out),
-        Command::Bench(args) => bench_cmd::run(&args, out),
+        Command::Bench(args) => bench::run(&args, out),
         Command::Demo(args) => demo_cmd::run(&args, out),
         Command::View(args) => view_cmd::run(&args, out),
         Command::Calibrate(args) => calibrate_cmd::run(&args, out),

@@ -7,6 +7,7 @@ use std::time::Instant;
 use foveation::{bound, mask, Display, GeislerPerry, Layout, RayMask, SamplingModel};
 use serde::Serialize;
 
+use crate::args::parse_point;
 use crate::config;
 use crate::plots;
 
@@ -40,20 +41,6 @@ pub struct MaskArgs {
     /// Draw the mask and its mesh; also writes `<name>-csf.png`.
     #[arg(long, value_name = "FILE.png")]
     pub png: Option<PathBuf>,
-}
-
-pub fn parse_point(s: &str) -> Result<[f64; 2], String> {
-    let (x, y) = s
-        .split_once(',')
-        .ok_or_else(|| format!("`{s}`: expected X,Y (e.g. 640,512)"))?;
-    let num = |v: &str| {
-        v.trim()
-            .parse::<f64>()
-            .ok()
-            .filter(|f| f.is_finite())
-            .ok_or_else(|| format!("`{v}` in `{s}` is not a finite number"))
-    };
-    Ok([num(x)?, num(y)?])
 }
 
 /// What `--json` prints. The first eight fields are the command-line
@@ -163,10 +150,11 @@ pub fn run(args: &MaskArgs, out: &mut dyn Write) -> Result<(), String> {
     }
     let mut written = Vec::new();
     if let Some(path) = &args.png {
-        plots::draw_mask(path, &built)
+        let (mask, model) = (&built.mask, &built.model);
+        plots::draw_mask(path, mask, model, built.report.nyquist_bound_rays)
             .map_err(|e| format!("{}: cannot draw the mask: {e}", path.display()))?;
         let csf = plots::csf_path(path);
-        plots::draw_csf(&csf, &built)
+        plots::draw_csf(&csf, mask, model, &built.display.name)
             .map_err(|e| format!("{}: cannot draw the CSF plot: {e}", csf.display()))?;
         written.push(path.clone());
         written.push(csf);

@@ -1,23 +1,16 @@
-//! Pictures of the ray mask (like Murphy 2007 Fig. 4.3) and of the sampling
-//! rate against eccentricity (like Fig. 4.4), drawn with `plotters`.
+//! Pictures of the ray mask (like Murphy 2007 Fig. 4.3), of the sampling
+//! rate against eccentricity (like Fig. 4.4) and of the benchmarks (the
+//! Pareto plot, log–log scaling), drawn with `plotters` and saved with
+//! [`crate::picture`].
 
 use std::path::{Path, PathBuf};
 
+use foveation::{RayMask, SamplingModel};
 use plotters::prelude::*;
 
-use crate::mask_cmd::BuiltMask;
+use crate::picture::{register_font, save_png};
 
 type DrawResult = Result<(), Box<dyn std::error::Error>>;
-
-const FONT: &[u8] = include_bytes!("../assets/fonts/DejaVuSansMono.ttf");
-
-pub(crate) fn register_font() {
-    static ONCE: std::sync::Once = std::sync::Once::new();
-    ONCE.call_once(|| {
-        // The embedded font is valid; registration can only fail on a bad font file.
-        let _ = plotters::style::register_font("sans-serif", FontStyle::Normal, FONT);
-    });
-}
 
 /// `mask.png` → `mask-csf.png`.
 pub fn csf_path(png: &Path) -> PathBuf {
@@ -27,11 +20,14 @@ pub fn csf_path(png: &Path) -> PathBuf {
 
 /// The screen with the fovea disc and the intermediate mesh, scaled to at
 /// most 1600 px wide (small screens are enlarged up to 2× so the mesh stays
-/// legible).
-pub fn draw_mask(path: &Path, built: &BuiltMask) -> DrawResult {
+/// legible). The caption compares the rays with `nyquist_bound_rays`.
+pub fn draw_mask(
+    path: &Path,
+    m: &RayMask,
+    model: &SamplingModel,
+    nyquist_bound_rays: f64,
+) -> DrawResult {
     register_font();
-    let m = &built.mask;
-    let r = &built.report;
     let (w, h) = (f64::from(m.width_px), f64::from(m.height_px));
     let scale = (1600.0 / w).min(2.0);
     let plot_w = (w * scale).round() as u32;
@@ -40,10 +36,10 @@ pub fn draw_mask(path: &Path, built: &BuiltMask) -> DrawResult {
     draw_png(path, size, |root| {
         let caption = format!(
             "{} layout, C = {}: {} rays = {:.2}x the Nyquist bound, of {} pixels",
-            r.layout,
-            r.contrast,
-            r.rays,
-            r.ratio_to_bound,
+            m.layout.name(),
+            model.contrast,
+            m.rays(),
+            m.rays() as f64 / nyquist_bound_rays,
             u64::from(m.width_px) * u64::from(m.height_px)
         );
         let mut chart = ChartBuilder::on(root)
@@ -101,45 +97,11 @@ fn draw_png(path: &Path, size: (u32, u32), draw: impl FnOnce(&Area) -> DrawResul
     save_png(path, size, &rgb)
 }
 
-/// Writes an RGB buffer as PNG: indexed colour when it has at most 256
-/// distinct colours (mesh pictures do, and shrink several-fold), else RGB.
-pub fn save_png(path: &Path, (w, h): (u32, u32), rgb: &[u8]) -> DrawResult {
-    let mut palette: Vec<[u8; 3]> = Vec::new();
-    let mut lookup = std::collections::HashMap::new();
-    let mut indices = Vec::with_capacity(rgb.len() / 3);
-    for px in rgb.chunks_exact(3) {
-        let c = [px[0], px[1], px[2]];
-        let next = palette.len();
-        let i = *lookup.entry(c).or_insert(next);
-        if i == next {
-            if next == 256 {
-                break;
-            }
-            palette.push(c);
-        }
-        indices.push(i as u8);
-    }
-    let file = std::io::BufWriter::new(std::fs::File::create(path)?);
-    let mut enc = png::Encoder::new(file, w, h);
-    enc.set_depth(png::BitDepth::Eight);
-    enc.set_compression(png::Compression::Best);
-    if indices.len() == rgb.len() / 3 {
-        enc.set_color(png::ColorType::Indexed);
-        enc.set_palette(palette.concat());
-        enc.write_header()?.write_image_data(&indices)?;
-    } else {
-        enc.set_color(png::ColorType::Rgb);
-        enc.write_header()?.write_image_data(rgb)?;
-    }
-    Ok(())
-}
-
 /// Sampling rate (rays per degree) against eccentricity: what the CSF asks
-/// for, what one ray per pixel can give, and what the layout casts.
-pub fn draw_csf(path: &Path, built: &BuiltMask) -> DrawResult {
+/// for, what one ray per pixel can give, and what the layout casts, on the
+/// display named `display`.
+pub fn draw_csf(path: &Path, m: &RayMask, model: &SamplingModel, display: &str) -> DrawResult {
     register_font();
-    let m = &built.mask;
-    let model = &built.model;
     let rings = &m.rings;
     let max_e = rings
         .last()
@@ -152,7 +114,7 @@ pub fn draw_csf(path: &Path, built: &BuiltMask) -> DrawResult {
             .caption(
                 format!(
                     "Sampling rate vs eccentricity: {} ({} layout, C = {})",
-                    built.display.name,
+                    display,
                     m.layout.name(),
                     model.contrast
                 ),
@@ -452,26 +414,4 @@ pub fn draw_log_log(
             .draw()?;
         Ok(())
     })
-}
-
-/// Draws text lines (HUD, status) in the top-left corner of an RGB frame,
-/// white on a dark band.
-pub fn draw_text_lines(rgb: &mut [u8], (w, h): (u32, u32), lines: &[&str]) -> DrawResult {
-    register_font();
-    let root = BitMapBackend::with_buffer(rgb, (w, h)).into_drawing_area();
-    for (k, line) in lines.iter().enumerate() {
-        let y = 4 + 18 * k as i32;
-        let width = 8 * line.chars().count() as i32 + 8;
-        root.draw(&Rectangle::new(
-            [(0, y - 2), (width, y + 16)],
-            RGBColor(10, 10, 12).mix(0.75).filled(),
-        ))?;
-        root.draw(&Text::new(
-            line.to_string(),
-            (4, y),
-            ("sans-serif", 14).into_font().color(&WHITE),
-        ))?;
-    }
-    root.present()?;
-    Ok(())
 }

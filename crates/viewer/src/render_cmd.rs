@@ -1,49 +1,18 @@
 //! `gazecast render`: one frame, headless, to a PNG.
 
 use std::io::Write;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
-use foveation::{GeislerPerry, Layout, SamplingModel};
-use raycast::gpu::GpuRenderer;
-use raycast::ray::TriangleTest;
-use raycast::render::{layers_rgb, render, Mode, Settings, Stats, Triggers};
-use raycast::scene::Effect;
-use raycast::{Camera, Scene, SceneError, SceneFile};
+use foveation::Layout;
+use pipeline::{BackendChoice, Method, Options, Renderer};
+use raycast::render::Stats;
+use raycast::{layers_rgb, Camera};
 use serde::Serialize;
 
-use crate::config;
-use crate::plots::save_png;
-
-#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
-pub enum RenderMode {
-    Foveated,
-    Full,
-}
-
-#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
-pub enum Backend {
-    /// rayon on the CPU: every mode, structure and intersector.
-    Cpu,
-    /// wgpu compute: full resolution, BVH, watertight test (the foveated
-    /// stages are not on the GPU yet).
-    Gpu,
-    /// The GPU where it can render the frame, else the CPU; says which.
-    Auto,
-}
-
-#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
-pub enum AccelArg {
-    /// Binned-SAH BVH.
-    Bvh,
-    /// The seed's uniform grid (Murphy 2007 §6.1.1), for comparison.
-    Grid,
-}
-
-#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
-pub enum Intersector {
-    Watertight,
-    MollerTrumbore,
-}
+use crate::args::{parse_point, AccelArg, Intersector, Overlay};
+use crate::config::{self, load_scene};
+use crate::picture::save_png;
+use crate::stats::median;
 
 #[derive(Debug, Clone, clap::Args)]
 pub struct RenderArgs {
@@ -54,16 +23,17 @@ pub struct RenderArgs {
     #[arg(long, value_name = "FILE")]
     pub display: PathBuf,
     /// Point of regard in screen pixels, origin top-left. Default: the screen centre.
-    #[arg(long, value_name = "X,Y", value_parser = crate::mask_cmd::parse_point)]
+    #[arg(long, value_name = "X,Y", value_parser = parse_point)]
     pub gaze: Option<[f64; 2]>,
     /// Output image.
     #[arg(long, value_name = "FILE.png")]
     pub out: PathBuf,
-    #[arg(long, value_enum, default_value = "foveated")]
-    pub mode: RenderMode,
+    /// The rendering method (`foveated` is an alias of `hybrid`).
+    #[arg(long, visible_alias = "method", value_enum, default_value = "hybrid")]
+    pub mode: Method,
     /// Where to render; `auto` says which it used.
     #[arg(long, value_enum, default_value = "auto")]
-    pub backend: Backend,
+    pub backend: BackendChoice,
     #[arg(long, value_name = "nyquist|seed", default_value = "nyquist")]
     pub layout: Layout,
     /// Michelson contrast C of the CSF cut-off.
@@ -85,8 +55,8 @@ pub struct RenderArgs {
     #[arg(long, value_enum, default_value = "bvh")]
     pub accel: AccelArg,
     /// Draw the POR box even if the scene does not ask for it.
-    #[arg(long, value_name = "por")]
-    pub overlay: Option<String>,
+    #[arg(long, value_enum, value_name = "por")]
+    pub overlay: Option<Overlay>,
 }
 
 /// The `--stats` JSON.
@@ -119,44 +89,6 @@ pub struct StageTime {
     pub ms: f64,
 }
 
-/// The sampling model the commands use: the Geisler–Perry CSF at contrast
-/// `contrast`, spacing up to the seed's n_max (17 px).
-pub fn sampling_model(
-    geometry: foveation::ScreenGeometry,
-    contrast: f64,
-) -> Result<SamplingModel, foveation::ParamError> {
-    SamplingModel::new(
-        geometry,
-        GeislerPerry::default(),
-        contrast,
-        foveation::sampling::SEED_MAX_SPACING_PX,
-    )
-}
-
-/// The default foveated settings for a scene: nyquist layout, the scene's
-/// refinement triggers, the watertight test.
-pub fn foveated_settings(scene: &Scene) -> Settings {
-    Settings {
-        mode: Mode::Foveated,
-        layout: Layout::Nyquist,
-        triggers: Triggers::from_scene(scene),
-        test: TriangleTest::Watertight,
-        check_coverage: false,
-    }
-}
-
-/// Loads and builds a scene; errors name the file, line and field.
-pub fn load_scene(path: &Path) -> Result<Scene, String> {
-    let (file, text): (SceneFile, String) = config::load(path).map_err(|e| e.to_string())?;
-    let dir = path.parent().unwrap_or(Path::new("."));
-    Scene::build(&file, dir).map_err(|e| match e {
-        SceneError::Field { field, message } => {
-            config::invalid_field(path, &text, &field, message).to_string()
-        }
-        mesh @ SceneError::Mesh { .. } => format!("{}: {mesh}", path.display()),
-    })
-}
-
 /// Runs `gazecast render`.
 pub fn run(args: &RenderArgs, out: &mut dyn Write) -> Result<(), String> {
     let mut scene = load_scene(&args.scene)?;
@@ -165,170 +97,88 @@ pub fn run(args: &RenderArgs, out: &mut dyn Write) -> Result<(), String> {
     }
     let display = config::load_display(&args.display).map_err(|e| e.to_string())?;
     let geometry = display.geometry().map_err(|e| e.to_string())?;
-    let model = sampling_model(geometry, args.contrast)
+    let model = pipeline::sampling_model(geometry, args.contrast)
         .map_err(|e| format!("--{}: {e}", e.field.replace('_', "-")))?;
     let gaze = args.gaze.unwrap_or_else(|| geometry.centre_px());
-    let camera = Camera::new(&geometry);
-    let settings = Settings {
-        mode: match args.mode {
-            RenderMode::Full => Mode::Full,
-            RenderMode::Foveated => Mode::Foveated,
-        },
+    let options = Options {
+        method: args.mode,
+        backend: args.backend,
         layout: args.layout,
-        triggers: Triggers::from_scene(&scene),
-        test: match args.intersector {
-            Intersector::Watertight => TriangleTest::Watertight,
-            Intersector::MollerTrumbore => TriangleTest::MollerTrumbore,
-        },
-        check_coverage: false,
+        test: args.intersector.into(),
+        por_overlay: args.overlay == Some(Overlay::Por),
+        ..Options::default()
     };
-    if let Some(o) = &args.overlay {
-        if o != "por" {
-            return Err(format!("--overlay {o}: the only overlay is `por`"));
-        }
-    }
-    let full = settings.mode == Mode::Full || !scene.has(Effect::FoveatedSampling);
-    let gpu_able = args.accel == AccelArg::Bvh && args.intersector == Intersector::Watertight;
-    let mut gpu = None;
-    let mut note = None;
-    match (args.backend, gpu_able) {
-        (Backend::Cpu, _) => {}
-        (Backend::Gpu, false) => {
-            return Err(
-                "--backend gpu: the GPU core has the BVH and the watertight test only; \
-                        use --backend cpu for --accel grid or --intersector moller-trumbore"
-                    .into(),
-            )
-        }
-        (Backend::Gpu, true) => {
-            gpu = Some(GpuRenderer::new(&scene).map_err(|e| format!("--backend gpu: {e}"))?)
-        }
-        (Backend::Auto, false) => {
-            note = Some(
-                "auto: the CPU renders this (the grid and Möller–Trumbore are CPU-only)".into(),
-            )
-        }
-        (Backend::Auto, true) => match raycast::gpu::probe() {
-            Ok((name, true)) => {
-                note = Some(format!(
-                    "auto: the only adapter is a software one ({name}), slower than the CPU \
-                     backend; rendering on the CPU (--backend gpu forces it)"
-                ))
-            }
-            Ok(_) => match GpuRenderer::new(&scene) {
-                Ok(g) => gpu = Some(g),
-                Err(e) => note = Some(format!("auto: {e}; rendering on the CPU")),
-            },
-            Err(e) => note = Some(format!("auto: {e}; rendering on the CPU")),
-        },
-    }
+    let mut renderer = Renderer::new(&scene, Camera::new(&geometry), model, &options)
+        .map_err(|e| e.to_string())?;
     let mut times = Vec::new();
     let mut last = None;
     for _ in 0..args.repeat.max(1) {
-        let (frame, stats) = match gpu.as_mut() {
-            Some(g) if full => g
-                .render_full(&camera)
-                .map_err(|e| format!("--backend gpu: {e}"))?,
-            Some(g) => {
-                let mask = foveation::mask::build(&model, settings.layout, gaze)
-                    .map_err(|e| format!("--gaze: {e}"))?;
-                g.render_foveated(&camera, &mask, &settings.triggers)
-                    .map_err(|e| format!("--backend gpu: {e}"))?
-            }
-            None => render(&scene, &camera, &model, &settings, gaze)
-                .map_err(|e| format!("--gaze: {e}"))?,
-        };
+        let (frame, stats) = renderer.render(gaze).map_err(|e| e.to_string())?;
         times.push(stats.time_ms);
         last = Some((frame, stats));
     }
-    let Some((mut frame, mut stats)) = last else {
+    let Some((frame, mut stats)) = last else {
         return Err("nothing rendered".into());
     };
-    let mut sorted = times.clone();
-    sorted.sort_by(f64::total_cmp);
-    stats.time_ms = sorted[sorted.len() / 2];
-    let overlay = args.overlay.is_some() || scene.has(Effect::PorOverlay);
-    if overlay {
-        draw_por_box(&mut frame.rgb, frame.width, frame.height, gaze);
-    }
-    save_png(&args.out, (frame.width, frame.height), &frame.rgb)
+    stats.time_ms = median(&times);
+    save_png(&args.out, (frame.width_px, frame.height_px), &frame.rgb)
         .map_err(|e| format!("{}: {e}", args.out.display()))?;
     if let Some(path) = &args.layers {
-        save_png(path, (frame.width, frame.height), &layers_rgb(&frame))
+        save_png(path, (frame.width_px, frame.height_px), &layers_rgb(&frame))
             .map_err(|e| format!("{}: {e}", path.display()))?;
     }
     let report = RenderReport {
         stats,
-        backend: if gpu.is_some() { "gpu" } else { "cpu" },
-        adapter: gpu.as_ref().map(|g| g.adapter().to_string()),
-        gpu_stages_ms: gpu.as_ref().map_or_else(Vec::new, |g| {
-            g.stage_ms()
-                .iter()
-                .map(|&(stage, ms)| StageTime { stage, ms })
-                .collect()
-        }),
+        backend: renderer.backend_name(),
+        adapter: renderer.adapter().map(str::to_string),
+        gpu_stages_ms: renderer
+            .stage_ms()
+            .iter()
+            .map(|&(stage, ms)| StageTime { stage, ms })
+            .collect(),
         threads: rayon::current_num_threads(),
-        mode: if full { "full" } else { "foveated" },
+        mode: renderer.method().name(),
         scene: scene.name.clone(),
-        width_px: frame.width,
-        height_px: frame.height,
+        width_px: frame.width_px,
+        height_px: frame.height_px,
         gaze_px: gaze,
         triangles: scene.triangles.len(),
-        accel: if args.accel == AccelArg::Grid {
-            "grid"
-        } else {
-            "bvh"
-        },
+        accel: args.accel.name(),
         times_ms: times,
     };
     if let Some(path) = &args.stats {
         let json = serde_json::to_string_pretty(&report).map_err(|e| e.to_string())?;
         std::fs::write(path, json).map_err(|e| format!("{}: cannot write: {e}", path.display()))?;
     }
-    if let Some(n) = &note {
+    if let Some(n) = renderer.note() {
         writeln!(out, "{n}").map_err(|e| e.to_string())?;
     }
     let on = match &report.adapter {
         Some(a) => format!("gpu ({a})"),
         None => format!("cpu ({} threads)", report.threads),
     };
+    let rays = if stats.rays_full > 0 {
+        format!("{} rays (one per pixel)", stats.rays_total)
+    } else {
+        format!(
+            "{} rays (fovea {}, mask {}, refine {}), {} of {} cells refined",
+            stats.rays_total,
+            stats.rays_fovea,
+            stats.rays_mask,
+            stats.rays_refine,
+            stats.cells_refined,
+            stats.cells_total
+        )
+    };
     writeln!(
         out,
-        "{} {}x{} {} on {on}: {} rays (fovea {}, mask {}, refine {}), {} of {} cells refined, {:.1} ms; wrote {}",
+        "{} {}x{} {} on {on}: {rays}, {:.1} ms; wrote {}",
         report.scene,
         report.width_px,
         report.height_px,
         report.mode,
-        stats.rays_total,
-        stats.rays_fovea,
-        stats.rays_mask,
-        stats.rays_refine,
-        stats.cells_refined,
-        stats.cells_total,
         stats.time_ms,
         args.out.display()
     )
     .map_err(|e| e.to_string())
-}
-
-/// The seed's POR box: a 2-px yellow square, 64 px across, around the gaze.
-pub fn draw_por_box(rgb: &mut [u8], w: u32, h: u32, gaze: [f64; 2]) {
-    draw_box(rgb, w, h, gaze, 32);
-}
-
-/// A 2-px yellow square of half-size `r` px around `centre`.
-pub fn draw_box(rgb: &mut [u8], w: u32, h: u32, centre: [f64; 2], r: i64) {
-    let (cx, cy) = (centre[0].round() as i64, centre[1].round() as i64);
-    let mut put = |x: i64, y: i64| {
-        if (0..i64::from(w)).contains(&x) && (0..i64::from(h)).contains(&y) {
-            let i = 3 * (y as usize * w as usize + x as usize);
-            rgb[i..i + 3].copy_from_slice(&[255, 220, 0]);
-        }
-    };
-    for d in -r..=r {
-        for t in [-r, -r + 1, r - 1, r] {
-            put(cx + d, cy + t);
-            put(cx + t, cy + d);
-        }
-    }
 }

@@ -8,12 +8,16 @@ use std::time::{Duration, Instant};
 use tracker_hal::csv::{csv_row, CSV_HEADER};
 use tracker_hal::hid::sim::{simulate_hid, HidLayout};
 use tracker_hal::recording::{write_recording, ChunkKind, RecordingHeader};
-use tracker_hal::sim::{gaze_script, simulate_iscan, simulate_mouse, Script, SimStream};
+use tracker_hal::sim::{
+    calibration_stops, fixation_script, gaze_script, simulate_iscan, simulate_mouse, Script,
+    SimStream,
+};
 use tracker_hal::{
     Driver, GazeSource, MonotonicClock, Pacing, Recorder, Recording, ReplayTransport, StreamDriver,
     TrackerConfig,
 };
 
+use crate::args::PlanArgs;
 use crate::config;
 
 /// Input format of `gazecast replay`.
@@ -102,7 +106,7 @@ pub struct SimulateArgs {
     #[arg(long, value_name = "FILE")]
     pub display: Option<PathBuf>,
     #[command(flatten)]
-    pub plan: crate::calibrate_cmd::PlanArgs,
+    pub plan: PlanArgs,
     /// --script calibration: the eyes are closed through this calibration
     /// target (0-based, in presentation order), so it is rejected and
     /// shown again.
@@ -175,23 +179,10 @@ pub fn replay(args: &ReplayArgs, err: &mut dyn Write) -> Result<(), String> {
     let transport = match args.format {
         InputFormat::Recording => {
             let rec = Recording::read(&args.input).map_err(|e| e.to_string())?;
-            if let Some(t) = &rec.torn_tail {
-                let _ = writeln!(
-                    err,
-                    "warning: {}: the recording ends early at byte {} ({} bytes unreadable: {}); decoding what precedes it",
-                    args.input.display(),
-                    t.offset,
-                    t.bytes,
-                    t.reason
-                );
-            }
-            if rec.lost_chunks > 0 {
-                let _ = writeln!(
-                    err,
-                    "WARNING: {}: the recorder lost {} chunks while writing this file",
-                    args.input.display(),
-                    rec.lost_chunks
-                );
+            // Damage, interruption, unknown chunks, data after End and lost
+            // chunks: each said once; what can be read is replayed.
+            for w in rec.warnings() {
+                let _ = writeln!(err, "warning: {}: {w}", args.input.display());
             }
             ReplayTransport::from_recording(&rec, pacing)
         }
@@ -376,9 +367,15 @@ pub fn simulated(
         ScriptArg::Calibration => {
             let screen = screen_px
                 .ok_or("--script calibration needs --display FILE (the screen of the targets)")?;
+            let (cal, val) = args.plan.plans(screen)?;
             let stops =
-                crate::calibrate_cmd::session_stops(&args.plan, screen, frame, args.closed_target)?;
-            Ok::<_, String>(tracker_hal::sim::fixation_script(
+                calibration_stops(&cal, &val, screen, frame, args.closed_target).map_err(|e| {
+                    format!(
+                        "--closed-target {}: there are {} targets",
+                        e.index, e.targets
+                    )
+                })?;
+            Ok::<_, String>(fixation_script(
                 &stops,
                 rate_hz,
                 units_per_degree,

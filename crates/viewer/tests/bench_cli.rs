@@ -34,7 +34,10 @@ fn a_quick_accuracy_sweep_writes_csv_plot_and_report() {
     let csv = std::fs::read_to_string(out.join("results.csv")).expect("results.csv");
     let mut lines = csv.lines();
     let header: Vec<&str> = lines.next().expect("header").split(',').collect();
-    assert_eq!(header.join(","), gazecast_viewer::bench_cmd::RESULTS_HEADER);
+    assert_eq!(
+        header.join(","),
+        gazecast_viewer::bench::report::RESULTS_HEADER
+    );
     let rows: Vec<Vec<&str>> = lines.map(|l| l.split(',').collect()).collect();
     assert_eq!(rows.len(), 9 * 2, "one row per configuration and gaze");
     let col = |name: &str| header.iter().position(|h| *h == name).expect(name);

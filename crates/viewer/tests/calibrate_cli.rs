@@ -63,7 +63,7 @@ fn a_recorded_iscan_session_calibrates_validates_and_saves() {
     // The saved file loads and maps the uncalibrated tracker onto the screen.
     let c = gazecast_viewer::config::load_calibration(&cal).expect("the calibration loads");
     for p in [[320.0, 256.0], [640.0, 512.0], [1000.0, 800.0]] {
-        let raw = gazecast_viewer::calibrate_cmd::uncalibrated_raw(p, (1280, 1024), (512.0, 512.0));
+        let raw = tracker_hal::sim::uncalibrated_raw(p, (1280, 1024), (512.0, 512.0));
         let got = c.map(raw).expect("maps");
         let e = (got[0] - p[0]).hypot(got[1] - p[1]);
         assert!(e < 12.0, "{p:?} maps to {got:?} ({e:.1} px off)");

@@ -86,6 +86,9 @@ fn render_writes_the_image_layers_and_the_stats_contract() {
     let v: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(&full_stats).expect("json")).expect("json");
     assert_eq!(v["rays_total"], 320 * 256);
+    // Full-resolution rays are counted as such, not as refinement.
+    assert_eq!(v["rays_full"], 320 * 256);
+    assert_eq!(v["rays_refine"], 0);
 }
 
 #[test]
@@ -216,4 +219,54 @@ fn the_gpu_backend_renders_foveated_frames_and_reports_its_adapter() {
         .expect("runs");
     assert!(!out.status.success());
     assert!(String::from_utf8_lossy(&out.stderr).contains("--backend cpu"));
+}
+
+/// Every command renders through the one frame entry, so a scene without
+/// `FoveatedSampling` is full resolution on both backends — `view --backend
+/// gpu` once rendered it foveated.
+#[test]
+fn every_command_honours_the_scene_effects_on_both_backends() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let d = small_display(dir.path());
+    let plain = dir.path().join("plain.ron");
+    let text = std::fs::read_to_string("../../config/scenes/bunny.ron").expect("bunny");
+    let text = text.replace(
+        "effects: [FoveatedSampling, SilhouetteRefinement, CreaseRefinement, DepthRefinement],",
+        "effects: [],",
+    );
+    assert!(
+        text.contains("effects: [],"),
+        "the bunny's effect line changed"
+    );
+    std::fs::write(&plain, text).expect("write");
+    for backend in ["cpu", "gpu"] {
+        let stats = dir.path().join(format!("{backend}.json"));
+        gazecast()
+            .args(["render", "--backend", backend, "--scene"])
+            .arg(&plain)
+            .arg("--display")
+            .arg(&d)
+            .arg("--out")
+            .arg(dir.path().join(format!("{backend}.png")))
+            .arg("--stats")
+            .arg(&stats)
+            .succeed();
+        let v: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(&stats).expect("json")).expect("json");
+        assert_eq!(v["mode"], "full", "{backend}: {v}");
+        assert_eq!(v["backend"], backend, "{backend}: {v}");
+        assert_eq!(v["rays_total"], 320 * 256, "{backend}: {v}");
+        let out = gazecast()
+            .args(["view", "--explain", "--backend", backend, "--scene"])
+            .arg(&plain)
+            .arg("--display")
+            .arg(&d)
+            .succeed();
+        let text = String::from_utf8_lossy(&out.stdout);
+        assert!(
+            text.contains(&format!("method: full on {backend}")),
+            "{backend}: {text}"
+        );
+        assert!(!text.contains("classify"), "{backend}: {text}");
+    }
 }

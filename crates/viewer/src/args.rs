@@ -1,0 +1,165 @@
+//! Values more than one command line takes, each parsed in one place and
+//! converted to its library type in one place. Not a command module:
+//! command modules may use it, never each other.
+
+use raycast::ray::TriangleTest;
+use raycast::scene::Accel;
+use tracker_hal::calibration::{Order, Plan, PlanError, SessionPlan};
+
+/// `X,Y`: a point in screen pixels (`--gaze`), both finite.
+pub fn parse_point(s: &str) -> Result<[f64; 2], String> {
+    let (x, y) = s
+        .split_once(',')
+        .ok_or_else(|| format!("`{s}`: expected X,Y (e.g. 640,512)"))?;
+    let num = |v: &str| {
+        v.trim()
+            .parse::<f64>()
+            .ok()
+            .filter(|f| f.is_finite())
+            .ok_or_else(|| format!("`{v}` in `{s}` is not a finite number"))
+    };
+    Ok([num(x)?, num(y)?])
+}
+
+/// `--accel`: the acceleration structure.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum AccelArg {
+    /// Binned-SAH BVH.
+    Bvh,
+    /// The seed's uniform grid (Murphy 2007 §6.1.1), for comparison.
+    Grid,
+}
+
+impl AccelArg {
+    /// The name on the command line and in reports.
+    pub fn name(self) -> &'static str {
+        match self {
+            AccelArg::Bvh => "bvh",
+            AccelArg::Grid => "grid",
+        }
+    }
+}
+
+impl From<AccelArg> for Accel {
+    fn from(a: AccelArg) -> Self {
+        match a {
+            AccelArg::Bvh => Accel::Bvh,
+            AccelArg::Grid => Accel::Grid,
+        }
+    }
+}
+
+/// `--intersector`: the ray/triangle test.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum Intersector {
+    Watertight,
+    MollerTrumbore,
+}
+
+impl From<Intersector> for TriangleTest {
+    fn from(i: Intersector) -> Self {
+        match i {
+            Intersector::Watertight => TriangleTest::Watertight,
+            Intersector::MollerTrumbore => TriangleTest::MollerTrumbore,
+        }
+    }
+}
+
+/// `--overlay`: what to draw over the frame whatever the scene asks.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum Overlay {
+    /// The seed's POR box around the point of regard.
+    Por,
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use clap::ValueEnum;
+
+    #[test]
+    fn points_parse_or_say_what_is_wrong() {
+        assert_eq!(parse_point("640,512"), Ok([640.0, 512.0]));
+        assert_eq!(parse_point(" 1.5 , -2 "), Ok([1.5, -2.0]));
+        assert!(parse_point("640").unwrap_err().contains("expected X,Y"));
+        assert!(parse_point("1,nan")
+            .unwrap_err()
+            .contains("not a finite number"));
+        assert!(parse_point("inf,1").is_err());
+        assert!(parse_point("").is_err());
+    }
+
+    #[test]
+    fn each_value_converts_to_its_library_type_and_named_as_on_the_command_line() {
+        for a in AccelArg::value_variants() {
+            let spelled = a.to_possible_value().expect("visible");
+            assert_eq!(spelled.get_name(), a.name());
+        }
+        assert_eq!(Accel::from(AccelArg::Bvh), Accel::Bvh);
+        assert_eq!(Accel::from(AccelArg::Grid), Accel::Grid);
+        assert_eq!(
+            TriangleTest::from(Intersector::Watertight),
+            TriangleTest::Watertight
+        );
+        assert_eq!(
+            TriangleTest::from(Intersector::MollerTrumbore),
+            TriangleTest::MollerTrumbore
+        );
+    }
+}
+
+/// The targets of a calibration run and of its validation (`gazecast
+/// calibrate`, and `gazecast simulate --script calibration`, which must
+/// follow the same targets).
+#[derive(Debug, Clone, clap::Args)]
+pub struct PlanArgs {
+    /// Calibration targets: 5 (the centre and the corners) or a square
+    /// number (4, 9, 16, …), 10 % in from the edges.
+    #[arg(long, default_value_t = 9, value_name = "N")]
+    pub points: usize,
+    /// Validation targets: a square number, 25 % in from the edges (between
+    /// the calibration targets).
+    #[arg(long, default_value_t = 4, value_name = "N")]
+    pub validation_points: usize,
+    /// Ignored at the start of each target (the saccade, settling).
+    #[arg(long, default_value_t = 400, value_name = "MS")]
+    pub settle_ms: u32,
+    /// Collected per target after settling.
+    #[arg(long, default_value_t = 800, value_name = "MS")]
+    pub collect_ms: u32,
+    /// Show the targets in a seeded shuffle instead of row by row.
+    #[arg(long, value_name = "SEED")]
+    pub shuffle: Option<u64>,
+}
+
+impl PlanArgs {
+    /// The session plan these options describe.
+    pub fn session_plan(&self) -> SessionPlan {
+        SessionPlan {
+            points: self.points,
+            validation_points: self.validation_points,
+            settle_ms: self.settle_ms,
+            collect_ms: self.collect_ms,
+            order: self
+                .shuffle
+                .map_or(Order::RowMajor, |seed| Order::Shuffled { seed }),
+        }
+    }
+
+    /// (calibration plan, validation plan) on a `w × h` px screen; errors
+    /// name the option to change.
+    pub fn plans(&self, screen_px: (u32, u32)) -> Result<(Plan, Plan), String> {
+        self.session_plan()
+            .plans(screen_px)
+            .map_err(|e| match e {
+                PlanError::Timing {
+                    settle_ms,
+                    collect_ms,
+                } => format!(
+                    "--collect-ms {collect_ms} must be in [100, 10000] and --settle-ms {settle_ms} at most 10000"
+                ),
+                PlanError::Calibration(e) => format!("--points: {e}"),
+                PlanError::Validation(e) => format!("--validation-points: {e}"),
+            })
+    }
+}

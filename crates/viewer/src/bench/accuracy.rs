@@ -1,0 +1,155 @@
+//! `gazecast bench accuracy`: every configuration at every gaze, timed and
+//! compared with the full-resolution frame of the same gaze.
+
+use std::io::Write;
+
+use foveation::quality::{self, GazeWeights, Image};
+use foveation::{GeislerPerry, SamplingModel};
+use pipeline::Renderer;
+use raycast::scene::Effect;
+use raycast::{Camera, Frame};
+
+use crate::args::AccelArg;
+use crate::bench::configs::{configurations, gaze_positions, options_for};
+use crate::bench::measure::{progress, timed};
+use crate::bench::report::{accuracy_report, create_dir, fmt_db, results_csv, write_file};
+use crate::bench::summary::{summarise, Row};
+use crate::bench::AccuracyArgs;
+use crate::config::{self, load_scene};
+use crate::plots;
+
+/// Runs `gazecast bench accuracy`.
+pub fn run(args: &AccuracyArgs, out: &mut dyn Write) -> Result<(), String> {
+    let mut scene = load_scene(&args.scene)?;
+    // The sweep decides the passes, whatever the scene file lists.
+    if !scene.has(Effect::FoveatedSampling) {
+        scene.effects.push(Effect::FoveatedSampling);
+    }
+    let display = config::load_display(&args.display).map_err(|e| e.to_string())?;
+    let geometry = display.geometry().map_err(|e| e.to_string())?;
+    let camera = Camera::new(&geometry);
+    let configs = configurations(args.quick);
+    if configs.iter().any(|c| c.accel == AccelArg::Grid) {
+        scene.build_grid();
+    }
+    let n_gazes = if args.quick && args.gazes == 5 {
+        2
+    } else {
+        args.gazes
+    };
+    if n_gazes == 0 {
+        return Err("--gazes: must be at least 1".into());
+    }
+    let repeats = args.repeats.unwrap_or(if args.quick { 1 } else { 3 });
+    let gazes = gaze_positions(&geometry, n_gazes, args.seed);
+    let csf = GeislerPerry::default();
+    let bar = progress((gazes.len() * (configs.len() + 1)) as u64, "accuracy sweep");
+
+    // The reference of each gaze: full resolution, BVH.
+    scene.accel = AccelArg::Bvh.into();
+    let full_model = SamplingModel::new(geometry, csf, 1.0, 1.0).map_err(|e| e.to_string())?;
+    let mut full = Renderer::new(
+        &scene,
+        camera,
+        full_model,
+        &options_for(&configs[0], &scene),
+    )
+    .map_err(|e| e.to_string())?;
+    let mut references = Vec::new();
+    for &g in &gazes {
+        let (frame, _) = full.render(g).map_err(|e| e.to_string())?;
+        // The gaze's per-pixel eccentricity and visibility: computed once,
+        // shared by every configuration.
+        let weights = GazeWeights::new(&geometry, &csf, g).map_err(|e| e.to_string())?;
+        references.push((frame, weights));
+        bar.inc(1);
+    }
+
+    let mut rows = Vec::new();
+    for config in &configs {
+        scene.accel = config.accel.into();
+        let model = SamplingModel::new(geometry, csf, config.contrast, config.max_spacing_px)
+            .map_err(|e| format!("{}: {e}", config.name()))?;
+        let mut renderer = Renderer::new(&scene, camera, model, &options_for(config, &scene))
+            .map_err(|e| e.to_string())?;
+        for (k, (&g, (reference, weights))) in gazes.iter().zip(&references).enumerate() {
+            let (frame, stats) = timed(&mut renderer, g, repeats)?;
+            let quality = quality::compare_with(weights, &image(reference), &image(&frame))
+                .map_err(|e| e.to_string())?;
+            rows.push(Row {
+                config: *config,
+                gaze_index: k,
+                gaze_px: g,
+                stats,
+                quality,
+            });
+            bar.inc(1);
+        }
+    }
+    bar.finish_and_clear();
+
+    create_dir(&args.out)?;
+    let threads = rayon::current_num_threads();
+    let csv = results_csv(&rows, &scene.name, &geometry, threads);
+    write_file(&args.out.join("results.csv"), &csv)?;
+    let summaries = summarise(&rows, &configs);
+    let pareto_png = args.out.join("pareto.png");
+    plots::draw_pareto(
+        &pareto_png,
+        &format!(
+            "{} at {}x{}, {} gazes, cpu ({} threads)",
+            scene.name, geometry.width_px, geometry.height_px, n_gazes, threads
+        ),
+        &summaries
+            .iter()
+            .map(|s| plots::ParetoPoint {
+                label: s.config.name(),
+                time_ms: s.time_ms,
+                quality_db: s.quality.foveated.psnr_db().unwrap_or(f64::NAN),
+                pareto: s.pareto,
+                highlight: s.config.is_default(),
+                grid: s.config.accel == AccelArg::Grid,
+            })
+            .collect::<Vec<_>>(),
+    )
+    .map_err(|e| format!("{}: {e}", pareto_png.display()))?;
+    let report = accuracy_report(args, &scene, &display, &gazes, repeats, &summaries);
+    write_file(&args.out.join("report.md"), &report)?;
+
+    let full = summaries
+        .iter()
+        .find(|s| s.config.layout.is_none() && s.config.accel == AccelArg::Bvh);
+    let default = summaries.iter().find(|s| s.config.is_default());
+    if let (Some(f), Some(d)) = (full, default) {
+        writeln!(
+            out,
+            "{}: full {:.1} ms; default ({}) {:.1} ms = {:.2}x faster, PSNR {} dB, foveated PSNR {} dB",
+            scene.name,
+            f.time_ms,
+            d.config.name(),
+            d.time_ms,
+            f.time_ms / d.time_ms,
+            fmt_db(d.quality.screen.psnr_db()),
+            fmt_db(d.quality.foveated.psnr_db()),
+        )
+        .map_err(|e| e.to_string())?;
+    }
+    writeln!(
+        out,
+        "{} configurations x {} gazes; {} on the Pareto front; wrote {}",
+        configs.len(),
+        gazes.len(),
+        summaries.iter().filter(|s| s.pareto).count(),
+        args.out.display()
+    )
+    .map_err(|e| e.to_string())
+}
+
+fn image(f: &Frame) -> Image<'_> {
+    Image {
+        width: f.width_px,
+        height: f.height_px,
+        rgb: &f.rgb,
+        hit: &f.hit,
+    }
+}

@@ -1,0 +1,202 @@
+//! The accuracy sweep's configurations and gaze positions.
+
+use foveation::{Layout, ScreenGeometry};
+use pipeline::{BackendChoice, Method, Options};
+use rand::{Rng, SeedableRng};
+use raycast::render::Triggers;
+use raycast::Scene;
+
+use crate::args::AccelArg;
+
+/// Which refinement triggers run.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord)]
+pub enum Refinement {
+    None,
+    Silhouette,
+    SilhouetteCrease,
+}
+
+impl Refinement {
+    pub fn name(self) -> &'static str {
+        match self {
+            Refinement::None => "none",
+            Refinement::Silhouette => "silhouette",
+            Refinement::SilhouetteCrease => "silhouette+crease",
+        }
+    }
+
+    fn triggers(self, scene: &Scene) -> Triggers {
+        let silhouette = self != Refinement::None;
+        Triggers {
+            silhouette,
+            margin: silhouette,
+            crease_deg: (self == Refinement::SilhouetteCrease).then_some(scene.crease_deg),
+            depth_jump: None,
+        }
+    }
+}
+
+/// One point of the sweep. `layout: None` is full-resolution ray casting
+/// (the reference; contrast, spacing and refinement do not apply).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Config {
+    pub layout: Option<Layout>,
+    pub contrast: f64,
+    pub max_spacing_px: f64,
+    pub refinement: Refinement,
+    pub accel: AccelArg,
+}
+
+impl Config {
+    pub fn name(&self) -> String {
+        let accel = self.accel.name();
+        match self.layout {
+            None => format!("full {accel}"),
+            Some(l) => format!(
+                "{} C={} n={} {} {accel}",
+                l.name(),
+                self.contrast,
+                self.max_spacing_px,
+                self.refinement.name()
+            ),
+        }
+    }
+
+    /// The configuration `gazecast render` uses by default.
+    pub fn is_default(&self) -> bool {
+        self.layout == Some(Layout::Nyquist)
+            && self.contrast == 1.0
+            && self.max_spacing_px == foveation::sampling::SEED_MAX_SPACING_PX
+            && self.refinement == Refinement::SilhouetteCrease
+            && self.accel == AccelArg::Bvh
+    }
+}
+
+/// The values of each knob the sweep takes.
+type Axes = (
+    &'static [Layout],
+    &'static [f64],
+    &'static [f64],
+    &'static [Refinement],
+    &'static [AccelArg],
+);
+
+/// The sweep: full resolution with each structure, then every combination
+/// of the foveated knobs: 2 + 144 configurations, or 1 + 8 in `--quick`.
+pub fn configurations(quick: bool) -> Vec<Config> {
+    let (layouts, contrasts, spacings, refinements, accels): Axes = if quick {
+        (
+            &[Layout::Seed, Layout::Nyquist],
+            &[1.0, 0.25],
+            &[17.0],
+            &[Refinement::None, Refinement::SilhouetteCrease],
+            &[AccelArg::Bvh],
+        )
+    } else {
+        (
+            &[Layout::Seed, Layout::Nyquist],
+            &[1.0, 0.5, 0.25, 0.1],
+            &[4.0, 8.0, 17.0],
+            &[
+                Refinement::None,
+                Refinement::Silhouette,
+                Refinement::SilhouetteCrease,
+            ],
+            &[AccelArg::Bvh, AccelArg::Grid],
+        )
+    };
+    let mut out: Vec<Config> = accels
+        .iter()
+        .map(|&accel| Config {
+            layout: None,
+            contrast: 1.0,
+            max_spacing_px: 1.0,
+            refinement: Refinement::None,
+            accel,
+        })
+        .collect();
+    for &accel in accels {
+        for &layout in layouts {
+            for &contrast in contrasts {
+                for &max_spacing_px in spacings {
+                    for &refinement in refinements {
+                        out.push(Config {
+                            layout: Some(layout),
+                            contrast,
+                            max_spacing_px,
+                            refinement,
+                            accel,
+                        });
+                    }
+                }
+            }
+        }
+    }
+    out
+}
+
+/// The pipeline options of one configuration (the CPU backend).
+pub fn options_for(config: &Config, scene: &Scene) -> Options {
+    Options {
+        method: if config.layout.is_some() {
+            Method::Hybrid
+        } else {
+            Method::Full
+        },
+        backend: BackendChoice::Cpu,
+        layout: config.layout.unwrap_or_default(),
+        triggers: Some(config.refinement.triggers(scene)),
+        ..Options::default()
+    }
+}
+
+/// The centre, the four corner pixels, then seeded uniform positions.
+pub fn gaze_positions(geometry: &ScreenGeometry, n: usize, seed: u64) -> Vec<[f64; 2]> {
+    let [w, h] = geometry.size_px();
+    let mut fixed = vec![
+        geometry.centre_px(),
+        [0.5, 0.5],
+        [w - 0.5, h - 0.5],
+        [w - 0.5, 0.5],
+        [0.5, h - 0.5],
+    ];
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+    while fixed.len() < n {
+        fixed.push([rng.random_range(0.0..w), rng.random_range(0.0..h)]);
+    }
+    fixed.truncate(n);
+    fixed
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::bench::scaling::scaling_display;
+
+    #[test]
+    fn the_sweep_has_every_combination_once() {
+        let all = configurations(false);
+        assert_eq!(all.len(), 2 + 2 * 4 * 3 * 3 * 2);
+        for (i, a) in all.iter().enumerate() {
+            assert!(all[i + 1..].iter().all(|b| b != a), "{} twice", a.name());
+        }
+        assert_eq!(all.iter().filter(|c| c.is_default()).count(), 1);
+        let quick = configurations(true);
+        assert_eq!(quick.len(), 9);
+        assert_eq!(quick.iter().filter(|c| c.is_default()).count(), 1);
+    }
+
+    #[test]
+    fn gazes_start_with_centre_and_corners_and_are_seeded() {
+        let g = scaling_display(100, 50).geometry().expect("valid");
+        let a = gaze_positions(&g, 8, 3);
+        assert_eq!(a[0], [50.0, 25.0]);
+        assert_eq!(a[2], [99.5, 49.5]);
+        assert_eq!(a, gaze_positions(&g, 8, 3));
+        assert_ne!(a[5..], gaze_positions(&g, 8, 4)[5..]);
+        assert!(a[5..]
+            .iter()
+            .all(|p| (0.0..100.0).contains(&p[0]) && (0.0..50.0).contains(&p[1])));
+        assert_eq!(gaze_positions(&g, 1, 3).len(), 1);
+    }
+}

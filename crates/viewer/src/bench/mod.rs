@@ -1,0 +1,138 @@
+//! `gazecast bench`: what accuracy costs in time.
+//!
+//! - `accuracy`: sweeps the method's knobs (mask layout, CSF contrast,
+//!   maximum ray spacing, refinement triggers, acceleration structure), and
+//!   for every configuration and gaze measures the frame time and the error
+//!   against the full-resolution frame of the same gaze
+//!   ([`foveation::quality`]). Writes `results.csv`, `pareto.png`, `report.md`.
+//! - `scaling`: frame time of full and foveated rendering against triangle
+//!   count and against resolution (log–log), to show whether the cost
+//!   follows the eye's ray budget. Writes `scaling.csv`,
+//!   `scaling-triangles.png`, `scaling-resolution.png`, `scaling.md`.
+//!
+//! Modules: [`configs`] (what the accuracy sweep tries), [`measure`] (a
+//! timed frame), [`summary`] (per configuration, the Pareto front),
+//! [`accuracy`] and [`scaling`] (the two sweeps), [`report`] (the files).
+
+pub mod accuracy;
+pub mod configs;
+pub mod measure;
+pub mod report;
+pub mod scaling;
+pub mod summary;
+
+use std::io::Write;
+use std::path::PathBuf;
+
+use pipeline::BackendChoice;
+
+#[derive(Debug, Clone, clap::Args)]
+pub struct BenchArgs {
+    #[command(subcommand)]
+    pub command: BenchCommand,
+}
+
+#[derive(Debug, Clone, clap::Subcommand)]
+pub enum BenchCommand {
+    /// Sweep layout, contrast, maximum spacing, refinement and acceleration;
+    /// time each configuration and measure its error against full resolution.
+    Accuracy(AccuracyArgs),
+    /// Frame time of full and foveated rendering against triangle count and
+    /// resolution (log–log plots).
+    Scaling(ScalingArgs),
+}
+
+#[derive(Debug, Clone, clap::Args)]
+pub struct AccuracyArgs {
+    /// Scene file (RON).
+    #[arg(long, value_name = "FILE")]
+    pub scene: PathBuf,
+    /// Display file (RON).
+    #[arg(long, value_name = "FILE")]
+    pub display: PathBuf,
+    /// Output folder (created): results.csv, pareto.png, report.md.
+    #[arg(long, value_name = "DIR")]
+    pub out: PathBuf,
+    /// Gaze positions per configuration: the centre, the four corners, then
+    /// seeded uniform positions on the screen.
+    #[arg(long, value_name = "N", default_value_t = 5)]
+    pub gazes: usize,
+    /// Timed repeats per configuration and gaze (after one warm-up); the
+    /// median is reported. Default 3, or 1 with --quick.
+    #[arg(long, value_name = "N")]
+    pub repeats: Option<u32>,
+    /// Seed of the random gaze positions.
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// The sweep runs on the CPU backend (`gpu` is refused; `auto` = CPU).
+    #[arg(long, value_enum, default_value = "auto")]
+    pub backend: BackendChoice,
+    /// Fewer configurations (9 of 146) and two gazes unless --gazes is given.
+    #[arg(long)]
+    pub quick: bool,
+}
+
+#[derive(Debug, Clone, clap::Args)]
+pub struct ScalingArgs {
+    /// Output folder (created).
+    #[arg(long, value_name = "DIR")]
+    pub out: PathBuf,
+    /// Timed repeats per point (after one warm-up). Default 3, or 1 with --quick.
+    #[arg(long, value_name = "N")]
+    pub repeats: Option<u32>,
+    /// As for `accuracy`: the CPU backend.
+    #[arg(long, value_enum, default_value = "auto")]
+    pub backend: BackendChoice,
+    /// 10^4–10^5 triangles and 640×360–1280×720 only.
+    #[arg(long)]
+    pub quick: bool,
+}
+
+/// Runs `gazecast bench …`.
+pub fn run(args: &BenchArgs, out: &mut dyn Write) -> Result<(), String> {
+    let backend = match &args.command {
+        BenchCommand::Accuracy(a) => a.backend,
+        BenchCommand::Scaling(a) => a.backend,
+    };
+    if backend == BackendChoice::Gpu {
+        return Err(
+            "--backend gpu: the bench times the CPU backend only (the accuracy sweep includes \
+             the seed's uniform grid, which only the CPU backend has, and every configuration \
+             is timed on the one backend so that the figures compare); use --backend cpu or auto"
+                .into(),
+        );
+    }
+    match &args.command {
+        BenchCommand::Accuracy(a) => accuracy::run(a, out),
+        BenchCommand::Scaling(a) => scaling::run(a, out),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use clap::CommandFactory;
+
+    use super::configs::configurations;
+
+    /// `--quick`'s help states the sweep's true sizes.
+    #[test]
+    fn the_quick_help_counts_the_configurations() {
+        let cli = crate::Cli::command();
+        let accuracy = cli
+            .find_subcommand("bench")
+            .and_then(|b| b.find_subcommand("accuracy"))
+            .expect("bench accuracy");
+        let help = accuracy
+            .get_arguments()
+            .find(|a| a.get_id() == "quick")
+            .and_then(|a| a.get_help())
+            .map(ToString::to_string)
+            .expect("--quick has help");
+        let counts = format!(
+            "({} of {})",
+            configurations(true).len(),
+            configurations(false).len()
+        );
+        assert!(help.contains(&counts), "{help} lacks {counts}");
+    }
+}

@@ -1,0 +1,518 @@
+//! The live gaze-contingent session in a window, shared by `gazecast view`
+//! and `gazecast demo`.
+//!
+//! Threads: a tracker thread ([`crate::gaze_feed`]) runs the driver and
+//! sends samples over a `crossbeam-channel`, optionally tapping every byte
+//! into a recording (its own writer thread); the window thread, once the
+//! surface has a texture for the next frame, drains the channel to the
+//! newest sample (never an old gaze, never waiting for the tracker),
+//! renders through the frame pipeline (`pipeline::Renderer`: the scene's
+//! method and effect passes, CPU or GPU core), and presents by copying the frame
+//! into the window's surface (wgpu). Invalid samples (blinks) keep the last
+//! valid gaze; a tracker that fails is reopened with backoff while
+//! rendering goes on with a status line. Closing the window, `Esc`, Ctrl-C,
+//! SIGTERM or the frame limit end it; the recording is then closed properly.
+//!
+//! Keys: `P` POR box, `L` layers view, `H` HUD, `S` screenshot (to
+//! `gazecast-screenshot.png`), `Esc` quit.
+
+use std::io::Write;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use crossbeam_channel::Receiver;
+use foveation::{Display, ScreenGeometry};
+use pipeline::{BackendChoice, Options, Renderer};
+use raycast::render::Stats;
+use raycast::{layers_rgb, Camera, Frame, Scene};
+use tracker_hal::clock::monotonic_us;
+use winit::application::ApplicationHandler;
+use winit::event::WindowEvent;
+use winit::event_loop::{ActiveEventLoop, EventLoop};
+use winit::keyboard::{Key, NamedKey};
+use winit::window::WindowId;
+
+use crate::config::{self, load_scene};
+use crate::gaze_feed::{GazeFeed, GazeSetup, TrackerMsg};
+use crate::picture::{draw_text_lines, save_png};
+use crate::screen::{Input, Screen};
+use crate::stats::p50_95_99;
+
+/// What a live session runs: plain values, whichever command asks.
+#[derive(Debug, Clone, Default)]
+pub struct LiveOptions {
+    /// Scene file (RON).
+    pub scene: PathBuf,
+    /// Display file (RON).
+    pub display: PathBuf,
+    /// Tracker file (RON); not needed with `replay`.
+    pub tracker: Option<PathBuf>,
+    /// A tracker-hal recording played at its original pacing as the gaze.
+    pub replay: Option<PathBuf>,
+    /// A calibration (from `gazecast calibrate`) mapping the raw gaze.
+    pub calibration: Option<PathBuf>,
+    /// Record the session losslessly here.
+    pub record: Option<PathBuf>,
+    /// Exit after this many frames.
+    pub frames: Option<u64>,
+    /// Write the last frame (with overlays) here on exit.
+    pub screenshot: Option<PathBuf>,
+    /// Draw the POR box whatever the scene asks.
+    pub por_overlay: bool,
+    pub backend: BackendChoice,
+    /// Fullscreen on the current monitor.
+    pub fullscreen: bool,
+    /// Fullscreen on this monitor (0-based).
+    pub monitor: Option<usize>,
+}
+
+/// Why a live session ended in failure.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum LiveError {
+    /// No window can be opened here (no display server); the cause is the
+    /// windowing system's. A caller may fall back to rendering headless.
+    #[error(
+        "cannot open a window ({0}); on a machine without a display use `gazecast demo` or run under Xvfb"
+    )]
+    NoWindow(String),
+    /// Anything else: the files, the tracker, rendering, the session log.
+    #[error("{0}")]
+    Failed(String),
+}
+
+impl From<String> for LiveError {
+    fn from(e: String) -> Self {
+        LiveError::Failed(e)
+    }
+}
+
+/// Frames the HUD's latency percentiles cover.
+const HUD_FRAMES: usize = 300;
+
+/// Gaze-to-photon figures (ms), one entry per frame that showed a gaze
+/// sample for the first time (a sample's later frames add no latency).
+#[derive(Debug, Default)]
+pub struct Latency {
+    /// Host arrival → latched by the frame (after the surface gave it a
+    /// texture, so a vsync wait is not counted as gaze age).
+    pub latch: Vec<f64>,
+    /// Host arrival → the frame's copy submitted to the GPU queue.
+    pub submit: Vec<f64>,
+    /// Host arrival → the present call returned.
+    pub present: Vec<f64>,
+    /// Submit-to-submit time of those frames.
+    pub interval: Vec<f64>,
+    /// Age at submit minus the frame interval: what the software adds
+    /// beyond the frame (the goal is ≤ 2 ms).
+    pub excess: Vec<f64>,
+}
+
+impl Latency {
+    /// The session log's summary lines.
+    pub fn summary(&self) -> Vec<String> {
+        if self.submit.is_empty() {
+            return vec!["gaze age: no gaze sample arrived".into()];
+        }
+        let f = |name: &str, v: &[f64]| {
+            if v.is_empty() {
+                return format!("{name}: none (it needs two frames)");
+            }
+            let [a, b, c] = p50_95_99(v);
+            format!("{name} p50 {a:.1} ms, p95 {b:.1} ms, p99 {c:.1} ms")
+        };
+        vec![
+            f("gaze age at latch", &self.latch),
+            f("gaze age at submit", &self.submit),
+            f("gaze age when the present call returned", &self.present),
+            f("interval between frames", &self.interval),
+            format!(
+                "{} (goal ≤ 2 ms)",
+                f("software-added latency (age at submit − frame interval)", &self.excess)
+            ),
+            "scan-out time: not reported (wgpu 30 exposes no presentation timestamps); the present call's return is the last instant measured".into(),
+        ]
+    }
+}
+struct Viewer<'a> {
+    opts: &'a LiveOptions,
+    /// The session log, written as it happens (a long session keeps
+    /// nothing in memory and a crash loses nothing written).
+    out: &'a mut dyn Write,
+    /// The first failure to write the log (the session goes on).
+    log_error: Option<String>,
+    renderer: Renderer<'a>,
+    feed: GazeFeed,
+    screen: Option<Screen>,
+    gaze: [f64; 2],
+    /// Host arrival of the gaze in use, and whether a frame has shown it.
+    gaze_host_us: Option<u64>,
+    gaze_shown: bool,
+    status: String,
+    layers: bool,
+    hud: bool,
+    frames: u64,
+    fresh_frames: u64,
+    latency: Latency,
+    last_submit_us: Option<u64>,
+    last: Option<(Frame, Stats)>,
+    started: Instant,
+    error: Option<String>,
+}
+
+/// Drains `rx` to its newest valid gaze; returns it with its host arrival
+/// time, and applies status lines. Invalid samples keep the last valid gaze.
+pub fn drain_newest(
+    rx: &Receiver<TrackerMsg>,
+    mut on_status: impl FnMut(String),
+) -> Option<([f64; 2], u64)> {
+    let mut newest = None;
+    for m in rx.try_iter() {
+        match m {
+            TrackerMsg::Gaze {
+                host_us, gaze_px, ..
+            } => {
+                if let Some(g) = gaze_px.filter(|g| g[0].is_finite() && g[1].is_finite()) {
+                    newest = Some((g, host_us));
+                }
+            }
+            TrackerMsg::Status(s) => on_status(s),
+        }
+    }
+    newest
+}
+
+impl Viewer<'_> {
+    /// One line of the session log.
+    fn say(&mut self, line: &str) {
+        emit(self.out, &mut self.log_error, line);
+    }
+
+    fn drain(&mut self) {
+        let (out, log_error, status) = (&mut *self.out, &mut self.log_error, &mut self.status);
+        if let Some((g, t)) = drain_newest(&self.feed.rx, |s| {
+            if !s.is_empty() {
+                emit(out, log_error, &s);
+            }
+            *status = s;
+        }) {
+            self.gaze = g;
+            self.gaze_host_us = Some(t);
+            self.gaze_shown = false;
+        }
+    }
+
+    fn frame(&mut self) -> Result<(), String> {
+        // The texture first: under FIFO this is where the display makes us
+        // wait, and the gaze is latched after it.
+        let tex = self.screen.as_ref().and_then(Screen::acquire);
+        self.drain();
+        let latch_us = monotonic_us();
+        let fresh = !self.gaze_shown && self.gaze_host_us.is_some();
+        let gaze = self.gaze;
+        let (mut frame, stats) = self.renderer.render(gaze).map_err(|e| e.to_string())?;
+        if self.layers {
+            frame.rgb = layers_rgb(&frame);
+        }
+        if self.hud || !self.status.is_empty() {
+            let fps = self.frames as f64 / self.started.elapsed().as_secs_f64().max(1e-9);
+            // The HUD's percentiles cover the last frames only: sorting the
+            // whole session every frame would grow with its length.
+            let recent = |v: &[f64]| p50_95_99(&v[v.len().saturating_sub(HUD_FRAMES)..]);
+            let [a, b, c] = recent(&self.latency.submit);
+            let [_, e95, _] = recent(&self.latency.excess);
+            let hud = format!(
+                "{fps:.1} fps  {} rays  gaze→submit p50 {a:.1} p95 {b:.1} p99 {c:.1} ms  beyond frame p95 {e95:.1} ms",
+                stats.rays_total,
+            );
+            let lines: Vec<&str> = [self.hud.then_some(hud.as_str()), Some(self.status.as_str())]
+                .into_iter()
+                .flatten()
+                .filter(|l| !l.is_empty())
+                .collect();
+            draw_text_lines(&mut frame.rgb, (frame.width_px, frame.height_px), &lines)
+                .map_err(|e| e.to_string())?;
+        }
+        let submit_us = match (&mut self.screen, tex) {
+            (Some(s), Some(t)) => s.present(t, &frame.rgb, (frame.width_px, frame.height_px)),
+            _ => monotonic_us(),
+        };
+        let present_us = monotonic_us();
+        let interval_ms = self
+            .last_submit_us
+            .map(|t| submit_us.saturating_sub(t) as f64 / 1e3);
+        self.last_submit_us = Some(submit_us);
+        let mut age = "held".to_string();
+        if let (true, Some(t)) = (fresh, self.gaze_host_us) {
+            let ms = |u: u64| u.saturating_sub(t) as f64 / 1e3;
+            let l = &mut self.latency;
+            l.latch.push(ms(latch_us));
+            l.submit.push(ms(submit_us));
+            l.present.push(ms(present_us));
+            if let Some(i) = interval_ms {
+                l.interval.push(i);
+                l.excess.push(ms(submit_us) - i);
+            }
+            self.gaze_shown = true;
+            self.fresh_frames += 1;
+            age = format!("{:.1} ms", ms(submit_us));
+        }
+        self.say(&format!(
+            "frame {} gaze ({:.1}, {:.1}) age {age} rays {} render {:.1} ms",
+            self.frames, gaze[0], gaze[1], stats.rays_total, stats.time_ms
+        ));
+        self.frames += 1;
+        self.last = Some((frame, stats));
+        Ok(())
+    }
+
+    fn fail(&mut self, el: &ActiveEventLoop, e: String) {
+        self.error = Some(e);
+        el.exit();
+    }
+}
+
+impl ApplicationHandler for Viewer<'_> {
+    fn resumed(&mut self, el: &ActiveEventLoop) {
+        if self.screen.is_none() {
+            let title = format!("gazecast — {}", self.renderer.scene().name);
+            let cam = self.renderer.camera();
+            let size = (cam.width_px, cam.height_px);
+            match Screen::open(el, &title, size, self.opts.fullscreen, self.opts.monitor) {
+                Ok(s) => self.screen = Some(s),
+                Err(e) => self.fail(el, e),
+            }
+        }
+    }
+
+    fn window_event(&mut self, el: &ActiveEventLoop, _id: WindowId, event: WindowEvent) {
+        match Input::from(event) {
+            Input::Close => el.exit(),
+            Input::Cursor(x, y) => self.feed.cursor_moved(x, y),
+            Input::Key(key) => match key.as_ref() {
+                Key::Named(NamedKey::Escape) => el.exit(),
+                Key::Character("p") => {
+                    let on = !self.renderer.por_overlay();
+                    self.renderer.set_por_overlay(on);
+                }
+                Key::Character("l") => self.layers = !self.layers,
+                Key::Character("h") => self.hud = !self.hud,
+                Key::Character("s") => {
+                    if let Some((f, _)) = &self.last {
+                        let p = Path::new("gazecast-screenshot.png");
+                        let line = match save_png(p, (f.width_px, f.height_px), &f.rgb) {
+                            Ok(()) => format!("screenshot: {}", p.display()),
+                            Err(e) => format!("screenshot failed: {e}"),
+                        };
+                        self.say(&line);
+                    }
+                }
+                _ => {}
+            },
+            Input::Redraw => {
+                if crate::gaze_feed::interrupted() {
+                    self.say("interrupted (Ctrl-C or SIGTERM): shutting down");
+                    return el.exit();
+                }
+                if let Err(e) = self.frame() {
+                    return self.fail(el, e);
+                }
+                if self.opts.frames.is_some_and(|n| self.frames >= n) {
+                    return el.exit();
+                }
+                if let Some(s) = &self.screen {
+                    s.window.request_redraw();
+                }
+            }
+            Input::Other => {}
+        }
+    }
+}
+
+/// The scene and display the options name.
+struct Loaded {
+    scene: Scene,
+    display: Display,
+    geometry: ScreenGeometry,
+}
+
+impl Loaded {
+    fn new(opts: &LiveOptions) -> Result<Self, String> {
+        let scene = load_scene(&opts.scene)?;
+        let display = config::load_display(&opts.display).map_err(|e| e.to_string())?;
+        let geometry = display.geometry().map_err(|e| e.to_string())?;
+        Ok(Self {
+            scene,
+            display,
+            geometry,
+        })
+    }
+
+    /// The frame pipeline of the session: the scene's method and effects.
+    fn renderer(&self, opts: &LiveOptions) -> Result<Renderer<'_>, String> {
+        let model = pipeline::sampling_model(self.geometry, 1.0).map_err(|e| e.to_string())?;
+        let options = Options {
+            backend: opts.backend,
+            por_overlay: opts.por_overlay,
+            ..Options::default()
+        };
+        Renderer::new(&self.scene, Camera::new(&self.geometry), model, &options)
+            .map_err(|e| e.to_string())
+    }
+}
+
+/// Writes the passes the session's frame pipeline would run, one a line,
+/// without opening a window.
+pub fn explain(opts: &LiveOptions, out: &mut dyn Write) -> Result<(), String> {
+    let loaded = Loaded::new(opts)?;
+    for l in loaded.renderer(opts)?.explain() {
+        writeln!(out, "{l}").map_err(|e| e.to_string())?;
+    }
+    Ok(())
+}
+
+/// Runs a live session to its end, writing the session log to `out`.
+pub fn run(opts: &LiveOptions, out: &mut dyn Write) -> Result<(), LiveError> {
+    let loaded = Loaded::new(opts)?;
+    let renderer = loaded.renderer(opts)?;
+    let (scene, display, geometry) = (&loaded.scene, &loaded.display, &loaded.geometry);
+    let calibration = match &opts.calibration {
+        Some(p) => Some(config::load_calibration(p).map_err(|e| e.to_string())?),
+        None => None,
+    };
+    let setup = GazeSetup::resolve(opts.tracker.as_deref(), opts.replay.as_deref())?;
+    let event_loop = EventLoop::new().map_err(|e| LiveError::NoWindow(e.to_string()))?;
+    crate::gaze_feed::catch_interrupts();
+    let header = format!(
+        "gazecast view: {} on {}, gaze from {}{}",
+        scene.name,
+        renderer
+            .adapter()
+            .map_or("cpu".to_string(), |a| format!("gpu ({a})")),
+        setup.name,
+        opts.calibration
+            .as_ref()
+            .map_or(String::new(), |p| format!(" through {}", p.display()))
+    );
+    let feed = setup.spawn(
+        calibration,
+        opts.record.as_deref().map(|p| (p, display.name.as_str())),
+    )?;
+    let mut viewer = Viewer {
+        opts,
+        out,
+        log_error: None,
+        renderer,
+        feed,
+        screen: None,
+        gaze: geometry.centre_px(),
+        gaze_host_us: None,
+        gaze_shown: false,
+        status: String::new(),
+        layers: false,
+        hud: true,
+        frames: 0,
+        fresh_frames: 0,
+        latency: Latency::default(),
+        last_submit_us: None,
+        last: None,
+        started: Instant::now(),
+        error: None,
+    };
+    viewer.say(&header);
+    let result = event_loop.run_app(&mut viewer);
+    // Shut the tracker down and close the recording; then the last statuses.
+    let recorded = viewer.feed.finish();
+    viewer.drain();
+    let frames = format!(
+        "{} frames, {} showed a new gaze sample",
+        viewer.frames, viewer.fresh_frames
+    );
+    viewer.say(&frames);
+    for l in viewer.latency.summary() {
+        viewer.say(&l);
+    }
+    if let Ok(Some(line)) = &recorded {
+        viewer.say(line);
+    }
+    recorded?;
+    if let Some(e) = viewer.error.take() {
+        return Err(e.into());
+    }
+    result.map_err(|e| format!("window: {e}"))?;
+    if let (Some(path), Some((f, _))) = (&opts.screenshot, &viewer.last) {
+        save_png(path, (f.width_px, f.height_px), &f.rgb)
+            .map_err(|e| format!("{}: {e}", path.display()))?;
+        let line = format!("wrote {}", path.display());
+        viewer.say(&line);
+    }
+    viewer.log_error.map_or(Ok(()), |e| Err(e.into()))
+}
+
+/// Writes one log line; the first failure is kept (the session goes on).
+fn emit(out: &mut dyn Write, error: &mut Option<String>, line: &str) {
+    if let Err(e) = writeln!(out, "{line}") {
+        error.get_or_insert(format!("writing the session log: {e}"));
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A flood of samples (a 1000 Hz tracker behind a slow frame) drains to
+    /// the newest valid one in one go: blinks and non-finite points keep the
+    /// last valid gaze, statuses are all seen, nothing is left queued.
+    #[test]
+    fn draining_takes_the_newest_valid_sample_and_leaves_nothing() {
+        let (tx, rx) = crossbeam_channel::unbounded();
+        for k in 0..1000u64 {
+            let g = [k as f64, 2.0 * k as f64];
+            tx.send(TrackerMsg::Gaze {
+                host_us: k,
+                sample_us: k,
+                raw: Some(g),
+                gaze_px: Some(g),
+            })
+            .expect("send");
+        }
+        tx.send(TrackerMsg::Status("lost".into())).expect("send");
+        for bad in [None, Some([f64::NAN, 1.0]), Some([1.0, f64::INFINITY])] {
+            tx.send(TrackerMsg::Gaze {
+                host_us: 5000,
+                sample_us: 5000,
+                raw: None,
+                gaze_px: bad,
+            })
+            .expect("send");
+        }
+        let mut statuses = Vec::new();
+        let newest = drain_newest(&rx, |s| statuses.push(s));
+        assert_eq!(newest, Some(([999.0, 1998.0], 999)));
+        assert_eq!(statuses, vec!["lost".to_string()]);
+        assert!(rx.is_empty());
+        assert_eq!(drain_newest(&rx, |_| {}), None);
+    }
+
+    #[test]
+    fn latency_percentiles_and_an_empty_session() {
+        let mut l = Latency::default();
+        assert!(l.summary()[0].contains("no gaze sample arrived"));
+        for k in 1..=100 {
+            let a = f64::from(k);
+            l.latch.push(0.5);
+            l.submit.push(a);
+            l.present.push(a + 1.0);
+            l.interval.push(a - 0.5);
+            l.excess.push(0.5);
+        }
+        let s = l.summary().join("\n");
+        assert!(
+            s.contains("gaze age at submit p50 51.0 ms, p95 95.0 ms, p99 99.0 ms"),
+            "{s}"
+        );
+        assert!(
+            s.contains("(age at submit − frame interval) p50 0.5 ms"),
+            "{s}"
+        );
+    }
+}

@@ -1,0 +1,185 @@
+//! Pictures as 8-bit RGB buffers: writing them (PNG, animated PNG),
+//! halving them, and drawing text (HUD, status lines) and the POR box on
+//! them. Errors name no path: the caller adds it.
+
+use std::path::Path;
+
+use plotters::prelude::*;
+
+/// The POR box (the pipeline's own drawing, shared, not copied).
+pub use pipeline::effects::por_overlay::draw_box;
+
+/// What the writers and drawers fail with.
+pub type PictureResult = Result<(), Box<dyn std::error::Error>>;
+
+const FONT: &[u8] = include_bytes!("../assets/fonts/DejaVuSansMono.ttf");
+
+/// Registers the embedded font as plotters' `sans-serif` (once).
+pub fn register_font() {
+    static ONCE: std::sync::Once = std::sync::Once::new();
+    ONCE.call_once(|| {
+        // The embedded font is valid; registration can only fail on a bad font file.
+        let _ = plotters::style::register_font("sans-serif", FontStyle::Normal, FONT);
+    });
+}
+
+/// Writes an RGB buffer as PNG: indexed colour when it has at most 256
+/// distinct colours (mesh pictures do, and shrink several-fold), else RGB.
+pub fn save_png(path: &Path, (w, h): (u32, u32), rgb: &[u8]) -> PictureResult {
+    let mut palette: Vec<[u8; 3]> = Vec::new();
+    let mut lookup = std::collections::HashMap::new();
+    let mut indices = Vec::with_capacity(rgb.len() / 3);
+    for px in rgb.chunks_exact(3) {
+        let c = [px[0], px[1], px[2]];
+        let next = palette.len();
+        let i = *lookup.entry(c).or_insert(next);
+        if i == next {
+            if next == 256 {
+                break;
+            }
+            palette.push(c);
+        }
+        indices.push(i as u8);
+    }
+    let file = std::io::BufWriter::new(std::fs::File::create(path)?);
+    let mut enc = png::Encoder::new(file, w, h);
+    enc.set_depth(png::BitDepth::Eight);
+    enc.set_compression(png::Compression::Best);
+    if indices.len() == rgb.len() / 3 {
+        enc.set_color(png::ColorType::Indexed);
+        enc.set_palette(palette.concat());
+        enc.write_header()?.write_image_data(&indices)?;
+    } else {
+        enc.set_color(png::ColorType::Rgb);
+        enc.write_header()?.write_image_data(rgb)?;
+    }
+    Ok(())
+}
+
+/// Writes RGB frames of `w × h` as an animated PNG (APNG) at `fps`,
+/// looping forever.
+pub fn save_apng(path: &Path, (w, h): (u32, u32), fps: u16, frames: &[Vec<u8>]) -> PictureResult {
+    let file = std::fs::File::create(path)?;
+    let mut enc = png::Encoder::new(std::io::BufWriter::new(file), w, h);
+    enc.set_color(png::ColorType::Rgb);
+    enc.set_depth(png::BitDepth::Eight);
+    enc.set_compression(png::Compression::Fast);
+    enc.set_animated(u32::try_from(frames.len())?, 0)?;
+    enc.set_frame_delay(1, fps)?;
+    let mut writer = enc.write_header()?;
+    for f in frames {
+        writer.write_image_data(f)?;
+    }
+    writer.finish()?;
+    Ok(())
+}
+
+/// Half the size in each direction: each output pixel is the rounded mean
+/// of a 2 × 2 block of the `w × h` RGB input (an odd last row or column is
+/// dropped).
+pub fn half_size(rgb: &[u8], w: usize, h: usize) -> Vec<u8> {
+    let (hw, hh) = (w / 2, h / 2);
+    let mut out = vec![0u8; hw * hh * 3];
+    for y in 0..hh {
+        for x in 0..hw {
+            for c in 0..3 {
+                let at =
+                    |dx: usize, dy: usize| u32::from(rgb[3 * ((2 * y + dy) * w + 2 * x + dx) + c]);
+                out[3 * (y * hw + x) + c] =
+                    ((at(0, 0) + at(1, 0) + at(0, 1) + at(1, 1) + 2) / 4) as u8;
+            }
+        }
+    }
+    out
+}
+
+/// Draws text lines (HUD, status) in the top-left corner of an RGB frame,
+/// white on a dark band.
+pub fn draw_text_lines(rgb: &mut [u8], (w, h): (u32, u32), lines: &[&str]) -> PictureResult {
+    register_font();
+    let root = BitMapBackend::with_buffer(rgb, (w, h)).into_drawing_area();
+    for (k, line) in lines.iter().enumerate() {
+        let y = 4 + 18 * k as i32;
+        let width = 8 * line.chars().count() as i32 + 8;
+        root.draw(&Rectangle::new(
+            [(0, y - 2), (width, y + 16)],
+            RGBColor(10, 10, 12).mix(0.75).filled(),
+        ))?;
+        root.draw(&Text::new(
+            line.to_string(),
+            (4, y),
+            ("sans-serif", 14).into_font().color(&WHITE),
+        ))?;
+    }
+    root.present()?;
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn decode(path: &Path) -> (png::OutputInfo, Vec<u8>) {
+        let file = std::fs::File::open(path).expect("written");
+        let mut reader = png::Decoder::new(std::io::BufReader::new(file))
+            .read_info()
+            .expect("a PNG");
+        let mut buf = vec![0; reader.output_buffer_size()];
+        let info = reader.next_frame(&mut buf).expect("a frame");
+        buf.truncate(info.buffer_size());
+        (info, buf)
+    }
+
+    #[test]
+    fn halving_averages_two_by_two_blocks() {
+        // 3 × 2: one 2 × 2 block (the odd column is dropped).
+        let rgb = [
+            0, 10, 255, 1, 20, 255, 99, 99, 99, //
+            2, 30, 255, 4, 41, 254, 99, 99, 99,
+        ];
+        assert_eq!(half_size(&rgb, 3, 2), [2, 25, 255]);
+        assert!(half_size(&rgb, 1, 1).is_empty());
+    }
+
+    #[test]
+    fn few_colours_save_as_a_palette_and_many_as_rgb() {
+        let dir = tempfile::tempdir().expect("tempdir");
+        let few = dir.path().join("few.png");
+        let rgb = [255, 0, 0, 0, 0, 255].repeat(8);
+        save_png(&few, (4, 4), &rgb).expect("saves");
+        let (info, buf) = decode(&few);
+        assert_eq!(info.color_type, png::ColorType::Indexed);
+        assert_eq!(buf.len(), 16);
+
+        let many = dir.path().join("many.png");
+        let rgb: Vec<u8> = (0..300u32)
+            .flat_map(|i| [i as u8, (i >> 8) as u8, 7])
+            .collect();
+        save_png(&many, (30, 10), &rgb).expect("saves");
+        let (info, buf) = decode(&many);
+        assert_eq!(info.color_type, png::ColorType::Rgb);
+        assert_eq!(buf, rgb);
+        assert!(save_png(&dir.path().join("no/such/dir.png"), (30, 10), &rgb).is_err());
+    }
+
+    #[test]
+    fn an_animation_has_one_frame_control_per_frame() {
+        let dir = tempfile::tempdir().expect("tempdir");
+        let path = dir.path().join("anim.png");
+        let frames: Vec<Vec<u8>> = (0..3u8).map(|k| vec![k * 50; 2 * 2 * 3]).collect();
+        save_apng(&path, (2, 2), 10, &frames).expect("saves");
+        let bytes = std::fs::read(&path).expect("read");
+        assert!(bytes.windows(4).any(|w| w == b"acTL"));
+        assert_eq!(bytes.windows(4).filter(|w| *w == b"fcTL").count(), 3);
+    }
+
+    #[test]
+    fn text_lines_darken_their_band_only() {
+        let (w, h) = (200u32, 60u32);
+        let mut rgb = vec![200u8; 3 * (w * h) as usize];
+        draw_text_lines(&mut rgb, (w, h), &["HUD"]).expect("draws");
+        let px = |x: u32, y: u32| rgb[3 * (y * w + x) as usize];
+        assert!(px(1, 3) < 200, "the band is dark");
+        assert_eq!(px(150, 50), 200, "outside the band untouched");
+    }
+}

@@ -8,7 +8,9 @@
 //! chunk  := kind:u8 length:u32 time_us:u64 payload[length] crc:u32
 //! ```
 //! All integers little-endian; `crc` is the CRC-32 (IEEE) of kind, length,
-//! time and payload. Kinds:
+//! time and payload. `length` is at most [`MAX_PAYLOAD`] (1 MiB): writers
+//! split longer device or host data into several chunks with the same time.
+//! Kinds:
 //!
 //! | kind | payload | time |
 //! |---|---|---|
@@ -18,9 +20,34 @@
 //! | 4 overflow | lost chunks (u64), lost bytes (u64), cumulative | host time |
 //! | 5 end | empty: the recorder closed the file cleanly | host time |
 //!
+//! Any chunk may be empty, and other kinds may appear (written by a later
+//! version): a reader skips them and counts them.
+//!
+//! ## Reading damaged files
+//!
 //! The file is append-only, one chunk at a time, so a process killed
-//! mid-write leaves a readable file: the reader stops at the first
-//! incomplete chunk or bad CRC and reports the torn tail (offset and size).
+//! mid-write leaves a readable file. The reader never gives up after the
+//! magic and header:
+//!
+//! - A chunk is *valid* at an offset when its length is at most
+//!   [`MAX_PAYLOAD`] and fits in the bytes remaining, and its CRC matches.
+//!   Lengths are checked against both bounds before anything is sliced or
+//!   allocated, so a corrupt length costs nothing.
+//! - Where no valid chunk starts (a flipped bit, a bad length, garbage), the
+//!   reader *resynchronises*: it tries every following byte offset and
+//!   resumes at the first one where a valid chunk starts. The bytes in
+//!   between form a [`SkippedRegion`] (offset, size, why the first chunk
+//!   failed); only the chunks inside it are lost. A region that runs to the
+//!   end of the file is also the [`torn_tail`](Recording::torn_tail): the
+//!   typical remains of a killed recorder.
+//! - Chunks of unknown kind are skipped whole and counted.
+//! - Nothing after the end chunk is decoded; its size and the number of
+//!   valid chunks in it are reported ([`AfterEnd`]).
+//! - A file without an end chunk was not closed (the recorder was
+//!   interrupted); [`Recording::summary`] says how much it holds.
+//!
+//! [`Recording::warnings`] turns all of this into one line per problem for
+//! a replay to print.
 //!
 //! ## Writing
 //!
@@ -43,8 +70,12 @@ use crate::error::{Error, ErrorKind, Result};
 
 pub const MAGIC: [u8; 8] = *b"GZCREC\x00\x01";
 const CHUNK_OVERHEAD: usize = 1 + 4 + 8 + 4;
-/// Largest payload a reader accepts (a corrupt length must not allocate gigabytes).
-pub const MAX_PAYLOAD: usize = 16 << 20;
+/// Largest payload of one chunk: 1 MiB. Writers split longer device and host
+/// data into several chunks; readers treat a longer length as damage. Real
+/// chunks are one transport read (a few kilobytes at most); the bound keeps a
+/// corrupt length from reaching an allocation and keeps resynchronisation
+/// cheap (each candidate offset costs a CRC over at most this much).
+pub const MAX_PAYLOAD: usize = 1 << 20;
 
 /// Chunk kinds.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -103,19 +134,36 @@ fn encode_chunk(kind: ChunkKind, time_us: u64, payload: &[u8]) -> Vec<u8> {
     c
 }
 
+/// Writes `payload` as one chunk, or as several of at most [`MAX_PAYLOAD`]
+/// bytes with the same time when it is longer (data is a byte stream, so the
+/// pieces replay exactly as the whole). An empty payload is one empty chunk.
+fn write_chunks(
+    w: &mut impl Write,
+    kind: ChunkKind,
+    time_us: u64,
+    payload: &[u8],
+) -> std::io::Result<()> {
+    if payload.is_empty() {
+        return w.write_all(&encode_chunk(kind, time_us, payload));
+    }
+    for piece in payload.chunks(MAX_PAYLOAD) {
+        w.write_all(&encode_chunk(kind, time_us, piece))?;
+    }
+    Ok(())
+}
+
 /// Writes a whole recording at once (the simulator's path; live sessions use
 /// [`Recorder`]).
 pub fn write_recording(path: &Path, header: &RecordingHeader, chunks: &[Chunk]) -> Result<()> {
     let io = |e: std::io::Error| Error::from_io(&format!("{}", path.display()), &e);
+    let text = header_text(header)?;
     let mut w = BufWriter::new(std::fs::File::create(path).map_err(io)?);
     w.write_all(&MAGIC).map_err(io)?;
-    let text = header_text(header)?;
     let t0 = chunks.first().map_or(0, |c| c.time_us);
     w.write_all(&encode_chunk(ChunkKind::Header, t0, text.as_bytes()))
         .map_err(io)?;
     for c in chunks {
-        w.write_all(&encode_chunk(c.kind, c.time_us, &c.payload))
-            .map_err(io)?;
+        write_chunks(&mut w, c.kind, c.time_us, &c.payload).map_err(io)?;
     }
     let t1 = chunks.last().map_or(0, |c| c.time_us);
     w.write_all(&encode_chunk(ChunkKind::End, t1, &[]))
@@ -124,42 +172,119 @@ pub fn write_recording(path: &Path, header: &RecordingHeader, chunks: &[Chunk]) 
 }
 
 fn header_text(header: &RecordingHeader) -> Result<String> {
-    ron::ser::to_string_pretty(header, ron::ser::PrettyConfig::default()).map_err(|e| {
-        Error::new(
+    let text =
+        ron::ser::to_string_pretty(header, ron::ser::PrettyConfig::default()).map_err(|e| {
+            Error::new(
+                ErrorKind::InvalidData,
+                format!("cannot serialise the recording header: {e}"),
+            )
+        })?;
+    if text.len() > MAX_PAYLOAD {
+        return Err(Error::new(
             ErrorKind::InvalidData,
-            format!("cannot serialise the recording header: {e}"),
-        )
-    })
+            format!(
+                "the recording header is {} bytes; a chunk holds at most {MAX_PAYLOAD}",
+                text.len()
+            ),
+        ));
+    }
+    Ok(text)
 }
 
-/// Where reading stopped early, if it did.
+/// A stretch of a recording the reader could not use and skipped.
 #[derive(Debug, Clone, PartialEq, Eq)]
-pub struct TornTail {
-    /// Byte offset of the first chunk that could not be read.
+pub struct SkippedRegion {
+    /// Byte offset of the first byte skipped.
+    pub offset: u64,
+    /// Bytes skipped, up to the next valid chunk or the end of the file.
+    pub bytes: u64,
+    /// Why no chunk could be read at `offset`.
+    pub reason: String,
+}
+
+/// The damaged region at the end of a file (the name predates
+/// resynchronisation).
+pub type TornTail = SkippedRegion;
+
+/// What follows the end chunk: reported, never decoded.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct AfterEnd {
+    /// Byte offset just past the end chunk.
     pub offset: u64,
     /// Bytes from there to the end of the file.
     pub bytes: u64,
-    pub reason: String,
+    /// Valid chunks among them (of any kind).
+    pub chunks: u64,
 }
 
 /// A recording read back.
 #[derive(Debug, Clone)]
 pub struct Recording {
     pub header: RecordingHeader,
-    /// Data, command and overflow chunks in file order (no header or end).
+    /// Data, command and overflow chunks of known kind in file order, empty
+    /// ones included (no header, end, unknown kinds or anything after the end).
     pub chunks: Vec<Chunk>,
-    /// The file ended with an end chunk (closed cleanly).
+    /// The file holds an end chunk: the recorder closed it cleanly.
     pub closed: bool,
-    /// Set when the file was cut or damaged after some point.
+    /// The last damaged region, when it runs to the end of the file (a file
+    /// cut mid-chunk); also listed in [`damaged`](Self::damaged).
     pub torn_tail: Option<TornTail>,
     /// Chunks the recorder reported as lost (from overflow chunks).
     pub lost_chunks: u64,
+    /// Every damaged region skipped before the end chunk, in file order.
+    pub damaged: Vec<SkippedRegion>,
+    /// Valid chunks of unknown kind, skipped (before the end chunk).
+    pub unknown_chunks: u64,
+    /// Their size in bytes, framing included.
+    pub unknown_bytes: u64,
+    /// Bytes after the end chunk, if there are any.
+    pub after_end: Option<AfterEnd>,
+    /// Time of the header chunk: the start of the recording.
+    pub start_time_us: u64,
+    /// Time of the last data, command or overflow chunk.
+    pub last_time_us: Option<u64>,
+}
+
+/// Counts describing how a recording read: what a replay reports.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct ReadSummary {
+    /// The file ends with an end chunk (closed cleanly).
+    pub closed: bool,
+    /// Device → host chunks read, empty ones included.
+    pub device_chunks: u64,
+    /// Host → device chunks read.
+    pub host_chunks: u64,
+    /// Time of the last data chunk after the start of the recording.
+    pub duration_us: u64,
+    /// Damaged regions skipped (the torn tail included).
+    pub damaged_regions: u64,
+    /// Bytes in them.
+    pub bytes_skipped: u64,
+    /// Chunks of unknown kind skipped, and their bytes.
+    pub unknown_chunks: u64,
+    pub unknown_bytes: u64,
+    /// Bytes after the end chunk, not decoded, and the valid chunks in them.
+    pub after_end_bytes: u64,
+    pub after_end_chunks: u64,
+    /// Chunks the recorder lost while writing (from overflow chunks).
+    pub lost_chunks: u64,
+}
+
+impl ReadSummary {
+    /// Nothing to report: closed, undamaged, nothing unknown, skipped or lost.
+    pub fn is_clean(&self) -> bool {
+        self.closed
+            && self.damaged_regions == 0
+            && self.unknown_chunks == 0
+            && self.after_end_bytes == 0
+            && self.lost_chunks == 0
+    }
 }
 
 impl Recording {
-    /// Reads a recording. A torn or damaged tail is reported in
-    /// [`torn_tail`](Self::torn_tail), not an error; a file that is not a
-    /// recording, or whose header is unreadable, is.
+    /// Reads a recording. Damage, a torn tail, unknown chunks and bytes after
+    /// the end are reported (see [`summary`](Self::summary)), not errors; a
+    /// file that is not a recording, or whose header is unreadable, is.
     pub fn read(path: &Path) -> Result<Self> {
         let mut bytes = Vec::new();
         std::fs::File::open(path)
@@ -186,78 +311,210 @@ impl Recording {
                 ),
             ));
         }
-        let mut pos = MAGIC.len();
         let mut header = None;
         let mut chunks = Vec::new();
         let mut closed = false;
-        let mut torn_tail = None;
         let mut lost_chunks = 0;
+        let mut damaged: Vec<SkippedRegion> = Vec::new();
+        let (mut unknown_chunks, mut unknown_bytes) = (0u64, 0u64);
+        let (mut start_time_us, mut last_time_us) = (0, None);
+        let mut pos = MAGIC.len();
         while pos < bytes.len() {
-            match parse_chunk(&bytes[pos..]) {
-                Ok((chunk, used)) => {
-                    pos += used;
-                    match chunk.kind {
-                        ChunkKind::Header => {
-                            let text = std::str::from_utf8(&chunk.payload).map_err(|_| {
-                                Error::new(ErrorKind::InvalidData, "the header is not UTF-8")
-                            })?;
-                            header = Some(ron::from_str::<RecordingHeader>(text).map_err(|e| {
-                                Error::new(
-                                    ErrorKind::InvalidData,
-                                    format!("the header does not parse: {e}"),
-                                )
-                            })?);
-                        }
-                        ChunkKind::End => closed = true,
-                        ChunkKind::Overflow => {
-                            if chunk.payload.len() >= 8 {
-                                let mut n = [0u8; 8];
-                                n.copy_from_slice(&chunk.payload[..8]);
-                                lost_chunks = u64::from_le_bytes(n);
-                            }
-                            chunks.push(chunk);
-                        }
-                        _ => chunks.push(chunk),
-                    }
-                }
+            let raw = match raw_chunk(bytes, pos) {
+                Ok(raw) => raw,
                 Err(reason) => {
-                    torn_tail = Some(TornTail {
+                    let next = resync(bytes, pos + 1);
+                    damaged.push(SkippedRegion {
                         offset: pos as u64,
-                        bytes: (bytes.len() - pos) as u64,
+                        bytes: (next - pos) as u64,
                         reason,
                     });
+                    pos = next;
+                    continue;
+                }
+            };
+            pos += raw.size;
+            let Some(kind) = ChunkKind::from_u8(raw.kind) else {
+                unknown_chunks += 1;
+                unknown_bytes += raw.size as u64;
+                continue;
+            };
+            match kind {
+                ChunkKind::Header => {
+                    // The first readable header is the recording's.
+                    if header.is_none() {
+                        header = Some(parse_header(raw.payload)?);
+                        start_time_us = raw.time_us;
+                    }
+                }
+                ChunkKind::End => {
+                    closed = true;
                     break;
+                }
+                ChunkKind::Overflow | ChunkKind::DeviceToHost | ChunkKind::HostToDevice => {
+                    if kind == ChunkKind::Overflow && raw.payload.len() >= 8 {
+                        let mut n = [0u8; 8];
+                        n.copy_from_slice(&raw.payload[..8]);
+                        lost_chunks = u64::from_le_bytes(n);
+                    }
+                    last_time_us = Some(raw.time_us);
+                    chunks.push(Chunk {
+                        kind,
+                        time_us: raw.time_us,
+                        payload: raw.payload.to_vec(),
+                    });
                 }
             }
         }
         let header = header.ok_or_else(|| {
-            Error::new(ErrorKind::InvalidData, "the recording has no header chunk")
+            Error::new(
+                ErrorKind::InvalidData,
+                "the recording has no readable header chunk",
+            )
         })?;
+        let after_end = (closed && pos < bytes.len()).then(|| AfterEnd {
+            offset: pos as u64,
+            bytes: (bytes.len() - pos) as u64,
+            chunks: count_chunks(bytes, pos),
+        });
+        let torn_tail = damaged
+            .last()
+            .filter(|d| !closed && d.offset + d.bytes == bytes.len() as u64)
+            .cloned();
         Ok(Self {
             header,
             chunks,
             closed,
             torn_tail,
             lost_chunks,
+            damaged,
+            unknown_chunks,
+            unknown_bytes,
+            after_end,
+            start_time_us,
+            last_time_us,
         })
     }
 
-    /// The device → host chunks: what a driver reads on replay.
+    /// The device → host chunks that carry data: what a driver reads on
+    /// replay. Empty chunks are valid but skipped here, so that a reader of
+    /// the stream never mistakes one for the end of the data.
     pub fn device_chunks(&self) -> impl Iterator<Item = &Chunk> {
         self.chunks
             .iter()
-            .filter(|c| c.kind == ChunkKind::DeviceToHost)
+            .filter(|c| c.kind == ChunkKind::DeviceToHost && !c.payload.is_empty())
+    }
+
+    /// Counts of what was read, skipped and lost.
+    pub fn summary(&self) -> ReadSummary {
+        let count = |k: ChunkKind| self.chunks.iter().filter(|c| c.kind == k).count() as u64;
+        let after = self.after_end.unwrap_or(AfterEnd {
+            offset: 0,
+            bytes: 0,
+            chunks: 0,
+        });
+        ReadSummary {
+            closed: self.closed,
+            device_chunks: count(ChunkKind::DeviceToHost),
+            host_chunks: count(ChunkKind::HostToDevice),
+            duration_us: self
+                .last_time_us
+                .map_or(0, |t| t.saturating_sub(self.start_time_us)),
+            damaged_regions: self.damaged.len() as u64,
+            bytes_skipped: self.damaged.iter().map(|d| d.bytes).sum(),
+            unknown_chunks: self.unknown_chunks,
+            unknown_bytes: self.unknown_bytes,
+            after_end_bytes: after.bytes,
+            after_end_chunks: after.chunks,
+            lost_chunks: self.lost_chunks,
+        }
+    }
+
+    /// One line per problem, for a replay to print after the file name; empty
+    /// for a clean recording.
+    pub fn warnings(&self) -> Vec<String> {
+        let s = self.summary();
+        let mut w = Vec::new();
+        let middle: Vec<&SkippedRegion> = self
+            .damaged
+            .iter()
+            .filter(|d| Some(*d) != self.torn_tail.as_ref())
+            .collect();
+        if let Some(first) = middle.first() {
+            w.push(format!(
+                "{} damaged region(s), {} bytes skipped, their chunks lost (first at byte {}: {}); reading resumed after each",
+                middle.len(),
+                middle.iter().map(|d| d.bytes).sum::<u64>(),
+                first.offset,
+                first.reason
+            ));
+        }
+        if let Some(t) = &self.torn_tail {
+            w.push(format!(
+                "the recording ends early at byte {} ({} bytes unreadable: {}); decoding what precedes it",
+                t.offset, t.bytes, t.reason
+            ));
+        }
+        if !s.closed {
+            w.push(format!(
+                "not closed: {} records up to t = {:.3} s (no end chunk: the recorder was interrupted)",
+                s.device_chunks,
+                s.duration_us as f64 / 1e6
+            ));
+        }
+        if s.unknown_chunks > 0 {
+            w.push(format!(
+                "{} chunk(s) of unknown kind skipped ({} bytes; written by a newer gazecast?)",
+                s.unknown_chunks, s.unknown_bytes
+            ));
+        }
+        if let Some(a) = &self.after_end {
+            w.push(format!(
+                "{} bytes after the end chunk (byte {}, {} valid chunk(s)) not decoded",
+                a.bytes, a.offset, a.chunks
+            ));
+        }
+        if s.lost_chunks > 0 {
+            w.push(format!(
+                "the recorder lost {} chunks while writing this file",
+                s.lost_chunks
+            ));
+        }
+        w
     }
 }
 
-fn parse_chunk(b: &[u8]) -> std::result::Result<(Chunk, usize), String> {
+fn parse_header(payload: &[u8]) -> Result<RecordingHeader> {
+    let text = std::str::from_utf8(payload)
+        .map_err(|_| Error::new(ErrorKind::InvalidData, "the header is not UTF-8"))?;
+    ron::from_str::<RecordingHeader>(text).map_err(|e| {
+        Error::new(
+            ErrorKind::InvalidData,
+            format!("the header does not parse: {e}"),
+        )
+    })
+}
+
+/// A valid chunk of any kind, borrowed from the file.
+struct RawChunk<'a> {
+    kind: u8,
+    time_us: u64,
+    payload: &'a [u8],
+    /// Bytes it takes in the file, framing included.
+    size: usize,
+}
+
+/// The chunk starting at `pos`, if a valid one does: its length within
+/// [`MAX_PAYLOAD`] and the bytes remaining (checked before anything is
+/// sliced), and its CRC right.
+fn raw_chunk(bytes: &[u8], pos: usize) -> std::result::Result<RawChunk<'_>, String> {
+    let b = bytes.get(pos..).unwrap_or(&[]);
     if b.len() < CHUNK_OVERHEAD {
         return Err(format!(
             "incomplete chunk: {} bytes left, a chunk needs at least {CHUNK_OVERHEAD}",
             b.len()
         ));
     }
-    let kind = ChunkKind::from_u8(b[0]).ok_or_else(|| format!("unknown chunk kind {}", b[0]))?;
     let len = u32::from_le_bytes([b[1], b[2], b[3], b[4]]) as usize;
     if len > MAX_PAYLOAD {
         return Err(format!(
@@ -277,14 +534,36 @@ fn parse_chunk(b: &[u8]) -> std::result::Result<(Chunk, usize), String> {
     }
     let mut t = [0u8; 8];
     t.copy_from_slice(&b[5..13]);
-    Ok((
-        Chunk {
-            kind,
-            time_us: u64::from_le_bytes(t),
-            payload: b[13..total - 4].to_vec(),
-        },
-        total,
-    ))
+    Ok(RawChunk {
+        kind: b[0],
+        time_us: u64::from_le_bytes(t),
+        payload: &b[13..total - 4],
+        size: total,
+    })
+}
+
+/// The first offset from `from` at which a valid chunk starts, or the end of
+/// the file.
+fn resync(bytes: &[u8], from: usize) -> usize {
+    let last_start = bytes.len().saturating_sub(CHUNK_OVERHEAD);
+    (from..=last_start)
+        .find(|&p| raw_chunk(bytes, p).is_ok())
+        .unwrap_or(bytes.len())
+}
+
+/// Valid chunks from `pos` on, resynchronising over damage.
+fn count_chunks(bytes: &[u8], mut pos: usize) -> u64 {
+    let mut n = 0;
+    while pos < bytes.len() {
+        match raw_chunk(bytes, pos) {
+            Ok(raw) => {
+                n += 1;
+                pos += raw.size;
+            }
+            Err(_) => pos = resync(bytes, pos + 1),
+        }
+    }
+    n
 }
 
 enum Message {
@@ -443,8 +722,7 @@ fn write_loop(
             Message::Chunk(kind, t, payload) => {
                 last_time = t;
                 overflow(&mut file, t, &mut reported_lost).map_err(io)?;
-                file.write_all(&encode_chunk(kind, t, &payload))
-                    .map_err(io)?;
+                write_chunks(&mut file, kind, t, &payload).map_err(io)?;
                 chunks += 1;
                 bytes += payload.len() as u64;
                 // Flush whenever the queue is empty: the file stays current
@@ -514,7 +792,7 @@ mod tests {
     }
 
     #[test]
-    fn a_flipped_bit_stops_reading_with_a_reason() {
+    fn a_flipped_bit_skips_its_chunk_with_a_reason() {
         let dir = tempfile::tempdir().expect("tempdir");
         let path = dir.path().join("r.gzrec");
         write_recording(
@@ -531,7 +809,37 @@ mod tests {
         let n = bytes.len();
         bytes[n - 30] ^= 0x04;
         let r = Recording::parse(&bytes).expect("header still good");
-        assert!(r.torn_tail.expect("reported").reason.contains("checksum"));
+        // The reader resynchronises on the end chunk that follows.
+        assert!(r.closed && r.torn_tail.is_none() && r.chunks.is_empty());
+        assert_eq!(r.damaged.len(), 1);
+        assert_eq!(r.damaged[0].bytes, (CHUNK_OVERHEAD + 10) as u64);
+        assert!(r.damaged[0].reason.contains("checksum"));
+    }
+
+    #[test]
+    fn long_data_is_split_into_chunks_of_at_most_the_maximum() {
+        let dir = tempfile::tempdir().expect("tempdir");
+        let path = dir.path().join("r.gzrec");
+        let big: Vec<u8> = (0..2 * MAX_PAYLOAD + 5).map(|i| i as u8).collect();
+        let chunk = |payload: Vec<u8>| Chunk {
+            kind: ChunkKind::DeviceToHost,
+            time_us: 7,
+            payload,
+        };
+        write_recording(&path, &header(), &[chunk(big.clone()), chunk(vec![])]).expect("write");
+        let r = Recording::read(&path).expect("read");
+        assert!(r.summary().is_clean(), "{:?}", r.warnings());
+        let sizes: Vec<usize> = r.chunks.iter().map(|c| c.payload.len()).collect();
+        assert_eq!(sizes, vec![MAX_PAYLOAD, MAX_PAYLOAD, 5, 0]);
+        let joined: Vec<u8> = r.device_chunks().flat_map(|c| c.payload.clone()).collect();
+        assert_eq!(joined, big);
+
+        let rec = Recorder::start(&path, &header(), 4).expect("start");
+        rec.tap().device_to_host(9, &big);
+        assert_eq!(rec.finish().expect("finish").chunks_written, 1);
+        let r = Recording::read(&path).expect("read");
+        assert!(r.summary().is_clean(), "{:?}", r.warnings());
+        assert_eq!(r.chunks.len(), 3);
     }
 
     #[test]

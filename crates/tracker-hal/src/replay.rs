@@ -84,6 +84,16 @@ impl ReplayTransport {
 
 impl Read for ReplayTransport {
     fn read(&mut self, buf: &mut [u8]) -> std::io::Result<usize> {
+        // An empty chunk is valid data (nothing arrived): skip it rather
+        // than read it as the end of the stream.
+        while self.offset == 0
+            && self
+                .chunks
+                .get(self.next)
+                .is_some_and(|(_, b)| b.is_empty())
+        {
+            self.next += 1;
+        }
         let Some((time_us, bytes)) = self.chunks.get(self.next) else {
             return Ok(0);
         };
@@ -115,5 +125,27 @@ impl Write for ReplayTransport {
 
     fn flush(&mut self) -> std::io::Result<()> {
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// An empty chunk (a valid one: nothing arrived) used to read as the end
+    /// of the stream and cut a replay short.
+    #[test]
+    fn an_empty_chunk_is_not_the_end_of_the_stream() {
+        let chunks = vec![(0, vec![1, 2]), (10, vec![]), (15, vec![]), (20, vec![3])];
+        let mut t = ReplayTransport::new(chunks, Pacing::AsFastAsPossible);
+        let (mut all, mut buf) = (Vec::new(), [0u8; 8]);
+        loop {
+            let n = t.read(&mut buf).expect("reads");
+            if n == 0 {
+                break;
+            }
+            all.extend_from_slice(&buf[..n]);
+        }
+        assert_eq!(all, [1, 2, 3]);
     }
 }

@@ -8,8 +8,9 @@ use raycast::{Camera, Frame, Scene};
 
 use crate::backend::{Backend, BackendChoice};
 use crate::effects::por_overlay::PorOverlay;
-use crate::effects::{passes_for, Pass, PassInput};
+use crate::effects::{pass_for, passes_for, Pass, PassInput};
 use crate::method::Method;
+use raycast::scene::Effect;
 
 /// Why a frame could not be rendered.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -187,16 +188,20 @@ impl<'s> Renderer<'s> {
     /// Turns the POR box on or off (the viewer's `P` key), whether or not
     /// the scene lists `PorOverlay`.
     pub fn set_por_overlay(&mut self, on: bool) {
-        let name = PorOverlay.name();
+        let name = PorOverlay::default().name();
         self.passes.retain(|p| p.name() != name);
         if on {
-            self.passes.push(Box::new(PorOverlay));
+            let pass = match self.scene.effect(Effect::POR_OVERLAY) {
+                Some(e) => pass_for(e),
+                None => Some(Box::new(PorOverlay::default()) as Box<dyn Pass>),
+            };
+            self.passes.extend(pass);
         }
     }
 
     /// Whether the POR box is drawn.
     pub fn por_overlay(&self) -> bool {
-        let name = PorOverlay.name();
+        let name = PorOverlay::default().name();
         self.passes.iter().any(|p| p.name() == name)
     }
 

@@ -160,7 +160,7 @@ fn effects_run_as_passes_only_when_the_scene_lists_them() {
     let gaze = [100.0, 80.0];
     let without = scene("bunny", &ALL_SAMPLING);
     let mut with_list = ALL_SAMPLING.to_vec();
-    with_list.push(Effect::PorOverlay);
+    with_list.push(Effect::POR_OVERLAY);
     let with = scene("bunny", &with_list);
     for backend in BACKENDS {
         let mut plain = renderer(&without, backend, Options::default());
@@ -217,4 +217,41 @@ fn explain_names_the_method_stages_and_passes() {
     let text = r.explain().join("\n");
     assert!(text.contains("method: full on cpu"), "{text}");
     assert!(text.contains("effect passes: none"), "{text}");
+}
+
+/// Effects carry parameters in the scene file; bad ones are refused with
+/// the field named.
+#[test]
+fn an_effect_takes_its_parameters_from_the_scene_file() {
+    let path = repo().join("config/scenes/bunny.ron");
+    let text = std::fs::read_to_string(&path).expect("bunny");
+    let with = |effects: &str| {
+        let t = text.replace(
+            "effects: [FoveatedSampling, SilhouetteRefinement, CreaseRefinement, DepthRefinement],",
+            &format!("effects: [FoveatedSampling, {effects}],"),
+        );
+        assert_ne!(t, text, "the bunny's effect line changed");
+        ron::from_str::<SceneFile>(&t)
+            .map_err(|e| e.to_string())
+            .and_then(|f| Scene::build(&f, path.parent().expect("dir")).map_err(|e| e.to_string()))
+    };
+    let small = with("PorOverlay(half_px: 12)").expect("builds");
+    let mut r = renderer(&small, BackendChoice::Cpu, Options::default());
+    let (f, _) = r.render([300.0, 200.0]).expect("renders");
+    let yellow = |x: usize, y: usize| {
+        let i = 3 * (y * f.width_px as usize + x);
+        f.rgb[i..i + 3] == [255, 220, 0]
+    };
+    assert!(yellow(312, 200) && !yellow(332, 200));
+    // The default size: `PorOverlay()`.
+    let seed = with("PorOverlay()").expect("builds");
+    assert_eq!(seed.effect(Effect::POR_OVERLAY), Some(&Effect::POR_OVERLAY));
+    let e = with("PorOverlay(half_px: 0)").expect_err("refused");
+    assert!(e.contains("effects[1].half_px"), "{e}");
+    let e = with("PorOverlay(half_px: 4294967295)").expect_err("refused");
+    assert!(e.contains("effects[1].half_px"), "{e}");
+    let e = with("PorOverlay(size: 3)").expect_err("refused");
+    assert!(e.contains("size"), "{e}");
+    let e = with("Sparkles").expect_err("refused");
+    assert!(e.contains("Sparkles"), "{e}");
 }

@@ -102,7 +102,13 @@ pub enum Light {
 }
 
 /// Effects a scene asks for; the pipeline runs only these (DESIGN.md).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
+///
+/// An effect may carry parameters, written in the scene file as
+/// `Name(field: value, …)` (RON's struct variants: the parentheses are
+/// needed even when every field keeps its default, e.g. `PorOverlay()`);
+/// an unknown effect or field is an error naming file, line and field.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub enum Effect {
     /// Cast the CSF ray mask instead of every pixel.
     FoveatedSampling,
@@ -112,8 +118,50 @@ pub enum Effect {
     CreaseRefinement,
     /// Refine cells with a depth jump between corners.
     DepthRefinement,
-    /// Draw the POR box (the seed's figures).
-    PorOverlay,
+    /// Draw the POR box (the seed's figures): a 2-px square outline of
+    /// half-size `half_px` around the gaze; `PorOverlay()` gives the seed's
+    /// 64-px box.
+    PorOverlay {
+        #[serde(default = "default_por_half_px")]
+        half_px: u32,
+    },
+}
+
+/// The seed's POR box: 64 px across.
+pub const POR_HALF_PX: u32 = 32;
+
+/// Largest POR box half-size a scene may ask for (a 8192-px box: larger
+/// than any supported display).
+pub const POR_HALF_PX_MAX: u32 = 4096;
+
+fn default_por_half_px() -> u32 {
+    POR_HALF_PX
+}
+
+impl Effect {
+    /// The POR overlay with the seed's size.
+    pub const POR_OVERLAY: Effect = Effect::PorOverlay {
+        half_px: POR_HALF_PX,
+    };
+
+    /// Whether `self` and `other` are the same effect, whatever their
+    /// parameters.
+    pub fn same_kind(&self, other: &Effect) -> bool {
+        std::mem::discriminant(self) == std::mem::discriminant(other)
+    }
+
+    /// Checks the parameters; the error names the field under `field`.
+    fn validate(&self, field: &str) -> Result<(), SceneError> {
+        match *self {
+            Effect::PorOverlay { half_px } if !(1..=POR_HALF_PX_MAX).contains(&half_px) => {
+                Err(SceneError::field(
+                    format!("{field}.half_px"),
+                    format!("must be 1 to {POR_HALF_PX_MAX} pixels, found {half_px}"),
+                ))
+            }
+            _ => Ok(()),
+        }
+    }
 }
 
 /// The scene file.
@@ -220,6 +268,9 @@ impl Scene {
     /// Errors name the field (`objects[3].mesh`) or the mesh file and line.
     pub fn build(file: &SceneFile, base_dir: &Path) -> Result<Self, SceneError> {
         let finite3 = |v: (f32, f32, f32)| v.0.is_finite() && v.1.is_finite() && v.2.is_finite();
+        for (i, e) in file.effects.iter().enumerate() {
+            e.validate(&format!("effects[{i}]"))?;
+        }
         let mut meshes = BTreeMap::new();
         for (name, src) in &file.meshes {
             let field = format!("meshes.{name}");
@@ -475,8 +526,14 @@ impl Scene {
         self.accel = Accel::Grid;
     }
 
+    /// Whether the scene lists an effect of `e`'s kind (parameters aside).
     pub fn has(&self, e: Effect) -> bool {
-        self.effects.contains(&e)
+        self.effects.iter().any(|x| x.same_kind(&e))
+    }
+
+    /// The scene's effect of `e`'s kind, with its parameters.
+    pub fn effect(&self, e: Effect) -> Option<&Effect> {
+        self.effects.iter().find(|x| x.same_kind(&e))
     }
 
     /// Closest hit along `ray` with `t` in `(t_min, ∞)`.

@@ -111,8 +111,15 @@ fn locate(text: &str, field: &str) -> Option<(usize, usize)> {
         };
         let mut line = start;
         for _ in 0..=index {
-            let (l, _) = find_field_from(text, inner, line)?;
-            line = l;
+            match find_field_from(text, inner, line) {
+                Some((l, _)) => line = l,
+                // Not every element names the field (`effects[1].half_px`
+                // where effect 0 has no parameters): the first one after
+                // the list, else the list itself.
+                None => {
+                    return find_field_from(text, inner, start - 1).or(Some((start, 1)));
+                }
+            }
         }
         return find_field_from(text, inner, line - 1);
     }

@@ -270,3 +270,39 @@ fn every_command_honours_the_scene_effects_on_both_backends() {
         assert!(!text.contains("classify"), "{backend}: {text}");
     }
 }
+
+/// An effect's parameter out of range names file, line and field.
+#[test]
+fn a_bad_effect_parameter_names_file_line_and_field() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let bad = dir.path().join("bad.ron");
+    let text = std::fs::read_to_string("../../config/scenes/bunny.ron").expect("bunny");
+    let text = text.replace(
+        "effects: [FoveatedSampling, SilhouetteRefinement, CreaseRefinement, DepthRefinement],",
+        "effects: [FoveatedSampling,\n        PorOverlay(half_px: 0)],",
+    );
+    std::fs::write(&bad, &text).expect("write");
+    let line = text
+        .lines()
+        .position(|l| l.contains("half_px"))
+        .expect("line")
+        + 1;
+    let out = gazecast()
+        .args(["render", "--scene"])
+        .arg(&bad)
+        .args([
+            "--display",
+            "config/displays/tobii-et1750-17in.ron",
+            "--out",
+        ])
+        .arg(dir.path().join("x.png"))
+        .output()
+        .expect("runs");
+    assert_eq!(out.status.code(), Some(1));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains(&format!("bad.ron:{line}:")) && err.contains("effects[1].half_px"),
+        "{err}"
+    );
+    assert!(!dir.path().join("x.png").exists());
+}

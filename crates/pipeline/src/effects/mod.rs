@@ -33,7 +33,9 @@ pub trait Pass: Send {
 /// pass of their own.
 pub fn pass_for(effect: &Effect) -> Option<Box<dyn Pass>> {
     match effect {
-        Effect::PorOverlay => Some(Box::new(por_overlay::PorOverlay)),
+        Effect::PorOverlay { half_px } => Some(Box::new(por_overlay::PorOverlay {
+            half_px: i64::from(*half_px),
+        })),
         Effect::FoveatedSampling
         | Effect::SilhouetteRefinement
         | Effect::CreaseRefinement
@@ -45,8 +47,8 @@ pub fn pass_for(effect: &Effect) -> Option<Box<dyn Pass>> {
 /// overlay when `por_overlay` asks for it and the scene does not.
 pub fn passes_for(scene: &Scene, por_overlay: bool) -> Vec<Box<dyn Pass>> {
     let mut passes: Vec<Box<dyn Pass>> = scene.effects.iter().filter_map(pass_for).collect();
-    if por_overlay && !scene.has(Effect::PorOverlay) {
-        passes.push(Box::new(por_overlay::PorOverlay));
+    if por_overlay && !scene.has(Effect::POR_OVERLAY) {
+        passes.push(Box::new(por_overlay::PorOverlay::default()));
     }
     passes
 }

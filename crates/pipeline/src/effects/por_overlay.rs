@@ -5,12 +5,21 @@ use raycast::Frame;
 
 use super::{Pass, PassInput};
 
-/// Half the POR box's size in pixels.
-pub const POR_HALF_PX: i64 = 32;
-
 /// Draws the POR box.
-#[derive(Debug, Clone, Copy, Default)]
-pub struct PorOverlay;
+#[derive(Debug, Clone, Copy)]
+pub struct PorOverlay {
+    /// Half the box's size in pixels (the scene's `PorOverlay(half_px: …)`).
+    pub half_px: i64,
+}
+
+impl Default for PorOverlay {
+    /// The seed's 64-px box.
+    fn default() -> Self {
+        Self {
+            half_px: i64::from(raycast::scene::POR_HALF_PX),
+        }
+    }
+}
 
 impl Pass for PorOverlay {
     fn name(&self) -> &'static str {
@@ -23,7 +32,7 @@ impl Pass for PorOverlay {
             frame.width_px,
             frame.height_px,
             input.gaze_px,
-            POR_HALF_PX,
+            self.half_px,
         );
     }
 }

@@ -342,15 +342,7 @@ mod tests {
     }
 
     fn geometry() -> ScreenGeometry {
-        screen_geometry::Display {
-            name: "t".into(),
-            resolution_px: (1280, 1024),
-            size_mm: (337.9, 270.3),
-            eye_distance_mm: 600.0,
-            eye_point_px: None,
-        }
-        .geometry()
-        .expect("display")
+        crate::test_support::seed_display(600.0)
     }
 
     #[test]

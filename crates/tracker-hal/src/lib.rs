@@ -90,6 +90,8 @@ pub mod sample;
 pub mod serial;
 pub mod sim;
 pub mod source;
+#[cfg(test)]
+mod test_support;
 
 pub use clock::{Clock, MonotonicClock, SharedClock};
 pub use config::{Driver, TrackerConfig};

@@ -381,31 +381,14 @@ pub fn nearest_targets(targets: &[[f64; 2]], points: &[[f64; 2]]) -> Vec<usize> 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::calibration::{Order, SessionPlan};
 
     fn geometry() -> ScreenGeometry {
-        screen_geometry::Display {
-            name: "t".into(),
-            resolution_px: (1280, 1024),
-            size_mm: (337.9, 270.3),
-            eye_distance_mm: 600.0,
-            eye_point_px: None,
-        }
-        .geometry()
-        .expect("display")
+        crate::test_support::seed_display(600.0)
     }
 
     /// 9 calibration targets, 4 validation targets, 200 + 400 ms each.
     fn session(auto: bool) -> Session {
-        let (cal, val) = SessionPlan {
-            points: 9,
-            validation_points: 4,
-            settle_ms: 200,
-            collect_ms: 400,
-            order: Order::RowMajor,
-        }
-        .plans((1280, 1024))
-        .expect("plans");
+        let (cal, val) = crate::test_support::nine_and_four();
         Session::new(Model::Affine, cal, val, geometry(), 0.5, auto)
     }
 

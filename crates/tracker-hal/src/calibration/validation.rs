@@ -104,15 +104,7 @@ mod tests {
 
     #[test]
     fn validation_reports_degrees() {
-        let g = screen_geometry::Display {
-            name: "t".into(),
-            resolution_px: (1280, 1024),
-            size_mm: (337.9, 270.3),
-            eye_distance_mm: 600.0,
-            eye_point_px: None,
-        }
-        .geometry()
-        .expect("display");
+        let g = crate::test_support::seed_display(600.0);
         let p = procedure_on(Model::Affine, &grid(9), 0.0, 3);
         let c = p.fit(Model::Affine).expect("fits");
         // A validation target where the person looks 20 px right of it,

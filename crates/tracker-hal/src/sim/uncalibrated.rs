@@ -77,18 +77,10 @@ pub fn calibration_stops(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::calibration::{Calibration, Model, Order, SessionPlan};
+    use crate::calibration::{Calibration, Model, Order};
 
     fn plans() -> (Plan, Plan) {
-        SessionPlan {
-            points: 9,
-            validation_points: 4,
-            settle_ms: 200,
-            collect_ms: 400,
-            order: Order::RowMajor,
-        }
-        .plans((1280, 1024))
-        .expect("plans")
+        crate::test_support::nine_and_four()
     }
 
     #[test]

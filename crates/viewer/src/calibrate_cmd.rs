@@ -264,7 +264,7 @@ impl Calibrator<'_> {
         text += &ron::ser::to_string_pretty(c, ron::ser::PrettyConfig::default())
             .map_err(|e| e.to_string())?;
         text.push('\n');
-        std::fs::write(&self.args.out, text)
+        crate::output::write_whole(&self.args.out, text.as_bytes())
             .map_err(|e| format!("{}: cannot write: {e}", self.args.out.display()))?;
         self.saved = true;
         Ok(())
@@ -510,6 +510,13 @@ impl ApplicationHandler for Calibrator<'_> {
 
 /// Runs `gazecast calibrate`.
 pub fn run(args: &CalibrateArgs, out: &mut dyn Write) -> Result<(), String> {
+    let mut outputs = vec![("--out", args.out.as_path())];
+    outputs.extend(args.record.as_deref().map(|p| ("--record", p)));
+    outputs.extend(args.screenshot.as_deref().map(|p| ("--screenshot", p)));
+    let mut inputs = vec![("--display", args.display.as_path())];
+    inputs.extend(args.tracker.as_deref().map(|p| ("--tracker", p)));
+    inputs.extend(args.replay.as_deref().map(|p| ("--replay", p)));
+    crate::output::refuse_inputs(&outputs, &inputs)?;
     if !(args.max_error_deg.is_finite() && args.max_error_deg > 0.0) {
         return Err(format!(
             "--max-error-deg {}: must be a positive number",

@@ -11,6 +11,7 @@ pub mod demo_cmd;
 pub mod gaze_feed;
 pub mod live;
 pub mod mask_cmd;
+pub mod output;
 pub mod picture;
 pub mod plots;
 pub mod render_cmd;

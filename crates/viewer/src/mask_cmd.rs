@@ -18,13 +18,18 @@ pub struct MaskArgs {
     #[arg(long, value_name = "FILE")]
     pub display: Option<PathBuf>,
     /// Point of regard in screen pixels, origin top-left. Default: the screen centre.
-    #[arg(long, value_name = "X,Y", value_parser = parse_point)]
+    #[arg(long, value_name = "X,Y", value_parser = parse_point, allow_hyphen_values = true)]
     pub gaze: Option<[f64; 2]>,
     /// Eye-to-screen distance, overriding the display file.
-    #[arg(long, value_name = "D")]
+    #[arg(long, value_name = "D", allow_negative_numbers = true)]
     pub eye_distance_mm: Option<f64>,
     /// Michelson contrast C of the CSF cut-off (1 = the seed's conservative case).
-    #[arg(long, value_name = "C", default_value_t = 1.0)]
+    #[arg(
+        long,
+        value_name = "C",
+        default_value_t = 1.0,
+        allow_negative_numbers = true
+    )]
     pub contrast: f64,
     /// Ring layout.
     #[arg(long, value_name = "nyquist|seed", default_value = "nyquist")]
@@ -144,6 +149,16 @@ pub fn build(args: &MaskArgs) -> Result<BuiltMask, String> {
 
 /// Runs `gazecast mask`, writing the summary or JSON to `out`.
 pub fn run(args: &MaskArgs, out: &mut dyn Write) -> Result<(), String> {
+    let mut outputs = Vec::new();
+    outputs.extend(args.points.as_deref().map(|p| ("--points", p)));
+    outputs.extend(args.png.as_deref().map(|p| ("--png", p)));
+    let inputs: Vec<(&str, &Path)> = args
+        .display
+        .as_deref()
+        .map(|p| ("--display", p))
+        .into_iter()
+        .collect();
+    crate::output::refuse_inputs(&outputs, &inputs)?;
     let built = build(args)?;
     if let Some(path) = &args.points {
         write_points(path, &built.mask)?;
@@ -182,11 +197,10 @@ pub fn run(args: &MaskArgs, out: &mut dyn Write) -> Result<(), String> {
 
 fn write_points(path: &Path, mask: &RayMask) -> Result<(), String> {
     let fail = |e: std::io::Error| format!("{}: cannot write the points: {e}", path.display());
-    let file = std::fs::File::create(path).map_err(fail)?;
-    let mut w = std::io::BufWriter::new(file);
+    let mut w = crate::output::AtomicFile::create(path).map_err(fail)?;
     writeln!(w, "x_px,y_px").map_err(fail)?;
     for p in mask.ray_positions() {
         writeln!(w, "{},{}", p[0], p[1]).map_err(fail)?;
     }
-    w.flush().map_err(fail)
+    w.commit().map_err(fail)
 }

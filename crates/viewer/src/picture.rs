@@ -6,6 +6,8 @@ use std::path::Path;
 
 use plotters::prelude::*;
 
+use crate::output::AtomicFile;
+
 /// The POR box (the pipeline's own drawing, shared, not copied).
 pub use pipeline::effects::por_overlay::draw_box;
 
@@ -41,26 +43,33 @@ pub fn save_png(path: &Path, (w, h): (u32, u32), rgb: &[u8]) -> PictureResult {
         }
         indices.push(i as u8);
     }
-    let file = std::io::BufWriter::new(std::fs::File::create(path)?);
-    let mut enc = png::Encoder::new(file, w, h);
+    // Written whole or not at all (crate::output).
+    let mut file = AtomicFile::create(path)?;
+    let mut enc = png::Encoder::new(&mut file, w, h);
     enc.set_depth(png::BitDepth::Eight);
     enc.set_compression(png::Compression::Best);
-    if indices.len() == rgb.len() / 3 {
+    let writer = if indices.len() == rgb.len() / 3 {
         enc.set_color(png::ColorType::Indexed);
         enc.set_palette(palette.concat());
-        enc.write_header()?.write_image_data(&indices)?;
+        let mut writer = enc.write_header()?;
+        writer.write_image_data(&indices)?;
+        writer
     } else {
         enc.set_color(png::ColorType::Rgb);
-        enc.write_header()?.write_image_data(rgb)?;
-    }
+        let mut writer = enc.write_header()?;
+        writer.write_image_data(rgb)?;
+        writer
+    };
+    writer.finish()?;
+    file.commit()?;
     Ok(())
 }
 
 /// Writes RGB frames of `w × h` as an animated PNG (APNG) at `fps`,
 /// looping forever.
 pub fn save_apng(path: &Path, (w, h): (u32, u32), fps: u16, frames: &[Vec<u8>]) -> PictureResult {
-    let file = std::fs::File::create(path)?;
-    let mut enc = png::Encoder::new(std::io::BufWriter::new(file), w, h);
+    let mut file = AtomicFile::create(path)?;
+    let mut enc = png::Encoder::new(&mut file, w, h);
     enc.set_color(png::ColorType::Rgb);
     enc.set_depth(png::BitDepth::Eight);
     enc.set_compression(png::Compression::Fast);
@@ -71,6 +80,7 @@ pub fn save_apng(path: &Path, (w, h): (u32, u32), fps: u16, frames: &[Vec<u8>]) 
         writer.write_image_data(f)?;
     }
     writer.finish()?;
+    file.commit()?;
     Ok(())
 }
 

@@ -23,7 +23,7 @@ pub struct RenderArgs {
     #[arg(long, value_name = "FILE")]
     pub display: PathBuf,
     /// Point of regard in screen pixels, origin top-left. Default: the screen centre.
-    #[arg(long, value_name = "X,Y", value_parser = parse_point)]
+    #[arg(long, value_name = "X,Y", value_parser = parse_point, allow_hyphen_values = true)]
     pub gaze: Option<[f64; 2]>,
     /// Output image.
     #[arg(long, value_name = "FILE.png")]
@@ -37,7 +37,12 @@ pub struct RenderArgs {
     #[arg(long, value_name = "nyquist|seed", default_value = "nyquist")]
     pub layout: Layout,
     /// Michelson contrast C of the CSF cut-off.
-    #[arg(long, value_name = "C", default_value_t = 1.0)]
+    #[arg(
+        long,
+        value_name = "C",
+        default_value_t = 1.0,
+        allow_negative_numbers = true
+    )]
     pub contrast: f64,
     /// Render this many times; `time_ms` is the median.
     #[arg(long, value_name = "N", default_value_t = 1)]
@@ -91,6 +96,13 @@ pub struct StageTime {
 
 /// Runs `gazecast render`.
 pub fn run(args: &RenderArgs, out: &mut dyn Write) -> Result<(), String> {
+    let mut outputs = vec![("--out", args.out.as_path())];
+    outputs.extend(args.layers.as_deref().map(|p| ("--layers", p)));
+    outputs.extend(args.stats.as_deref().map(|p| ("--stats", p)));
+    crate::output::refuse_inputs(
+        &outputs,
+        &[("--scene", &args.scene), ("--display", &args.display)],
+    )?;
     let mut scene = load_scene(&args.scene)?;
     if args.accel == AccelArg::Grid {
         scene.build_grid();
@@ -148,7 +160,8 @@ pub fn run(args: &RenderArgs, out: &mut dyn Write) -> Result<(), String> {
     };
     if let Some(path) = &args.stats {
         let json = serde_json::to_string_pretty(&report).map_err(|e| e.to_string())?;
-        std::fs::write(path, json).map_err(|e| format!("{}: cannot write: {e}", path.display()))?;
+        crate::output::write_whole(path, json.as_bytes())
+            .map_err(|e| format!("{}: cannot write: {e}", path.display()))?;
     }
     if let Some(n) = renderer.note() {
         writeln!(out, "{n}").map_err(|e| e.to_string())?;

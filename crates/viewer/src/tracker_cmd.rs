@@ -131,18 +131,17 @@ pub enum HidLayoutArg {
 }
 
 /// The sample CSV of `replay` and `simulate`, with errors naming the file.
+/// Written whole or not at all (`crate::output`): an error part-way leaves
+/// any existing file as it was.
 struct SampleCsv<'a> {
     path: &'a Path,
-    w: std::io::BufWriter<std::fs::File>,
+    w: crate::output::AtomicFile,
 }
 
 impl<'a> SampleCsv<'a> {
     fn create(path: &'a Path) -> Result<Self, String> {
-        let file = std::fs::File::create(path).map_err(|e| Self::fail(path, e))?;
-        let mut csv = Self {
-            path,
-            w: std::io::BufWriter::new(file),
-        };
+        let w = crate::output::AtomicFile::create(path).map_err(|e| Self::fail(path, e))?;
+        let mut csv = Self { path, w };
         writeln!(csv.w, "{CSV_HEADER}").map_err(|e| Self::fail(path, e))?;
         Ok(csv)
     }
@@ -155,8 +154,8 @@ impl<'a> SampleCsv<'a> {
         writeln!(self.w, "{}", csv_row(s, map)).map_err(|e| Self::fail(self.path, e))
     }
 
-    fn finish(mut self) -> Result<(), String> {
-        self.w.flush().map_err(|e| Self::fail(self.path, e))
+    fn finish(self) -> Result<(), String> {
+        self.w.commit().map_err(|e| Self::fail(self.path, e))
     }
 
     fn fail(path: &Path, e: std::io::Error) -> String {
@@ -170,6 +169,12 @@ fn load_tracker(path: &Path) -> Result<TrackerConfig, String> {
 
 /// Runs `gazecast replay`.
 pub fn replay(args: &ReplayArgs, err: &mut dyn Write) -> Result<(), String> {
+    let mut inputs = vec![
+        ("--input", args.input.as_path()),
+        ("--tracker", &args.tracker),
+    ];
+    inputs.extend(args.calibration.as_deref().map(|p| ("--calibration", p)));
+    crate::output::refuse_inputs(&[("--csv", &args.csv)], &inputs)?;
     let tracker = load_tracker(&args.tracker)?;
     let pacing = if args.realtime {
         Pacing::RealTime
@@ -206,11 +211,12 @@ pub fn replay(args: &ReplayArgs, err: &mut dyn Write) -> Result<(), String> {
     };
     let clock = transport.clock();
     let mut driver = StreamDriver::new(transport, tracker.decoder(), Box::new(clock));
-    let mut out = SampleCsv::create(&args.csv)?;
+    // Every input is read and checked before the output is created.
     let calibration = match &args.calibration {
         Some(path) => Some(config::load_calibration(path).map_err(|e| e.to_string())?),
         None => None,
     };
+    let mut out = SampleCsv::create(&args.csv)?;
     let mapping = tracker.mapping.clone();
     driver.start().map_err(|e| e.to_string())?;
     while let Some(sample) = driver.next_sample().map_err(|e| e.to_string())? {
@@ -240,6 +246,7 @@ pub fn replay(args: &ReplayArgs, err: &mut dyn Write) -> Result<(), String> {
 
 /// Runs `gazecast record`.
 pub fn record(args: &RecordArgs, out: &mut dyn Write) -> Result<(), String> {
+    crate::output::refuse_inputs(&[("--out", &args.out)], &[("--tracker", &args.tracker)])?;
     let tracker = load_tracker(&args.tracker)?;
     let Driver::Iscan(iscan) = &tracker.driver else {
         return Err(format!(
@@ -441,6 +448,12 @@ pub fn simulated(
 
 /// Runs `gazecast simulate`.
 pub fn simulate(args: &SimulateArgs, out: &mut dyn Write) -> Result<(), String> {
+    let mut outputs = vec![("--out", args.out.as_path())];
+    outputs.extend(args.csv.as_deref().map(|p| ("--csv", p)));
+    outputs.extend(args.hid_log.as_deref().map(|p| ("--hid-log", p)));
+    let mut inputs = vec![("--tracker", args.tracker.as_path())];
+    inputs.extend(args.display.as_deref().map(|p| ("--display", p)));
+    crate::output::refuse_inputs(&outputs, &inputs)?;
     let tracker = load_tracker(&args.tracker)?;
     let (header, stream) = simulated(&tracker, args)?;
     write_recording(&args.out, &header, &stream.chunks).map_err(|e| e.to_string())?;
@@ -456,7 +469,8 @@ pub fn simulate(args: &SimulateArgs, out: &mut dyn Write) -> Result<(), String> 
         {
             text.push_str(&String::from_utf8_lossy(&c.payload));
         }
-        std::fs::write(path, text).map_err(|e| format!("{}: cannot write: {e}", path.display()))?;
+        crate::output::write_whole(path, text.as_bytes())
+            .map_err(|e| format!("{}: cannot write: {e}", path.display()))?;
     }
     if let Some(csv) = &args.csv {
         let mut w = SampleCsv::create(csv)?;

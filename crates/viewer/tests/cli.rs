@@ -139,3 +139,28 @@ fn bad_input_is_a_clear_error_not_a_panic() {
         assert!(!err.contains("panicked"), "{args:?} panicked: {err}");
     }
 }
+
+/// Negative numbers are values, not flags: a gaze left of and above the
+/// screen is a point, and a negative distance gets the range error.
+#[test]
+fn negative_values_reach_their_checks() {
+    let out = gazecast()
+        .args(["mask", "--json", "--gaze", "-5,-5"])
+        .output()
+        .expect("runs");
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let out = gazecast()
+        .args(["mask", "--eye-distance-mm", "-5"])
+        .output()
+        .expect("runs");
+    assert_eq!(out.status.code(), Some(1));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("must be a finite number greater than zero"),
+        "{err}"
+    );
+}

@@ -19,7 +19,8 @@ pub fn create_dir(dir: &Path) -> Result<(), String> {
 
 /// Writes one output file.
 pub fn write_file(path: &Path, text: &str) -> Result<(), String> {
-    std::fs::write(path, text).map_err(|e| format!("{}: cannot write: {e}", path.display()))
+    crate::output::write_whole(path, text.as_bytes())
+        .map_err(|e| format!("{}: cannot write: {e}", path.display()))
 }
 
 /// A PSNR figure: 3 decimals, `inf` when exact, empty when undefined.

@@ -4,15 +4,4 @@
 
 pub use screen_geometry::ParamError;
 
-/// Checks that `value` is finite and strictly positive.
-pub(crate) fn positive(field: &'static str, value: f64) -> Result<f64, ParamError> {
-    if value.is_finite() && value > 0.0 {
-        Ok(value)
-    } else {
-        Err(ParamError::new(
-            field,
-            value,
-            "must be a finite number greater than zero",
-        ))
-    }
-}
+pub(crate) use screen_geometry::positive;

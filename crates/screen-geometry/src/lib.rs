@@ -44,8 +44,9 @@ impl ParamError {
     }
 }
 
-/// Checks that `value` is finite and strictly positive.
-fn positive(field: &'static str, value: f64) -> Result<f64, ParamError> {
+/// Checks that `value` is finite and strictly positive (foveation's
+/// parameter checks use it too).
+pub fn positive(field: &'static str, value: f64) -> Result<f64, ParamError> {
     if value.is_finite() && value > 0.0 {
         Ok(value)
     } else {
@@ -68,6 +69,55 @@ pub fn norm3(v: [f64; 3]) -> f64 {
     }
 }
 
+/// The longest screen side accepted, pixels: 16384.
+///
+/// The largest 2D texture every desktop GPU API guarantees (Direct3D 11/12
+/// feature level 11, Vulkan and Metal on desktop adapters), so the GPU
+/// back-end can hold any accepted frame in one texture; it also keeps ray
+/// mask vertices (stored as `f32`) within 1/1024 px of where they belong,
+/// since `f32` resolves 2⁻¹⁰ at 16384.
+pub const MAX_SIDE_PX: u32 = 16_384;
+
+/// The most pixels a screen may have: 67,108,864 = 8192 × 8192.
+///
+/// A G-buffer frame costs 25 bytes a pixel (colour 3, hit 1, depth 4,
+/// object id 4, normal 12, layer 1), so the largest accepted frame takes
+/// 1.7 GB; the 4K (3840 × 2160, 8.3 Mpx) and 8K UHD (7680 × 4320, 33.2 Mpx)
+/// panels, and 8K × 8K, pass with room to spare, while 70000 × 70000 (the
+/// 14.7 GB colour buffer that aborted) and 16384 × 16384 (6.7 GB) do not.
+pub const MAX_PIXELS: u64 = 67_108_864;
+
+/// Checks a resolution against the size limits before anything is sized
+/// from it: each side from 1 to [`MAX_SIDE_PX`] and at most [`MAX_PIXELS`]
+/// in all. The error names `resolution_px.0` (width), `resolution_px.1`
+/// (height) or `resolution_px` (the product).
+pub fn check_resolution(width_px: u32, height_px: u32) -> Result<(), ParamError> {
+    for (field, side) in [
+        ("resolution_px.0", width_px),
+        ("resolution_px.1", height_px),
+    ] {
+        if !(1..=MAX_SIDE_PX).contains(&side) {
+            return Err(ParamError::new(
+                field,
+                side,
+                format!("must be from 1 to {MAX_SIDE_PX} pixels"),
+            ));
+        }
+    }
+    let pixels = u64::from(width_px) * u64::from(height_px);
+    if pixels > MAX_PIXELS {
+        return Err(ParamError::new(
+            "resolution_px",
+            format!("({width_px}, {height_px})"),
+            format!(
+                "{pixels} pixels; at most {MAX_PIXELS} (8192 x 8192) are accepted, \
+                 which 8K UHD (7680 x 4320) fits"
+            ),
+        ));
+    }
+    Ok(())
+}
+
 /// A physical display as a lab describes it (`config/displays/*.ron`).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -86,23 +136,12 @@ pub struct Display {
 }
 
 impl Display {
-    /// Checks every field and returns the derived geometry.
+    /// Checks every field and returns the derived geometry. The resolution
+    /// must be within [`MAX_SIDE_PX`] and [`MAX_PIXELS`] (see
+    /// [`check_resolution`]).
     pub fn geometry(&self) -> Result<ScreenGeometry, ParamError> {
         let (w, h) = self.resolution_px;
-        if w == 0 {
-            return Err(ParamError::new(
-                "resolution_px.0",
-                w,
-                "must be at least 1 pixel",
-            ));
-        }
-        if h == 0 {
-            return Err(ParamError::new(
-                "resolution_px.1",
-                h,
-                "must be at least 1 pixel",
-            ));
-        }
+        check_resolution(w, h)?;
         let width_mm = positive("size_mm.0", self.size_mm.0)?;
         let height_mm = positive("size_mm.1", self.size_mm.1)?;
         let eye_distance_mm = positive("eye_distance_mm", self.eye_distance_mm)?;
@@ -246,6 +285,40 @@ mod tests {
         let mut d = dissertation_display();
         d.size_mm.0 = f64::NAN;
         assert_eq!(d.geometry().unwrap_err().field, "size_mm.0");
+    }
+
+    #[test]
+    fn resolution_limits_hold_for_each_side_and_the_product() {
+        let with = |w: u32, h: u32| {
+            let mut d = dissertation_display();
+            d.resolution_px = (w, h);
+            d.geometry().map(|_| ()).map_err(|e| e.field)
+        };
+        // 0, 1, the limit, limit + 1 and u32::MAX, for each side.
+        for (side, ok) in [
+            (0, false),
+            (1, true),
+            (MAX_SIDE_PX, true),
+            (MAX_SIDE_PX + 1, false),
+            (u32::MAX, false),
+        ] {
+            let want = |f| if ok { Ok(()) } else { Err(f) };
+            assert_eq!(with(side, 1), want("resolution_px.0"), "width {side}");
+            assert_eq!(with(1, side), want("resolution_px.1"), "height {side}");
+        }
+        assert_eq!(with(u32::MAX, u32::MAX), Err("resolution_px.0"));
+        assert_eq!(with(70_000, 70_000), Err("resolution_px.0"));
+        // The product: 8192² is the limit; one pixel more is refused.
+        assert_eq!(u64::from(8192u32 * 8192), MAX_PIXELS);
+        assert_eq!(with(8192, 8192), Ok(()));
+        assert_eq!(with(MAX_SIDE_PX, 4096), Ok(()));
+        assert_eq!(with(8193, 8192), Err("resolution_px"));
+        assert_eq!(with(MAX_SIDE_PX, 4097), Err("resolution_px"));
+        assert_eq!(with(MAX_SIDE_PX, MAX_SIDE_PX), Err("resolution_px"));
+        // Real panels pass.
+        for (w, h) in [(1280, 1024), (1920, 1080), (3840, 2160), (7680, 4320)] {
+            assert_eq!(with(w, h), Ok(()), "{w}x{h}");
+        }
     }
 
     #[test]

@@ -15,10 +15,33 @@
 //! The allowed spacing depends on where the POR is (the eye sees the screen
 //! obliquely away from its normal), so a mask belongs to one POR; building one
 //! takes a few milliseconds (see the `mask` benchmark).
+//!
+//! Cost: a mask costs what is on the screen, wherever the POR is. The fovea
+//! scan and the rings start at the first radius that can reach the screen
+//! (the distance from the POR to the nearest point of the screen rectangle),
+//! and both loops run a number of times bounded by the screen diagonal, so a
+//! POR far off the screen costs no more than one on it (see the `mask_far`
+//! benchmark). For a POR on the screen that distance is 0 and nothing changes.
+//!
+//! A POR off the screen: no fovea disc reaches the screen unless the allowed
+//! spacing at the nearest screen points is still one pixel; the rings are
+//! arcs that sweep across the screen from its nearest point to its farthest
+//! corner, only where they can touch it. A POR farther than [`FAR_POR_PX`]
+//! from the screen is replaced by its stand-in at that distance, in the same
+//! direction from the nearest screen point (see [`stand_in_por`]); the mask,
+//! including [`RayMask::por_px`], is the stand-in's. There the rings are
+//! straight across the screen to well under a pixel and the allowed spacing
+//! has converged: the lines of sight to the POR and to its stand-in differ by
+//! about (eye distance + screen diagonal, in pixels) / `FAR_POR_PX` radians,
+//! under 10⁻⁴ rad (0.005°) on the shipped displays. Every f64 beyond ~10¹⁷ px would
+//! otherwise be out of reach anyway: `r + step` no longer changes `r` there.
+//! A non-finite POR is an error.
 
 mod arcs;
 
+use std::collections::HashMap;
 use std::f64::consts::{PI, TAU};
+use std::hash::{BuildHasherDefault, Hasher};
 
 use serde::{Deserialize, Serialize};
 
@@ -64,6 +87,42 @@ impl std::str::FromStr for Layout {
     }
 }
 
+/// Distance from the screen, pixels, beyond which a POR is replaced by its
+/// stand-in at this distance (see [`stand_in_por`]): 10⁸ px, 26 km at a
+/// 0.26 mm pitch. Chosen so the farthest ring (this plus a screen diagonal of
+/// at most 23,170 px) needs fewer than 2³⁰ points per turn at the finest
+/// spacing of one pixel, which keeps the mesh's index arithmetic within
+/// `u32`/`i64`, while the allowed spacing on the screen has long converged.
+pub const FAR_POR_PX: f64 = 1e8;
+
+/// Where the mask for `por_px` is built around on a `width_px × height_px`
+/// screen: the POR itself when it is within [`FAR_POR_PX`] of the screen
+/// rectangle (to a relative 10⁻⁹, so a stand-in stands in for itself), else
+/// the point at `FAR_POR_PX` from the nearest screen point towards it.
+/// Finite input gives finite output; non-finite input is returned as is.
+pub fn stand_in_por(por_px: [f64; 2], width_px: f64, height_px: f64) -> [f64; 2] {
+    if !(por_px[0].is_finite() && por_px[1].is_finite()) {
+        return por_px;
+    }
+    let near = [
+        por_px[0].clamp(0.0, width_px),
+        por_px[1].clamp(0.0, height_px),
+    ];
+    let d = [por_px[0] - near[0], por_px[1] - near[1]];
+    // Scaled by the larger component, so ±f64::MAX cannot overflow.
+    let scale = d[0].abs().max(d[1].abs());
+    if scale == 0.0 {
+        return por_px; // on the screen
+    }
+    let unit = [d[0] / scale, d[1] / scale];
+    let len = unit[0].hypot(unit[1]); // in [1, √2]
+    if scale * len <= FAR_POR_PX * (1.0 + 1e-9) {
+        return por_px;
+    }
+    let k = FAR_POR_PX / len;
+    [near[0] + unit[0] * k, near[1] + unit[1] * k]
+}
+
 /// Marks the missing fourth corner of a triangular cell.
 pub const NO_VERTEX: u32 = u32::MAX;
 
@@ -92,10 +151,15 @@ pub struct Ring {
 #[derive(Debug, Clone)]
 pub struct RayMask {
     pub layout: Layout,
+    /// The POR the mask was built for: as given, or its stand-in when it is
+    /// farther than [`FAR_POR_PX`] from the screen (see [`stand_in_por`]).
     pub por_px: [f64; 2],
     pub width_px: u32,
     pub height_px: u32,
     /// Pixel centres within this distance of the POR are cast one per pixel.
+    /// Off the screen the fovea scan starts just short of the screen, so
+    /// this is at least `d_min − 1` (`d_min` the POR's distance to the
+    /// screen) even when no fovea pixel is on the screen.
     pub fovea_radius_px: f64,
     /// The fovea disc, clipped to the screen.
     pub fovea: Vec<PixelSpan>,
@@ -171,11 +235,20 @@ impl RayMask {
 
 /// Samples per full turn when taking the minimum spacing over a ring.
 const SAMPLES_PER_TURN: f64 = 16.0;
+/// Most points a ring may have per turn, 2³⁰: [`ladder`] keeps it at most
+/// 2³⁰, and the strip walk's products `(i + 1)·n` (i < 2n + 2) stay below
+/// 2⁶² in `i64`. Rings within [`FAR_POR_PX`] plus a screen diagonal need at
+/// most 2π·1.0003·10⁸ ≈ 6.3·10⁸ points at a spacing of one pixel.
+const MAX_POINTS_PER_TURN: f64 = (1u32 << 30) as f64;
 /// A ring keeps the previous ring's point count (so the strip is all quads)
 /// while that count is at least this fraction of what it needs.
 const KEEP_COUNT_FRACTION: f64 = 0.8;
 
-/// Builds the ray mask for `por_px` (any finite point, on or off the screen).
+/// Builds the ray mask for `por_px` (any finite point, on or off the screen;
+/// see the module docs for a POR off the screen). Errors: a non-finite POR
+/// (`gaze.x`, `gaze.y`), or a model whose screen exceeds the size limits of
+/// [`screen_geometry::check_resolution`] (`resolution_px…`), which
+/// [`Display::geometry`](crate::Display::geometry) already refuses.
 pub fn build(
     model: &SamplingModel,
     layout: Layout,
@@ -197,8 +270,8 @@ pub fn build(
 }
 
 /// Rebuilds `mask` in place for a new POR (or model, or layout), reusing its
-/// buffers: what a renderer calls when the gaze moves. On error the mask is
-/// left unchanged.
+/// buffers, for a caller that keeps one mask across gazes (the renderers
+/// call [`build`] per frame today). On error the mask is left unchanged.
 pub fn rebuild(
     mask: &mut RayMask,
     model: &SamplingModel,
@@ -219,7 +292,10 @@ pub fn rebuild(
             "the point of regard must be finite",
         ));
     }
+    // Defence in depth: a hand-made geometry must not size the work either.
+    screen_geometry::check_resolution(model.geometry.width_px, model.geometry.height_px)?;
     let [w, h] = model.geometry.size_px();
+    let por_px = stand_in_por(por_px, w, h);
     let screen = ScreenFromPor::new(por_px, w, h);
     let sampler = RingSampler {
         at_por: model.from_por(por_px),
@@ -308,17 +384,25 @@ impl RingSampler {
     /// exceeds one pixel (nyquist) or first reaches two whole pixels (seed:
     /// the first intersection of Fig. 4.4). At least 1 px; at most the
     /// farthest screen corner.
+    ///
+    /// The scan goes out in whole pixels from the last whole radius short of
+    /// the screen, `1 + ⌊max(d_min − 1, 0)⌋` (1 for a POR on the screen, so
+    /// nothing changes there): smaller circles miss the screen and cannot
+    /// put a fovea pixel on it. It ends by `max_distance + 1`, at most a
+    /// screen diagonal plus 2 steps later; `r` is a whole number below 2⁵³
+    /// (the POR is within [`FAR_POR_PX`]), so each step adds exactly 1.
     fn fovea_radius(&self, layout: Layout) -> f64 {
         let limit = self.screen.max_distance_px + 1.0;
         let exceeds = |r: f64| match layout {
             Layout::Nyquist => self.tightest(r).spacing_px > 1.0,
             Layout::Seed => self.tightest(r).spacing_px >= 2.0,
         };
-        let mut r = 1.0;
+        let start = 1.0 + (self.screen.min_distance_px - 1.0).max(0.0).floor();
+        let mut r = start;
         while r < limit && !exceeds(r) {
             r += 1.0;
         }
-        if layout == Layout::Seed || r <= 1.0 || r >= limit {
+        if layout == Layout::Seed || r <= start || r >= limit {
             return r.min(limit);
         }
         // Refine between r - 1 (does not exceed) and r (exceeds).
@@ -334,20 +418,43 @@ impl RingSampler {
         hi
     }
 
+    /// The rings from the fovea edge, or from the nearest screen point if
+    /// that is farther, out past the farthest screen corner.
+    ///
+    /// Start: `r_0 = max(fovea radius, d_min)`, `d_min` the distance from the
+    /// POR to the screen rectangle. The cells outside ring k reach in to its
+    /// chords at `r_k·cos(π/n_k) ≤ r_k`, so a first ring at `d_min` already
+    /// closes every edge cell: no screen point lies inside it. On the screen
+    /// `d_min = 0` and `r_0` is the fovea radius, as it always was, so every
+    /// ring, and the mask, is bit-identical; off it, the rings that the old
+    /// loop stepped through between the fovea and the screen (one per ≤ n_max
+    /// pixels of distance) made no cells and are skipped.
+    ///
+    /// Termination: every ring steps out by at least 1 px (the spacing is
+    /// clamped to ≥ 1), so r passes `far` within `far − r_0 + 1` rings, and
+    /// `far − r_0 ≤` the screen diagonal (the farthest corner is at most a
+    /// diagonal beyond the nearest point). A ring beyond `far` stops the loop
+    /// unless `r − far < s²/(8r)` (its polygon's inset, s its step ≤ r), which
+    /// needs its spacing to grow by a square root of `8·far·s_prev` a ring:
+    /// a handful of rings at most. The loop is cut at `far − r_0 + 64` rings
+    /// regardless, a count from the screen size alone.
     fn rings(&self, rings: &mut Vec<Ring>, layout: Layout, fovea_radius_px: f64) {
         rings.clear();
         let far = self.screen.max_distance_px;
         if fovea_radius_px > far {
             return;
         }
-        let mut r = fovea_radius_px;
-        loop {
+        let mut r = fovea_radius_px.max(self.screen.min_distance_px);
+        let max_rings = (far - r).max(0.0).ceil() as usize + 64;
+        for _ in 0..max_rings {
             let tightest = self.step(r);
             let step = match layout {
                 Layout::Nyquist => tightest.spacing_px,
                 Layout::Seed => tightest.spacing_px.floor().max(1.0),
             };
-            let needed = ((TAU * r / step).ceil() as u32).max(3);
+            // At most MAX_POINTS_PER_TURN: a bound only a ring pushed far
+            // beyond the screen by a huge max_spacing_px could reach.
+            let needed = ((TAU * r / step).ceil().min(MAX_POINTS_PER_TURN) as u32).max(3);
             let points_per_turn = match (layout, rings.last()) {
                 (Layout::Nyquist, Some(prev))
                     if needed <= prev.points_per_turn
@@ -418,10 +525,43 @@ fn fovea_spans(spans: &mut Vec<PixelSpan>, por: [f64; 2], radius: f64, width: u3
     }
 }
 
+/// Rings with at most this many points per turn index their vertex ids in a
+/// dense array (8 bytes a point, 2 MB at most): every ring of a POR on a
+/// screen within the size limits (diagonal ≤ 23,170 px: ≤ 1.55·10⁵ points).
+const DENSE_SLOTS_MAX: u32 = 1 << 18;
+
+/// Point index → vertex id for rings too long for a dense array.
+type SparseSlots = HashMap<u32, u32, BuildHasherDefault<IndexHasher>>;
+
+/// Hashes a point index with one multiply (Fibonacci hashing): the keys are
+/// runs of consecutive integers, which this spreads over every bit, and the
+/// map is private, so no adversary picks them.
+#[derive(Default)]
+struct IndexHasher(u64);
+
+impl Hasher for IndexHasher {
+    fn write(&mut self, bytes: &[u8]) {
+        for &b in bytes {
+            self.write_u32(u32::from(b));
+        }
+    }
+
+    fn write_u32(&mut self, i: u32) {
+        self.0 = (self.0 ^ u64::from(i)).wrapping_mul(0x9E37_79B9_7F4A_7C15);
+    }
+
+    fn finish(&self) -> u64 {
+        self.0
+    }
+}
+
 /// Vertex ids of one ring's points, created on first use.
 ///
 /// A slot holds `(generation << 32) | vertex id`; bumping the generation
 /// empties every slot at once when the buffer moves on to another ring.
+/// Rings with more than [`DENSE_SLOTS_MAX`] points per turn (only a POR well
+/// off the screen has them, and only a sliver of each ring is walked) keep
+/// their ids in a map instead, so memory follows the points made, not `n`.
 ///
 /// The walk visits a ring's indices in order, so a new point is usually the
 /// previous one rotated by one angular step: one complex multiply instead of
@@ -432,6 +572,8 @@ struct RingSlots {
     n: u32,
     generation: u64,
     slots: Vec<u64>,
+    /// Used instead of `slots` when `n > DENSE_SLOTS_MAX`.
+    sparse: Option<SparseSlots>,
     /// Index and unit vector of the last point created, and the rotation by one step.
     last_index: usize,
     last_unit: [f64; 2],
@@ -445,6 +587,7 @@ impl RingSlots {
             n: 0,
             generation: 0,
             slots: Vec::new(),
+            sparse: None,
             last_index: usize::MAX,
             last_unit: [1.0, 0.0],
             step: [1.0, 0.0],
@@ -458,17 +601,34 @@ impl RingSlots {
         self.last_index = usize::MAX;
         let (s, c) = (TAU / f64::from(self.n)).sin_cos();
         self.step = [c, s];
-        if self.slots.len() < self.n as usize {
-            self.slots.resize(self.n as usize, 0);
+        if self.n > DENSE_SLOTS_MAX {
+            self.sparse.get_or_insert_with(SparseSlots::default).clear();
+        } else {
+            if let Some(map) = self.sparse.as_mut() {
+                map.clear();
+            }
+            if self.slots.len() < self.n as usize {
+                self.slots.resize(self.n as usize, 0);
+            }
+        }
+    }
+
+    /// The vertex id already made for point `i`, if any.
+    #[inline]
+    fn lookup(&self, i: usize) -> Option<u32> {
+        if self.n > DENSE_SLOTS_MAX {
+            self.sparse.as_ref()?.get(&(i as u32)).copied()
+        } else {
+            let slot = self.slots[i];
+            (slot >> 32 == self.generation).then_some(slot as u32)
         }
     }
 
     /// Vertex id of point `i` (already reduced to `0..n`).
     #[inline]
     fn vertex(&mut self, i: usize, por: [f64; 2], vertices: &mut Vec<[f32; 2]>) -> u32 {
-        let slot = self.slots[i];
-        if slot >> 32 == self.generation {
-            return slot as u32;
+        if let Some(id) = self.lookup(i) {
+            return id;
         }
         let unit = if self.last_index.wrapping_add(1) == i {
             let [c, s] = self.last_unit;
@@ -483,7 +643,13 @@ impl RingSlots {
         self.last_index = i;
         self.last_unit = unit;
         let id = vertices.len() as u32;
-        self.slots[i] = (self.generation << 32) | u64::from(id);
+        if self.n > DENSE_SLOTS_MAX {
+            self.sparse
+                .get_or_insert_with(SparseSlots::default)
+                .insert(i as u32, id);
+        } else {
+            self.slots[i] = (self.generation << 32) | u64::from(id);
+        }
         vertices.push([
             (por[0] + self.radius * unit[0]) as f32,
             (por[1] + self.radius * unit[1]) as f32,

@@ -38,6 +38,10 @@ pub struct Options {
     pub check_coverage: bool,
     /// Draw the POR box even when the scene does not list `PorOverlay`.
     pub por_overlay: bool,
+    /// Fill the G-buffer's surface buffers (depth, object id, normal) even
+    /// when no pass reads them (tests, debug pictures). Off, they are filled
+    /// exactly when a pass needs them.
+    pub surface: bool,
 }
 
 impl Default for Options {
@@ -50,6 +54,7 @@ impl Default for Options {
             triggers: None,
             check_coverage: false,
             por_overlay: false,
+            surface: false,
         }
     }
 }
@@ -64,6 +69,11 @@ pub struct Renderer<'s> {
     backend: Backend,
     passes: Vec<Box<dyn Pass>>,
     note: Option<String>,
+    /// Fill the surface buffers whatever the passes need.
+    surface: bool,
+    /// A frame given back by [`Renderer::recycle`], whose buffers the next
+    /// CPU frame reuses.
+    spare: Option<Frame>,
 }
 
 impl<'s> Renderer<'s> {
@@ -98,23 +108,48 @@ impl<'s> Renderer<'s> {
             backend,
             passes: passes_for(scene, options.por_overlay),
             note,
+            surface: options.surface,
+            spare: None,
         })
+    }
+
+    /// Whether this frame's method must fill the surface buffers.
+    fn wants_surface(&self) -> bool {
+        self.surface || self.passes.iter().any(|p| p.needs_surface())
+    }
+
+    /// Gives a frame back for the next one to reuse its buffers: a loop
+    /// that renders frame after frame of one size then allocates nothing
+    /// per frame on the CPU.
+    pub fn recycle(&mut self, frame: Frame) {
+        self.spare = Some(frame);
     }
 
     /// Renders one frame for the point of regard `gaze_px` (screen pixels):
     /// the method fills the G-buffer, then the effect passes run. `Stats`
     /// time the method.
     pub fn render(&mut self, gaze_px: [f64; 2]) -> Result<(Frame, Stats), RenderError> {
+        let surface = self.wants_surface();
         let (mut frame, stats) = match (self.method, &mut self.backend) {
-            (Method::Full | Method::Hybrid, Backend::Cpu) => raycast::render(
-                self.scene,
-                &self.camera,
-                &self.model,
-                &self.settings,
-                gaze_px,
-            )?,
-            (Method::Full, Backend::Gpu(g)) => g.render_full(&self.camera)?,
+            (Method::Full | Method::Hybrid, Backend::Cpu) => {
+                let mut frame = self.spare.take().unwrap_or_default();
+                let stats = raycast::render::render_into(
+                    self.scene,
+                    &self.camera,
+                    &self.model,
+                    &self.settings,
+                    gaze_px,
+                    surface,
+                    &mut frame,
+                )?;
+                (frame, stats)
+            }
+            (Method::Full, Backend::Gpu(g)) => {
+                g.set_surface(surface);
+                g.render_full(&self.camera)?
+            }
             (Method::Hybrid, Backend::Gpu(g)) => {
+                g.set_surface(surface);
                 let mask = foveation::mask::build(&self.model, self.settings.layout, gaze_px)?;
                 g.render_foveated(&self.camera, &mask, &self.settings.triggers)?
             }

@@ -144,6 +144,7 @@ fn the_g_buffer_is_complete_and_consistent() {
                 backend,
                 Options {
                     method,
+                    surface: true,
                     ..Options::default()
                 },
             );
@@ -254,4 +255,38 @@ fn an_effect_takes_its_parameters_from_the_scene_file() {
     assert!(e.contains("size"), "{e}");
     let e = with("Sparkles").expect_err("refused");
     assert!(e.contains("Sparkles"), "{e}");
+}
+
+/// Pay per use: no pass reads depth, object id or normal today, so without
+/// `surface` a frame carries none of those buffers, on either backend; a
+/// recycled frame's buffers are reused.
+#[test]
+fn the_surface_buffers_cost_nothing_unless_asked_for() {
+    let s = scene("bunny", &ALL_SAMPLING);
+    for backend in BACKENDS {
+        let mut r = renderer(&s, backend, Options::default());
+        let (frame, _) = r.render([90.0, 70.0]).expect("renders");
+        assert!(!frame.has_surface(), "{backend:?}");
+        assert!(frame.depth_mm.is_empty() && frame.object.is_empty() && frame.normal.is_empty());
+        let rgb = frame.rgb.as_ptr();
+        r.recycle(frame);
+        let (again, _) = r.render([95.0, 70.0]).expect("renders");
+        if backend == BackendChoice::Cpu {
+            assert_eq!(again.rgb.as_ptr(), rgb, "the recycled buffer is reused");
+        }
+        let mut with = renderer(
+            &s,
+            backend,
+            Options {
+                surface: true,
+                ..Options::default()
+            },
+        );
+        let (full, _) = with.render([95.0, 70.0]).expect("renders");
+        assert!(full.has_surface(), "{backend:?}");
+        // The colour, hit and layer buffers do not depend on it.
+        assert_eq!(again.rgb, full.rgb, "{backend:?}");
+        assert_eq!(again.hit, full.hit, "{backend:?}");
+        assert_eq!(again.layer, full.layer, "{backend:?}");
+    }
 }

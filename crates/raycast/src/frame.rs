@@ -23,42 +23,72 @@ pub enum Layer {
 
 /// A rendered frame: one value per pixel in each buffer, row-major from the
 /// top-left corner.
-#[derive(Debug, Clone, PartialEq)]
+///
+/// The *surface* buffers (`depth_mm`, `object`, `normal`) are filled only
+/// when something asks for them (an effect pass that reads them, or a
+/// caller that sets them up with [`Frame::blank`]`(…, true)`): otherwise
+/// they are empty and cost nothing ([`Frame::has_surface`]).
+#[derive(Debug, Clone, Default, PartialEq)]
 pub struct Frame {
     pub width_px: u32,
     pub height_px: u32,
     /// 8-bit sRGB-encoded colour, three bytes a pixel.
     pub rgb: Vec<u8>,
-    /// Did the (cast or reconstructed) sample hit geometry? Always
-    /// `object[i] != NO_OBJECT`.
+    /// Did the (cast or reconstructed) sample hit geometry?
     pub hit: Vec<bool>,
     /// Distance from the eye to the visible surface in mm (world units);
-    /// `f32::INFINITY` for the background.
+    /// `f32::INFINITY` for the background. Empty without surface buffers.
     pub depth_mm: Vec<f32>,
     /// Index of the visible object in the scene's object list, or
-    /// [`NO_OBJECT`].
+    /// [`NO_OBJECT`]; `object[i] != NO_OBJECT` exactly where `hit[i]`.
+    /// Empty without surface buffers.
     pub object: Vec<u32>,
     /// Unit shading normal of the visible surface (world space); zero for
-    /// the background.
+    /// the background. Empty without surface buffers.
     pub normal: Vec<[f32; 3]>,
     pub layer: Vec<Layer>,
 }
 
 impl Frame {
     /// A frame of `width_px` × `height_px` background pixels of colour
-    /// `background_rgb8`, every one in layer `layer`.
-    pub fn blank(width_px: u32, height_px: u32, background_rgb8: [u8; 3], layer: Layer) -> Self {
+    /// `background_rgb8`, every one in layer `layer`, with the surface
+    /// buffers when `surface` is set.
+    pub fn blank(
+        width_px: u32,
+        height_px: u32,
+        background_rgb8: [u8; 3],
+        layer: Layer,
+        surface: bool,
+    ) -> Self {
         let n = width_px as usize * height_px as usize;
+        let s = if surface { n } else { 0 };
         Self {
             width_px,
             height_px,
             rgb: background_rgb8.repeat(n),
             hit: vec![false; n],
-            depth_mm: vec![f32::INFINITY; n],
-            object: vec![NO_OBJECT; n],
-            normal: vec![[0.0; 3]; n],
+            depth_mm: vec![f32::INFINITY; s],
+            object: vec![NO_OBJECT; s],
+            normal: vec![[0.0; 3]; s],
             layer: vec![layer; n],
         }
+    }
+
+    /// Gives the frame `width_px` × `height_px` pixels (with or without the
+    /// surface buffers), reusing its allocations: a renderer that writes
+    /// every pixel calls this instead of allocating a frame per frame. The
+    /// pixel values are left as they were (new ones are background).
+    pub fn reshape(&mut self, width_px: u32, height_px: u32, surface: bool) {
+        let n = width_px as usize * height_px as usize;
+        let s = if surface { n } else { 0 };
+        self.width_px = width_px;
+        self.height_px = height_px;
+        self.rgb.resize(3 * n, 0);
+        self.hit.resize(n, false);
+        self.depth_mm.resize(s, f32::INFINITY);
+        self.object.resize(s, NO_OBJECT);
+        self.normal.resize(s, [0.0; 3]);
+        self.layer.resize(n, Layer::Full);
     }
 
     /// Number of pixels.
@@ -71,29 +101,48 @@ impl Frame {
         self.hit.is_empty()
     }
 
-    /// Rows of every buffer, for filling in parallel.
+    /// Whether the surface buffers (depth, object id, normal) are filled.
+    pub fn has_surface(&self) -> bool {
+        self.depth_mm.len() == self.len()
+            && self.object.len() == self.len()
+            && self.normal.len() == self.len()
+    }
+
+    /// Rows of every buffer, for filling in parallel (the surface rows are
+    /// empty slices when the frame has no surface buffers).
     pub(crate) fn rows_mut(&mut self) -> Vec<RowMut<'_>> {
         let w = self.width_px as usize;
-        if w == 0 {
+        let h = self.height_px as usize;
+        if w == 0 || h == 0 {
             return Vec::new();
         }
+        let surface = self.has_surface();
+        let mut depth = self.depth_mm.chunks_mut(w);
+        let mut object = self.object.chunks_mut(w);
+        let mut normal = self.normal.chunks_mut(w);
         self.rgb
             .chunks_mut(3 * w)
             .zip(self.hit.chunks_mut(w))
-            .zip(self.depth_mm.chunks_mut(w))
-            .zip(self.object.chunks_mut(w))
-            .zip(self.normal.chunks_mut(w))
             .zip(self.layer.chunks_mut(w))
-            .map(
-                |(((((rgb, hit), depth_mm), object), normal), layer)| RowMut {
+            .map(|((rgb, hit), layer)| {
+                let (depth_mm, object, normal) = if surface {
+                    (
+                        depth.next().unwrap_or_default(),
+                        object.next().unwrap_or_default(),
+                        normal.next().unwrap_or_default(),
+                    )
+                } else {
+                    (Default::default(), Default::default(), Default::default())
+                };
+                RowMut {
                     rgb,
                     hit,
                     depth_mm,
                     object,
                     normal,
                     layer,
-                },
-            )
+                }
+            })
             .collect()
     }
 }
@@ -112,28 +161,37 @@ pub(crate) struct RowMut<'a> {
 #[derive(Debug, Clone, Copy)]
 pub(crate) struct Texel {
     pub rgb: [u8; 3],
-    /// Eye distance (mm), object and normal of the visible surface.
+    pub hit: bool,
+    /// Eye distance (mm), object and normal of the visible surface, when
+    /// the frame has surface buffers and the sample hit.
     pub surface: Option<(f32, u32, Vec3)>,
     pub layer: Layer,
 }
 
 impl RowMut<'_> {
+    /// Whether this row carries surface buffers.
+    #[inline]
+    pub fn has_surface(&self) -> bool {
+        !self.depth_mm.is_empty()
+    }
+
     #[inline]
     pub fn put(&mut self, x: usize, t: Texel) {
         self.rgb[3 * x..3 * x + 3].copy_from_slice(&t.rgb);
         self.layer[x] = t.layer;
-        match t.surface {
-            Some((d, o, n)) => {
-                self.hit[x] = true;
-                self.depth_mm[x] = d;
-                self.object[x] = o;
-                self.normal[x] = n.to_array();
-            }
-            None => {
-                self.hit[x] = false;
-                self.depth_mm[x] = f32::INFINITY;
-                self.object[x] = NO_OBJECT;
-                self.normal[x] = [0.0; 3];
+        self.hit[x] = t.hit;
+        if self.has_surface() {
+            match t.surface {
+                Some((d, o, n)) => {
+                    self.depth_mm[x] = d;
+                    self.object[x] = o;
+                    self.normal[x] = n.to_array();
+                }
+                None => {
+                    self.depth_mm[x] = f32::INFINITY;
+                    self.object[x] = NO_OBJECT;
+                    self.normal[x] = [0.0; 3];
+                }
             }
         }
     }

@@ -137,12 +137,21 @@ fn colour_of(scene: &Scene, cam: &Camera, p: [f32; 2], hit: Option<Hit>) -> Vec3
     }
 }
 
-/// The G-buffer values of the sample at `p`: colour, and the eye distance
-/// (mm), object and normal of what it hit.
-fn texel(scene: &Scene, cam: &Camera, p: [f32; 2], hit: Option<Hit>, layer: Layer) -> Texel {
+/// The G-buffer values of the sample at `p`: colour, and, when the frame
+/// has surface buffers (`surface`), the eye distance (mm), object and
+/// normal of what it hit.
+fn texel(
+    scene: &Scene,
+    cam: &Camera,
+    p: [f32; 2],
+    hit: Option<Hit>,
+    layer: Layer,
+    surface: bool,
+) -> Texel {
     Texel {
         rgb: rgb8(scene, colour_of(scene, cam, p, hit)),
-        surface: hit.map(|h| {
+        hit: hit.is_some(),
+        surface: hit.filter(|_| surface).map(|h| {
             let depth_mm = h.t * (cam.screen_point(p) - cam.eye).length();
             (depth_mm, h.object, h.normal)
         }),
@@ -150,7 +159,8 @@ fn texel(scene: &Scene, cam: &Camera, p: [f32; 2], hit: Option<Hit>, layer: Laye
     }
 }
 
-/// Renders one frame. `model` gives the mask (foveated mode only).
+/// Renders one frame into a new frame with every G-buffer channel (the
+/// surface buffers included). `model` gives the mask (foveated mode only).
 pub fn render(
     scene: &Scene,
     cam: &Camera,
@@ -158,25 +168,44 @@ pub fn render(
     settings: &Settings,
     gaze_px: [f64; 2],
 ) -> Result<(Frame, Stats), foveation::ParamError> {
+    let mut frame = Frame::default();
+    let stats = render_into(scene, cam, model, settings, gaze_px, true, &mut frame)?;
+    Ok((frame, stats))
+}
+
+/// Renders one frame into `frame`, reusing its buffers (no allocation once
+/// it has had this size); the surface buffers (depth, object id, normal)
+/// are filled only when `surface` is set. Every pixel is written.
+pub fn render_into(
+    scene: &Scene,
+    cam: &Camera,
+    model: &SamplingModel,
+    settings: &Settings,
+    gaze_px: [f64; 2],
+    surface: bool,
+    frame: &mut Frame,
+) -> Result<Stats, foveation::ParamError> {
     let start = Instant::now();
     let (w, h) = (cam.width_px as usize, cam.height_px as usize);
-    let mut frame = Frame::blank(
-        cam.width_px,
-        cam.height_px,
-        scene.background_rgb8,
-        Layer::Full,
-    );
-    let mut stats = Stats::default();
-    if settings.mode == Mode::Full || !scene.has(Effect::FoveatedSampling) {
-        full(scene, cam, settings.test, &mut frame);
-        stats.rays_full = (w * h) as u64;
-        stats.rays_total = stats.rays_full;
+    // The mask first: a bad gaze leaves the frame as it was.
+    let m = if settings.mode == Mode::Full || !scene.has(Effect::FoveatedSampling) {
+        None
     } else {
-        let m = mask::build(model, settings.layout, gaze_px)?;
-        foveated(scene, cam, &m, settings, &mut frame, &mut stats);
+        Some(mask::build(model, settings.layout, gaze_px)?)
+    };
+    frame.reshape(cam.width_px, cam.height_px, surface);
+    let frame = &mut *frame;
+    let mut stats = Stats::default();
+    match m {
+        None => {
+            full(scene, cam, settings.test, frame);
+            stats.rays_full = (w * h) as u64;
+            stats.rays_total = stats.rays_full;
+        }
+        Some(m) => foveated(scene, cam, &m, settings, frame, &mut stats),
     }
     stats.time_ms = start.elapsed().as_secs_f64() * 1e3;
-    Ok((frame, stats))
+    Ok(stats)
 }
 
 /// `to_rgb8`, skipped for the background (most pixels of a sparse scene).
@@ -195,10 +224,11 @@ fn full(scene: &Scene, cam: &Camera, test: TriangleTest, frame: &mut Frame) {
         .into_par_iter()
         .enumerate()
         .for_each(|(y, mut row)| {
+            let surface = row.has_surface();
             for x in 0..row.hit.len() {
                 let p = [x as f32 + 0.5, y as f32 + 0.5];
                 let hit = cast(scene, cam, p, test);
-                row.put(x, texel(scene, cam, p, hit, Layer::Full));
+                row.put(x, texel(scene, cam, p, hit, Layer::Full, surface));
             }
         });
 }
@@ -304,12 +334,13 @@ fn foveated(
         .into_par_iter()
         .enumerate()
         .map(|(y, mut row)| {
+            let surface = row.has_surface();
             let mut n = (0u64, 0u64, 0u64); // fovea, refine, gap
             for x in 0..w {
                 let p = [x as f32 + 0.5, y as f32 + 0.5];
                 let o = owner[y * w + x];
                 let t = if o == UNOWNED && !settings.check_coverage {
-                    texel(scene, cam, p, None, Layer::Interpolated)
+                    texel(scene, cam, p, None, Layer::Interpolated, surface)
                 } else if o == FOVEA || o == UNOWNED || refined[o as usize] {
                     let hit = cast(scene, cam, p, test);
                     let layer = match o {
@@ -326,10 +357,10 @@ fn foveated(
                             Layer::Refined
                         }
                     };
-                    texel(scene, cam, p, hit, layer)
+                    texel(scene, cam, p, hit, layer, surface)
                 } else {
                     let hit = interpolate(m, &m.cells[o as usize], &vertex_hits, p);
-                    texel(scene, cam, p, hit, Layer::Interpolated)
+                    texel(scene, cam, p, hit, Layer::Interpolated, surface)
                 };
                 row.put(x, t);
             }

@@ -154,6 +154,7 @@ pub fn run(args: &DemoArgs, out: &mut dyn Write) -> Result<(), String> {
         rays += stats.rays_total;
         ms += stats.time_ms;
         frames.push(half_size(&frame.rgb, w, h));
+        renderer.recycle(frame);
     }
     let (hw, hh) = (w / 2, h / 2);
     let anim = args.out.join("demo.png");

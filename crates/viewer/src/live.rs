@@ -261,7 +261,10 @@ impl Viewer<'_> {
             self.frames, gaze[0], gaze[1], stats.rays_total, stats.time_ms
         ));
         self.frames += 1;
-        self.last = Some((frame, stats));
+        // The previous frame's buffers serve the next one.
+        if let Some((old, _)) = self.last.replace((frame, stats)) {
+            self.renderer.recycle(old);
+        }
         Ok(())
     }
 

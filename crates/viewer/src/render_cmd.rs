@@ -127,7 +127,11 @@ pub fn run(args: &RenderArgs, out: &mut dyn Write) -> Result<(), String> {
     for _ in 0..args.repeat.max(1) {
         let (frame, stats) = renderer.render(gaze).map_err(|e| e.to_string())?;
         times.push(stats.time_ms);
-        last = Some((frame, stats));
+        // The previous frame's buffers serve the next one (no allocation
+        // per repeat).
+        if let Some((old, _)) = last.replace((frame, stats)) {
+            renderer.recycle(old);
+        }
     }
     let Some((frame, mut stats)) = last else {
         return Err("nothing rendered".into());

@@ -26,6 +26,12 @@ pub trait Pass: Send {
     fn name(&self) -> &'static str;
     /// Reads and writes the frame in place.
     fn run(&mut self, frame: &mut Frame, input: &PassInput<'_>);
+
+    /// Whether the pass reads the frame's surface buffers (depth, object
+    /// id, normal); the method fills them only when some pass does.
+    fn needs_surface(&self) -> bool {
+        false
+    }
 }
 
 /// The pass an effect of the scene file runs after the method, if any.

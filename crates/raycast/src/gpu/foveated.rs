@@ -225,7 +225,7 @@ impl GpuRenderer {
         }
         encoder.copy_buffer_to_buffer(&ft.counters, 0, &ft.counters_readback, 0, 16);
         queue.submit(Some(encoder.finish()));
-        let frame = read_frame(&device, &target.readback, w, h)?;
+        let frame = read_frame(&device, &target.readback, w, h, self.surface)?;
         let counters = read_back(&device, &ft.counters_readback, 16)?;
         let [fovea, refine, cells_refined, _listed] =
             [0, 1, 2, 3].map(|k| counters.get(k).copied().map_or(0, u64::from));

@@ -77,6 +77,7 @@ impl GpuRenderer {
         let queue = self.queue.clone();
         let timer = self.timer.clone();
         let pipeline = self.pipelines.full.clone();
+        let surface = self.surface;
         let target = self.frame_target(pixels)?;
         let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
             label: Some("frame"),
@@ -92,7 +93,7 @@ impl GpuRenderer {
             t.resolve(&mut encoder, 1);
         }
         queue.submit(Some(encoder.finish()));
-        let frame = read_frame(&device, &target.readback, w, h)?;
+        let frame = read_frame(&device, &target.readback, w, h, surface)?;
         self.stage_ms = match &timer {
             Some(t) => t.read(&device, &[CAST_AND_SHADE])?,
             None => Vec::new(),

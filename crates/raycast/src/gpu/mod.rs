@@ -87,9 +87,18 @@ pub struct GpuRenderer {
     timestamps: bool,
     timer: Option<Timer>,
     stage_ms: Vec<(&'static str, f64)>,
+    /// Read the surface buffers (depth, object id, normal) back.
+    surface: bool,
 }
 
 impl GpuRenderer {
+    /// Whether frames read the surface buffers (depth, object id, normal)
+    /// back (the default); without them a frame has empty surface buffers
+    /// and its read-back moves a fifth of the bytes.
+    pub fn set_surface(&mut self, on: bool) {
+        self.surface = on;
+    }
+
     /// Picks an adapter (a real GPU first, a software one if that is all
     /// there is) and uploads the scene.
     pub fn new(scene: &Scene) -> Result<Self, GpuError> {
@@ -132,6 +141,7 @@ impl GpuRenderer {
             timestamps: opened.timestamps,
             timer,
             stage_ms: Vec::new(),
+            surface: true,
             device,
         })
     }

@@ -91,13 +91,20 @@ pub(super) fn read_frame(
     readback: &FrameBuffers,
     w: u32,
     h: u32,
+    surface: bool,
 ) -> Result<Frame, GpuError> {
-    let mut frame = Frame::blank(w, h, [0; 3], Layer::Full);
+    let mut frame = Frame::blank(w, h, [0; 3], Layer::Full, surface);
     let n = frame.len() as u64;
     if n == 0 {
         return Ok(frame);
     }
     let buffers = readback.each().map(|(b, per_pixel)| (b, per_pixel * n));
+    if !surface {
+        let [(pixels, bytes), ..] = buffers;
+        let words = read_back(device, pixels, bytes)?;
+        unpack(&words, &mut frame);
+        return Ok(frame);
+    }
     let [words, depth, object, normal]: [Vec<u32>; 4] = read_all(device, &buffers)?
         .try_into()
         .map_err(|_| GpuError::Readback("a frame buffer was not mapped".into()))?;

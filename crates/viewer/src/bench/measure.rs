@@ -18,6 +18,8 @@ pub fn timed(
     let mut times = Vec::new();
     let mut last = renderer.render(gaze).map_err(|e| e.to_string())?;
     for _ in 0..repeats.max(1) {
+        // The last frame's buffers serve the next one, as in a live loop.
+        renderer.recycle(std::mem::take(&mut last.0));
         last = renderer.render(gaze).map_err(|e| e.to_string())?;
         times.push(last.1.time_ms);
     }

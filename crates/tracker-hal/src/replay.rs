@@ -2,6 +2,8 @@
 //! goes through exactly the decode path a live device does.
 
 use std::io::{Read, Write};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use crate::clock::SharedClock;
@@ -29,7 +31,13 @@ pub struct ReplayTransport {
     pacing: Pacing,
     started: Option<(Instant, u64)>,
     written: Vec<u8>,
+    read_timeout: Option<Duration>,
+    stop: Option<Arc<AtomicBool>>,
 }
+
+/// The longest single sleep of real-time pacing: waits are sliced so a stop
+/// flag or a read timeout is noticed within it.
+const PACING_SLICE: Duration = Duration::from_millis(10);
 
 impl ReplayTransport {
     /// Plays `(arrival_time_us, bytes)` chunks in order.
@@ -42,7 +50,27 @@ impl ReplayTransport {
             pacing,
             started: None,
             written: Vec::new(),
+            read_timeout: None,
+            stop: None,
         }
+    }
+
+    /// Like a serial port's read timeout: in real-time pacing, a read whose
+    /// next chunk is not due within `timeout` (a silent gap in the
+    /// recording) waits that long, then fails with
+    /// [`std::io::ErrorKind::TimedOut`] (the driver's
+    /// [`TimedOut`](crate::ErrorKind::TimedOut): call again). Without it a
+    /// read sleeps through the whole gap.
+    pub fn with_read_timeout(mut self, timeout: Duration) -> Self {
+        self.read_timeout = Some(timeout);
+        self
+    }
+
+    /// A flag that, once set, cuts any pacing wait short: the read fails at
+    /// once with [`std::io::ErrorKind::TimedOut`] (checked every 10 ms).
+    pub fn with_stop(mut self, stop: Arc<AtomicBool>) -> Self {
+        self.stop = Some(stop);
+        self
     }
 
     /// The device → host data of a recording.
@@ -100,9 +128,31 @@ impl Read for ReplayTransport {
         if self.pacing == Pacing::RealTime {
             let (start, first) = *self.started.get_or_insert((Instant::now(), *time_us));
             let due = start + Duration::from_micros(time_us.saturating_sub(first));
-            let now = Instant::now();
-            if due > now {
-                std::thread::sleep(due - now);
+            let give_up = self.read_timeout.map(|t| Instant::now() + t);
+            loop {
+                let now = Instant::now();
+                if due <= now {
+                    break;
+                }
+                let stopped = self
+                    .stop
+                    .as_ref()
+                    .is_some_and(|s| s.load(Ordering::Relaxed));
+                if stopped || give_up.is_some_and(|g| now >= g) {
+                    return Err(std::io::Error::new(
+                        std::io::ErrorKind::TimedOut,
+                        if stopped {
+                            "the replay was asked to stop"
+                        } else {
+                            "no data within the read timeout (a silent stretch of the recording)"
+                        },
+                    ));
+                }
+                let mut wait = (due - now).min(PACING_SLICE);
+                if let Some(g) = give_up {
+                    wait = wait.min(g - now);
+                }
+                std::thread::sleep(wait);
             }
         }
         let n = buf.len().min(bytes.len() - self.offset);
@@ -147,5 +197,46 @@ mod tests {
             all.extend_from_slice(&buf[..n]);
         }
         assert_eq!(all, [1, 2, 3]);
+    }
+
+    /// A 40-s silent gap used to hold a real-time read for 40 s, whatever
+    /// its caller wanted: with a read timeout the read returns `TimedOut`
+    /// in time, and a stop flag ends the wait at once. The data after the
+    /// gap is still delivered.
+    #[test]
+    fn a_silent_gap_times_out_and_a_stop_flag_cuts_the_wait_short() {
+        let chunks = vec![(0, vec![1]), (40_000_000, vec![2])];
+        let mut t = ReplayTransport::new(chunks.clone(), Pacing::RealTime)
+            .with_read_timeout(Duration::from_millis(50));
+        let mut buf = [0u8; 4];
+        assert_eq!(t.read(&mut buf).expect("first chunk"), 1);
+        let began = Instant::now();
+        let e = t.read(&mut buf).expect_err("the gap");
+        assert_eq!(e.kind(), std::io::ErrorKind::TimedOut);
+        assert!(
+            began.elapsed() < Duration::from_millis(500),
+            "{:?}",
+            began.elapsed()
+        );
+        let stop = Arc::new(AtomicBool::new(false));
+        let mut t = ReplayTransport::new(chunks, Pacing::RealTime).with_stop(stop.clone());
+        assert_eq!(t.read(&mut buf).expect("first chunk"), 1);
+        let setter = std::thread::spawn(move || {
+            std::thread::sleep(Duration::from_millis(50));
+            stop.store(true, Ordering::Relaxed);
+        });
+        let began = Instant::now();
+        let e = t.read(&mut buf).expect_err("stopped");
+        assert_eq!(e.kind(), std::io::ErrorKind::TimedOut);
+        assert!(
+            began.elapsed() < Duration::from_millis(500),
+            "{:?}",
+            began.elapsed()
+        );
+        setter.join().expect("setter");
+        // Not lost: the replay goes on where it was (here, as fast as possible).
+        t.pacing = Pacing::AsFastAsPossible;
+        assert_eq!(t.read(&mut buf).expect("second chunk"), 1);
+        assert_eq!(buf[0], 2);
     }
 }

@@ -3,6 +3,7 @@
 
 use std::collections::VecDeque;
 use std::io::{Read, Write};
+use std::time::{Duration, Instant};
 
 use crate::clock::Clock;
 use crate::error::{Error, ErrorKind, Result};
@@ -59,6 +60,7 @@ pub struct StreamDriver<T, D> {
     pending: VecDeque<GazeSample>,
     buf: Vec<u8>,
     ended: bool,
+    max_wait: Option<Duration>,
 }
 
 impl<T: Read + Write, D: Decoder> StreamDriver<T, D> {
@@ -72,7 +74,21 @@ impl<T: Read + Write, D: Decoder> StreamDriver<T, D> {
             pending: VecDeque::new(),
             buf: vec![0; 4096],
             ended: false,
+            max_wait: None,
         }
+    }
+
+    /// Bounds the time one [`next_sample`](GazeSource::next_sample) call
+    /// spends reading: when bytes keep arriving but no record completes
+    /// within `wait` (wrong baud or format, a garbage burst), it returns
+    /// [`ErrorKind::TimedOut`] after the read that crossed it, so the caller
+    /// regains control (a stop flag, a status line) even though the
+    /// transport itself never times out. Nothing is lost: the decoder keeps
+    /// its partial record. Without it a call returns only on a record, the
+    /// end of the stream, or a transport error or timeout.
+    pub fn with_max_wait(mut self, wait: Duration) -> Self {
+        self.max_wait = Some(wait);
+        self
     }
 
     /// Also send every byte read and written, with its time, to a recorder.
@@ -119,6 +135,7 @@ impl<T: Read + Write, D: Decoder> GazeSource for StreamDriver<T, D> {
     }
 
     fn next_sample(&mut self) -> Result<Option<GazeSample>> {
+        let began = self.max_wait.map(|w| (Instant::now(), w));
         loop {
             if let Some(s) = self.pending.pop_front() {
                 return Ok(Some(s));
@@ -137,6 +154,17 @@ impl<T: Read + Write, D: Decoder> GazeSource for StreamDriver<T, D> {
                         tap.device_to_host(t, &self.buf[..n]);
                     }
                     self.decoder.push(&self.buf[..n], t, &mut self.pending);
+                    if let Some((began, wait)) = began {
+                        if self.pending.is_empty() && began.elapsed() >= wait {
+                            return Err(Error::new(
+                                ErrorKind::TimedOut,
+                                format!(
+                                    "no complete record within {} ms although bytes arrive",
+                                    wait.as_millis()
+                                ),
+                            ));
+                        }
+                    }
                 }
                 Err(e) if e.kind() == std::io::ErrorKind::Interrupted => {}
                 Err(e) => {
@@ -162,4 +190,51 @@ pub fn decode_all<D: Decoder>(decoder: &mut D, bytes: &[u8], arrival_us: u64) ->
     decoder.push(bytes, arrival_us, &mut out);
     decoder.finish();
     out.into()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::clock::MonotonicClock;
+    use crate::iscan::{IscanConfig, IscanDecoder, IscanMode};
+
+    /// A transport that never times out and never ends: garbage forever,
+    /// a little at a time (a device at the wrong baud).
+    struct Garbage;
+
+    impl Read for Garbage {
+        fn read(&mut self, buf: &mut [u8]) -> std::io::Result<usize> {
+            std::thread::sleep(Duration::from_millis(2));
+            let n = buf.len().min(16);
+            buf[..n].fill(0x11);
+            Ok(n)
+        }
+    }
+
+    impl Write for Garbage {
+        fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
+            Ok(buf.len())
+        }
+        fn flush(&mut self) -> std::io::Result<()> {
+            Ok(())
+        }
+    }
+
+    /// Bytes that never decode used to keep `next_sample` reading forever,
+    /// so its caller could never check a stop flag.
+    #[test]
+    fn bytes_that_never_decode_return_timed_out_within_the_max_wait() {
+        let decoder = IscanDecoder::new(IscanConfig::binocular(IscanMode::Binary));
+        let mut d = StreamDriver::new(Garbage, decoder, Box::new(MonotonicClock))
+            .with_max_wait(Duration::from_millis(100));
+        let t = Instant::now();
+        let e = d.next_sample().expect_err("no record can decode");
+        assert_eq!(e.kind, ErrorKind::TimedOut, "{e}");
+        assert!(
+            t.elapsed() < Duration::from_millis(500),
+            "{:?}",
+            t.elapsed()
+        );
+        assert!(d.stats().bytes > 0 && d.stats().records == 0);
+    }
 }

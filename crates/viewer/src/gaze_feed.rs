@@ -7,17 +7,17 @@
 //! reopened with backoff; the window hears about it as a status line.
 
 use std::path::Path;
-use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::Arc;
-use std::time::Duration;
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+use std::sync::{Arc, Mutex};
+use std::time::{Duration, Instant};
 
 use crossbeam_channel::{Receiver, Sender};
 use tracker_hal::calibration::Calibration;
 use tracker_hal::clock::monotonic_us;
 use tracker_hal::mouse::{spawn_device, CursorEvent};
 use tracker_hal::{
-    Driver, ErrorKind, GazeSource, MonotonicClock, Pacing, Recorder, Recording, RecordingHeader,
-    ReplayTransport, StreamDriver, Tap, TrackerConfig,
+    DecodeStats, Driver, ErrorKind, GazeSource, MonotonicClock, Pacing, Recorder, Recording,
+    RecordingHeader, ReplayTransport, StreamDriver, Tap, TrackerConfig,
 };
 
 use crate::config;
@@ -53,18 +53,118 @@ type Map = Box<dyn Fn([f64; 2]) -> Option<[f64; 2]> + Send>;
 const SILENT_REPORT: Duration = Duration::from_millis(500);
 /// Silence after which a live device is closed and reopened.
 const SILENT_RECONNECT: Duration = Duration::from_secs(2);
+/// Bytes arriving without a record for this long: wrong baud or format.
+const UNDECODED_REPORT: Duration = Duration::from_secs(1);
+/// The longest one device read may block the tracker thread: serial read
+/// timeout, replay pacing wait.
+const READ_TIMEOUT: Duration = Duration::from_millis(100);
+/// The longest one `next_sample` call reads bytes that decode to nothing.
+const MAX_WAIT: Duration = Duration::from_millis(200);
+/// How long [`GazeFeed::finish`] waits for the thread before detaching it.
+const JOIN_WAIT: Duration = Duration::from_millis(500);
+/// Minimum time between two status lines about off-screen gaze.
+const FAR_REPORT_EVERY: Duration = Duration::from_secs(1);
 
-/// Runs a tracker until `stop`: samples to `tx`, reopening with backoff
-/// (0.25 s doubling to 4 s) when the device fails or stays silent for 2 s;
-/// a replay ends at its end.
-fn tracker_thread(
-    mut open: Opener,
+/// What went wrong with the gaze during a session, counted by the tracker
+/// thread and read by the window for the session log.
+#[derive(Debug, Clone, Default)]
+pub struct Faults {
+    /// Samples the thread got.
+    pub samples: u64,
+    /// Samples without a gaze from the tracker (blinks, invalid values).
+    pub missing: u64,
+    /// Samples whose mapped gaze was not finite or more than one screen
+    /// diagonal outside the screen: marked invalid.
+    pub far: u64,
+    /// Stretches of at least 0.5 s with no record, and the longest (s).
+    pub silences: u64,
+    pub longest_silence_s: f64,
+    /// Stretches of at least 1 s in which bytes arrived but no record
+    /// decoded (wrong baud or format).
+    pub undecoded: u64,
+    /// Times the device was closed and reopened.
+    pub reconnects: u64,
+    /// Decoder totals over every connection of the session.
+    pub decode: DecodeStats,
+}
+
+impl Faults {
+    /// The session log's lines.
+    pub fn lines(&self) -> Vec<String> {
+        let d = &self.decode;
+        vec![
+            format!(
+                "tracker: {} samples, {} far off the screen or not finite (marked invalid), {} without a gaze (blinks, invalid values)",
+                self.samples, self.far, self.missing
+            ),
+            format!(
+                "tracker decode: {} bytes, {} records, {} bytes dropped, {} resyncs, {} invalid values",
+                d.bytes, d.records, d.dropped_bytes, d.resyncs, d.invalid_values
+            ),
+            format!(
+                "tracker silences: {} (longest {:.1} s), {} stretches of bytes that did not decode, {} reconnects",
+                self.silences, self.longest_silence_s, self.undecoded, self.reconnects
+            ),
+        ]
+    }
+}
+
+fn add_stats(a: DecodeStats, b: DecodeStats) -> DecodeStats {
+    DecodeStats {
+        bytes: a.bytes + b.bytes,
+        records: a.records + b.records,
+        dropped_bytes: a.dropped_bytes + b.dropped_bytes,
+        resyncs: a.resyncs + b.resyncs,
+        invalid_values: a.invalid_values + b.invalid_values,
+    }
+}
+
+/// Whether a mapped gaze is usable: finite and, when the screen size is
+/// known, not more than one screen diagonal outside the screen.
+pub fn plausible(p: [f64; 2], screen_px: Option<[f64; 2]>) -> bool {
+    if !(p[0].is_finite() && p[1].is_finite()) {
+        return false;
+    }
+    let Some([w, h]) = screen_px else {
+        return true;
+    };
+    let d = w.hypot(h);
+    (-d..=w + d).contains(&p[0]) && (-d..=h + d).contains(&p[1])
+}
+
+fn lock(f: &Mutex<Faults>) -> std::sync::MutexGuard<'_, Faults> {
+    f.lock().unwrap_or_else(std::sync::PoisonError::into_inner)
+}
+
+/// What the tracker thread was given.
+struct ThreadCtx {
     map: Map,
+    screen_px: Option<[f64; 2]>,
     tx: Sender<TrackerMsg>,
     stop: Arc<AtomicBool>,
     ends: bool,
-) {
+    faults: Arc<Mutex<Faults>>,
+}
+
+/// Runs a tracker until `stop`: samples to `tx`, reopening with backoff
+/// (0.25 s doubling to 4 s) when the device fails or stays silent for 2 s;
+/// a replay ends at its end. Every device read is bounded in time (serial
+/// read timeout, replay pacing in slices, the driver's maximum wait for a
+/// record), so `stop` is seen within a fraction of a second.
+fn tracker_thread(mut open: Opener, ctx: ThreadCtx) {
+    let ThreadCtx {
+        map,
+        screen_px,
+        tx,
+        stop,
+        ends,
+        faults,
+    } = ctx;
     let mut backoff = Duration::from_millis(250);
+    // Bytes received since the last record, over reconnects.
+    let mut undecoded_bytes = 0u64;
+    let mut far_reported: Option<(Instant, u64)> = None;
+    let mut first = true;
     while !stop.load(Ordering::Relaxed) {
         let mut source = match open() {
             Ok(s) => s,
@@ -74,38 +174,91 @@ fn tracker_thread(
                     backoff.as_secs_f64()
                 )));
                 // Sleep in short steps so a shutdown is not held up.
-                let until = std::time::Instant::now() + backoff;
-                while std::time::Instant::now() < until && !stop.load(Ordering::Relaxed) {
+                let until = Instant::now() + backoff;
+                while Instant::now() < until && !stop.load(Ordering::Relaxed) {
                     std::thread::sleep(Duration::from_millis(20));
                 }
                 backoff = (backoff * 2).min(Duration::from_secs(4));
                 continue;
             }
         };
+        if !first {
+            lock(&faults).reconnects += 1;
+        }
+        first = false;
         if let Err(e) = source.start() {
             let _ = tx.send(TrackerMsg::Status(format!("tracker: {e}")));
         }
         let _ = tx.send(TrackerMsg::Status(String::new()));
         backoff = Duration::from_millis(250);
-        let mut last_data = std::time::Instant::now();
-        let mut silent = false;
+        let opened = Instant::now();
+        let mut last_record = opened;
+        let mut last_byte = opened;
+        // When a silence (no byte at all) began, once reported.
+        let mut silent: Option<Instant> = None;
+        let mut undecoded = false;
+        let mut seen_bytes = 0u64;
+        let base = lock(&faults).decode;
+        let end_silence = |silent: &mut Option<Instant>| {
+            if let Some(t) = silent.take() {
+                let mut f = lock(&faults);
+                f.longest_silence_s = f.longest_silence_s.max(t.elapsed().as_secs_f64());
+                true
+            } else {
+                false
+            }
+        };
         while !stop.load(Ordering::Relaxed) {
-            match source.next_sample() {
+            let next = source.next_sample();
+            let stats = source.stats();
+            if stats.bytes > seen_bytes {
+                undecoded_bytes += stats.bytes - seen_bytes;
+                seen_bytes = stats.bytes;
+                last_byte = Instant::now();
+                if end_silence(&mut silent) {
+                    let _ = tx.send(TrackerMsg::Status(String::new()));
+                }
+            }
+            lock(&faults).decode = add_stats(base, stats);
+            match next {
                 Ok(Some(s)) => {
-                    last_data = std::time::Instant::now();
-                    if silent {
-                        silent = false;
+                    last_record = Instant::now();
+                    undecoded_bytes = 0;
+                    if undecoded {
+                        undecoded = false;
                         let _ = tx.send(TrackerMsg::Status(String::new()));
                     }
                     let raw = s.gaze().filter(|p| p[0].is_finite() && p[1].is_finite());
+                    let mapped = raw.and_then(&map);
+                    let gaze_px = mapped.filter(|&p| plausible(p, screen_px));
+                    let far = {
+                        let mut f = lock(&faults);
+                        f.samples += 1;
+                        if raw.is_none() {
+                            f.missing += 1;
+                        }
+                        if mapped.is_some() && gaze_px.is_none() {
+                            f.far += 1;
+                        }
+                        f.far
+                    };
                     let _ = tx.send(TrackerMsg::Gaze {
                         host_us: monotonic_us(),
                         sample_us: s.host_time_us,
                         raw,
-                        gaze_px: raw.and_then(&map),
+                        gaze_px,
                     });
+                    let due = far_reported
+                        .is_none_or(|(t, n)| n != far && t.elapsed() >= FAR_REPORT_EVERY);
+                    if far > 0 && due {
+                        far_reported = Some((Instant::now(), far));
+                        let _ = tx.send(TrackerMsg::Status(format!(
+                            "tracker: {far} gaze samples far off the screen or not finite, marked invalid; keeping the last valid gaze"
+                        )));
+                    }
                 }
                 Ok(None) => {
+                    end_silence(&mut silent);
                     let _ = tx.send(TrackerMsg::Status(
                         "tracker: end of stream; keeping the last gaze".into(),
                     ));
@@ -116,20 +269,32 @@ fn tracker_thread(
                 }
                 Err(e) if e.kind == ErrorKind::TimedOut => {
                     // A device that goes silent (unplugged without an error,
-                    // stopped, a dead line) is reported, then reopened.
-                    let quiet = last_data.elapsed();
-                    if quiet >= SILENT_RECONNECT && !ends {
+                    // stopped, a dead line) is reported, then reopened; one
+                    // whose bytes never decode (wrong baud or mode) too.
+                    let (no_record, no_byte) = (last_record.elapsed(), last_byte.elapsed());
+                    let arriving = undecoded_bytes > 0 && no_byte < SILENT_REPORT;
+                    let what = if arriving {
+                        format!("{undecoded_bytes} bytes, 0 records decoded: wrong baud or format?")
+                    } else {
+                        format!("no data for {:.1} s", no_byte.as_secs_f64())
+                    };
+                    if no_record >= SILENT_RECONNECT && !ends {
                         let _ = tx.send(TrackerMsg::Status(format!(
-                            "tracker: no data for {:.1} s; keeping the last gaze, reconnecting",
-                            quiet.as_secs_f64()
+                            "tracker: {what}; keeping the last gaze, reconnecting"
                         )));
                         break;
                     }
-                    if quiet >= SILENT_REPORT && !silent {
-                        silent = true;
+                    if arriving && no_record >= UNDECODED_REPORT && !undecoded {
+                        undecoded = true;
+                        lock(&faults).undecoded += 1;
                         let _ = tx.send(TrackerMsg::Status(format!(
-                            "tracker: no data for {:.1} s; keeping the last gaze",
-                            quiet.as_secs_f64()
+                            "tracker: {what} (keeping the last gaze)"
+                        )));
+                    } else if no_byte >= SILENT_REPORT && silent.is_none() {
+                        silent = Some(last_byte);
+                        lock(&faults).silences += 1;
+                        let _ = tx.send(TrackerMsg::Status(format!(
+                            "tracker: {what}; keeping the last gaze"
                         )));
                     }
                 }
@@ -141,6 +306,7 @@ fn tracker_thread(
                 }
             }
         }
+        end_silence(&mut silent);
         let _ = source.stop();
     }
 }
@@ -152,6 +318,8 @@ pub struct GazeSetup {
     replay: Option<Recording>,
     /// For messages: the driver and file.
     pub name: String,
+    /// The screen (px), to mark gaze far off it invalid.
+    screen_px: Option<[f64; 2]>,
 }
 
 /// A running tracker thread.
@@ -162,6 +330,9 @@ pub struct GazeFeed {
     stop: Arc<AtomicBool>,
     thread: Option<std::thread::JoinHandle<()>>,
     recorder: Option<Recorder>,
+    faults: Arc<Mutex<Faults>>,
+    /// How the last [`GazeFeed::finish`] ended the thread, for the log.
+    stopped: Option<String>,
 }
 
 impl GazeSetup {
@@ -176,6 +347,7 @@ impl GazeSetup {
                 tracker: rec.header.tracker.clone(),
                 replay: Some(rec),
                 name: format!("replay of {}", path.display()),
+                screen_px: None,
             });
         }
         let Some(path) = tracker else {
@@ -190,7 +362,16 @@ impl GazeSetup {
             tracker,
             replay: None,
             name,
+            screen_px: None,
         })
+    }
+
+    /// The screen's size (px): mapped gaze that is not finite or more than
+    /// one screen diagonal outside it is then marked invalid and counted
+    /// (without it only non-finite gaze is).
+    pub fn with_screen(mut self, size_px: [f64; 2]) -> Self {
+        self.screen_px = Some(size_px);
+        self
     }
 
     pub fn is_replay(&self) -> bool {
@@ -232,22 +413,30 @@ impl GazeSetup {
             None => Box::new(move |p| Some(mapping.to_screen(p, frame))),
         };
         let ends = self.replay.is_some();
-        let open = opener(self.tracker, self.replay, tap, cursor_rx);
-        let (tx, rx) = crossbeam_channel::unbounded();
         let stop = Arc::new(AtomicBool::new(false));
-        let thread = {
-            let stop = stop.clone();
-            std::thread::Builder::new()
-                .name("tracker".into())
-                .spawn(move || tracker_thread(open, map, tx, stop, ends))
-                .map_err(|e| e.to_string())?
+        let open = opener(self.tracker, self.replay, tap, cursor_rx, stop.clone());
+        let (tx, rx) = crossbeam_channel::unbounded();
+        let faults = Arc::new(Mutex::new(Faults::default()));
+        let ctx = ThreadCtx {
+            map,
+            screen_px: self.screen_px,
+            tx,
+            stop: stop.clone(),
+            ends,
+            faults: faults.clone(),
         };
+        let thread = std::thread::Builder::new()
+            .name("tracker".into())
+            .spawn(move || tracker_thread(open, ctx))
+            .map_err(|e| e.to_string())?;
         Ok(GazeFeed {
             rx,
             cursor_tx: Some(cursor_tx),
             stop,
             thread: Some(thread),
             recorder,
+            faults,
+            stopped: None,
         })
     }
 }
@@ -258,11 +447,13 @@ fn opener(
     replay: Option<Recording>,
     tap: Option<Tap>,
     cursor_rx: Receiver<CursorEvent>,
+    stop: Arc<AtomicBool>,
 ) -> Opener {
     fn tapped<T: std::io::Read + std::io::Write, D: tracker_hal::Decoder>(
         d: StreamDriver<T, D>,
         tap: &Option<Tap>,
     ) -> StreamDriver<T, D> {
+        let d = d.with_max_wait(MAX_WAIT);
         match tap {
             Some(t) => d.with_tap(t.clone()),
             None => d,
@@ -272,7 +463,9 @@ fn opener(
         let mut once = Some(rec);
         return Box::new(move || {
             let rec = once.take().ok_or("the recording has been played")?;
-            let t = ReplayTransport::from_recording(&rec, Pacing::RealTime);
+            let t = ReplayTransport::from_recording(&rec, Pacing::RealTime)
+                .with_read_timeout(READ_TIMEOUT)
+                .with_stop(stop.clone());
             let clock = t.clock();
             Ok(Box::new(tapped(
                 StreamDriver::new(t, tracker.decoder(), Box::new(clock)),
@@ -301,7 +494,7 @@ fn opener(
                 .port
                 .clone()
                 .ok_or("the ISCAN tracker file has no `port`")?;
-            let port = tracker_hal::serial::open(&name, c.baud, Duration::from_millis(250))
+            let port = tracker_hal::serial::open(&name, c.baud, READ_TIMEOUT)
                 .map_err(|e| e.to_string())?;
             Ok(Box::new(tapped(
                 StreamDriver::new(port, tracker.decoder(), Box::new(MonotonicClock)),
@@ -335,13 +528,29 @@ impl GazeFeed {
     }
 
     /// Stops the thread (the flag, and the mouse device's cursor channel),
-    /// joins it, and closes the recording: queued chunks, an overflow chunk
+    /// joins it — waiting at most 0.5 s: a thread stuck in a device call
+    /// is detached and left to the process's exit, and [`Self::report`]
+    /// says so — and closes the recording: queued chunks, an overflow chunk
     /// if any were lost, the end chunk. Returns a line for the session log.
     pub fn finish(&mut self) -> Result<Option<String>, String> {
         self.stop.store(true, Ordering::Relaxed);
         self.cursor_tx = None;
         if let Some(t) = self.thread.take() {
-            t.join().map_err(|_| "the tracker thread panicked")?;
+            let asked = Instant::now();
+            while !t.is_finished() && asked.elapsed() < JOIN_WAIT {
+                std::thread::sleep(Duration::from_millis(2));
+            }
+            let waited = asked.elapsed().as_secs_f64() * 1e3;
+            if t.is_finished() {
+                t.join().map_err(|_| "the tracker thread panicked")?;
+                self.stopped = Some(format!("tracker: stopped in {waited:.0} ms"));
+            } else {
+                // Dropping the handle detaches the thread.
+                drop(t);
+                self.stopped = Some(format!(
+                    "tracker: the tracker thread did not stop within {waited:.0} ms (a device call is blocked); detached it"
+                ));
+            }
         }
         let Some(rec) = self.recorder.take() else {
             return Ok(None);
@@ -361,6 +570,21 @@ impl GazeFeed {
     }
 }
 
+impl GazeFeed {
+    /// The session log's lines about the tracker: how it stopped (after
+    /// [`Self::finish`]) and every fault counted.
+    pub fn report(&self) -> Vec<String> {
+        let mut lines: Vec<String> = self.stopped.iter().cloned().collect();
+        lines.extend(lock(&self.faults).lines());
+        lines
+    }
+
+    /// The counts so far.
+    pub fn faults(&self) -> Faults {
+        lock(&self.faults).clone()
+    }
+}
+
 impl Drop for GazeFeed {
     fn drop(&mut self) {
         let _ = self.finish();
@@ -370,16 +594,59 @@ impl Drop for GazeFeed {
 /// Set by Ctrl-C (SIGINT) or SIGTERM; the window loops check it every frame
 /// and shut down as if the window had been closed.
 static INTERRUPTED: AtomicBool = AtomicBool::new(false);
+/// Host monotonic time (µs) of the first interrupt.
+static INTERRUPTED_AT_US: AtomicU64 = AtomicU64::new(0);
 
 /// Installs the Ctrl-C / SIGTERM handler (once per process).
 pub fn catch_interrupts() {
     static ONCE: std::sync::Once = std::sync::Once::new();
     ONCE.call_once(|| {
-        let _ = ctrlc::set_handler(|| INTERRUPTED.store(true, Ordering::SeqCst));
+        let _ = ctrlc::set_handler(|| {
+            let _ = INTERRUPTED_AT_US.compare_exchange(
+                0,
+                monotonic_us().max(1),
+                Ordering::SeqCst,
+                Ordering::SeqCst,
+            );
+            INTERRUPTED.store(true, Ordering::SeqCst);
+        });
     });
+}
+
+/// When the first Ctrl-C or SIGTERM arrived (host monotonic µs).
+pub fn interrupted_at_us() -> Option<u64> {
+    Some(INTERRUPTED_AT_US.load(Ordering::SeqCst)).filter(|&t| t > 0)
 }
 
 /// Whether Ctrl-C or SIGTERM has arrived.
 pub fn interrupted() -> bool {
     INTERRUPTED.load(Ordering::SeqCst)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::plausible;
+
+    /// Mapped gaze that is not finite or more than one screen diagonal
+    /// outside the screen is not a gaze (a 1e7-px POR used to reach the
+    /// renderer); anything nearer is, off-screen or not.
+    #[test]
+    fn gaze_far_off_the_screen_or_not_finite_is_implausible() {
+        let screen = Some([300.0, 400.0]); // diagonal 500
+        for p in [[0.0, 0.0], [300.0, 400.0], [-499.0, 899.0], [799.0, -500.0]] {
+            assert!(plausible(p, screen), "{p:?}");
+        }
+        for p in [
+            [-501.0, 0.0],
+            [801.0, 0.0],
+            [0.0, 901.0],
+            [1.0e7, 1.0e7],
+            [f64::NAN, 1.0],
+            [1.0, f64::INFINITY],
+        ] {
+            assert!(!plausible(p, screen), "{p:?}");
+        }
+        assert!(plausible([1.0e7, 0.0], None));
+        assert!(!plausible([f64::NAN, 0.0], None));
+    }
 }

@@ -157,6 +157,9 @@ struct Viewer<'a> {
     last: Option<(Frame, Stats)>,
     started: Instant,
     error: Option<String>,
+    /// When the session was asked to end (frames reached, Esc, the window
+    /// closed, an error), host monotonic µs.
+    stop_us: Option<u64>,
 }
 
 /// Drains `rx` to its newest valid gaze; returns it with its host arrival
@@ -270,6 +273,12 @@ impl Viewer<'_> {
 
     fn fail(&mut self, el: &ActiveEventLoop, e: String) {
         self.error = Some(e);
+        self.exit(el);
+    }
+
+    /// Ends the event loop, noting when it was asked to.
+    fn exit(&mut self, el: &ActiveEventLoop) {
+        self.stop_us.get_or_insert_with(monotonic_us);
         el.exit();
     }
 }
@@ -289,10 +298,10 @@ impl ApplicationHandler for Viewer<'_> {
 
     fn window_event(&mut self, el: &ActiveEventLoop, _id: WindowId, event: WindowEvent) {
         match Input::from(event) {
-            Input::Close => el.exit(),
+            Input::Close => self.exit(el),
             Input::Cursor(x, y) => self.feed.cursor_moved(x, y),
             Input::Key(key) => match key.as_ref() {
-                Key::Named(NamedKey::Escape) => el.exit(),
+                Key::Named(NamedKey::Escape) => self.exit(el),
                 Key::Character("p") => {
                     let on = !self.renderer.por_overlay();
                     self.renderer.set_por_overlay(on);
@@ -313,14 +322,15 @@ impl ApplicationHandler for Viewer<'_> {
             },
             Input::Redraw => {
                 if crate::gaze_feed::interrupted() {
+                    self.stop_us = crate::gaze_feed::interrupted_at_us().or(self.stop_us);
                     self.say("interrupted (Ctrl-C or SIGTERM): shutting down");
-                    return el.exit();
+                    return self.exit(el);
                 }
                 if let Err(e) = self.frame() {
                     return self.fail(el, e);
                 }
                 if self.opts.frames.is_some_and(|n| self.frames >= n) {
-                    return el.exit();
+                    return self.exit(el);
                 }
                 if let Some(s) = &self.screen {
                     s.window.request_redraw();
@@ -383,7 +393,8 @@ pub fn run(opts: &LiveOptions, out: &mut dyn Write) -> Result<(), LiveError> {
         None => None,
     };
     let setup = GazeSetup::resolve(opts.tracker.as_deref(), opts.replay.as_deref())?;
-    let event_loop = EventLoop::new().map_err(|e| LiveError::NoWindow(e.to_string()))?;
+    let event_loop =
+        EventLoop::new().map_err(|e| LiveError::NoWindow(crate::screen::plain_error(&e)))?;
     crate::gaze_feed::catch_interrupts();
     let header = format!(
         "gazecast view: {} on {}, gaze from {}{}",
@@ -396,7 +407,7 @@ pub fn run(opts: &LiveOptions, out: &mut dyn Write) -> Result<(), LiveError> {
             .as_ref()
             .map_or(String::new(), |p| format!(" through {}", p.display()))
     );
-    let feed = setup.spawn(
+    let feed = setup.with_screen(geometry.size_px()).spawn(
         calibration,
         opts.record.as_deref().map(|p| (p, display.name.as_str())),
     )?;
@@ -420,12 +431,20 @@ pub fn run(opts: &LiveOptions, out: &mut dyn Write) -> Result<(), LiveError> {
         last: None,
         started: Instant::now(),
         error: None,
+        stop_us: None,
     };
     viewer.say(&header);
     let result = event_loop.run_app(&mut viewer);
     // Shut the tracker down and close the recording; then the last statuses.
     let recorded = viewer.feed.finish();
     viewer.drain();
+    // The window may also close on its own (the event loop ended).
+    let asked = viewer.stop_us.unwrap_or_else(monotonic_us);
+    let took = monotonic_us().saturating_sub(asked) as f64 / 1e3;
+    viewer.say(&format!("shut down {took:.0} ms after the stop request"));
+    for l in viewer.feed.report() {
+        viewer.say(&l);
+    }
     let frames = format!(
         "{} frames, {} showed a new gaze sample",
         viewer.frames, viewer.fresh_frames

@@ -42,6 +42,37 @@ impl From<WindowEvent> for Input {
     }
 }
 
+/// A windowing error as a person reads it: winit's "os error at
+/// SOURCE.rs:LINE: " prefix (the library's own source file) is removed.
+pub fn plain_error(e: &dyn std::fmt::Display) -> String {
+    let text = e.to_string();
+    let mut out = String::with_capacity(text.len());
+    let mut rest = text.as_str();
+    while let Some(i) = rest.find("os error at ") {
+        let after = &rest[i + "os error at ".len()..];
+        // The location ends at ".rs:" + digits + ": ".
+        let cut = after.find(".rs:").and_then(|j| {
+            let tail = &after[j + 4..];
+            let digits = tail.len() - tail.trim_start_matches(|c: char| c.is_ascii_digit()).len();
+            tail[digits..]
+                .starts_with(": ")
+                .then_some(j + 4 + digits + 2)
+        });
+        match cut {
+            Some(k) => {
+                out.push_str(&rest[..i]);
+                rest = &after[k..];
+            }
+            None => {
+                out.push_str(&rest[..i + "os error at ".len()]);
+                rest = after;
+            }
+        }
+    }
+    out.push_str(rest);
+    out
+}
+
 pub struct Screen {
     pub window: Arc<Window>,
     surface: wgpu::Surface<'static>,
@@ -107,7 +138,7 @@ impl Screen {
         }
         let window = Arc::new(
             el.create_window(attrs)
-                .map_err(|e| format!("window: {e}"))?,
+                .map_err(|e| format!("window: {}", plain_error(&e)))?,
         );
         let mut desc = wgpu::InstanceDescriptor::new_without_display_handle_from_env();
         desc.backends = wgpu::Backends::from_env().unwrap_or(wgpu::Backends::PRIMARY);
@@ -208,5 +239,23 @@ impl Screen {
         self.window.pre_present_notify();
         self.queue.present(tex);
         submitted
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::plain_error;
+
+    /// winit's "os error at …/x11/mod.rs:123: …" named the library's
+    /// source file in the viewer's "cannot open a window" message.
+    #[test]
+    fn a_windowing_error_loses_the_library_source_path() {
+        let e = "os error at /root/.cargo/registry/src/index.crates.io-1949cf8c6b5b557f/winit-0.30.13/src/platform_impl/linux/mod.rs:765: neither WAYLAND_DISPLAY nor WAYLAND_SOCKET nor DISPLAY is set.";
+        assert_eq!(
+            plain_error(&e),
+            "neither WAYLAND_DISPLAY nor WAYLAND_SOCKET nor DISPLAY is set."
+        );
+        assert_eq!(plain_error(&"no display"), "no display");
+        assert_eq!(plain_error(&"os error at odd"), "os error at odd");
     }
 }

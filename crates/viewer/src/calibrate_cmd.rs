@@ -570,6 +570,12 @@ pub fn run(args: &CalibrateArgs, out: &mut dyn Write) -> Result<(), String> {
     let result = event_loop.run_app(&mut c);
     let recorded = c.feed.finish();
     report(&c, &source, out)?;
+    // The tracker's faults (silences, undecoded bytes, reconnects). Gaze far
+    // off the screen is not rejected here: a calibration must see what an
+    // uncalibrated tracker reports, however far off.
+    for line in c.feed.report() {
+        writeln!(out, "{line}").map_err(|e| e.to_string())?;
+    }
     if let Some(line) = recorded? {
         writeln!(out, "{line}").map_err(|e| e.to_string())?;
     }

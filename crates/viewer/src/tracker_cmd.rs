@@ -34,9 +34,17 @@ pub enum InputFormat {
 
 #[derive(Debug, Clone, clap::Args)]
 pub struct ReplayArgs {
-    /// Tracker file (RON): driver and mapping used to decode.
+    /// Tracker file (RON): driver and mapping used to decode. Needed for
+    /// --format raw-bytes and hid-log. A recording carries its tracker in
+    /// its header, which is used without --tracker; a --tracker that
+    /// disagrees with it is an error listing the differences (see
+    /// --tracker-overrides-header).
     #[arg(long, value_name = "FILE.ron")]
-    pub tracker: PathBuf,
+    pub tracker: Option<PathBuf>,
+    /// Decode a recording with --tracker even where it disagrees with the
+    /// recording's header (the differences are printed as a warning).
+    #[arg(long, requires = "tracker")]
+    pub tracker_overrides_header: bool,
     /// The recording or byte dump to decode.
     #[arg(long, value_name = "FILE")]
     pub input: PathBuf,
@@ -48,7 +56,10 @@ pub struct ReplayArgs {
     /// Coordinates in tracker units instead of screen pixels.
     #[arg(long)]
     pub raw: bool,
-    /// Deliver the data at its original pacing instead of as fast as possible.
+    /// Deliver the data at its original pacing instead of as fast as
+    /// possible. The CSV is then written through, row by row as each is
+    /// due (a reader can follow it; a killed replay keeps the rows played),
+    /// and a silent gap longer than 5 s is skipped with a warning.
     #[arg(long)]
     pub realtime: bool,
     /// Map gaze with this calibration (RON, from `tracker_hal::calibration`)
@@ -65,9 +76,10 @@ pub struct RecordArgs {
     /// Recording to write (`.gzrec`).
     #[arg(long, value_name = "FILE")]
     pub out: PathBuf,
-    /// Stop after this many seconds (default: until interrupted; the file
-    /// stays readable either way).
-    #[arg(long, value_name = "S")]
+    /// Stop after this many seconds (a positive number; default: until
+    /// Ctrl-C or SIGTERM, which stop the device and close the recording
+    /// cleanly).
+    #[arg(long, value_name = "S", allow_negative_numbers = true)]
     pub seconds: Option<f64>,
 }
 
@@ -131,16 +143,50 @@ pub enum HidLayoutArg {
 }
 
 /// The sample CSV of `replay` and `simulate`, with errors naming the file.
-/// Written whole or not at all (`crate::output`): an error part-way leaves
-/// any existing file as it was.
+/// Normally written whole or not at all (`crate::output`): an error part-way
+/// leaves any existing file as it was. `replay --realtime` writes it
+/// through instead ([`SampleCsv::create_through`]).
 struct SampleCsv<'a> {
     path: &'a Path,
-    w: crate::output::AtomicFile,
+    w: CsvSink,
+}
+
+enum CsvSink {
+    Atomic(crate::output::AtomicFile),
+    /// Every row flushed to the file as it is written.
+    Through(std::fs::File),
+}
+
+impl Write for CsvSink {
+    fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
+        match self {
+            Self::Atomic(w) => w.write(buf),
+            Self::Through(w) => w.write(buf),
+        }
+    }
+
+    fn flush(&mut self) -> std::io::Result<()> {
+        match self {
+            Self::Atomic(w) => w.flush(),
+            Self::Through(w) => w.flush(),
+        }
+    }
 }
 
 impl<'a> SampleCsv<'a> {
     fn create(path: &'a Path) -> Result<Self, String> {
         let w = crate::output::AtomicFile::create(path).map_err(|e| Self::fail(path, e))?;
+        Self::start(path, CsvSink::Atomic(w))
+    }
+
+    /// Written straight to `path`, one unbuffered write per row: what is
+    /// played is on disk, whatever happens next.
+    fn create_through(path: &'a Path) -> Result<Self, String> {
+        let w = std::fs::File::create(path).map_err(|e| Self::fail(path, e))?;
+        Self::start(path, CsvSink::Through(w))
+    }
+
+    fn start(path: &'a Path, w: CsvSink) -> Result<Self, String> {
         let mut csv = Self { path, w };
         writeln!(csv.w, "{CSV_HEADER}").map_err(|e| Self::fail(path, e))?;
         Ok(csv)
@@ -151,11 +197,20 @@ impl<'a> SampleCsv<'a> {
         s: &tracker_hal::GazeSample,
         map: &dyn Fn([f64; 2]) -> Option<[f64; 2]>,
     ) -> Result<(), String> {
-        writeln!(self.w, "{}", csv_row(s, map)).map_err(|e| Self::fail(self.path, e))
+        // One write per row: written through (an unbuffered `File`), a row
+        // is on disk as soon as this returns.
+        let line = format!("{}\n", csv_row(s, map));
+        self.w
+            .write_all(line.as_bytes())
+            .map_err(|e| Self::fail(self.path, e))
     }
 
     fn finish(self) -> Result<(), String> {
-        self.w.commit().map_err(|e| Self::fail(self.path, e))
+        match self.w {
+            CsvSink::Atomic(w) => w.commit(),
+            CsvSink::Through(w) => w.sync_all(),
+        }
+        .map_err(|e| Self::fail(self.path, e))
     }
 
     fn fail(path: &Path, e: std::io::Error) -> String {
@@ -167,21 +222,225 @@ fn load_tracker(path: &Path) -> Result<TrackerConfig, String> {
     config::load_tracker(path).map_err(|e| e.to_string())
 }
 
+/// Driver settings that say how a live device is reached or emulated, not
+/// what recorded bytes mean: a replay does not compare them with the
+/// recording's header (the port it was on; the mouse emulation's realism,
+/// already in the recorded stream; which USB device, and its read timeout).
+const LIVE_ONLY: &[&str] = &[
+    "port",
+    "jitter_rms_deg",
+    "saccades",
+    "saccade_threshold_deg",
+    "latency_ms",
+    "seed",
+    "vendor_id",
+    "product_id",
+    "timeout_ms",
+];
+
+/// Where `given` disagrees with a recording's `header` tracker, one line a
+/// field: `driver.baud: header 115200, --tracker 19200` (fields named as in
+/// the tracker file; [`LIVE_ONLY`] settings are not compared). Empty when
+/// they agree.
+pub fn tracker_differences(header: &TrackerConfig, given: &TrackerConfig) -> Vec<String> {
+    if header.driver_name() != given.driver_name() {
+        return vec![format!(
+            "driver: header {}, --tracker {}",
+            header.driver_name(),
+            given.driver_name()
+        )];
+    }
+    let mut out = Vec::new();
+    match (serde_json::to_value(header), serde_json::to_value(given)) {
+        (Ok(a), Ok(b)) => json_differences("", &a, &b, &mut out),
+        _ if header != given => out.push("the tracker configuration differs".into()),
+        _ => {}
+    }
+    out
+}
+
+fn json_differences(
+    path: &str,
+    a: &serde_json::Value,
+    b: &serde_json::Value,
+    out: &mut Vec<String>,
+) {
+    use serde_json::Value;
+    let join = |k: &str| {
+        if path.is_empty() {
+            k.to_string()
+        } else {
+            format!("{path}.{k}")
+        }
+    };
+    match (a, b) {
+        (Value::Object(x), Value::Object(y)) => {
+            // An enum variant (`Iscan(...)`, `Frame(...)`): the same variant
+            // on both sides is compared field by field under the same name.
+            if let (Some((kx, vx)), Some((ky, vy))) = (variant(x), variant(y)) {
+                if kx == ky {
+                    return json_differences(path, vx, vy, out);
+                }
+            }
+            let mut keys: Vec<&String> = x.keys().chain(y.keys()).collect();
+            keys.sort();
+            keys.dedup();
+            for k in keys {
+                if path == "driver" && LIVE_ONLY.contains(&k.as_str()) {
+                    continue;
+                }
+                json_differences(
+                    &join(k),
+                    x.get(k).unwrap_or(&Value::Null),
+                    y.get(k).unwrap_or(&Value::Null),
+                    out,
+                );
+            }
+        }
+        _ if a != b => out.push(format!(
+            "{}: header {}, --tracker {}",
+            if path.is_empty() { "tracker" } else { path },
+            show_json(a),
+            show_json(b)
+        )),
+        _ => {}
+    }
+}
+
+/// The variant and its value when `m` is an enum value (`{"Iscan": ...}`).
+fn variant(
+    m: &serde_json::Map<String, serde_json::Value>,
+) -> Option<(&String, &serde_json::Value)> {
+    if m.len() != 1 {
+        return None;
+    }
+    m.iter()
+        .next()
+        .filter(|(k, _)| k.starts_with(|c: char| c.is_ascii_uppercase()))
+}
+
+/// A value as the tracker file spells it, near enough: unit variants bare,
+/// `None` for a missing option.
+fn show_json(v: &serde_json::Value) -> String {
+    match v {
+        serde_json::Value::Null => "None".into(),
+        serde_json::Value::String(s) => s.clone(),
+        other => other.to_string(),
+    }
+}
+
+/// The tracker a recording is decoded with: its header's, or a `--tracker`
+/// that agrees with it (or overrides it, with a warning).
+fn recording_tracker(
+    rec: &Recording,
+    input: &Path,
+    given: Option<(&Path, TrackerConfig)>,
+    overrides: bool,
+    err: &mut dyn Write,
+) -> Result<TrackerConfig, String> {
+    let header = &rec.header.tracker;
+    header.validate().map_err(|(field, msg)| {
+        format!(
+            "{}: the tracker in its header is invalid: {field}: {msg}",
+            input.display()
+        )
+    })?;
+    let Some((path, tracker)) = given else {
+        return Ok(header.clone());
+    };
+    let diffs = tracker_differences(header, &tracker);
+    if diffs.is_empty() {
+        return Ok(header.clone());
+    }
+    let list: String = diffs.iter().map(|d| format!("\n  {d}")).collect();
+    if overrides {
+        let _ = writeln!(
+            err,
+            "warning: --tracker {} disagrees with the tracker in the header of {} (decoding with --tracker, as --tracker-overrides-header asks):{list}",
+            path.display(),
+            input.display()
+        );
+        return Ok(tracker);
+    }
+    Err(format!(
+        "--tracker {} disagrees with the tracker in the header of {}:{list}\n\
+         leave out --tracker to decode with the header's tracker, or add \
+         --tracker-overrides-header to decode with {} anyway",
+        path.display(),
+        input.display(),
+        path.display()
+    ))
+}
+
+/// The longest pacing wait of `replay --realtime`: a longer silent gap in
+/// the data is skipped, with a warning.
+const MAX_PACING_SLEEP: Duration = Duration::from_secs(5);
+
+/// Real-time pacing of `replay --realtime`: each sample is released at its
+/// recorded host time's offset from the first, less the gaps skipped.
+struct Pacer {
+    /// Wall time and host time of the first sample.
+    start: Option<(Instant, u64)>,
+    /// Recorded time skipped so far (gaps beyond [`MAX_PACING_SLEEP`]).
+    skipped_us: u64,
+}
+
+impl Pacer {
+    fn new() -> Self {
+        Self {
+            start: None,
+            skipped_us: 0,
+        }
+    }
+
+    /// Waits until a sample recorded at `host_us` is due (never more than
+    /// [`MAX_PACING_SLEEP`]); false when interrupted while waiting.
+    fn wait(&mut self, host_us: u64, err: &mut dyn Write) -> bool {
+        let (start, first) = *self.start.get_or_insert((Instant::now(), host_us));
+        let offset = host_us
+            .saturating_sub(first)
+            .saturating_sub(self.skipped_us);
+        let mut due = start + Duration::from_micros(offset);
+        let now = Instant::now();
+        if due > now + MAX_PACING_SLEEP {
+            let gap = due - now;
+            let _ = writeln!(
+                err,
+                "warning: gap of {:.0} s skipped (replay --realtime waits at most {} s)",
+                gap.as_secs_f64(),
+                MAX_PACING_SLEEP.as_secs()
+            );
+            self.skipped_us = self
+                .skipped_us
+                .saturating_add(u64::try_from(gap.as_micros()).unwrap_or(u64::MAX));
+            due = now;
+        }
+        loop {
+            if crate::gaze_feed::interrupted() {
+                return false;
+            }
+            let now = Instant::now();
+            if due <= now {
+                return true;
+            }
+            std::thread::sleep((due - now).min(Duration::from_millis(50)));
+        }
+    }
+}
+
 /// Runs `gazecast replay`.
 pub fn replay(args: &ReplayArgs, err: &mut dyn Write) -> Result<(), String> {
-    let mut inputs = vec![
-        ("--input", args.input.as_path()),
-        ("--tracker", &args.tracker),
-    ];
+    let mut inputs = vec![("--input", args.input.as_path())];
+    inputs.extend(args.tracker.as_deref().map(|p| ("--tracker", p)));
     inputs.extend(args.calibration.as_deref().map(|p| ("--calibration", p)));
     crate::output::refuse_inputs(&[("--csv", &args.csv)], &inputs)?;
-    let tracker = load_tracker(&args.tracker)?;
-    let pacing = if args.realtime {
-        Pacing::RealTime
-    } else {
-        Pacing::AsFastAsPossible
+    let given = match &args.tracker {
+        Some(path) => Some((path.as_path(), load_tracker(path)?)),
+        None => None,
     };
-    let transport = match args.format {
+    // Paced here, sample by sample (see `Pacer`), not by the transport.
+    let pacing = Pacing::AsFastAsPossible;
+    let (tracker, transport) = match args.format {
         InputFormat::Recording => {
             let rec = Recording::read(&args.input).map_err(|e| e.to_string())?;
             // Damage, interruption, unknown chunks, data after End and lost
@@ -189,14 +448,31 @@ pub fn replay(args: &ReplayArgs, err: &mut dyn Write) -> Result<(), String> {
             for w in rec.warnings() {
                 let _ = writeln!(err, "warning: {}: {w}", args.input.display());
             }
-            ReplayTransport::from_recording(&rec, pacing)
+            let tracker =
+                recording_tracker(&rec, &args.input, given, args.tracker_overrides_header, err)?;
+            (tracker, ReplayTransport::from_recording(&rec, pacing))
         }
         InputFormat::RawBytes | InputFormat::HidLog => {
+            let format = if args.format == InputFormat::HidLog {
+                "hid-log"
+            } else {
+                "raw-bytes"
+            };
+            let Some((path, tracker)) = given else {
+                return Err(format!(
+                    "--format {format} needs --tracker FILE.ron: the bytes carry no tracker configuration (a .gzrec recording does)"
+                ));
+            };
+            if args.tracker_overrides_header {
+                return Err(format!(
+                    "--tracker-overrides-header: --format {format} has no header to override (only a recording has one)"
+                ));
+            }
             if (args.format == InputFormat::HidLog) != matches!(tracker.driver, Driver::TobiiHid(_))
             {
                 return Err(format!(
                     "--format hid-log goes with a TobiiHid tracker file; {} has a {} driver",
-                    args.tracker.display(),
+                    path.display(),
                     tracker.driver_name()
                 ));
             }
@@ -206,7 +482,8 @@ pub fn replay(args: &ReplayArgs, err: &mut dyn Write) -> Result<(), String> {
                 Driver::Iscan(c) => c.baud,
                 _ => 115_200,
             };
-            ReplayTransport::from_raw_bytes(&bytes, baud, 16, pacing)
+            let transport = ReplayTransport::from_raw_bytes(&bytes, baud, 16, pacing);
+            (tracker, transport)
         }
     };
     let clock = transport.clock();
@@ -216,10 +493,25 @@ pub fn replay(args: &ReplayArgs, err: &mut dyn Write) -> Result<(), String> {
         Some(path) => Some(config::load_calibration(path).map_err(|e| e.to_string())?),
         None => None,
     };
-    let mut out = SampleCsv::create(&args.csv)?;
+    let mut pacer = args.realtime.then(|| {
+        crate::gaze_feed::catch_interrupts();
+        Pacer::new()
+    });
+    let mut out = if args.realtime {
+        SampleCsv::create_through(&args.csv)?
+    } else {
+        SampleCsv::create(&args.csv)?
+    };
     let mapping = tracker.mapping.clone();
+    let mut interrupted = false;
     driver.start().map_err(|e| e.to_string())?;
     while let Some(sample) = driver.next_sample().map_err(|e| e.to_string())? {
+        if let Some(p) = &mut pacer {
+            if !p.wait(sample.host_time_us, err) {
+                interrupted = true;
+                break;
+            }
+        }
         // A HID tracker reports its screen size in its features, which
         // precede the first sample.
         let frame = driver.decoder().frame_hint().unwrap_or(tracker.frame());
@@ -241,11 +533,27 @@ pub fn replay(args: &ReplayArgs, err: &mut dyn Write) -> Result<(), String> {
         "records={} dropped_bytes={} resyncs={}",
         s.records, s.dropped_bytes, s.resyncs
     )
-    .map_err(|e| e.to_string())
+    .map_err(|e| e.to_string())?;
+    if interrupted {
+        writeln!(
+            err,
+            "interrupted (Ctrl-C or SIGTERM): {} holds the rows played so far",
+            args.csv.display()
+        )
+        .map_err(|e| e.to_string())?;
+    }
+    Ok(())
 }
 
 /// Runs `gazecast record`.
 pub fn record(args: &RecordArgs, out: &mut dyn Write) -> Result<(), String> {
+    if let Some(s) = args.seconds {
+        if !(s.is_finite() && s > 0.0) {
+            return Err(format!(
+                "--seconds {s}: must be a positive number of seconds (leave it out to record until Ctrl-C)"
+            ));
+        }
+    }
     crate::output::refuse_inputs(&[("--out", &args.out)], &[("--tracker", &args.tracker)])?;
     let tracker = load_tracker(&args.tracker)?;
     let Driver::Iscan(iscan) = &tracker.driver else {
@@ -271,10 +579,22 @@ pub fn record(args: &RecordArgs, out: &mut dyn Write) -> Result<(), String> {
     let recorder = Recorder::start(&args.out, &header, 8192).map_err(|e| e.to_string())?;
     let mut driver = StreamDriver::new(port, tracker.decoder(), Box::new(MonotonicClock))
         .with_tap(recorder.tap());
-    driver.start().map_err(|e| e.to_string())?;
+    // Ctrl-C and SIGTERM end the loop below (within one read timeout), so
+    // the device is stopped and the recording closed as at the end of
+    // --seconds.
+    crate::gaze_feed::catch_interrupts();
+    let started = driver.start().map_err(|e| e.to_string());
     let start = Instant::now();
     let mut timeouts = 0u64;
+    let mut interrupted = false;
     let outcome = loop {
+        if let Err(e) = &started {
+            break Err(e.clone());
+        }
+        if crate::gaze_feed::interrupted() {
+            interrupted = true;
+            break Ok(());
+        }
         if args
             .seconds
             .is_some_and(|s| start.elapsed().as_secs_f64() >= s)
@@ -285,6 +605,12 @@ pub fn record(args: &RecordArgs, out: &mut dyn Write) -> Result<(), String> {
             Ok(Some(_)) => {}
             Ok(None) => break Ok(()),
             Err(e) if e.kind == tracker_hal::ErrorKind::TimedOut => timeouts += 1,
+            // A signal can cut a read short: it is the interruption, not a
+            // device error.
+            Err(_) if crate::gaze_feed::interrupted() => {
+                interrupted = true;
+                break Ok(());
+            }
             Err(e) => break Err(e.to_string()),
         }
     };
@@ -302,6 +628,13 @@ pub fn record(args: &RecordArgs, out: &mut dyn Write) -> Result<(), String> {
         summary.chunks_written,
         summary.bytes_written
     );
+    if interrupted {
+        let _ = writeln!(
+            out,
+            "interrupted (Ctrl-C or SIGTERM): stop command sent, {} closed",
+            args.out.display()
+        );
+    }
     if summary.lost_chunks > 0 {
         return Err(format!(
             "THE RECORDING LOST DATA: {} chunks ({} bytes) were dropped because the disk did not keep up",
@@ -391,38 +724,36 @@ pub fn simulated(
             ))
         }
     };
-    let (stream, rate) = match &tracker.driver {
+    let rate = args.rate.unwrap_or(match &tracker.driver {
+        Driver::Iscan(_) => 60.0,
+        Driver::Mouse(c) => c.rate_hz,
+        // The seed's Tobii ET-1750 ran at 50 Hz (Murphy 2007 §7.1).
+        Driver::TobiiHid(_) => 50.0,
+    });
+    // Checked before anything is generated: the stream's size follows the
+    // rate.
+    if !(rate.is_finite() && rate > 0.0 && rate <= 10_000.0) {
+        return Err(format!("--rate {rate}: must be in (0, 10000] Hz"));
+    }
+    let stream = match &tracker.driver {
         Driver::Iscan(c) => {
-            let rate = args.rate.unwrap_or(60.0);
             // The seed's ISCAN covers about ±20° with 512 units: 12.8 units/deg.
-            (
-                simulate_iscan(c, &script(rate, c.frame, 12.8)?, args.seed),
-                rate,
-            )
+            simulate_iscan(c, &script(rate, c.frame, 12.8)?, args.seed)
         }
         Driver::Mouse(c) => {
-            let rate = args.rate.unwrap_or(c.rate_hz);
             let truth = script(rate, (1280.0, 1024.0), c.pixels_per_degree)?;
-            (simulate_mouse(c, &truth, 1.0, args.seed), rate)
+            simulate_mouse(c, &truth, 1.0, args.seed)
         }
         Driver::TobiiHid(c) => {
-            // The seed's Tobii ET-1750 ran at 50 Hz (Murphy 2007 §7.1).
-            let rate = args.rate.unwrap_or(50.0);
             // 1° at 60 cm is 10.47 mm on the screen.
             let truth = script(rate, c.screen_um, 10_470.0)?;
             let layout = match args.hid_layout {
                 HidLayoutArg::Reference => HidLayout::Reference,
                 HidLayoutArg::Compact => HidLayout::Compact,
             };
-            (
-                simulate_hid(layout, &truth, c.screen_um, rate, args.seed),
-                rate,
-            )
+            simulate_hid(layout, &truth, c.screen_um, rate, args.seed)
         }
     };
-    if !(rate.is_finite() && rate > 0.0 && rate <= 10_000.0) {
-        return Err(format!("--rate {rate}: must be in (0, 10000] Hz"));
-    }
     let header = RecordingHeader {
         tracker: tracker.clone(),
         display: None,

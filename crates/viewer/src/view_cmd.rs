@@ -16,7 +16,9 @@ pub struct ViewArgs {
     #[arg(long, value_name = "FILE")]
     pub display: PathBuf,
     /// Tracker file (RON). Not needed with --replay (the recording's header
-    /// carries it).
+    /// carries it, and is what the replay decodes with); given with
+    /// --replay, it must agree with that header, or the viewer refuses to
+    /// start and lists the differences.
     #[arg(long, value_name = "FILE.ron")]
     pub tracker: Option<PathBuf>,
     /// Play a tracker-hal recording at its original pacing as the gaze.
@@ -72,6 +74,29 @@ impl ViewArgs {
     }
 }
 
+/// `--tracker` with `--replay`: the replay decodes with the recording's
+/// header, so a tracker file that says otherwise would be silently ignored.
+/// Agreeing (as `gazecast replay` compares them) it is accepted; otherwise
+/// an error lists the differences.
+fn check_tracker_against_replay(args: &ViewArgs) -> Result<(), String> {
+    let (Some(tracker_path), Some(replay)) = (&args.tracker, &args.replay) else {
+        return Ok(());
+    };
+    let tracker = crate::config::load_tracker(tracker_path).map_err(|e| e.to_string())?;
+    let rec = tracker_hal::Recording::read(replay).map_err(|e| e.to_string())?;
+    let diffs = crate::tracker_cmd::tracker_differences(&rec.header.tracker, &tracker);
+    if diffs.is_empty() {
+        return Ok(());
+    }
+    let list: String = diffs.iter().map(|d| format!("\n  {d}")).collect();
+    Err(format!(
+        "--tracker {} disagrees with the tracker in the header of --replay {}, which the replay decodes with:{list}\n\
+         leave out --tracker (or decode with another tracker file: gazecast replay --tracker-overrides-header)",
+        tracker_path.display(),
+        replay.display()
+    ))
+}
+
 /// Runs `gazecast view`.
 pub fn run(args: &ViewArgs, out: &mut dyn Write) -> Result<(), String> {
     let mut outputs = Vec::new();
@@ -85,6 +110,7 @@ pub fn run(args: &ViewArgs, out: &mut dyn Write) -> Result<(), String> {
     inputs.extend(args.replay.as_deref().map(|p| ("--replay", p)));
     inputs.extend(args.calibration.as_deref().map(|p| ("--calibration", p)));
     crate::output::refuse_inputs(&outputs, &inputs)?;
+    check_tracker_against_replay(args)?;
     let options = args.live_options();
     if args.explain {
         return live::explain(&options, out);

@@ -106,6 +106,8 @@ pub fn format_line(line: &Line) -> String {
 pub struct HidLogDecoder {
     line: Vec<u8>,
     overlong: bool,
+    /// Bytes of the current line past [`MAX_LINE`]: counted, not kept.
+    overlong_bytes: u64,
     layout: Option<TrackerLayout>,
     info: DeviceInfo,
     stats: DecodeStats,
@@ -148,11 +150,15 @@ impl HidLogDecoder {
 
     fn line_done(&mut self, out: &mut VecDeque<GazeSample>) {
         let raw = std::mem::take(&mut self.line);
-        let len = raw.len() + 1;
+        let extra = std::mem::take(&mut self.overlong_bytes);
         if std::mem::take(&mut self.overlong) {
-            self.drop_line(len);
+            // Its real length: the bytes kept, those past the maximum and
+            // the newline.
+            self.stats.dropped_bytes += raw.len() as u64 + extra + 1;
+            self.stats.resyncs += 1;
             return;
         }
+        let len = raw.len() + 1;
         if raw.iter().all(|b| b.is_ascii_whitespace()) {
             return;
         }
@@ -250,16 +256,18 @@ impl Decoder for HidLogDecoder {
                 self.line.push(b);
             } else {
                 self.overlong = true;
+                self.overlong_bytes += 1;
             }
         }
     }
 
     fn finish(&mut self) {
         if !self.line.is_empty() || self.overlong {
-            let len = self.line.len();
+            let len = self.line.len() as u64 + std::mem::take(&mut self.overlong_bytes);
             self.line.clear();
             self.overlong = false;
-            self.drop_line(len);
+            self.stats.dropped_bytes += len;
+            self.stats.resyncs += 1;
         }
     }
 
@@ -312,5 +320,39 @@ mod tests {
             assert_eq!(parse_line(bad), None, "{bad}");
         }
         assert_eq!(parse_line("# a comment"), Some(Line::Comment));
+    }
+}
+
+#[cfg(test)]
+mod overlong_tests {
+    use super::*;
+
+    /// A line longer than the maximum used to count as `MAX_LINE + 1`
+    /// dropped bytes whatever its real length.
+    #[test]
+    fn an_overlong_line_counts_its_real_length_without_buffering_it() {
+        let mut d = HidLogDecoder::new();
+        let mut out = VecDeque::new();
+        let piece = vec![b'a'; 64 * 1024];
+        let pieces = 16; // 1 MiB in one line
+        for _ in 0..pieces {
+            d.push(&piece, 0, &mut out);
+            assert!(d.line.len() <= MAX_LINE);
+        }
+        d.push(b"\n# a comment\n", 0, &mut out);
+        let s = d.stats();
+        assert_eq!(s.dropped_bytes, (pieces * piece.len() + 1) as u64);
+        assert_eq!(s.resyncs, 1);
+        // Unterminated at the end of the stream: its real length, no newline.
+        for _ in 0..pieces {
+            d.push(&piece, 0, &mut out);
+        }
+        d.finish();
+        let s2 = d.stats();
+        assert_eq!(
+            s2.dropped_bytes - s.dropped_bytes,
+            (pieces * piece.len()) as u64
+        );
+        assert_eq!(s2.resyncs, 2);
     }
 }

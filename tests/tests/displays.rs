@@ -23,10 +23,12 @@ fn display_files() -> Vec<PathBuf> {
 /// The four set-ups the seeds and the lab use, shipped with the geometry
 /// each is named for (resolution, active area, viewing distance): a file
 /// that goes missing, or drifts from its set-up, fails here.
+/// A shipped set-up: file, resolution, size (mm), eye distance (mm).
+type SetUp = (&'static str, (u32, u32), (f64, f64), f64);
+
 #[test]
 fn the_four_named_set_ups_are_shipped_with_their_geometry() {
-    // (file, resolution, size mm, eye distance mm)
-    let expected: [(&str, (u32, u32), (f64, f64), f64); 4] = [
+    let expected: [SetUp; 4] = [
         // Murphy 2007 ch. 7.1: the Tobii ET-1750's 17" LCD, 54 cm.
         ("tobii-et1750-17in.ron", (1280, 1024), (337.9, 270.3), 540.0),
         // Murphy & Duchowski 2001: the V8 HMD, 640x480 per eye.

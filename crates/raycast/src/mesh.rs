@@ -102,8 +102,16 @@ impl TriangleMesh {
             single_index: true,
             ..Default::default()
         };
-        let (models, _) = tobj::load_obj(path, &opts)
-            .map_err(|e| SceneError::mesh(&origin, None, format!("cannot load: {e}")))?;
+        // tobj reports "open file failed" and drops the system's reason:
+        // open the file here for the error, and parse from the buffer.
+        let file = std::fs::File::open(path).map_err(|e| {
+            SceneError::mesh(&origin, None, format!("cannot open the OBJ file: {e}"))
+        })?;
+        let mut reader = std::io::BufReader::new(file);
+        let (models, _) = tobj::load_obj_buf(&mut reader, &opts, |_| {
+            Err(tobj::LoadError::MaterialParseError)
+        })
+        .map_err(|e| SceneError::mesh(&origin, None, format!("cannot load: {e}")))?;
         let mut positions = Vec::new();
         let mut indices = Vec::new();
         for m in models {

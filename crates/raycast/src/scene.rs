@@ -209,6 +209,27 @@ fn default_depth_jump() -> f32 {
     0.05
 }
 
+/// Largest colour component and light intensity a scene may give: far
+/// above white (1) for over-exposure, small enough that shading sums stay
+/// finite in `f32`.
+pub const MAX_COLOUR: f32 = 1e6;
+
+/// A linear RGB colour: each component finite, from 0 to [`MAX_COLOUR`].
+fn check_colour(field: &str, c: (f32, f32, f32)) -> Result<(), SceneError> {
+    for v in [c.0, c.1, c.2] {
+        if !(v.is_finite() && (0.0..=MAX_COLOUR).contains(&v)) {
+            return Err(SceneError::field(
+                field,
+                format!(
+                    "({}, {}, {}): components must be from 0 to {MAX_COLOUR}",
+                    c.0, c.1, c.2
+                ),
+            ));
+        }
+    }
+    Ok(())
+}
+
 /// One world-space triangle: corners, corner normals, object.
 #[derive(Debug, Clone, Copy)]
 pub struct WorldTriangle {
@@ -263,6 +284,17 @@ pub enum Accel {
     Grid,
 }
 
+/// Most triangles a scene may have, all objects together (each object
+/// counts its mesh's triangles).
+pub const MAX_TRIANGLES: u64 = 20_000_000;
+
+/// Peak memory per triangle while a scene is built: the triangles in file
+/// order and again in BVH order (2 × 76 B), their boxes (24 B), the BVH
+/// build's centres and order (12 + 4 B), at most two 32-byte BVH nodes and
+/// a third of a 128-byte 4-wide node (64 + 43 B): 299 B. At
+/// [`MAX_TRIANGLES`], about 6 GB.
+pub const BYTES_PER_TRIANGLE: u64 = 300;
+
 impl Scene {
     /// Builds the world. Relative OBJ paths are resolved against `base_dir`.
     /// Errors name the field (`objects[3].mesh`) or the mesh file and line.
@@ -271,6 +303,7 @@ impl Scene {
         for (i, e) in file.effects.iter().enumerate() {
             e.validate(&format!("effects[{i}]"))?;
         }
+        check_colour("background", file.background)?;
         let mut meshes = BTreeMap::new();
         for (name, src) in &file.meshes {
             let field = format!("meshes.{name}");
@@ -364,18 +397,39 @@ impl Scene {
         let mut material_index = BTreeMap::new();
         let mut materials = vec![Material::default()];
         for (name, m) in &file.materials {
-            let ok = finite3(m.diffuse)
-                && finite3(m.specular)
-                && m.shininess.is_finite()
-                && m.shininess >= 0.0;
-            if !ok {
+            for (f, c) in [("diffuse", m.diffuse), ("specular", m.specular)] {
+                check_colour(&format!("materials.{name}.{f}"), c)?;
+            }
+            if !(m.shininess.is_finite() && m.shininess >= 0.0) {
                 return Err(SceneError::field(
-                    format!("materials.{name}"),
-                    "colours and shininess must be finite",
+                    format!("materials.{name}.shininess"),
+                    format!("{} must be finite and zero or positive", m.shininess),
                 ));
             }
             material_index.insert(name.clone(), materials.len() as u32);
             materials.push(*m);
+        }
+        // Size before generating anything: 2000 instances of a 1.3 M-triangle
+        // mesh would otherwise abort on allocation.
+        let mut total = 0u64;
+        let mut first_over = None;
+        for (k, o) in file.objects.iter().enumerate() {
+            total += meshes.get(&o.mesh).map_or(0, |m| m.indices.len() as u64);
+            if total > MAX_TRIANGLES && first_over.is_none() {
+                first_over = Some(k);
+            }
+        }
+        if let Some(k) = first_over {
+            return Err(SceneError::field(
+                format!("objects[{k}]"),
+                format!(
+                    "the objects up to here take the scene past {MAX_TRIANGLES} triangles; \
+                     its {} objects have {total} triangles in all, about {:.1} GB to build \
+                     ({BYTES_PER_TRIANGLE} bytes per triangle)",
+                    file.objects.len(),
+                    total as f64 * BYTES_PER_TRIANGLE as f64 / 1e9
+                ),
+            ));
         }
         let mut object_material = Vec::new();
         let mut triangles = Vec::new();
@@ -450,26 +504,34 @@ impl Scene {
                 });
             }
         }
-        let lights_ok = file.lights.iter().all(|l| match l {
-            Light::Headlight { intensity } => intensity.is_finite(),
-            Light::Point {
-                position_mm,
-                intensity,
-            } => finite3(*position_mm) && intensity.is_finite(),
-            Light::Directional {
-                direction,
-                intensity,
-            } => {
-                finite3(*direction)
-                    && intensity.is_finite()
-                    && Vec3::new(direction.0, direction.1, direction.2).length() > 0.0
+        for (i, l) in file.lights.iter().enumerate() {
+            let (intensity, (f, ok)) = match l {
+                Light::Headlight { intensity } => (intensity, ("intensity", true)),
+                Light::Point {
+                    position_mm,
+                    intensity,
+                } => (intensity, ("position_mm", finite3(*position_mm))),
+                Light::Directional {
+                    direction,
+                    intensity,
+                } => {
+                    let d = Vec3::new(direction.0, direction.1, direction.2);
+                    let usable = d.try_normalize().is_some();
+                    (intensity, ("direction", finite3(*direction) && usable))
+                }
+            };
+            if !ok {
+                return Err(SceneError::field(
+                    format!("lights[{i}].{f}"),
+                    "must be finite (a direction also non-zero)",
+                ));
             }
-        });
-        if !lights_ok {
-            return Err(SceneError::field(
-                "lights",
-                "positions, directions and intensities must be finite (directions non-zero)",
-            ));
+            if !(intensity.is_finite() && (0.0..=MAX_COLOUR).contains(intensity)) {
+                return Err(SceneError::field(
+                    format!("lights[{i}].intensity"),
+                    format!("{intensity} must be from 0 to {MAX_COLOUR}"),
+                ));
+            }
         }
         for (name, v) in [
             ("crease_deg", file.crease_deg),

@@ -38,9 +38,42 @@ impl ParamError {
     ) -> Self {
         Self {
             field,
-            value: value.to_string(),
+            value: tidy_value(&value.to_string()),
             reason: reason.into(),
         }
+    }
+}
+
+/// A number for a message: as Rust prints it inside 1e-4..1e9 (and zero,
+/// infinities, NaN), otherwise in scientific notation with at most six
+/// significant digits (`1e-300`, `-1.23457e308`), never a 300-digit decimal.
+pub fn fmt_f64(v: f64) -> String {
+    let a = v.abs();
+    if !v.is_finite() || v == 0.0 || (1e-4..1e9).contains(&a) {
+        return v.to_string();
+    }
+    let s = format!("{v:.5e}");
+    match s.split_once('e') {
+        Some((mantissa, exp)) if mantissa.contains('.') => {
+            let m = mantissa.trim_end_matches('0').trim_end_matches('.');
+            format!("{m}e{exp}")
+        }
+        _ => s,
+    }
+}
+
+/// A value's text as [`ParamError`] shows it: a decimal number outside
+/// 1e-4..1e9 is rewritten with [`fmt_f64`]; integers that fit 64 bits
+/// (pixel counts, sizes) and anything else are kept as they are.
+fn tidy_value(s: &str) -> String {
+    let digits = s.strip_prefix('-').unwrap_or(s);
+    let integer = !digits.is_empty() && digits.chars().all(|c| c.is_ascii_digit());
+    if integer && digits.len() <= 20 {
+        return s.to_string();
+    }
+    match s.parse::<f64>() {
+        Ok(v) => fmt_f64(v),
+        Err(_) => s.to_string(),
     }
 }
 
@@ -319,6 +352,26 @@ mod tests {
         for (w, h) in [(1280, 1024), (1920, 1080), (3840, 2160), (7680, 4320)] {
             assert_eq!(with(w, h), Ok(()), "{w}x{h}");
         }
+    }
+
+    #[test]
+    fn tiny_and_huge_values_print_in_scientific_notation() {
+        let e = ParamError::new("size_mm.0", 1e-300, "x");
+        assert_eq!(e.value, "1e-300");
+        assert!(e.to_string().len() < 40, "{e}");
+        assert_eq!(
+            ParamError::new("f", -1.234_567_89e308, "x").value,
+            "-1.23457e308"
+        );
+        assert_eq!(ParamError::new("f", 1e-308, "x").value, "1e-308");
+        assert_eq!(ParamError::new("f", 337.9, "x").value, "337.9");
+        assert_eq!(ParamError::new("f", 0.0001, "x").value, "0.0001");
+        assert_eq!(ParamError::new("f", f64::NAN, "x").value, "NaN");
+        assert_eq!(ParamError::new("f", u32::MAX, "x").value, "4294967295");
+        assert_eq!(ParamError::new("f", "(1, 2)", "x").value, "(1, 2)");
+        assert_eq!(fmt_f64(2.5e9), "2.5e9");
+        assert_eq!(fmt_f64(1e9), "1e9");
+        assert_eq!(fmt_f64(999_999_999.5), "999999999.5");
     }
 
     #[test]

@@ -35,7 +35,23 @@ impl TrackerConfig {
             Driver::Mouse(c) => c.validate().map_err(|e| scoped("driver", e))?,
             Driver::TobiiHid(c) => c.validate().map_err(|e| scoped("driver", e))?,
         }
-        self.mapping.validate().map_err(|(f, m)| (f.to_string(), m))
+        self.mapping
+            .check_range(self.range())
+            .map_err(|(f, m)| (f.to_string(), m))
+    }
+
+    /// The tracker's range, the rectangle `[0, w] × [0, h]` of tracker
+    /// units its samples fall in, as the file declares it: an ISCAN's
+    /// `frame` (per eye), a HID tracker's `screen_um` (gaze is in µm from
+    /// the display's upper-left corner). `None` for the mouse: its samples
+    /// are screen pixels, of a screen the tracker file does not name.
+    /// [`Mapping::check_range`] checks the mapping against it.
+    pub fn range(&self) -> Option<(f64, f64)> {
+        match &self.driver {
+            Driver::Iscan(c) => Some(c.frame),
+            Driver::Mouse(_) => None,
+            Driver::TobiiHid(c) => Some(c.screen_um),
+        }
     }
 
     /// A fresh decoder for this driver.

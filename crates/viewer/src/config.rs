@@ -39,6 +39,7 @@ impl ConfigError {
             .as_ref()
             .map(|f| format!("field `{f}`: "))
             .unwrap_or_default();
+        let message = tidy_numbers(&message);
         ConfigError::Invalid {
             path: path.to_path_buf(),
             line,
@@ -96,37 +97,214 @@ pub fn invalid_field(path: &Path, text: &str, field: &str, message: String) -> C
     ConfigError::invalid(path, line, column, Some(field.to_string()), message)
 }
 
-/// Line and column of a dotted field path. `objects[3].mesh` is the fourth
-/// `mesh:` after `objects:`; otherwise the innermost named segment is looked
-/// up first (`driver.rate_hz` → `rate_hz`), then outwards (`size_mm.0` →
-/// `size_mm`).
+/// Rewrites every decimal number in `message` longer than 16 characters
+/// (`1e-300` printed as 300 digits) with [`fmt_f64`]'s
+/// rule: six significant digits in scientific notation outside 1e-4..1e9.
+/// Integers of up to 20 digits (any `u64`: sizes, counts) are kept.
+fn tidy_numbers(message: &str) -> String {
+    let mut out = String::with_capacity(message.len());
+    let bytes = message.as_bytes();
+    let mut i = 0;
+    while i < bytes.len() {
+        let c = bytes[i];
+        let starts = c.is_ascii_digit()
+            && (i == 0 || !(bytes[i - 1].is_ascii_alphanumeric() || bytes[i - 1] == b'_'));
+        if !starts {
+            let ch = message[i..].chars().next().unwrap_or(' ');
+            out.push(ch);
+            i += ch.len_utf8();
+            continue;
+        }
+        let mut j = i;
+        while j < bytes.len()
+            && (bytes[j].is_ascii_digit()
+                || (bytes[j] == b'.' && j + 1 < bytes.len() && bytes[j + 1].is_ascii_digit()))
+        {
+            j += 1;
+        }
+        let token = &message[i..j];
+        let integer = !token.contains('.');
+        match token.parse::<f64>() {
+            Ok(v) if token.len() > 16 && !(integer && token.len() <= 20) => {
+                out.push_str(&fmt_f64(v))
+            }
+            _ => out.push_str(token),
+        }
+        i = j;
+    }
+    out
+}
+
+/// Six significant digits in scientific notation outside 1e-4..1e9 (the
+/// rule of `screen_geometry::fmt_f64`, which this crate cannot name).
+pub fn fmt_f64(v: f64) -> String {
+    let a = v.abs();
+    if !v.is_finite() || v == 0.0 || (1e-4..1e9).contains(&a) {
+        return v.to_string();
+    }
+    let s = format!("{v:.5e}");
+    match s.split_once('e') {
+        Some((mantissa, exp)) if mantissa.contains('.') => {
+            let m = mantissa.trim_end_matches('0').trim_end_matches('.');
+            format!("{m}e{exp}")
+        }
+        _ => s,
+    }
+}
+
+/// Line and column (1-based) of a dotted field path, found by walking the
+/// text: each named segment is the first `name:` (or map key `"name":`)
+/// after the previous one and inside its value; `list[k]` is the k-th
+/// element of the list `list: [...]`, counted at the list's own nesting
+/// level, so several objects on one line are told apart. Tuple indices
+/// (`size_mm.0`) point at the tuple's field. When the walk finds nothing,
+/// the innermost named segment is looked up on its own, then outwards.
 fn locate(text: &str, field: &str) -> Option<(usize, usize)> {
-    let segments: Vec<&str> = field.split('.').collect();
-    if let Some(k) = segments.iter().position(|s| s.ends_with(']')) {
-        let (name, index) = segments[k].trim_end_matches(']').split_once('[')?;
-        let index: usize = index.parse().ok()?;
-        let (start, _) = find_field_from(text, name, 0)?;
-        let Some(inner) = segments.get(k + 1) else {
-            return Some((start, 1));
+    let code = strip_comments(text);
+    let mut scope = (0, code.len());
+    let mut found: Option<usize> = None;
+    for segment in field.split('.') {
+        if segment.chars().all(|c| c.is_ascii_digit()) {
+            continue;
+        }
+        let (name, index) = match segment.strip_suffix(']').and_then(|s| s.split_once('[')) {
+            Some((n, k)) => (n, k.parse::<usize>().ok()),
+            None => (segment, None),
         };
-        let mut line = start;
-        for _ in 0..=index {
-            match find_field_from(text, inner, line) {
-                Some((l, _)) => line = l,
-                // Not every element names the field (`effects[1].half_px`
-                // where effect 0 has no parameters): the first one after
-                // the list, else the list itself.
-                None => {
-                    return find_field_from(text, inner, start - 1).or(Some((start, 1)));
+        let Some((key, value)) = find_key(&code, name, scope) else {
+            continue;
+        };
+        found = Some(key);
+        scope = (value, value_end(&code, value, scope.1));
+        if let Some(k) = index {
+            match list_element(&code, scope, k) {
+                Some(element) => {
+                    found = Some(element.0);
+                    scope = element;
                 }
+                // No such element: the list itself.
+                None => break,
             }
         }
-        return find_field_from(text, inner, line - 1);
     }
-    field
-        .rsplit('.')
-        .filter(|seg| !seg.chars().all(|c| c.is_ascii_digit()))
-        .find_map(|seg| find_field_from(text, seg, 0))
+    match found {
+        Some(pos) => Some(line_col(&code, pos)),
+        None => field
+            .rsplit('.')
+            .map(|seg| seg.split('[').next().unwrap_or(seg))
+            .filter(|seg| !seg.is_empty() && !seg.chars().all(|c| c.is_ascii_digit()))
+            .find_map(|seg| find_field_from(text, seg, 0)),
+    }
+}
+
+/// `text` with `//` comments blanked out (same byte positions).
+fn strip_comments(text: &str) -> String {
+    text.lines()
+        .map(|line| match line.find("//") {
+            Some(k) => format!("{}{}", &line[..k], " ".repeat(line.len() - k)),
+            None => line.to_string(),
+        })
+        .collect::<Vec<_>>()
+        .join("\n")
+}
+
+/// 1-based line and column of byte `pos`.
+fn line_col(code: &str, pos: usize) -> (usize, usize) {
+    let before = &code[..pos.min(code.len())];
+    let line = before.matches('\n').count() + 1;
+    let column = before.len() - before.rfind('\n').map_or(0, |k| k + 1) + 1;
+    (line, column)
+}
+
+/// The first key `name:` or `"name":` in `scope`: (key start, value start).
+fn find_key(code: &str, name: &str, scope: (usize, usize)) -> Option<(usize, usize)> {
+    let hay = &code[scope.0..scope.1];
+    let bytes = hay.as_bytes();
+    let mut from = 0;
+    while let Some(k) = hay[from..].find(name) {
+        let at = from + k;
+        from = at + name.len();
+        let quoted = at > 0 && bytes[at - 1] == b'"' && bytes.get(from) == Some(&b'"');
+        let before_ok =
+            at == 0 || !(bytes[at - 1].is_ascii_alphanumeric() || bytes[at - 1] == b'_');
+        let after = if quoted { from + 1 } else { from };
+        if !(quoted || before_ok) {
+            continue;
+        }
+        if !quoted
+            && bytes
+                .get(from)
+                .is_some_and(|b| b.is_ascii_alphanumeric() || *b == b'_')
+        {
+            continue;
+        }
+        let rest = &hay[after..];
+        let trimmed = rest.trim_start();
+        if let Some(value) = trimmed.strip_prefix(':') {
+            let start = if quoted { at - 1 } else { at };
+            let value_at = hay.len() - value.len();
+            return Some((scope.0 + start, scope.0 + value_at));
+        }
+    }
+    None
+}
+
+/// Where the value starting at `start` ends: the first `,` or closing
+/// bracket at its own nesting level (or `limit`).
+fn value_end(code: &str, start: usize, limit: usize) -> usize {
+    let mut depth = 0i32;
+    let mut in_string = false;
+    let bytes = code.as_bytes();
+    let mut i = start;
+    while i < limit.min(bytes.len()) {
+        let b = bytes[i];
+        if in_string {
+            if b == b'\\' {
+                i += 1;
+            } else if b == b'"' {
+                in_string = false;
+            }
+        } else {
+            match b {
+                b'"' => in_string = true,
+                b'(' | b'[' | b'{' => depth += 1,
+                b')' | b']' | b'}' => {
+                    if depth == 0 {
+                        return i;
+                    }
+                    depth -= 1;
+                }
+                b',' if depth == 0 => return i,
+                _ => {}
+            }
+        }
+        i += 1;
+    }
+    limit
+}
+
+/// The `k`-th element of the list whose value spans `scope` (from before
+/// its `[`): the element's start and end.
+fn list_element(code: &str, scope: (usize, usize), k: usize) -> Option<(usize, usize)> {
+    let open = scope.0 + code[scope.0..scope.1].find('[')?;
+    list_element_from(code, (open + 1, scope.1), k)
+}
+
+/// The `k`-th element of a list whose elements start at `scope.0`.
+fn list_element_from(code: &str, scope: (usize, usize), k: usize) -> Option<(usize, usize)> {
+    let skip = code[scope.0..scope.1].len() - code[scope.0..scope.1].trim_start().len();
+    let start = scope.0 + skip;
+    if start >= scope.1 || code[start..].starts_with(']') {
+        return None;
+    }
+    let end = value_end(code, start, scope.1);
+    if k == 0 {
+        return Some((start, end));
+    }
+    if end >= scope.1 || code.as_bytes()[end] != b',' {
+        return None;
+    }
+    list_element_from(code, (end + 1, scope.1), k - 1)
 }
 
 /// Line and column (1-based) of the first `name:` on a line after line
@@ -180,10 +358,69 @@ fn field_before(text: &str, line: usize, column: usize) -> Option<String> {
     None
 }
 
-/// Loads a display file and checks its values.
+/// Nearest eye distance accepted, mm: 1 mm.
+pub const MIN_EYE_DISTANCE_MM: f64 = 1.0;
+/// Farthest eye distance accepted, mm: 100 m.
+pub const MAX_EYE_DISTANCE_MM: f64 = 100_000.0;
+/// Smallest screen side accepted, mm: 1 mm.
+pub const MIN_SIZE_MM: f64 = 1.0;
+/// Largest screen side accepted, mm: 100 m.
+pub const MAX_SIZE_MM: f64 = 100_000.0;
+
+/// Checks a display and returns its geometry: `Display::geometry`'s
+/// checks (finite, positive, the resolution limits), then physical ranges
+/// that keep every derived quantity (pixel pitch, pixels per degree, the
+/// ray mask) finite and meaningful: `eye_distance_mm` from
+/// [`MIN_EYE_DISTANCE_MM`] to [`MAX_EYE_DISTANCE_MM`] (1 mm to 100 m),
+/// each side of `size_mm` from [`MIN_SIZE_MM`] to [`MAX_SIZE_MM`], and
+/// `eye_point_px` within one screen width (height) of the screen.
+pub fn check_display(
+    display: &foveation::Display,
+) -> Result<foveation::ScreenGeometry, foveation::ParamError> {
+    let g = display.geometry()?;
+    let d = display.eye_distance_mm;
+    if !(MIN_EYE_DISTANCE_MM..=MAX_EYE_DISTANCE_MM).contains(&d) {
+        return Err(foveation::ParamError::new(
+            "eye_distance_mm",
+            fmt_f64(d),
+            "must be from 1 mm to 100 m (100000 mm)",
+        ));
+    }
+    for (field, v) in [
+        ("size_mm.0", display.size_mm.0),
+        ("size_mm.1", display.size_mm.1),
+    ] {
+        if !(MIN_SIZE_MM..=MAX_SIZE_MM).contains(&v) {
+            return Err(foveation::ParamError::new(
+                field,
+                fmt_f64(v),
+                "must be from 1 mm to 100 m (100000 mm)",
+            ));
+        }
+    }
+    let [w, h] = g.size_px();
+    for (field, v, side) in [
+        ("eye_point_px.0", g.eye_point_px[0], w),
+        ("eye_point_px.1", g.eye_point_px[1], h),
+    ] {
+        if !(-side..=2.0 * side).contains(&v) {
+            return Err(foveation::ParamError::new(
+                field,
+                fmt_f64(v),
+                format!(
+                    "must be within one screen of the screen (-{side} to {} px)",
+                    2.0 * side
+                ),
+            ));
+        }
+    }
+    Ok(g)
+}
+
+/// Loads a display file and checks its values ([`check_display`]).
 pub fn load_display(path: &Path) -> Result<foveation::Display, ConfigError> {
     let (display, text): (foveation::Display, String) = load(path)?;
-    display.geometry().map_err(|e| {
+    check_display(&display).map_err(|e| {
         invalid_field(
             path,
             &text,
@@ -194,7 +431,9 @@ pub fn load_display(path: &Path) -> Result<foveation::Display, ConfigError> {
     Ok(display)
 }
 
-/// Loads a tracker file and checks its values.
+/// Loads a tracker file and checks its values, and that its mapping takes
+/// the tracker's whole range onto the screen
+/// (`tracker_hal::Mapping::check_range`).
 pub fn load_tracker(path: &Path) -> Result<tracker_hal::TrackerConfig, ConfigError> {
     let (tracker, text): (tracker_hal::TrackerConfig, String) = load(path)?;
     tracker
@@ -205,37 +444,13 @@ pub fn load_tracker(path: &Path) -> Result<tracker_hal::TrackerConfig, ConfigErr
 
 /// Loads a calibration file (written by `gazecast calibrate` or
 /// `tracker_hal::calibration`); errors name the file, line and field.
+/// Every value is checked, and the calibration must map its whole raw
+/// range onto finite points near its screen
+/// (`tracker_hal::calibration::Calibration::check`).
 pub fn load_calibration(path: &Path) -> Result<tracker_hal::calibration::Calibration, ConfigError> {
-    use tracker_hal::calibration::Model;
     let (c, text): (tracker_hal::calibration::Calibration, String) = load(path)?;
-    let need = match c.model {
-        Model::Affine => 6,
-        Model::Homography => 9,
-        Model::Polynomial2 => 12,
-    };
-    if c.params.len() != need || !c.params.iter().all(|v| v.is_finite()) {
-        return Err(invalid_field(
-            path,
-            &text,
-            "params",
-            format!(
-                "{:?} needs {need} finite parameters, found {}",
-                c.model,
-                c.params.len()
-            ),
-        ));
-    }
-    let finite = |n: &tracker_hal::calibration::Normaliser| {
-        n.centre.iter().all(|v| v.is_finite()) && n.scale.is_finite() && n.scale > 0.0
-    };
-    if !finite(&c.raw) || !finite(&c.screen) {
-        return Err(invalid_field(
-            path,
-            &text,
-            "raw",
-            "normalisers need finite centres and a positive scale".into(),
-        ));
-    }
+    c.check()
+        .map_err(|(field, message)| invalid_field(path, &text, &field, message))?;
     Ok(c)
 }
 
@@ -317,6 +532,28 @@ mod tests {
         let err = parse::<foveation::Display>(Path::new("d.ron"), &text).expect_err("unknown");
         assert_eq!(err.field(), Some("nmae"), "{err}");
         assert_eq!(err.line(), 2, "{err}");
+    }
+
+    #[test]
+    fn long_numbers_in_messages_are_shortened() {
+        let huge = format!("{} must be a positive number", 1e308);
+        assert_eq!(tidy_numbers(&huge), "1e308 must be a positive number");
+        let tiny = format!("rate {} too small", 1e-300);
+        assert_eq!(tidy_numbers(&tiny), "rate 1e-300 too small");
+        // Ordinary numbers, 64-bit integers and identifiers stay.
+        let plain = "size_mm.0 = 337.9, 18446744073709551615 px, bumpy0";
+        assert_eq!(tidy_numbers(plain), plain);
+    }
+
+    #[test]
+    fn list_elements_are_found_on_a_shared_line() {
+        let text = "S(\n  objects: [\n    (mesh: \"a\", scale: 1.0), (mesh: \"b\", scale: (1, 2)),\n    (mesh: \"c\"), (mesh: \"d\"),\n  ],\n  params: [1.0, 2.0, NaN],\n)";
+        assert_eq!(locate(text, "objects[1].mesh"), Some((3, 31)));
+        assert_eq!(locate(text, "objects[1].scale"), Some((3, 42)));
+        assert_eq!(locate(text, "objects[3].mesh"), Some((4, 19)));
+        assert_eq!(locate(text, "objects[3]"), Some((4, 18)));
+        assert_eq!(locate(text, "params[2]"), Some((6, 22)));
+        assert_eq!(locate(text, "objects[9].mesh"), Some((2, 3)));
     }
 
     #[test]

@@ -100,9 +100,10 @@ pub fn build(args: &MaskArgs) -> Result<BuiltMask, String> {
     if let Some(d) = args.eye_distance_mm {
         display.eye_distance_mm = d;
     }
-    let geometry = display
-        .geometry()
-        .map_err(|e| format!("--eye-distance-mm: {e}"))?;
+    // The same ranges as a display file's (1 mm to 100 m for the distance):
+    // beyond them pixels per degree is not finite or means nothing.
+    let geometry =
+        config::check_display(&display).map_err(|e| format!("--eye-distance-mm: {e}"))?;
     let model = SamplingModel::new(
         geometry,
         GeislerPerry::default(),

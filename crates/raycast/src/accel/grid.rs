@@ -6,8 +6,17 @@
 //! holds more than the bin size (40 triangles), restart with finer, roughly
 //! cubic cells. Two differences, both stated: overlap is tested with the
 //! triangle's bounding box rather than the separating-axis test (so cells hold
-//! a few extra candidates), and refinement stops at 16 M cells, after which
-//! the fullest cell may exceed the bin size (reported in `max_bin`).
+//! a few extra candidates), and refinement stops before the grid would exceed
+//! [`max_cells`] cells (16 per triangle, at most 16 M) or
+//! [`max_references`] cell references (32 per triangle, at most 128 M),
+//! after which the fullest cell may exceed the bin size (reported in
+//! `max_bin`). The limits hold whatever the geometry: coincident or
+//! degenerate triangles never meet the bin size, and without them
+//! refinement would go on until every cell held a copy of each (41
+//! coincident triangles took 1.1 GB, 1000 would take 7 GB). The grid
+//! therefore needs at most 4 B × (2 × cells + references) ≤ 256 B per
+//! triangle and 640 MB in all; the shipped scenes never reach the limits
+//! (`stress`: 9.0 cells and 2.2 references per triangle).
 //! Traversal is Amanatides & Woo's 3-D DDA; a hit counts only once the ray has
 //! reached it (its distance is within the current cell), since triangles span
 //! cells.
@@ -18,7 +27,73 @@ use crate::ray::Aabb;
 
 /// The seed's empirically derived bin size.
 pub const BIN_SIZE: usize = 40;
-const MAX_CELLS: usize = 16 << 20;
+/// Most cells a grid may have, whatever its triangle count.
+pub const MAX_CELLS: usize = 16 << 20;
+/// Most cells per triangle.
+pub const CELLS_PER_TRIANGLE: usize = 16;
+/// Most cell references (triangle copies) a grid may hold, whatever its
+/// triangle count.
+pub const MAX_REFERENCES: usize = 128 << 20;
+/// Most cell references per triangle.
+pub const REFERENCES_PER_TRIANGLE: usize = 32;
+/// Refinement levels: with finite bounds the cell limit is reached first
+/// (1.25^80 > 2^24); infinite bounds (coordinates near ±`f32::MAX`) keep one
+/// cell at every level, so this ends them.
+const MAX_LEVELS: u32 = 80;
+
+/// The cell limit for `triangles` triangles.
+pub fn max_cells(triangles: usize) -> usize {
+    triangles
+        .saturating_mul(CELLS_PER_TRIANGLE)
+        .clamp(1, MAX_CELLS)
+}
+
+/// The reference limit for `triangles` triangles.
+pub fn max_references(triangles: usize) -> usize {
+    triangles
+        .saturating_mul(REFERENCES_PER_TRIANGLE)
+        .min(MAX_REFERENCES)
+}
+
+/// One refinement level: cell counts along each axis and the cell size.
+fn level(extent: Vec3, side: f32) -> ([u32; 3], Vec3) {
+    let dims = (extent / side).ceil().max(Vec3::ONE);
+    let dims = [dims.x as u32, dims.y as u32, dims.z as u32];
+    let cell_size = extent / Vec3::new(dims[0] as f32, dims[1] as f32, dims[2] as f32);
+    (dims, cell_size)
+}
+
+/// The cells, lowest and highest along each axis, that box `b` overlaps.
+fn cell_range(b: &Aabb, origin: Vec3, cell_size: Vec3, dims: [u32; 3]) -> ([u32; 3], [u32; 3]) {
+    let lo = ((b.min - origin) / cell_size).floor();
+    let hi = ((b.max - origin) / cell_size).floor();
+    let c = |v: f32, d: u32| (v.max(0.0) as u32).min(d - 1);
+    (
+        [c(lo.x, dims[0]), c(lo.y, dims[1]), c(lo.z, dims[2])],
+        [c(hi.x, dims[0]), c(hi.y, dims[1]), c(hi.z, dims[2])],
+    )
+}
+
+/// Whether a grid of `dims` over these triangles stays within the limits;
+/// counts its cells and references without allocating them.
+fn within_limits(tri_bounds: &[Aabb], origin: Vec3, cell_size: Vec3, dims: [u32; 3]) -> bool {
+    let cells = dims.iter().map(|&d| u64::from(d)).product::<u64>();
+    if cells > max_cells(tri_bounds.len()) as u64 {
+        return false;
+    }
+    let limit = max_references(tri_bounds.len()) as u64;
+    let mut references = 0u64;
+    for b in tri_bounds {
+        let (lo, hi) = cell_range(b, origin, cell_size, dims);
+        references += (0..3)
+            .map(|a| u64::from(hi[a] - lo[a]) + 1)
+            .product::<u64>();
+        if references > limit {
+            return false;
+        }
+    }
+    true
+}
 
 #[derive(Debug, Clone)]
 pub struct UniformGrid {
@@ -59,20 +134,10 @@ impl UniformGrid {
         let mut side = extent.max_element();
         let mut levels = 0;
         loop {
-            let dims = (extent / side).ceil().max(Vec3::ONE);
-            let dims = [dims.x as u32, dims.y as u32, dims.z as u32];
-            let cell_size = extent / Vec3::new(dims[0] as f32, dims[1] as f32, dims[2] as f32);
+            let (dims, cell_size) = level(extent, side);
             let cells = dims.iter().map(|&d| d as usize).product::<usize>();
             let mut counts = vec![0u32; cells + 1];
-            let range = |b: &Aabb| {
-                let lo = ((b.min - bounds.min) / cell_size).floor();
-                let hi = ((b.max - bounds.min) / cell_size).floor();
-                let c = |v: f32, d: u32| (v.max(0.0) as u32).min(d - 1);
-                (
-                    [c(lo.x, dims[0]), c(lo.y, dims[1]), c(lo.z, dims[2])],
-                    [c(hi.x, dims[0]), c(hi.y, dims[1]), c(hi.z, dims[2])],
-                )
-            };
+            let range = |b: &Aabb| cell_range(b, bounds.min, cell_size, dims);
             let index = |x: u32, y: u32, z: u32| ((z * dims[1] + y) * dims[0] + x) as usize;
             for b in tri_bounds {
                 let (lo, hi) = range(b);
@@ -86,7 +151,10 @@ impl UniformGrid {
             }
             let max_bin = counts.iter().copied().max().unwrap_or(0) as usize;
             let finer_cells = (cells as f64 * 1.25f64.powi(3)) as usize;
-            if max_bin > BIN_SIZE && finer_cells <= MAX_CELLS {
+            if max_bin > BIN_SIZE && finer_cells <= MAX_CELLS && levels < MAX_LEVELS && {
+                let (dims, cell_size) = level(extent, side / 1.25);
+                within_limits(tri_bounds, bounds.min, cell_size, dims)
+            } {
                 side /= 1.25;
                 levels += 1;
                 continue;

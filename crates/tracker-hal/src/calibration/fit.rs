@@ -12,6 +12,7 @@
 //! never a silently wrong mapping.
 
 use nalgebra::{DMatrix, DVector};
+use screen_geometry::{fmt_f64, MAX_SIDE_PX};
 use serde::{Deserialize, Serialize};
 
 /// The mapping model.
@@ -269,6 +270,222 @@ impl Calibration {
     }
 }
 
+/// How far (in normalised units) the normalised tracker range may reach
+/// from the origin: a fit puts its points within a few units of it.
+const NORMALISED_REACH: f64 = 1e6;
+
+/// Smallest ratio of the homography's denominator, over the tracker's
+/// range, to its largest: below it the mapping nears its horizon.
+const MIN_DENOMINATOR_RATIO: f64 = 0.1;
+
+impl Calibration {
+    /// Parameters `model` needs.
+    pub fn param_count(model: Model) -> usize {
+        match model {
+            Model::Affine => 6,
+            Model::Homography => 9,
+            Model::Polynomial2 => 12,
+        }
+    }
+
+    /// The raw range the calibration is checked over and the screen
+    /// rectangle it must map near, both `(x0, y0, x1, y1)`.
+    ///
+    /// With at least [`Model::min_points`] fitted pairs: the raw points'
+    /// bounding box grown by a quarter of its size on every side (the
+    /// targets sit inside the screen's margins; the tracker reaches its
+    /// edges), and the targets' bounding box. Without (a hand-written
+    /// file): the normalisers' regions, `centre ± 2 / scale` (normalised
+    /// coordinates have mean distance √2 from the origin).
+    pub fn ranges(&self) -> ([f64; 4], [f64; 4]) {
+        let bbox = |pts: &mut dyn Iterator<Item = [f64; 2]>| {
+            pts.fold(
+                [f64::INFINITY, f64::INFINITY, -f64::INFINITY, -f64::INFINITY],
+                |b, p| {
+                    [
+                        b[0].min(p[0]),
+                        b[1].min(p[1]),
+                        b[2].max(p[0]),
+                        b[3].max(p[1]),
+                    ]
+                },
+            )
+        };
+        if self.points.len() >= self.model.min_points() {
+            let r = bbox(&mut self.points.iter().map(|p| p.0));
+            let (gx, gy) = ((r[2] - r[0]) / 4.0, (r[3] - r[1]) / 4.0);
+            let raw = [r[0] - gx, r[1] - gy, r[2] + gx, r[3] + gy];
+            (raw, bbox(&mut self.points.iter().map(|p| p.1)))
+        } else {
+            let around = |n: &Normaliser| {
+                let h = 2.0 / n.scale;
+                [
+                    n.centre[0] - h,
+                    n.centre[1] - h,
+                    n.centre[0] + h,
+                    n.centre[1] + h,
+                ]
+            };
+            (around(&self.raw), around(&self.screen))
+        }
+    }
+
+    /// Checks a calibration read from a file: every value, and that it maps
+    /// the whole raw range ([`Calibration::ranges`]) onto finite points
+    /// within one screen diagonal of the screen, a homography's denominator
+    /// keeping its sign and staying away from zero. The error names the
+    /// field (`params[4]`, `screen.scale`, `points[2]`, …).
+    pub fn check(&self) -> Result<(), (String, String)> {
+        let need = Self::param_count(self.model);
+        if self.params.len() != need {
+            return Err((
+                "params".into(),
+                format!(
+                    "{:?} needs {need} parameters, found {}",
+                    self.model,
+                    self.params.len()
+                ),
+            ));
+        }
+        if let Some((i, v)) = self.params.iter().enumerate().find(|(_, v)| !v.is_finite()) {
+            return Err((
+                format!("params[{i}]"),
+                format!(
+                    "{:?} needs {need} finite parameters; parameter {i} is {v}",
+                    self.model
+                ),
+            ));
+        }
+        for (name, n) in [("raw", &self.raw), ("screen", &self.screen)] {
+            for k in 0..2 {
+                if !n.centre[k].is_finite() {
+                    return Err((
+                        format!("{name}.centre.{k}"),
+                        format!("{} must be finite", n.centre[k]),
+                    ));
+                }
+            }
+            if !(n.scale.is_finite() && n.scale > 0.0) {
+                return Err((
+                    format!("{name}.scale"),
+                    format!(
+                        "{} must be a finite number greater than zero",
+                        fmt_f64(n.scale)
+                    ),
+                ));
+            }
+        }
+        let max = f64::from(MAX_SIDE_PX);
+        // Targets lie within a screen, whose diagonal is at most √2·16384:
+        // their mean distance from their centre is no more.
+        if self.screen.scale < 1.0 / max {
+            return Err((
+                "screen.scale".into(),
+                format!(
+                    "{} is below 1/{MAX_SIDE_PX}: the targets would spread wider than any screen",
+                    fmt_f64(self.screen.scale)
+                ),
+            ));
+        }
+        for k in 0..2 {
+            if !(0.0..=max).contains(&self.screen.centre[k]) {
+                return Err((
+                    format!("screen.centre.{k}"),
+                    format!(
+                        "{} px: the targets' centre must be on a screen (0 to {MAX_SIDE_PX} px)",
+                        fmt_f64(self.screen.centre[k])
+                    ),
+                ));
+            }
+        }
+        if !(self.rms_residual_px.is_finite() && self.rms_residual_px >= 0.0) {
+            return Err((
+                "rms_residual_px".into(),
+                format!("{} must be zero or positive", fmt_f64(self.rms_residual_px)),
+            ));
+        }
+        for (i, (r, t)) in self.points.iter().enumerate() {
+            if !r.iter().chain(t).all(|v| v.is_finite()) {
+                return Err((
+                    format!("points[{i}]"),
+                    format!("{r:?} → {t:?} is not finite"),
+                ));
+            }
+            if !t.iter().all(|v| (0.0..=max).contains(v)) {
+                return Err((
+                    format!("points[{i}]"),
+                    format!(
+                        "target ({}, {}) px is off any screen (0 to {MAX_SIDE_PX} px)",
+                        fmt_f64(t[0]),
+                        fmt_f64(t[1])
+                    ),
+                ));
+            }
+        }
+        let (raw, screen) = self.ranges();
+        let corners = [
+            [raw[0], raw[1]],
+            [raw[2], raw[1]],
+            [raw[0], raw[3]],
+            [raw[2], raw[3]],
+        ];
+        let normalised = corners.map(|p| self.raw.apply(p));
+        let reach = normalised.iter().flatten().fold(0.0f64, |m, v| {
+            if v.is_finite() {
+                m.max(v.abs())
+            } else {
+                f64::INFINITY
+            }
+        });
+        if !(raw.iter().all(|v| v.is_finite()) && reach <= NORMALISED_REACH) {
+            return Err((
+                "raw".into(),
+                format!(
+                    "the normaliser (centre {:?}, scale {}) takes the raw range ({}, {})–({}, {}) \
+                     beyond ±{} normalised units",
+                    self.raw.centre,
+                    fmt_f64(self.raw.scale),
+                    fmt_f64(raw[0]),
+                    fmt_f64(raw[1]),
+                    fmt_f64(raw[2]),
+                    fmt_f64(raw[3]),
+                    fmt_f64(NORMALISED_REACH)
+                ),
+            ));
+        }
+        if self.model == Model::Homography {
+            // The denominator is affine in x: its extremes over the range
+            // are at the corners.
+            let h = &self.params;
+            let w = normalised.map(|x| h[6] * x[0] + h[7] * x[1] + h[8]);
+            let most = w.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+            let least = w.iter().fold(f64::INFINITY, |m, v| m.min(v.abs()));
+            let same_sign = w.iter().all(|v| *v > 0.0) || w.iter().all(|v| *v < 0.0);
+            if !(same_sign && least >= MIN_DENOMINATOR_RATIO * most) {
+                return Err((
+                    "params".into(),
+                    format!(
+                        "the homography's denominator goes from {} to {} over the raw range \
+                         ({}, {})–({}, {}): {}; its horizon is too near",
+                        fmt_f64(w.iter().copied().fold(f64::INFINITY, f64::min)),
+                        fmt_f64(w.iter().copied().fold(-f64::INFINITY, f64::max)),
+                        fmt_f64(raw[0]),
+                        fmt_f64(raw[1]),
+                        fmt_f64(raw[2]),
+                        fmt_f64(raw[3]),
+                        if same_sign {
+                            "it nears zero"
+                        } else {
+                            "it changes sign"
+                        }
+                    ),
+                ));
+            }
+        }
+        crate::mapping::check_grid(raw, screen, |p| self.map(p)).map_err(|m| ("params".into(), m))
+    }
+}
+
 fn full_rank(m: &DMatrix<f64>) -> bool {
     if m.nrows() < m.ncols() {
         return false;
@@ -378,6 +595,47 @@ mod tests {
         let text = ron::ser::to_string_pretty(&c, ron::ser::PrettyConfig::default()).expect("ron");
         let back: Calibration = ron::from_str(&text).expect("parses");
         assert_eq!(back.map([100.0, 200.0]), c.map([100.0, 200.0]));
+    }
+
+    #[test]
+    fn fitted_calibrations_pass_their_own_check() {
+        for (model, targets) in [
+            (Model::Affine, grid(9)),
+            (Model::Homography, grid(9)),
+            (Model::Polynomial2, grid(16)),
+        ] {
+            let c = procedure_on(model, &targets, 0.3, 1)
+                .fit(model)
+                .expect("fits");
+            assert_eq!(c.check(), Ok(()), "{model:?}");
+        }
+    }
+
+    #[test]
+    fn calibrations_that_miss_the_screen_fail_their_check() {
+        let good = procedure_on(Model::Homography, &grid(9), 0.3, 1)
+            .fit(Model::Homography)
+            .expect("fits");
+        let mut c = good.clone();
+        c.params[4] = f64::NAN;
+        let (field, msg) = c.check().unwrap_err();
+        assert_eq!(field, "params[4]");
+        assert!(msg.contains("parameter 4 is NaN"), "{msg}");
+        let mut c = good.clone();
+        c.screen.scale = 1e-300;
+        let (field, msg) = c.check().unwrap_err();
+        assert_eq!(field, "screen.scale");
+        assert!(msg.len() < 200, "{msg}");
+        // Put the horizon through the middle of the raw range.
+        let mut c = good.clone();
+        c.params[6] = 3.0;
+        assert_eq!(c.check().unwrap_err().0, "params");
+        let mut c = good.clone();
+        c.raw.scale = 1e300;
+        assert_eq!(c.check().unwrap_err().0, "raw");
+        let mut c = good;
+        c.points[3].1[0] = -1e308;
+        assert_eq!(c.check().unwrap_err().0, "points[3]");
     }
 
     proptest! {

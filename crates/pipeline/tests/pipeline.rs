@@ -290,3 +290,56 @@ fn the_surface_buffers_cost_nothing_unless_asked_for() {
         assert_eq!(again.layer, full.layer, "{backend:?}");
     }
 }
+
+mod any_gaze {
+    use super::*;
+    use proptest::prelude::*;
+
+    fn coordinate() -> impl Strategy<Value = f64> {
+        prop_oneof![
+            Just(f64::NAN),
+            Just(f64::INFINITY),
+            Just(f64::NEG_INFINITY),
+            Just(f64::MAX),
+            Just(-f64::MAX),
+            Just(0.0),
+            Just(-0.0),
+            Just(1e-300),
+            -1e300..1e300f64,
+            -1e4..1e4f64,
+            -1e9..1e9f64,
+        ]
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig { cases: 48, ..ProptestConfig::default() })]
+
+        /// A gaze at any f64 — NaN, ±∞, 1e300 — renders a frame or is an
+        /// error naming the gaze; never a panic, and the work is bounded by
+        /// the screen (the mask builder's cost does not grow with the POR's
+        /// distance), so every case finishes quickly.
+        #[test]
+        fn any_gaze_renders_or_is_an_error(x in coordinate(), y in coordinate()) {
+            static SCENE: std::sync::OnceLock<Scene> = std::sync::OnceLock::new();
+            let s = SCENE.get_or_init(|| scene("search-task", &ALL_SAMPLING));
+            let g = display(160, 128).geometry().expect("geometry");
+            let model = pipeline::sampling_model(g, 1.0).expect("model");
+            let mut r = Renderer::new(s, Camera::new(&g), model, &Options::default())
+                .expect("cpu");
+            match r.render([x, y]) {
+                Ok((frame, stats)) => {
+                    prop_assert!(x.is_finite() && y.is_finite());
+                    prop_assert_eq!(frame.len(), 160 * 128);
+                    // Fovea and refined pixels are at most the screen; mask
+                    // vertices at most a few per on-screen pixel.
+                    prop_assert!(stats.rays_fovea + stats.rays_refine <= 160 * 128);
+                    prop_assert!(stats.rays_mask <= 4 * 160 * 128, "{}", stats.rays_mask);
+                }
+                Err(e) => {
+                    prop_assert!(!(x.is_finite() && y.is_finite()), "{e}");
+                    prop_assert!(e.to_string().contains("gaze"), "{e}");
+                }
+            }
+        }
+    }
+}

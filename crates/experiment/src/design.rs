@@ -1,0 +1,431 @@
+//! The experiment design file (RON) and its validation.
+//!
+//! A design names its factors and their levels, the conditions (each a
+//! rendering method plus its parameters, and the factor level it realises),
+//! how many runs (repetitions) each participant performs, how condition
+//! orders are counterbalanced across participants, how stimuli are seeded,
+//! where breaks fall, and the calibration / validation / drift-check
+//! schedule. Every struct denies unknown fields, so a misspelt key is an
+//! error rather than a silently ignored default.
+//!
+//! [`Design::validate`] checks the cross-field rules and reports the first
+//! problem as a [`DesignError`] whose `field` is a path such as
+//! `conditions[3].inset_deg`; the caller maps it to a file position.
+
+use serde::{Deserialize, Serialize};
+use std::collections::BTreeMap;
+use std::path::Path;
+
+/// The rendering methods a condition may name: the names of
+/// `pipeline::Method` (`Method::name`). Kept as strings here so that this
+/// crate stays free of the renderer.
+pub const METHODS: &[&str] = &["full", "hybrid"];
+
+/// An experiment design, as read from `config/experiments/*.ron`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+/// In the file the top-level struct is written `Experiment( ... )`.
+#[serde(deny_unknown_fields, rename = "Experiment")]
+pub struct Design {
+    /// Short identifier, e.g. `"murphy2007-search"`.
+    pub name: String,
+    /// Free text: what the experiment is and where it comes from.
+    #[serde(default)]
+    pub description: String,
+    /// The independent variables and their levels.
+    pub factors: Vec<Factor>,
+    /// The scene types a participant sees, in their canonical order; the
+    /// counterbalancing permutes these indices.
+    pub conditions: Vec<Condition>,
+    /// Repetitions: how many times each participant performs every
+    /// condition once (Murphy 2007: 4 runs of 11).
+    pub runs: u32,
+    /// How condition orders vary across participants.
+    pub counterbalancing: Counterbalancing,
+    /// How a participant's order changes from one run to the next.
+    pub run_order: RunOrder,
+    /// Stimulus generation.
+    pub stimulus: Stimulus,
+    /// Rest breaks.
+    pub breaks: Breaks,
+    /// Eye-tracker calibration and validation schedule.
+    pub calibration: Calibration,
+    /// Optional single-point drift checks between trials.
+    #[serde(default)]
+    pub drift_check: Option<DriftCheck>,
+}
+
+/// One independent variable.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Factor {
+    /// Name, used as the key in [`Condition::levels`].
+    pub name: String,
+    /// The level labels, e.g. `["2", "5", "10"]`.
+    pub levels: Vec<String>,
+}
+
+/// One scene type: a rendering method with its parameters.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Condition {
+    /// Label used in plans, logs and tables (e.g. `"E10"`).
+    pub name: String,
+    /// Rendering method: one of [`METHODS`].
+    pub method: String,
+    /// Diameter of the full-resolution inset in degrees of visual angle
+    /// (hybrid only; `None` for the full-resolution method).
+    #[serde(default)]
+    pub inset_deg: Option<f64>,
+    /// Whether silhouette edges are kept (refined) in the periphery
+    /// (hybrid only; must be `false` for the full method, which has no
+    /// periphery to degrade).
+    #[serde(default)]
+    pub silhouette_edges: bool,
+    /// The factor level this condition realises, by factor name. A control
+    /// outside the factorial (Murphy's full-resolution scene) lists none.
+    #[serde(default)]
+    pub levels: BTreeMap<String, String>,
+}
+
+/// Counterbalancing of condition order across participants.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub enum Counterbalancing {
+    /// Cyclic Latin square: participant `p` takes row `p mod n`; each
+    /// condition appears once in each position across `n` participants.
+    LatinSquare,
+    /// Williams (1949) balanced design: also balances first-order
+    /// carry-over (each condition precedes each other equally often);
+    /// `n` rows for even `n`, `2n` rows for odd `n`.
+    Williams,
+}
+
+/// How a participant's condition order changes between runs.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub enum RunOrder {
+    /// Every run repeats the participant's row.
+    Repeat,
+    /// Run `r` uses the row `r` places after the participant's row, so
+    /// each run on its own is counterbalanced across participants and
+    /// each participant meets several orders.
+    Rotate,
+}
+
+/// Stimulus generation.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Stimulus {
+    /// Base seed; a trial's seed is derived from it, the participant and
+    /// the trial index ([`crate::plan::trial_seed`]).
+    pub seed: u64,
+    /// Search grid as (rows, columns) — Murphy 2007: 5×5.
+    pub grid: (u32, u32),
+}
+
+/// Rest breaks.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Breaks {
+    /// A break after this many trials within a run (Murphy 2007: 6, "a
+    /// break to check the calibration or stretch was allowed after 6
+    /// search tasks"); `None` for none within a run.
+    #[serde(default)]
+    pub break_after_trials: Option<u32>,
+    /// A break between consecutive runs (Murphy 2007: "upon completion of
+    /// all 11 search tasks, users were encouraged to stand and stretch").
+    #[serde(default)]
+    pub between_runs: bool,
+}
+
+/// Calibration and validation schedule.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Calibration {
+    /// Calibration targets (Murphy 2007: 9, a 3×3 grid).
+    pub points: u32,
+    /// Validation (accuracy confirmation) targets (Murphy 2007: 5).
+    pub validation_points: u32,
+    /// Mean validation error above which the runner recalibrates, in
+    /// degrees of visual angle.
+    pub accuracy_threshold_deg: f64,
+    /// Calibrate (and validate) before the first trial.
+    pub at_start: bool,
+    /// Validate before the first trial of the session's second half.
+    pub validate_at_midpoint: bool,
+}
+
+/// Single-point drift check.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct DriftCheck {
+    /// Check before every `every_trials`-th trial (not before the first).
+    pub every_trials: u32,
+    /// Error above which the runner recalibrates, in degrees.
+    pub threshold_deg: f64,
+}
+
+/// Why a design file was rejected.
+#[derive(Debug, thiserror::Error)]
+pub enum DesignError {
+    /// The file could not be read.
+    #[error("cannot read {path}: {source}")]
+    Io {
+        /// The file.
+        path: String,
+        /// The cause.
+        source: std::io::Error,
+    },
+    /// RON syntax or a type/field mismatch (unknown field, wrong type).
+    #[error("{0}")]
+    Parse(#[from] ron::error::SpannedError),
+    /// The file parsed but breaks a rule; `field` is a path such as
+    /// `conditions[3].inset_deg`.
+    #[error("{field}: {message}")]
+    Invalid {
+        /// Path of the offending field.
+        field: String,
+        /// What is wrong with it.
+        message: String,
+    },
+}
+
+impl DesignError {
+    fn invalid(field: impl Into<String>, message: impl Into<String>) -> Self {
+        DesignError::Invalid {
+            field: field.into(),
+            message: message.into(),
+        }
+    }
+
+    /// The field path of a validation error (`None` for I/O and parse
+    /// errors, which carry their own position).
+    pub fn field(&self) -> Option<&str> {
+        match self {
+            DesignError::Invalid { field, .. } => Some(field),
+            _ => None,
+        }
+    }
+}
+
+impl Design {
+    /// Parses and validates a design from RON text.
+    pub fn from_ron_str(text: &str) -> Result<Self, DesignError> {
+        let design: Design = ron::from_str(text)?;
+        design.validate()?;
+        Ok(design)
+    }
+
+    /// Reads, parses and validates a design file.
+    pub fn load(path: impl AsRef<Path>) -> Result<Self, DesignError> {
+        let path = path.as_ref();
+        let text = std::fs::read_to_string(path).map_err(|source| DesignError::Io {
+            path: path.display().to_string(),
+            source,
+        })?;
+        Self::from_ron_str(&text)
+    }
+
+    /// Trials per run (one per condition).
+    pub fn trials_per_run(&self) -> usize {
+        self.conditions.len()
+    }
+
+    /// Trials per participant.
+    pub fn total_trials(&self) -> usize {
+        self.conditions.len() * self.runs as usize
+    }
+
+    /// Checks the rules serde cannot express; returns the first violation.
+    pub fn validate(&self) -> Result<(), DesignError> {
+        if self.name.trim().is_empty() {
+            return Err(DesignError::invalid("name", "must not be empty"));
+        }
+        self.validate_factors()?;
+        self.validate_conditions()?;
+        if self.runs == 0 {
+            return Err(DesignError::invalid("runs", "must be at least 1"));
+        }
+        let (rows, cols) = self.stimulus.grid;
+        if rows == 0 || cols == 0 {
+            return Err(DesignError::invalid(
+                "stimulus.grid",
+                format!("must be at least 1x1, got {rows}x{cols}"),
+            ));
+        }
+        if let Some(k) = self.breaks.break_after_trials {
+            let per_run = self.trials_per_run();
+            if k == 0 || k as usize >= per_run {
+                return Err(DesignError::invalid(
+                    "breaks.break_after_trials",
+                    format!(
+                        "must be between 1 and {} (trials per run - 1), got {k}",
+                        per_run - 1
+                    ),
+                ));
+            }
+        }
+        let c = &self.calibration;
+        if c.points == 0 {
+            return Err(DesignError::invalid(
+                "calibration.points",
+                "must be at least 1",
+            ));
+        }
+        if c.validation_points == 0 {
+            return Err(DesignError::invalid(
+                "calibration.validation_points",
+                "must be at least 1",
+            ));
+        }
+        positive_finite(
+            c.accuracy_threshold_deg,
+            "calibration.accuracy_threshold_deg",
+        )?;
+        if c.validate_at_midpoint && self.total_trials() < 2 {
+            return Err(DesignError::invalid(
+                "calibration.validate_at_midpoint",
+                "needs at least 2 trials per participant",
+            ));
+        }
+        if let Some(d) = &self.drift_check {
+            if d.every_trials == 0 {
+                return Err(DesignError::invalid(
+                    "drift_check.every_trials",
+                    "must be at least 1",
+                ));
+            }
+            positive_finite(d.threshold_deg, "drift_check.threshold_deg")?;
+        }
+        Ok(())
+    }
+
+    fn validate_factors(&self) -> Result<(), DesignError> {
+        for (i, f) in self.factors.iter().enumerate() {
+            if f.name.trim().is_empty() {
+                return Err(DesignError::invalid(
+                    format!("factors[{i}].name"),
+                    "must not be empty",
+                ));
+            }
+            if let Some(j) = self.factors[..i].iter().position(|g| g.name == f.name) {
+                return Err(DesignError::invalid(
+                    format!("factors[{i}].name"),
+                    format!("duplicates factors[{j}].name {:?}", f.name),
+                ));
+            }
+            if f.levels.len() < 2 {
+                return Err(DesignError::invalid(
+                    format!("factors[{i}].levels"),
+                    format!("a factor needs at least 2 levels, got {}", f.levels.len()),
+                ));
+            }
+            for (l, level) in f.levels.iter().enumerate() {
+                if let Some(m) = f.levels[..l].iter().position(|x| x == level) {
+                    return Err(DesignError::invalid(
+                        format!("factors[{i}].levels[{l}]"),
+                        format!("duplicates levels[{m}] {level:?}"),
+                    ));
+                }
+            }
+        }
+        Ok(())
+    }
+
+    fn validate_conditions(&self) -> Result<(), DesignError> {
+        if self.conditions.len() < 2 {
+            return Err(DesignError::invalid(
+                "conditions",
+                format!("needs at least 2 conditions, got {}", self.conditions.len()),
+            ));
+        }
+        for (i, c) in self.conditions.iter().enumerate() {
+            let at = |field: &str| format!("conditions[{i}].{field}");
+            if c.name.trim().is_empty() {
+                return Err(DesignError::invalid(at("name"), "must not be empty"));
+            }
+            if let Some(j) = self.conditions[..i].iter().position(|d| d.name == c.name) {
+                return Err(DesignError::invalid(
+                    at("name"),
+                    format!("duplicates conditions[{j}].name {:?}", c.name),
+                ));
+            }
+            match c.method.as_str() {
+                "full" => {
+                    if c.inset_deg.is_some() {
+                        return Err(DesignError::invalid(
+                            at("inset_deg"),
+                            "the full method renders every pixel at full resolution and takes no inset",
+                        ));
+                    }
+                    if c.silhouette_edges {
+                        return Err(DesignError::invalid(
+                            at("silhouette_edges"),
+                            "the full method has no degraded periphery whose edges could be kept",
+                        ));
+                    }
+                }
+                "hybrid" => match c.inset_deg {
+                    None => {
+                        return Err(DesignError::invalid(
+                            at("inset_deg"),
+                            "the hybrid method needs an inset diameter in degrees",
+                        ))
+                    }
+                    Some(d) => {
+                        if !(d.is_finite() && d > 0.0 && d <= 180.0) {
+                            return Err(DesignError::invalid(
+                                at("inset_deg"),
+                                format!("must be in (0, 180] degrees, got {d}"),
+                            ));
+                        }
+                    }
+                },
+                other => {
+                    return Err(DesignError::invalid(
+                        at("method"),
+                        format!("unknown method {other:?}; known: {}", METHODS.join(", ")),
+                    ))
+                }
+            }
+            for (factor, level) in &c.levels {
+                let Some(f) = self.factors.iter().find(|f| &f.name == factor) else {
+                    return Err(DesignError::invalid(
+                        format!("conditions[{i}].levels.{factor}"),
+                        format!("no factor named {factor:?}"),
+                    ));
+                };
+                if !f.levels.contains(level) {
+                    return Err(DesignError::invalid(
+                        format!("conditions[{i}].levels.{factor}"),
+                        format!(
+                            "{level:?} is not a level of {factor:?} ({})",
+                            f.levels.join(", ")
+                        ),
+                    ));
+                }
+            }
+            if !c.levels.is_empty() {
+                if let Some(j) = self.conditions[..i]
+                    .iter()
+                    .position(|d| !d.levels.is_empty() && d.levels == c.levels)
+                {
+                    return Err(DesignError::invalid(
+                        at("levels"),
+                        format!("same factor levels as conditions[{j}]"),
+                    ));
+                }
+            }
+        }
+        Ok(())
+    }
+}
+
+fn positive_finite(x: f64, field: &str) -> Result<(), DesignError> {
+    if x.is_finite() && x > 0.0 {
+        Ok(())
+    } else {
+        Err(DesignError::invalid(
+            field,
+            format!("must be a positive finite number of degrees, got {x}"),
+        ))
+    }
+}

@@ -1,0 +1,27 @@
+//! `experiment`: the pure logic of a gaze-contingent experiment — no
+//! window, no GPU, no tracker.
+//!
+//! - [`design`]: the experiment design file (RON), parsed with serde
+//!   (`deny_unknown_fields`) and validated with errors that name the field
+//!   (`conditions[3].inset_deg`).
+//! - [`counterbalance`]: condition orders — the cyclic Latin square and the
+//!   balanced Williams design.
+//! - [`plan`](mod@plan): one participant's session as a list of trials (run, trial,
+//!   condition, stimulus seed, target cell) with the breaks, calibration,
+//!   validation and drift checks marked before the trials they precede.
+//! - [`stats`]: the analysis — means ± SE, one-way ANOVA, repeated-measures
+//!   one-way ANOVA with the Greenhouse–Geisser correction, and pairwise
+//!   t-tests with a pooled SD and Holm-adjusted p-values.
+//!
+//! The reference design is Murphy (2007), *Hybrid Image-/Model-Based
+//! Gaze-Contingent Rendering*, ch. 7: `config/experiments/murphy2007-search.ron`.
+
+pub mod counterbalance;
+pub mod design;
+pub mod plan;
+pub mod stats;
+
+pub use counterbalance::{latin_square, williams};
+pub use design::{Design, DesignError};
+pub use plan::{plan, Step, Trial};
+pub use stats::StatsError;

@@ -1,0 +1,170 @@
+//! One participant's session as a list of trials.
+//!
+//! [`plan`] turns a validated [`Design`] and a participant index into the
+//! trials in presentation order: the run, the trial's place in the run and
+//! in the session, the condition (from the counterbalancing row), a
+//! stimulus seed derived from the design seed, the participant and the
+//! trial, the target's grid cell drawn from that seed, and the steps that
+//! come before the trial (break, calibration, validation, drift check).
+//! The same inputs always give the same plan, on every platform.
+
+use crate::counterbalance::{latin_square, williams};
+use crate::design::{Counterbalancing, Design, DesignError, RunOrder};
+use serde::{Deserialize, Serialize};
+
+/// Something the runner does before a trial, in the order listed.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub enum Step {
+    /// Rest break between runs.
+    RunBreak,
+    /// Rest break within a run (after `break_after_trials` trials).
+    Break,
+    /// Full calibration (`calibration.points` targets).
+    Calibration,
+    /// Validation (`calibration.validation_points` targets); above
+    /// `calibration.accuracy_threshold_deg` the runner recalibrates.
+    Validation,
+    /// Validation at the session's mid-point, same rule as [`Step::Validation`].
+    MidpointValidation,
+    /// Single-point drift check; above `drift_check.threshold_deg` the
+    /// runner recalibrates.
+    DriftCheck,
+}
+
+/// One trial of a participant's session.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Trial {
+    /// Position in the session, from 0.
+    pub index: usize,
+    /// Run (repetition), from 0.
+    pub run: usize,
+    /// Position within the run, from 0.
+    pub trial_in_run: usize,
+    /// Index into `Design::conditions`.
+    pub condition: usize,
+    /// `Design::conditions[condition].name`, for logs.
+    pub condition_name: String,
+    /// Stimulus seed: [`trial_seed`]`(stimulus.seed, participant, index)`.
+    pub seed: u64,
+    /// Target cell (row, column) in the search grid, drawn from `seed`.
+    pub target_cell: (u32, u32),
+    /// Steps to run before this trial, in order.
+    pub before: Vec<Step>,
+}
+
+/// The counterbalancing rows the design uses.
+pub fn orders(design: &Design) -> Vec<Vec<usize>> {
+    let n = design.conditions.len();
+    match design.counterbalancing {
+        Counterbalancing::LatinSquare => latin_square(n),
+        Counterbalancing::Williams => williams(n),
+    }
+}
+
+/// The participant's session. Validates the design first.
+pub fn plan(design: &Design, participant: usize) -> Result<Vec<Trial>, DesignError> {
+    design.validate()?;
+    let rows = orders(design);
+    let per_run = design.trials_per_run();
+    let total = design.total_trials();
+    let (grid_rows, grid_cols) = design.stimulus.grid;
+    let cells = u64::from(grid_rows) * u64::from(grid_cols);
+    let midpoint = total / 2;
+    let mut trials = Vec::with_capacity(total);
+    for run in 0..design.runs as usize {
+        let row = match design.run_order {
+            RunOrder::Repeat => participant % rows.len(),
+            RunOrder::Rotate => (participant % rows.len() + run) % rows.len(),
+        };
+        for (trial_in_run, &condition) in rows[row].iter().enumerate() {
+            let index = run * per_run + trial_in_run;
+            let seed = trial_seed(design.stimulus.seed, participant as u64, index as u64);
+            let cell = SplitMix64(seed).below(cells);
+            let target_cell = (
+                (cell / u64::from(grid_cols)) as u32,
+                (cell % u64::from(grid_cols)) as u32,
+            );
+            let mut before = Vec::new();
+            if index > 0 && trial_in_run == 0 && design.breaks.between_runs {
+                before.push(Step::RunBreak);
+            }
+            if let Some(k) = design.breaks.break_after_trials {
+                if trial_in_run == k as usize {
+                    before.push(Step::Break);
+                }
+            }
+            if index == 0 && design.calibration.at_start {
+                before.push(Step::Calibration);
+                before.push(Step::Validation);
+            }
+            if index == midpoint && index > 0 && design.calibration.validate_at_midpoint {
+                before.push(Step::MidpointValidation);
+            }
+            if let Some(d) = &design.drift_check {
+                let validating = before
+                    .iter()
+                    .any(|s| matches!(s, Step::Validation | Step::MidpointValidation));
+                if index > 0 && index.is_multiple_of(d.every_trials as usize) && !validating {
+                    before.push(Step::DriftCheck);
+                }
+            }
+            trials.push(Trial {
+                index,
+                run,
+                trial_in_run,
+                condition,
+                condition_name: design.conditions[condition].name.clone(),
+                seed,
+                target_cell,
+                before,
+            });
+        }
+    }
+    Ok(trials)
+}
+
+/// A trial's stimulus seed: SplitMix64's finaliser applied to the design
+/// seed, then mixed with the participant, then with the trial index, so
+/// that nearby inputs give unrelated seeds. Stable across platforms and
+/// crate versions (no `rand` involved).
+///
+/// Source: Steele, Lea & Flood (2014), "Fast splittable pseudorandom number
+/// generators", OOPSLA '14 (the `mix64` finaliser, constants as in
+/// `java.util.SplittableRandom`).
+pub fn trial_seed(base: u64, participant: u64, trial: u64) -> u64 {
+    let a = mix64(base ^ 0x6761_7a65_6361_7374); // "gazecast"
+    let b = mix64(a ^ participant.wrapping_mul(GOLDEN_GAMMA));
+    mix64(b ^ trial.wrapping_mul(GOLDEN_GAMMA).wrapping_add(1))
+}
+
+const GOLDEN_GAMMA: u64 = 0x9e37_79b9_7f4a_7c15;
+
+fn mix64(mut z: u64) -> u64 {
+    z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+    z ^ (z >> 31)
+}
+
+/// SplitMix64 generator (Steele, Lea & Flood 2014).
+struct SplitMix64(u64);
+
+impl SplitMix64 {
+    fn next(&mut self) -> u64 {
+        self.0 = self.0.wrapping_add(GOLDEN_GAMMA);
+        mix64(self.0)
+    }
+
+    /// Uniform integer in `0..n` (`n > 0`), without modulo bias: Lemire's
+    /// multiply-and-reject method (Lemire 2019, "Fast random integer
+    /// generation in an interval", ACM TOMACS 29(1), algorithm 5).
+    fn below(&mut self, n: u64) -> u64 {
+        debug_assert!(n > 0);
+        let threshold = n.wrapping_neg() % n;
+        loop {
+            let m = u128::from(self.next()) * u128::from(n);
+            if (m as u64) >= threshold {
+                return (m >> 64) as u64;
+            }
+        }
+    }
+}

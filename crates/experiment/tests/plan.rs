@@ -1,0 +1,147 @@
+//! Trial plans for the Murphy 2007 design.
+
+use experiment::design::{Counterbalancing, Design, RunOrder};
+use experiment::plan::{plan, trial_seed, Step};
+use std::collections::HashSet;
+
+fn murphy() -> Design {
+    Design::load(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../../config/experiments/murphy2007-search.ron"
+    ))
+    .expect("valid design")
+}
+
+#[test]
+fn murphy_plan_has_44_trials_with_breaks_and_midpoint_validation() {
+    let d = murphy();
+    let trials = plan(&d, 0).expect("plan");
+    assert_eq!(trials.len(), 44);
+    for (i, t) in trials.iter().enumerate() {
+        assert_eq!(t.index, i);
+        assert_eq!(t.run, i / 11);
+        assert_eq!(t.trial_in_run, i % 11);
+        assert_eq!(t.condition_name, d.conditions[t.condition].name);
+        assert!(t.target_cell.0 < 5 && t.target_cell.1 < 5);
+    }
+    assert_eq!(trials[0].before, vec![Step::Calibration, Step::Validation]);
+    // Break after 6 trials of every run: before trial_in_run 6.
+    for run in 0..4 {
+        assert_eq!(trials[run * 11 + 6].before, vec![Step::Break]);
+    }
+    assert_eq!(trials[11].before, vec![Step::RunBreak]);
+    assert_eq!(
+        trials[22].before,
+        vec![Step::RunBreak, Step::MidpointValidation]
+    );
+    assert_eq!(trials[33].before, vec![Step::RunBreak]);
+    let marked: usize = trials.iter().filter(|t| !t.before.is_empty()).count();
+    assert_eq!(marked, 1 + 4 + 3, "start, 4 in-run breaks, 3 run breaks");
+    // Each run shows every condition once.
+    for run in trials.chunks(11) {
+        let set: HashSet<usize> = run.iter().map(|t| t.condition).collect();
+        assert_eq!(set.len(), 11);
+    }
+}
+
+#[test]
+fn participants_follow_latin_square_rows() {
+    let d = murphy();
+    // Position j across 11 participants holds every condition once.
+    let plans: Vec<_> = (0..11).map(|p| plan(&d, p).expect("plan")).collect();
+    for j in 0..11 {
+        let set: HashSet<usize> = plans.iter().map(|t| t[j].condition).collect();
+        assert_eq!(set.len(), 11, "position {j}");
+    }
+    // Participant 11 wraps to row 0.
+    let p11: Vec<usize> = plan(&d, 11).unwrap().iter().map(|t| t.condition).collect();
+    let p0: Vec<usize> = plans[0].iter().map(|t| t.condition).collect();
+    assert_eq!(p11, p0);
+    // Repeat: every run uses the same order.
+    assert_eq!(p0[..11], p0[11..22]);
+}
+
+#[test]
+fn rotate_and_williams_change_the_orders() {
+    let mut d = murphy();
+    d.run_order = RunOrder::Rotate;
+    let c: Vec<usize> = plan(&d, 0).unwrap().iter().map(|t| t.condition).collect();
+    assert_ne!(c[..11], c[11..22]);
+    d.counterbalancing = Counterbalancing::Williams;
+    // 11 is odd: 22 rows, so participants 0 and 11 differ.
+    let a: Vec<usize> = plan(&d, 0).unwrap().iter().map(|t| t.condition).collect();
+    let b: Vec<usize> = plan(&d, 11).unwrap().iter().map(|t| t.condition).collect();
+    assert_ne!(a, b);
+}
+
+#[test]
+fn seeds_are_deterministic_and_distinct() {
+    let d = murphy();
+    let a = plan(&d, 3).unwrap();
+    assert_eq!(a, plan(&d, 3).unwrap(), "same inputs, same plan");
+    let b = plan(&d, 4).unwrap();
+    let seeds: HashSet<u64> = a.iter().chain(b.iter()).map(|t| t.seed).collect();
+    assert_eq!(
+        seeds.len(),
+        88,
+        "no seed repeats across trials or participants"
+    );
+    assert_eq!(a[5].seed, trial_seed(d.stimulus.seed, 3, 5));
+    // Pinned value: the seed derivation must not change silently.
+    assert_eq!(trial_seed(2007, 0, 0), 8_695_258_141_008_405_908);
+    assert_eq!(trial_seed(0, 0, 0), 7_043_161_839_319_721_933);
+    assert_ne!(trial_seed(2007, 0, 1), trial_seed(2007, 1, 0));
+}
+
+#[test]
+fn target_cells_cover_the_grid() {
+    let d = murphy();
+    let mut count = [0usize; 25];
+    for p in 0..100 {
+        for t in plan(&d, p).unwrap() {
+            count[(t.target_cell.0 * 5 + t.target_cell.1) as usize] += 1;
+        }
+    }
+    // 4400 draws, 176 expected per cell; a fair draw stays well within ±40%.
+    assert!(count.iter().all(|&c| (106..=246).contains(&c)), "{count:?}");
+}
+
+#[test]
+fn drift_checks_skip_validated_trials() {
+    let mut d = murphy();
+    d.drift_check = Some(experiment::design::DriftCheck {
+        every_trials: 11,
+        threshold_deg: 1.0,
+    });
+    let t = plan(&d, 0).unwrap();
+    assert_eq!(t[11].before, vec![Step::RunBreak, Step::DriftCheck]);
+    assert_eq!(t[22].before, vec![Step::RunBreak, Step::MidpointValidation]);
+    assert_eq!(t[33].before, vec![Step::RunBreak, Step::DriftCheck]);
+    assert!(!t[0].before.contains(&Step::DriftCheck));
+}
+
+#[test]
+fn invalid_design_is_rejected_by_plan() {
+    let mut d = murphy();
+    d.runs = 0;
+    assert!(plan(&d, 0).is_err());
+}
+
+proptest::proptest! {
+    /// Any participant, either design, either run order: every run shows
+    /// every condition exactly once and the plan is reproducible.
+    #[test]
+    fn every_run_is_a_permutation(participant in 0usize..10_000, williams in proptest::bool::ANY, rotate in proptest::bool::ANY) {
+        let mut d = murphy();
+        if williams { d.counterbalancing = Counterbalancing::Williams; }
+        if rotate { d.run_order = RunOrder::Rotate; }
+        let trials = plan(&d, participant).unwrap();
+        proptest::prop_assert_eq!(trials.len(), 44);
+        for run in trials.chunks(11) {
+            let mut c: Vec<usize> = run.iter().map(|t| t.condition).collect();
+            c.sort();
+            proptest::prop_assert_eq!(c, (0..11).collect::<Vec<_>>());
+        }
+        proptest::prop_assert_eq!(trials, plan(&d, participant).unwrap());
+    }
+}

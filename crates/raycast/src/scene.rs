@@ -125,6 +125,49 @@ pub enum Effect {
         #[serde(default = "default_por_half_px")]
         half_px: u32,
     },
+    /// Depth of field by mipmap interpolation (Lee 2009, ch. 4): the eye as
+    /// a thin lens of pupil diameter `pupil_mm` (0: no blur), focal length
+    /// `focal_length_mm` and lens-to-retina distance `retina_distance_mm`,
+    /// focused at `focus`. `DepthOfField()` gives Lee's adult eye (4 mm
+    /// pupil, 16.7 mm, 24 mm) focused at the depth under the gaze.
+    DepthOfField {
+        #[serde(default = "default_dof_pupil_mm")]
+        pupil_mm: f64,
+        #[serde(default = "default_dof_focal_length_mm")]
+        focal_length_mm: f64,
+        #[serde(default = "default_dof_retina_distance_mm")]
+        retina_distance_mm: f64,
+        #[serde(default)]
+        focus: DofFocus,
+    },
+}
+
+/// Where [`Effect::DepthOfField`] focuses.
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub enum DofFocus {
+    /// At the depth under the point of regard (a small-window median that
+    /// ignores the background).
+    #[default]
+    Gaze,
+    /// At a fixed eye distance (mm): beyond the focal length, or `inf`.
+    Fixed { depth_mm: f64 },
+}
+
+/// Largest pupil (aperture) diameter a scene may give, mm: far beyond an
+/// eye's 8 mm, for exaggerated blur.
+pub const DOF_PUPIL_MM_MAX: f64 = 100.0;
+/// Largest focal length or lens-to-retina distance a scene may give, mm.
+pub const DOF_LENS_MM_MAX: f64 = 1000.0;
+
+fn default_dof_pupil_mm() -> f64 {
+    4.0
+}
+fn default_dof_focal_length_mm() -> f64 {
+    16.7
+}
+fn default_dof_retina_distance_mm() -> f64 {
+    24.0
 }
 
 /// The seed's POR box: 64 px across.
@@ -144,6 +187,14 @@ impl Effect {
         half_px: POR_HALF_PX,
     };
 
+    /// Depth of field with its defaults (Lee's adult eye, focus at the gaze).
+    pub const DEPTH_OF_FIELD: Effect = Effect::DepthOfField {
+        pupil_mm: 4.0,
+        focal_length_mm: 16.7,
+        retina_distance_mm: 24.0,
+        focus: DofFocus::Gaze,
+    };
+
     /// Whether `self` and `other` are the same effect, whatever their
     /// parameters.
     pub fn same_kind(&self, other: &Effect) -> bool {
@@ -158,6 +209,40 @@ impl Effect {
                     format!("{field}.half_px"),
                     format!("must be 1 to {POR_HALF_PX_MAX} pixels, found {half_px}"),
                 ))
+            }
+            Effect::DepthOfField {
+                pupil_mm,
+                focal_length_mm,
+                retina_distance_mm,
+                focus,
+            } => {
+                let bad = |name: &str, msg: String| {
+                    Err(SceneError::field(format!("{field}.{name}"), msg))
+                };
+                if !(0.0..=DOF_PUPIL_MM_MAX).contains(&pupil_mm) {
+                    return bad(
+                        "pupil_mm",
+                        format!("must be 0 to {DOF_PUPIL_MM_MAX} mm, found {pupil_mm}"),
+                    );
+                }
+                for (name, v) in [
+                    ("focal_length_mm", focal_length_mm),
+                    ("retina_distance_mm", retina_distance_mm),
+                ] {
+                    if !(v > 0.0 && v <= DOF_LENS_MM_MAX) {
+                        return bad(
+                            name,
+                            format!("must be above 0 and at most {DOF_LENS_MM_MAX} mm, found {v}"),
+                        );
+                    }
+                }
+                match focus {
+                    DofFocus::Fixed { depth_mm } if depth_mm.is_nan() || depth_mm <= focal_length_mm => bad(
+                        "focus.depth_mm",
+                        format!("must be beyond the focal length ({focal_length_mm} mm) or inf, found {depth_mm}"),
+                    ),
+                    _ => Ok(()),
+                }
             }
             _ => Ok(()),
         }

@@ -6,6 +6,7 @@
 //! parameters, parsed from the scene file), a module here implementing
 //! [`Pass`], and one arm in [`pass_for`].
 
+pub mod depth_of_field;
 pub mod por_overlay;
 
 use raycast::scene::Effect;
@@ -42,6 +43,19 @@ pub fn pass_for(effect: &Effect) -> Option<Box<dyn Pass>> {
         Effect::PorOverlay { half_px } => Some(Box::new(por_overlay::PorOverlay {
             half_px: i64::from(*half_px),
         })),
+        Effect::DepthOfField {
+            pupil_mm,
+            focal_length_mm,
+            retina_distance_mm,
+            focus,
+        } => Some(Box::new(depth_of_field::DepthOfField::new(
+            foveation::thin_lens::EyeLens {
+                focal_length_mm: *focal_length_mm,
+                aperture_mm: *pupil_mm,
+                retina_distance_mm: *retina_distance_mm,
+            },
+            *focus,
+        ))),
         Effect::FoveatedSampling
         | Effect::SilhouetteRefinement
         | Effect::CreaseRefinement

@@ -1,0 +1,585 @@
+//! Depth of field by nonlinear mipmap interpolation (Lee 2009, ch. 4,
+//! "DOF1"), on the CPU, as a pass over the G-buffer.
+//!
+//! Per frame:
+//! 1. **Focus** `d_f`: `Fixed(depth_mm)`, or `Gaze`: the median of the
+//!    finite depths in a [`FOCUS_WINDOW_PX`]-wide square around the point
+//!    of regard, ignoring the background (infinite depth). When the window
+//!    holds no surface (gaze on the background or off the screen) the
+//!    previous frame's focus is kept; before any, the eye is relaxed
+//!    (focused at infinity).
+//! 2. **Circle of confusion** per pixel by the thin lens (eq. 4.2–4.4,
+//!    `foveation::thin_lens`): `C = DPI·(d_s/d_r)·R` with the display's real
+//!    geometry: `DPI` the mean of the camera's pixels per mm in x and y,
+//!    `d_s` the eye's perpendicular distance to the screen. Depth is the
+//!    G-buffer's eye distance. Depths (or a focus) at or inside the focal
+//!    length form no real image: they are clamped just beyond it, which
+//!    gives the largest blur the pyramid holds; NaN depth is left sharp.
+//! 3. **Degree of blur and level** (eq. 4.5–4.6): `σ = C/2`,
+//!    `m = 0 if k_σ σ < 0.5 else 1 + log2(k_σ σ)`, clamped to the top level
+//!    built. A pixel with `m = 0` (every pixel with `C < 1.5 px`, so every
+//!    one under 0.5 px) is left **bit-exact**; pupil 0 is the identity.
+//! 4. **Gaussian pyramid** (eq. 4.1) of the colour in linear light (the
+//!    frame's sRGB bytes decoded): level `l` is level `l − 1` filtered by
+//!    a 3×3 Gaussian and halved in each axis, only up to the level the
+//!    frame's largest `m` needs ([`MAX_LEVELS`] at most). **Anisotropic**
+//!    (eq. 4.9, on by default): isotropic mips of depth Z and σ are built
+//!    alongside, and a source texel q is left out of destination texel p
+//!    (weight H = 0, the rest renormalised) when `σ_p(l) > σ_q(l−1) + δ`
+//!    and `Z_p(l) > Z_f`, so a sharp in-focus object does not leak into the
+//!    blurred background around it. The buffers are the pass's own and
+//!    reused frame to frame; the pass exists only when the scene lists the
+//!    effect.
+//! 5. **Nonlinear interpolation over the 8 circular neighbours** (eq. 4.8):
+//!    with `l = ⌊m⌋`, `β = m − l`,
+//!    `I_p(m) = (1 − β)·A_{l−1}(p) + β·A_l(p)`, where
+//!    `A_k(p) = w_G Σ_{q∈Ω} G(q) I_{p + 2^k q}(k)` is the 9-point circular
+//!    filter (centre and 8 neighbours on the unit circle, diagonals at
+//!    (1/√2, 1/√2)) over level `k` sampled bilinearly at level-0
+//!    positions, with offsets of one level-`k` texel (`2^k` px), and
+//!    `A_{−1}(p) = I_p(0)`. One 3×3 step over level `k` approximates level
+//!    `k + 1`, so the result is level `m` and continuous in `m` (β = 1 at
+//!    one level equals β = 0 at the next); 2 × 9 lookups, no mip-biasing.
+//!
+//! **Decisions on the seed's gaps** (SEED-NOTES §1.2 "Gaps (chapter 4)"):
+//! - (4.7)/(4.8) are printed as geometric blends (`I^{1−β} I^β`); this
+//!   pass blends **linearly**, `(1 − β)·a + β·b`, in linear light: Lee's
+//!   §4.4 calls the linear hardware blend only "marginally" different, and
+//!   "nonlinear" names the log2 depth-to-level map.
+//! - The 3×3 Gaussian's σ is **1 texel** ([`GAUSS_SIGMA_TEXELS`]) in both
+//!   the pyramid (4.1) and the circular filter (4.8), so the 8 circular
+//!   neighbours weigh `e^{−1/2}` against the centre's 1.
+//! - The spacing of (4.8)'s offsets is not given; one texel of the level
+//!   being sampled (see 5.) is the choice that makes the blend continuous.
+//! - (4.9) gives no δ: [`ANISO_DELTA_PX`] = 0.75 px of σ (the σ at which
+//!   eq. 4.6 starts to blur). Its σ_q is read one level finer than σ_p
+//!   (the texels the filter reads); background depth is infinite, so any
+//!   background in a texel's footprint makes it "behind the focus".
+//!
+//! **Not done in this step:** the foreground smoothing of the degree of
+//! blur (eq. 4.10–4.11: a blurred foreground's silhouette stays sharp over
+//! an in-focus background; it would also blur in-focus pixels next to a
+//! blurred foreground, which the "sharp pixels are untouched" rule here
+//! forbids as stated); the GPU path; ch. 5 splatting; an accumulation-buffer
+//! reference; focus dynamics (accommodation latency) — the focus follows
+//! the gaze at once.
+
+use foveation::thin_lens::{self, EyeLens};
+use raycast::scene::DofFocus;
+use raycast::Frame;
+
+use super::{Pass, PassInput};
+
+/// Side of the square around the gaze whose depths' median is the focus
+/// for `focus: Gaze`, px.
+pub const FOCUS_WINDOW_PX: i64 = 9;
+
+/// Most pyramid levels above level 0 (σ up to 0.75·2^8 = 192 px).
+pub const MAX_LEVELS: usize = 8;
+
+/// σ of the 3×3 Gaussian (4.1, 4.8), in texels of the level it filters.
+pub const GAUSS_SIGMA_TEXELS: f64 = 1.0;
+
+/// The depth-of-field pass.
+#[derive(Debug, Clone)]
+pub struct DepthOfField {
+    /// The eye; `aperture_mm` is the pupil diameter (0: the identity).
+    pub lens: EyeLens,
+    pub focus: DofFocus,
+    /// The focus of the last frame whose gaze window held a surface.
+    last_focus_mm: Option<f64>,
+    /// Mipmap level per pixel of the current frame.
+    level: Vec<f32>,
+    /// Level 0 (linear light, full size) and levels 1… of the pyramid.
+    pyramid: Vec<Image>,
+    /// Degree of blur σ (px) per pixel of the current frame.
+    sigma: Vec<f32>,
+    /// Build the colour pyramid with eq. 4.9's H (on by default); off, with
+    /// the isotropic G of eq. 4.1.
+    pub anisotropic: bool,
+}
+
+/// One level, row-major: linear RGB, and the depth (Z) and degree of
+/// blur (B, σ in px) mips of eq. 4.9.
+#[derive(Debug, Clone, Default)]
+struct Image {
+    w: usize,
+    h: usize,
+    px: Vec<[f32; 3]>,
+    z: Vec<f32>,
+    sigma: Vec<f32>,
+}
+
+impl Image {
+    fn reshape(&mut self, w: usize, h: usize) {
+        self.w = w;
+        self.h = h;
+        self.px.resize(w * h, [0.0; 3]);
+        self.z.resize(w * h, 0.0);
+        self.sigma.resize(w * h, 0.0);
+    }
+
+    /// Bilinear sample at continuous texel position (`x`, `y`) (texel
+    /// centres at integers), clamped to the edge.
+    #[inline]
+    fn bilinear(&self, x: f32, y: f32) -> [f32; 3] {
+        let mx = (self.w - 1) as f32;
+        let my = (self.h - 1) as f32;
+        let x = x.clamp(0.0, mx);
+        let y = y.clamp(0.0, my);
+        let x0 = x.floor();
+        let y0 = y.floor();
+        let (fx, fy) = (x - x0, y - y0);
+        let (x0, y0) = (x0 as usize, y0 as usize);
+        let x1 = (x0 + 1).min(self.w - 1);
+        let y1 = (y0 + 1).min(self.h - 1);
+        let p = |x: usize, y: usize| self.px[y * self.w + x];
+        let (a, b, c, d) = (p(x0, y0), p(x1, y0), p(x0, y1), p(x1, y1));
+        let mut out = [0.0; 3];
+        for k in 0..3 {
+            let top = a[k] + (b[k] - a[k]) * fx;
+            let bot = c[k] + (d[k] - c[k]) * fx;
+            out[k] = top + (bot - top) * fy;
+        }
+        out
+    }
+}
+
+impl DepthOfField {
+    pub fn new(lens: EyeLens, focus: DofFocus) -> Self {
+        Self {
+            lens,
+            focus,
+            last_focus_mm: None,
+            level: Vec::new(),
+            pyramid: Vec::new(),
+            sigma: Vec::new(),
+            anisotropic: true,
+        }
+    }
+
+    /// Number of pyramid levels (level 0 included) allocated so far.
+    pub fn allocated_levels(&self) -> usize {
+        self.pyramid.len()
+    }
+
+    /// The focus distance for this frame, mm (may be infinite).
+    fn focus_mm(&mut self, frame: &Frame, gaze_px: [f64; 2]) -> f64 {
+        match self.focus {
+            DofFocus::Fixed { depth_mm } => depth_mm,
+            DofFocus::Gaze => {
+                if let Some(d) = gaze_depth_mm(frame, gaze_px) {
+                    self.last_focus_mm = Some(d);
+                }
+                self.last_focus_mm.unwrap_or(f64::INFINITY)
+            }
+        }
+    }
+}
+
+/// The median of the finite positive depths in the [`FOCUS_WINDOW_PX`]
+/// square around `gaze_px`, or `None` when it holds none.
+pub fn gaze_depth_mm(frame: &Frame, gaze_px: [f64; 2]) -> Option<f64> {
+    if !frame.has_surface() || !gaze_px[0].is_finite() || !gaze_px[1].is_finite() {
+        return None;
+    }
+    let (w, h) = (i64::from(frame.width_px), i64::from(frame.height_px));
+    let half = FOCUS_WINDOW_PX / 2;
+    // Clamp before converting so a far-off gaze cannot overflow.
+    let cx = gaze_px[0].floor().clamp(-1e9, 1e9) as i64;
+    let cy = gaze_px[1].floor().clamp(-1e9, 1e9) as i64;
+    let mut depths: Vec<f32> = Vec::with_capacity((FOCUS_WINDOW_PX * FOCUS_WINDOW_PX) as usize);
+    for y in (cy - half).max(0)..=(cy + half).min(h - 1) {
+        for x in (cx - half).max(0)..=(cx + half).min(w - 1) {
+            let d = frame.depth_mm[(y * w + x) as usize];
+            if d.is_finite() && d > 0.0 {
+                depths.push(d);
+            }
+        }
+    }
+    if depths.is_empty() {
+        return None;
+    }
+    depths.sort_by(f32::total_cmp);
+    Some(f64::from(depths[depths.len() / 2]))
+}
+
+/// Circle of confusion on the screen, px, for `depth_mm` while the eye
+/// focuses at `focus_mm` (eq. 4.2–4.4), total: 0 for a zero (or invalid)
+/// pupil or a NaN depth; depths and focus at or inside the focal length are
+/// clamped just beyond it (a huge, finite or infinite, CoC); never NaN.
+pub fn coc_px(
+    lens: &EyeLens,
+    depth_mm: f64,
+    focus_mm: f64,
+    screen_distance_mm: f64,
+    pixels_per_mm: f64,
+) -> f64 {
+    let valid = |v: f64| v.is_finite() && v > 0.0;
+    if !valid(lens.aperture_mm)
+        || !valid(lens.focal_length_mm)
+        || !valid(lens.retina_distance_mm)
+        || !valid(screen_distance_mm)
+        || !valid(pixels_per_mm)
+        || depth_mm.is_nan()
+    {
+        return 0.0;
+    }
+    let nearest = lens.focal_length_mm * (1.0 + 1e-9);
+    let focus = if focus_mm.is_nan() {
+        f64::INFINITY
+    } else {
+        focus_mm.max(nearest)
+    };
+    let c = lens
+        .coc_px(
+            depth_mm.max(nearest),
+            focus,
+            screen_distance_mm,
+            pixels_per_mm,
+        )
+        .unwrap_or(f64::INFINITY);
+    if c.is_nan() {
+        f64::INFINITY
+    } else {
+        c
+    }
+}
+
+/// The continuous mipmap level for a CoC of `coc_px` (σ = C/2, eq. 4.6),
+/// at most `max_level`; 0 for NaN.
+pub fn level_for_coc(coc_px: f64, max_level: f64) -> f64 {
+    let m = thin_lens::mipmap_level(thin_lens::degree_of_blur(coc_px));
+    if m.is_nan() {
+        0.0
+    } else {
+        m.clamp(0.0, max_level)
+    }
+}
+
+impl Pass for DepthOfField {
+    fn name(&self) -> &'static str {
+        "depth of field (Lee ch. 4)"
+    }
+
+    fn needs_surface(&self) -> bool {
+        true
+    }
+
+    fn run(&mut self, frame: &mut Frame, input: &PassInput<'_>) {
+        let (w, h) = (frame.width_px as usize, frame.height_px as usize);
+        if w == 0 || h == 0 || !frame.has_surface() || frame.rgb.len() < 3 * w * h {
+            return;
+        }
+        if self.lens.aperture_mm.is_nan() || self.lens.aperture_mm <= 0.0 {
+            return; // pupil 0: a pinhole, everything sharp
+        }
+        let focus = self.focus_mm(frame, input.gaze_px);
+        let pitch = input.camera.pitch();
+        let ppmm = 0.5 * (1.0 / f64::from(pitch[0]) + 1.0 / f64::from(pitch[1]));
+        let ds = f64::from(input.camera.eye.z);
+        // The top level the frame's size allows.
+        let mut top = 0usize;
+        while top < MAX_LEVELS && (w >> (top + 1)) >= 1 && (h >> (top + 1)) >= 1 {
+            top += 1;
+        }
+        self.level.clear();
+        self.level.reserve(w * h);
+        self.sigma.clear();
+        self.sigma.reserve(w * h);
+        let mut max_m = 0.0f64;
+        for &d in &frame.depth_mm {
+            let c = coc_px(&self.lens, f64::from(d), focus, ds, ppmm);
+            let m = level_for_coc(c, top as f64);
+            max_m = max_m.max(m);
+            self.level.push(m as f32);
+            let sigma = thin_lens::degree_of_blur(c) as f32;
+            self.sigma.push(sigma.min(SIGMA_CAP_PX));
+        }
+        if max_m <= 0.0 {
+            return;
+        }
+        // Levels 0..=needed: β > 0 at l = ⌊m⌋ reads level l; m ≤ top.
+        let needed = (max_m.ceil() as usize).min(top);
+        build_pyramid(
+            &mut self.pyramid,
+            &frame.rgb,
+            &frame.depth_mm,
+            &self.sigma,
+            (w, h),
+            needed,
+            focus,
+            self.anisotropic,
+        );
+        for (i, &m) in self.level.iter().enumerate() {
+            if m <= 0.0 {
+                continue;
+            }
+            let (x, y) = (i % w, i / w);
+            let c = blend(&self.pyramid, x, y, f64::from(m));
+            for (byte, v) in frame.rgb[3 * i..3 * i + 3].iter_mut().zip(c) {
+                *byte = srgb_encode(v);
+            }
+        }
+    }
+}
+
+/// The anisotropic filter's tolerance δ (eq. 4.9), in px of σ: a source
+/// texel at most this much sharper than the destination still counts.
+pub const ANISO_DELTA_PX: f32 = 0.75;
+
+/// Largest σ the pyramid's blur buffer holds (px): keeps sums finite.
+const SIGMA_CAP_PX: f32 = 1e6;
+
+/// Decodes level 0 (colour, depth, σ) and builds levels 1..=`levels`
+/// (eq. 4.1; with `anisotropic`, eq. 4.9's H instead of G for the colour),
+/// reusing the buffers. Each level-`l` texel is the 3×3 Gaussian centred on
+/// its centre in level `l − 1` (between 2×2 texels), sampled bilinearly:
+/// 4×4 taps of weights `a_i·a_j`.
+#[allow(clippy::too_many_arguments)]
+fn build_pyramid(
+    pyramid: &mut Vec<Image>,
+    rgb: &[u8],
+    depth: &[f32],
+    sigma: &[f32],
+    (w, h): (usize, usize),
+    levels: usize,
+    focus_mm: f64,
+    anisotropic: bool,
+) {
+    if pyramid.len() < levels + 1 {
+        pyramid.resize_with(levels + 1, Image::default);
+    }
+    let lut = srgb_decode_lut();
+    let focus = focus_mm as f32;
+    let base = &mut pyramid[0];
+    base.reshape(w, h);
+    for (p, c) in base.px.iter_mut().zip(rgb.chunks_exact(3)) {
+        *p = [lut[c[0] as usize], lut[c[1] as usize], lut[c[2] as usize]];
+    }
+    for (z, &d) in base.z.iter_mut().zip(depth) {
+        *z = if d.is_nan() { focus } else { d };
+    }
+    base.sigma.copy_from_slice(&sigma[..w * h]);
+    let g = (-1.0 / (2.0 * GAUSS_SIGMA_TEXELS * GAUSS_SIGMA_TEXELS)).exp() as f32;
+    let norm = 2.0 * (1.0 + 2.0 * g);
+    let taps = [g / norm, (1.0 + g) / norm, (1.0 + g) / norm, g / norm];
+    for l in 1..=levels {
+        let (lo, hi) = pyramid.split_at_mut(l);
+        let src = &lo[l - 1];
+        let dst = &mut hi[0];
+        let (nw, nh) = (src.w.div_ceil(2), src.h.div_ceil(2));
+        dst.reshape(nw, nh);
+        let at = |x: usize, t: usize, n: usize| (2 * x + t).saturating_sub(1).min(n - 1);
+        for y in 0..nh {
+            for x in 0..nw {
+                // Isotropic depth and σ (Z and B mips).
+                let (mut z, mut sg) = (0.0f32, 0.0f32);
+                for (ty, wy) in taps.iter().enumerate() {
+                    let row = at(y, ty, src.h) * src.w;
+                    for (tx, wx) in taps.iter().enumerate() {
+                        let q = row + at(x, tx, src.w);
+                        z += wy * wx * src.z[q];
+                        sg += wy * wx * src.sigma[q];
+                    }
+                }
+                let background = f64::from(z) > focus_mm;
+                // Colour with H: sharper sources left out of a blurrier
+                // background texel, the rest renormalised.
+                let (mut acc, mut total) = ([0.0f32; 3], 0.0f32);
+                for (ty, wy) in taps.iter().enumerate() {
+                    let row = at(y, ty, src.h) * src.w;
+                    for (tx, wx) in taps.iter().enumerate() {
+                        let q = row + at(x, tx, src.w);
+                        if anisotropic && background && sg > src.sigma[q] + ANISO_DELTA_PX {
+                            continue;
+                        }
+                        add_scaled(&mut acc, wy * wx, src.px[q]);
+                        total += wy * wx;
+                    }
+                }
+                let i = y * nw + x;
+                dst.z[i] = z;
+                dst.sigma[i] = sg;
+                dst.px[i] = if total > 0.0 {
+                    acc.map(|a| a / total)
+                } else {
+                    src.px[at(y, 1, src.h) * src.w + at(x, 1, src.w)]
+                };
+            }
+        }
+    }
+}
+
+/// `acc += w·v`.
+#[inline]
+fn add_scaled(acc: &mut [f32; 3], w: f32, v: [f32; 3]) {
+    for (a, v) in acc.iter_mut().zip(v) {
+        *a += w * v;
+    }
+}
+
+/// The 8 circular neighbours (unit circle) of eq. 4.8.
+const CIRCLE: [(f32, f32); 8] = [
+    (1.0, 0.0),
+    (-1.0, 0.0),
+    (0.0, 1.0),
+    (0.0, -1.0),
+    (
+        std::f32::consts::FRAC_1_SQRT_2,
+        std::f32::consts::FRAC_1_SQRT_2,
+    ),
+    (
+        std::f32::consts::FRAC_1_SQRT_2,
+        -std::f32::consts::FRAC_1_SQRT_2,
+    ),
+    (
+        -std::f32::consts::FRAC_1_SQRT_2,
+        std::f32::consts::FRAC_1_SQRT_2,
+    ),
+    (
+        -std::f32::consts::FRAC_1_SQRT_2,
+        -std::f32::consts::FRAC_1_SQRT_2,
+    ),
+];
+
+/// `A_k(p)`: the 9-point circular Gaussian over level `k`, offsets of one
+/// level-`k` texel, at the centre of level-0 pixel (`x`, `y`).
+fn circular(img: &Image, k: usize, x: usize, y: usize) -> [f32; 3] {
+    let scale = (1u32 << k) as f32;
+    // Level-0 pixel centre in level-k texel coordinates (centres at ints).
+    let u = (x as f32 + 0.5) / scale - 0.5;
+    let v = (y as f32 + 0.5) / scale - 0.5;
+    let g = (-1.0 / (2.0 * GAUSS_SIGMA_TEXELS * GAUSS_SIGMA_TEXELS)).exp() as f32;
+    let mut acc = img.bilinear(u, v);
+    for (dx, dy) in CIRCLE {
+        let s = img.bilinear(u + dx, v + dy);
+        add_scaled(&mut acc, g, s);
+    }
+    let norm = 1.0 / (1.0 + 8.0 * g);
+    acc.map(|a| a * norm)
+}
+
+/// Eq. 4.8 with a linear blend: level `m` > 0 at pixel (`x`, `y`).
+fn blend(pyramid: &[Image], x: usize, y: usize, m: f64) -> [f32; 3] {
+    let l = m.floor() as usize;
+    let beta = (m - l as f64) as f32;
+    let a = if l == 0 {
+        pyramid[0].px[y * pyramid[0].w + x]
+    } else {
+        circular(&pyramid[l - 1], l - 1, x, y)
+    };
+    if beta <= 0.0 || l >= pyramid.len() {
+        return a;
+    }
+    let b = circular(&pyramid[l], l, x, y);
+    [0, 1, 2].map(|c| a[c] + (b[c] - a[c]) * beta)
+}
+
+/// sRGB byte → linear light.
+fn srgb_decode_lut() -> [f32; 256] {
+    let mut lut = [0.0f32; 256];
+    for (i, v) in lut.iter_mut().enumerate() {
+        let c = i as f64 / 255.0;
+        *v = if c <= 0.04045 {
+            c / 12.92
+        } else {
+            ((c + 0.055) / 1.055).powf(2.4)
+        } as f32;
+    }
+    lut
+}
+
+/// Linear light → sRGB byte (rounded; NaN and negatives to 0).
+fn srgb_encode(v: f32) -> u8 {
+    let v = if v.is_nan() {
+        0.0
+    } else {
+        f64::from(v).clamp(0.0, 1.0)
+    };
+    let c = if v <= 0.0031308 {
+        v * 12.92
+    } else {
+        1.055 * v.powf(1.0 / 2.4) - 0.055
+    };
+    (c * 255.0).round().clamp(0.0, 255.0) as u8
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn lees_vr_example_is_under_ten_pixels() {
+        // Lee §4.6: 1024×768 on 3.2 m × 2.4 m at 3 m (0.32 px/mm),
+        // d_s/d_r = 125, E = 4 mm, F = 17 mm, nearest object at 300 mm.
+        let lens = EyeLens {
+            focal_length_mm: 17.0,
+            aperture_mm: 4.0,
+            retina_distance_mm: 24.0,
+        };
+        let at_inf = coc_px(&lens, 300.0, f64::INFINITY, 3000.0, 0.32);
+        let at_screen = coc_px(&lens, 300.0, 3000.0, 3000.0, 0.32);
+        assert!((at_inf - 9.07).abs() < 0.01, "{at_inf}");
+        assert!((at_screen - 8.21).abs() < 0.01, "{at_screen}");
+        assert!(at_inf <= 10.0 && at_screen <= 10.0);
+    }
+
+    #[test]
+    fn srgb_round_trips_every_byte() {
+        let lut = srgb_decode_lut();
+        for (i, v) in lut.iter().enumerate() {
+            assert_eq!(srgb_encode(*v), i as u8);
+        }
+    }
+
+    #[test]
+    fn the_blend_is_continuous_across_integer_levels() {
+        let mut img = Image::default();
+        img.reshape(16, 16);
+        for (i, p) in img.px.iter_mut().enumerate() {
+            *p = [((i * 37) % 11) as f32 / 11.0; 3];
+        }
+        let mut dof = DepthOfField::new(EyeLens::default(), DofFocus::Gaze);
+        let rgb: Vec<u8> = img
+            .px
+            .iter()
+            .flat_map(|p| p.map(|v| (v * 255.0) as u8))
+            .collect();
+        let depth = vec![1000.0f32; 256];
+        let sigma = vec![4.0f32; 256];
+        build_pyramid(
+            &mut dof.pyramid,
+            &rgb,
+            &depth,
+            &sigma,
+            (16, 16),
+            3,
+            500.0,
+            true,
+        );
+        for m in [1.0f64, 2.0] {
+            let below = blend(&dof.pyramid, 7, 5, m - 1e-6);
+            let at = blend(&dof.pyramid, 7, 5, m);
+            for c in 0..3 {
+                assert!((below[c] - at[c]).abs() < 1e-4, "m = {m}: {below:?} {at:?}");
+            }
+        }
+    }
+
+    #[test]
+    fn degenerate_inputs_give_no_nan() {
+        let lens = EyeLens {
+            aperture_mm: 1e6,
+            ..EyeLens::default()
+        };
+        for d in [0.0, -5.0, 16.7, f64::INFINITY, f64::NAN, 1e300] {
+            for f in [0.0, 16.7, f64::INFINITY, f64::NAN, 600.0] {
+                let c = coc_px(&lens, d, f, 540.0, 2.0);
+                assert!(!c.is_nan(), "{d} {f}");
+                let m = level_for_coc(c, 8.0);
+                assert!((0.0..=8.0).contains(&m), "{d} {f} {m}");
+            }
+        }
+    }
+}

@@ -3,7 +3,7 @@
 use foveation::{Layout, SamplingModel};
 use raycast::gpu::{self, GpuError};
 use raycast::ray::TriangleTest;
-use raycast::render::{Mode, Settings, Stats, Triggers};
+use raycast::render::{Mode, Scratch, Settings, StageTimes, Stats, Triggers};
 use raycast::{Camera, Frame, Scene};
 
 use crate::backend::{Backend, BackendChoice};
@@ -74,6 +74,9 @@ pub struct Renderer<'s> {
     /// A frame given back by [`Renderer::recycle`], whose buffers the next
     /// CPU frame reuses.
     spare: Option<Frame>,
+    /// The CPU hybrid method's buffers (mask, vertex hits, pixel owners),
+    /// reused frame after frame, and the last frame's stage times.
+    scratch: Scratch,
 }
 
 impl<'s> Renderer<'s> {
@@ -110,6 +113,7 @@ impl<'s> Renderer<'s> {
             note,
             surface: options.surface,
             spare: None,
+            scratch: Scratch::default(),
         })
     }
 
@@ -133,7 +137,7 @@ impl<'s> Renderer<'s> {
         let (mut frame, stats) = match (self.method, &mut self.backend) {
             (Method::Full | Method::Hybrid, Backend::Cpu) => {
                 let mut frame = self.spare.take().unwrap_or_default();
-                let stats = raycast::render::render_into(
+                let stats = raycast::render::render_with(
                     self.scene,
                     &self.camera,
                     &self.model,
@@ -141,6 +145,7 @@ impl<'s> Renderer<'s> {
                     gaze_px,
                     surface,
                     &mut frame,
+                    &mut self.scratch,
                 )?;
                 (frame, stats)
             }
@@ -204,6 +209,13 @@ impl<'s> Renderer<'s> {
             Backend::Cpu => &[],
             Backend::Gpu(g) => g.stage_ms(),
         }
+    }
+
+    /// CPU wall time per stage of the last CPU frame (ms): mask, vertex
+    /// rays, classification, margin, ownership, pixels (all zero before the
+    /// first CPU frame; a full-resolution frame spends it all in pixels).
+    pub fn cpu_stages(&self) -> &StageTimes {
+        self.scratch.stages()
     }
 
     /// Whether the GPU backend holds the hybrid method's buffers (false on

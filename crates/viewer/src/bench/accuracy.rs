@@ -14,33 +14,62 @@ use crate::bench::configs::{configurations, gaze_positions, options_for};
 use crate::bench::measure::{progress, timed};
 use crate::bench::report::{accuracy_report, create_dir, fmt_db, results_csv, write_file};
 use crate::bench::summary::{summarise, Row};
-use crate::bench::AccuracyArgs;
+use crate::bench::{AccuracyArgs, MAX_GAZES, MAX_REPEATS};
 use crate::config::{self, load_scene};
 use crate::plots;
 
+/// What each gaze keeps for the whole sweep, per pixel: its full-resolution
+/// reference frame (colour 3 B, hit 1, depth 4, object 4, normal 12, layer 1)
+/// and its weights (eccentricity and visibility, 4 + 4).
+const REFERENCE_BYTES_PER_PIXEL: u64 = 33;
+/// Memory the references may take: 8 GB (184 gazes at 1280×1024).
+const REFERENCE_BUDGET_BYTES: u64 = 8_000_000_000;
+
 /// Runs `gazecast bench accuracy`.
 pub fn run(args: &AccuracyArgs, out: &mut dyn Write) -> Result<(), String> {
-    let mut scene = load_scene(&args.scene)?;
-    // The sweep decides the passes, whatever the scene file lists.
-    if !scene.has(Effect::FoveatedSampling) {
-        scene.effects.push(Effect::FoveatedSampling);
-    }
     let display = config::load_display(&args.display).map_err(|e| e.to_string())?;
     let geometry = display.geometry().map_err(|e| e.to_string())?;
-    let camera = Camera::new(&geometry);
-    let configs = configurations(args.quick);
-    if configs.iter().any(|c| c.accel == AccelArg::Grid) {
-        scene.build_grid();
-    }
     let n_gazes = if args.quick && args.gazes == 5 {
         2
     } else {
         args.gazes
     };
-    if n_gazes == 0 {
-        return Err("--gazes: must be at least 1".into());
+    // The command line bounds both (clap); checked again for other callers,
+    // and against memory: every gaze keeps its reference frame and weights.
+    if !(1..=MAX_GAZES).contains(&n_gazes) {
+        return Err(format!("--gazes {n_gazes}: must be from 1 to {MAX_GAZES}"));
     }
     let repeats = args.repeats.unwrap_or(if args.quick { 1 } else { 3 });
+    if !(1..=MAX_REPEATS).contains(&repeats) {
+        return Err(format!(
+            "--repeats {repeats}: must be from 1 to {MAX_REPEATS}"
+        ));
+    }
+    let pixels = u64::from(geometry.width_px) * u64::from(geometry.height_px);
+    let needed = (n_gazes as u64)
+        .saturating_mul(pixels)
+        .saturating_mul(REFERENCE_BYTES_PER_PIXEL);
+    if needed > REFERENCE_BUDGET_BYTES {
+        return Err(format!(
+            "--gazes {n_gazes}: the reference frames at {}x{} would need about {:.1} GB \
+             ({REFERENCE_BYTES_PER_PIXEL} bytes a pixel a gaze); at most {} gazes fit in {} GB",
+            geometry.width_px,
+            geometry.height_px,
+            needed as f64 / 1e9,
+            REFERENCE_BUDGET_BYTES / pixels.saturating_mul(REFERENCE_BYTES_PER_PIXEL).max(1),
+            REFERENCE_BUDGET_BYTES / 1_000_000_000,
+        ));
+    }
+    let mut scene = load_scene(&args.scene)?;
+    // The sweep decides the passes, whatever the scene file lists.
+    if !scene.has(Effect::FoveatedSampling) {
+        scene.effects.push(Effect::FoveatedSampling);
+    }
+    let camera = Camera::new(&geometry);
+    let configs = configurations(args.quick);
+    if configs.iter().any(|c| c.accel == AccelArg::Grid) {
+        scene.build_grid();
+    }
     let gazes = gaze_positions(&geometry, n_gazes, args.seed);
     let csf = GeislerPerry::default();
     let bar = progress((gazes.len() * (configs.len() + 1)) as u64, "accuracy sweep");

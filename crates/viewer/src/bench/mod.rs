@@ -19,6 +19,7 @@ pub mod configs;
 pub mod measure;
 pub mod report;
 pub mod scaling;
+pub mod stages;
 pub mod summary;
 
 use std::io::Write;
@@ -40,7 +41,16 @@ pub enum BenchCommand {
     /// Frame time of full and foveated rendering against triangle count and
     /// resolution (log–log plots).
     Scaling(ScalingArgs),
+    /// Per-stage time of a foveated CPU frame next to a full frame.
+    Stages(stages::StagesArgs),
 }
+
+/// Most gaze positions `bench accuracy` takes: every gaze costs a
+/// full-resolution reference frame kept in memory (about 6 MB at
+/// 1280×1024) and one frame per configuration.
+pub const MAX_GAZES: usize = 10_000;
+/// Most timed repeats per point.
+pub const MAX_REPEATS: u32 = 1000;
 
 #[derive(Debug, Clone, clap::Args)]
 pub struct AccuracyArgs {
@@ -53,13 +63,15 @@ pub struct AccuracyArgs {
     /// Output folder (created): results.csv, pareto.png, report.md.
     #[arg(long, value_name = "DIR")]
     pub out: PathBuf,
-    /// Gaze positions per configuration: the centre, the four corners, then
-    /// seeded uniform positions on the screen.
-    #[arg(long, value_name = "N", default_value_t = 5)]
+    /// Gaze positions per configuration (1 to 10000): the centre, the four
+    /// corners, then seeded uniform positions on the screen.
+    #[arg(long, value_name = "N", default_value_t = 5,
+          value_parser = clap::builder::RangedU64ValueParser::<usize>::new().range(1..=MAX_GAZES as u64))]
     pub gazes: usize,
-    /// Timed repeats per configuration and gaze (after one warm-up); the
-    /// median is reported. Default 3, or 1 with --quick.
-    #[arg(long, value_name = "N")]
+    /// Timed repeats per configuration and gaze (1 to 1000, after one
+    /// warm-up); the median is reported. Default 3, or 1 with --quick.
+    #[arg(long, value_name = "N",
+          value_parser = clap::value_parser!(u32).range(1..=i64::from(MAX_REPEATS)))]
     pub repeats: Option<u32>,
     /// Seed of the random gaze positions.
     #[arg(long, default_value_t = 1)]
@@ -77,8 +89,10 @@ pub struct ScalingArgs {
     /// Output folder (created).
     #[arg(long, value_name = "DIR")]
     pub out: PathBuf,
-    /// Timed repeats per point (after one warm-up). Default 3, or 1 with --quick.
-    #[arg(long, value_name = "N")]
+    /// Timed repeats per point (1 to 1000, after one warm-up). Default 3, or
+    /// 1 with --quick.
+    #[arg(long, value_name = "N",
+          value_parser = clap::value_parser!(u32).range(1..=i64::from(MAX_REPEATS)))]
     pub repeats: Option<u32>,
     /// As for `accuracy`: the CPU backend.
     #[arg(long, value_enum, default_value = "auto")]
@@ -93,6 +107,7 @@ pub fn run(args: &BenchArgs, out: &mut dyn Write) -> Result<(), String> {
     let backend = match &args.command {
         BenchCommand::Accuracy(a) => a.backend,
         BenchCommand::Scaling(a) => a.backend,
+        BenchCommand::Stages(_) => BackendChoice::Cpu,
     };
     if backend == BackendChoice::Gpu {
         return Err(
@@ -105,6 +120,7 @@ pub fn run(args: &BenchArgs, out: &mut dyn Write) -> Result<(), String> {
     match &args.command {
         BenchCommand::Accuracy(a) => accuracy::run(a, out),
         BenchCommand::Scaling(a) => scaling::run(a, out),
+        BenchCommand::Stages(a) => stages::run(a, out),
     }
 }
 

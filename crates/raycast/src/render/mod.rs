@@ -1,0 +1,340 @@
+//! The hybrid renderer on the CPU (rayon): full resolution, or the CSF mask
+//! with reconstruction from the intermediate mesh (Murphy 2007 ch. 4–6).
+//!
+//! Foveated frame:
+//! 1. build the ray mask for the POR (`foveation::mask`);
+//! 2. cast a ray through every mesh vertex (the "mask rays", including the
+//!    few just off the screen that close edge cells);
+//! 3. classify cells: *homogeneous* when all corners miss, or all hit the
+//!    same object with normals within the crease angle and no depth jump;
+//!    otherwise *heterogeneous*. The enabled triggers are the scene's
+//!    effects. Cells touching a vertex of a heterogeneous cell are refined
+//!    too (silhouette margin): a silhouette that bulges into a cell between
+//!    its corners always comes from a neighbouring cell that sees it;
+//! 4. give every pixel one owner — the fovea disc, or exactly one cell by an
+//!    exact integer top-left rule — then cast the fovea pixels and every
+//!    pixel of a refined cell (the seed's GPU variant, §6.2.3), and
+//!    interpolate distance and normal over the pixels of homogeneous cells;
+//! 5. shade every pixel with Blinn–Phong.
+//!
+//! Fovea and refined pixels use exactly the rays and shading of the full
+//! mode, so they are identical to it.
+//!
+//! [`render_with`] keeps the mask, vertex hits, refined flags and pixel
+//! owners in a [`Scratch`] that the next frame reuses, and times each stage
+//! ([`StageTimes`]; `gazecast bench stages` prints them).
+
+use std::sync::atomic::{AtomicU32, Ordering};
+use std::time::Instant;
+
+use foveation::mask::{self, Layout, RayMask, NO_VERTEX};
+use foveation::SamplingModel;
+use glam::Vec3;
+use rayon::prelude::*;
+
+use crate::camera::Camera;
+use crate::frame::{Frame, Layer, RowMut, Texel, NO_OBJECT};
+use crate::ray::TriangleTest;
+use crate::scene::{Effect, Hit, Scene};
+use crate::shade::{shade, to_rgb8};
+
+/// Full resolution or foveated.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Mode {
+    Full,
+    #[default]
+    Foveated,
+}
+
+/// What decides that a cell needs its pixels cast.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Triggers {
+    /// Corners disagree on hit/miss or object.
+    pub silhouette: bool,
+    /// Corner normals differ by more than this angle (degrees).
+    pub crease_deg: Option<f32>,
+    /// max/min corner distance exceeds 1 + this.
+    pub depth_jump: Option<f32>,
+    /// Also refine cells that share a vertex with a refined cell.
+    pub margin: bool,
+}
+
+impl Triggers {
+    /// The triggers a scene's effect list turns on.
+    pub fn from_scene(scene: &Scene) -> Self {
+        Self {
+            silhouette: scene.has(Effect::SilhouetteRefinement),
+            crease_deg: scene
+                .has(Effect::CreaseRefinement)
+                .then_some(scene.crease_deg),
+            depth_jump: scene
+                .has(Effect::DepthRefinement)
+                .then_some(scene.depth_jump),
+            margin: scene.has(Effect::SilhouetteRefinement),
+        }
+    }
+
+    pub const NONE: Triggers = Triggers {
+        silhouette: false,
+        crease_deg: None,
+        depth_jump: None,
+        margin: false,
+    };
+}
+
+/// How to render one frame.
+#[derive(Debug, Clone, Copy)]
+pub struct Settings {
+    pub mode: Mode,
+    pub layout: Layout,
+    pub triggers: Triggers,
+    pub test: TriangleTest,
+    /// Rasterise every cell, including homogeneous background cells, so
+    /// that any pixel without an owner shows up as a `Gap` (tests use this).
+    /// Off, background cells are not rasterised: their pixels keep the
+    /// background, which is what the exact ownership rule gives them anyway.
+    pub check_coverage: bool,
+}
+
+/// Counts and time of one frame (the `--stats` JSON of `gazecast render`).
+#[derive(Debug, Clone, Copy, Default, PartialEq, serde::Serialize)]
+pub struct Stats {
+    /// Hybrid: rays cast one per pixel in the fovea disc.
+    pub rays_fovea: u64,
+    /// Hybrid: rays through mesh vertices, including those just off the screen.
+    pub rays_mask: u64,
+    /// Hybrid: rays cast for the pixels of refined cells (and any gap).
+    pub rays_refine: u64,
+    /// Full resolution: one ray per pixel (0 in a hybrid frame).
+    pub rays_full: u64,
+    /// Every ray of the frame: `rays_fovea + rays_mask + rays_refine +
+    /// rays_full`.
+    pub rays_total: u64,
+    pub cells_total: u64,
+    pub cells_refined: u64,
+    /// Pixels that no cell owned and were cast as a fallback (expected 0).
+    pub pixels_uncovered: u64,
+    pub time_ms: f64,
+}
+
+mod hybrid;
+mod ownership;
+mod scratch;
+
+use hybrid::*;
+use ownership::*;
+pub use ownership::{ownership, OWNER_FOVEA, OWNER_NONE};
+use scratch::lap;
+pub use scratch::{Scratch, StageTimes};
+
+const FOVEA: u32 = u32::MAX;
+const UNOWNED: u32 = u32::MAX - 1;
+/// Fixed-point subpixel precision of the ownership raster: 1/65536 px keeps
+/// the mesh's f32 vertex positions (and the fovea circle they are inscribed
+/// in) distinct from pixel centres a thousandth of a pixel away; products of
+/// coordinates up to 2^31 still fit in i64.
+const SUB: f64 = 65536.0;
+
+fn cast(scene: &Scene, cam: &Camera, p: [f32; 2], test: TriangleTest) -> Option<Hit> {
+    scene.intersect(&cam.ray(p), 0.0, test)
+}
+
+fn colour_of(scene: &Scene, cam: &Camera, p: [f32; 2], hit: Option<Hit>) -> Vec3 {
+    match hit {
+        None => scene.background,
+        Some(h) => {
+            // The hit point on the eye ray through p (no `Ray` needed: its
+            // reciprocal direction would be wasted work per pixel).
+            let position = cam.eye + (cam.screen_point(p) - cam.eye) * h.t;
+            shade(scene, h.object, position, h.normal, cam.eye)
+        }
+    }
+}
+
+/// The G-buffer values of the sample at `p`: colour, and, when the frame
+/// has surface buffers (`surface`), the eye distance (mm), object and
+/// normal of what it hit.
+fn texel(
+    scene: &Scene,
+    cam: &Camera,
+    p: [f32; 2],
+    hit: Option<Hit>,
+    layer: Layer,
+    surface: bool,
+) -> Texel {
+    Texel {
+        rgb: rgb8(scene, colour_of(scene, cam, p, hit)),
+        hit: hit.is_some(),
+        surface: hit.filter(|_| surface).map(|h| {
+            let depth_mm = h.t * (cam.screen_point(p) - cam.eye).length();
+            (depth_mm, h.object, h.normal)
+        }),
+        layer,
+    }
+}
+
+/// Renders one frame into a new frame with every G-buffer channel (the
+/// surface buffers included). `model` gives the mask (foveated mode only).
+pub fn render(
+    scene: &Scene,
+    cam: &Camera,
+    model: &SamplingModel,
+    settings: &Settings,
+    gaze_px: [f64; 2],
+) -> Result<(Frame, Stats), foveation::ParamError> {
+    let mut frame = Frame::default();
+    let stats = render_into(scene, cam, model, settings, gaze_px, true, &mut frame)?;
+    Ok((frame, stats))
+}
+
+/// Renders one frame into `frame`, reusing its buffers (no allocation once
+/// it has had this size); the surface buffers (depth, object id, normal)
+/// are filled only when `surface` is set. Every pixel is written.
+pub fn render_into(
+    scene: &Scene,
+    cam: &Camera,
+    model: &SamplingModel,
+    settings: &Settings,
+    gaze_px: [f64; 2],
+    surface: bool,
+    frame: &mut Frame,
+) -> Result<Stats, foveation::ParamError> {
+    render_with(
+        scene,
+        cam,
+        model,
+        settings,
+        gaze_px,
+        surface,
+        frame,
+        &mut Scratch::default(),
+    )
+}
+
+/// [`render_into`] with the foveated method's buffers in `scratch`, which
+/// the next frame reuses (and which records the stage times).
+#[allow(clippy::too_many_arguments)]
+pub fn render_with(
+    scene: &Scene,
+    cam: &Camera,
+    model: &SamplingModel,
+    settings: &Settings,
+    gaze_px: [f64; 2],
+    surface: bool,
+    frame: &mut Frame,
+    scratch: &mut Scratch,
+) -> Result<Stats, foveation::ParamError> {
+    let start = Instant::now();
+    let (w, h) = (cam.width_px as usize, cam.height_px as usize);
+    let foveated_mode = settings.mode == Mode::Foveated && scene.has(Effect::FoveatedSampling);
+    // The mask first: a bad gaze leaves the frame as it was.
+    if foveated_mode {
+        match &mut scratch.mask {
+            Some(m) => mask::rebuild(m, model, settings.layout, gaze_px)?,
+            None => scratch.mask = Some(mask::build(model, settings.layout, gaze_px)?),
+        }
+    }
+    let mut stats = Stats::default();
+    scratch.stages = StageTimes::default();
+    let mut t = start;
+    scratch.stages.mask = lap(&mut t);
+    frame.reshape(cam.width_px, cam.height_px, surface);
+    let frame = &mut *frame;
+    if !foveated_mode {
+        full(scene, cam, settings.test, frame);
+        scratch.stages.pixels = lap(&mut t);
+        stats.rays_full = (w * h) as u64;
+        stats.rays_total = stats.rays_full;
+    } else {
+        foveated(scene, cam, settings, frame, &mut stats, scratch, t);
+    }
+    stats.time_ms = start.elapsed().as_secs_f64() * 1e3;
+    Ok(stats)
+}
+
+/// `to_rgb8`, skipped for the background (most pixels of a sparse scene).
+#[inline]
+fn rgb8(scene: &Scene, colour: Vec3) -> [u8; 3] {
+    if colour == scene.background {
+        scene.background_rgb8
+    } else {
+        to_rgb8(colour)
+    }
+}
+
+fn full(scene: &Scene, cam: &Camera, test: TriangleTest, frame: &mut Frame) {
+    frame
+        .rows_mut()
+        .into_par_iter()
+        .enumerate()
+        .for_each(|(y, mut row)| {
+            let surface = row.has_surface();
+            for x in 0..row.hit.len() {
+                let p = [x as f32 + 0.5, y as f32 + 0.5];
+                let hit = cast(scene, cam, p, test);
+                row.put(x, texel(scene, cam, p, hit, Layer::Full, surface));
+            }
+        });
+}
+
+/// Runs `f(y, row)` on every row of `frame` in parallel and folds the
+/// results with `op` (`T::default()` for none). The rows are split off the
+/// buffers in place: nothing is allocated per frame.
+fn map_rows<T: Default + Send>(
+    frame: &mut Frame,
+    f: impl Fn(usize, RowMut<'_>) -> T + Sync + Send,
+    op: impl Fn(T, T) -> T + Sync + Send,
+) -> T {
+    let w = frame.width_px as usize;
+    if w == 0 || frame.height_px == 0 {
+        return T::default();
+    }
+    let surface = frame.has_surface();
+    let Frame {
+        rgb,
+        hit,
+        depth_mm,
+        object,
+        normal,
+        layer,
+        ..
+    } = frame;
+    let rows = rgb
+        .par_chunks_mut(3 * w)
+        .zip(hit.par_chunks_mut(w))
+        .zip(layer.par_chunks_mut(w))
+        .enumerate();
+    if surface {
+        rows.zip(
+            depth_mm
+                .par_chunks_mut(w)
+                .zip(object.par_chunks_mut(w))
+                .zip(normal.par_chunks_mut(w)),
+        )
+        .map(|((y, ((rgb, hit), layer)), ((depth_mm, object), normal))| {
+            let row = RowMut {
+                rgb,
+                hit,
+                depth_mm,
+                object,
+                normal,
+                layer,
+            };
+            f(y, row)
+        })
+        .reduce(T::default, &op)
+    } else {
+        rows.map(|(y, ((rgb, hit), layer))| {
+            let row = RowMut {
+                rgb,
+                hit,
+                depth_mm: &mut [],
+                object: &mut [],
+                normal: &mut [],
+                layer,
+            };
+            f(y, row)
+        })
+        .reduce(T::default, &op)
+    }
+}

@@ -2,6 +2,6 @@
 //! Defined in `screen-geometry` (display geometry fails the same way) and
 //! re-exported.
 
-pub use screen_geometry::ParamError;
+pub use screen_geometry::{fmt_f64, ParamError};
 
 pub(crate) use screen_geometry::positive;

@@ -36,6 +36,6 @@ pub mod thin_lens;
 
 pub use csf::GeislerPerry;
 pub use display::{Display, ScreenGeometry};
-pub use error::ParamError;
+pub use error::{fmt_f64, ParamError};
 pub use mask::{Layout, RayMask};
 pub use sampling::SamplingModel;

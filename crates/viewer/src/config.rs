@@ -136,21 +136,8 @@ fn tidy_numbers(message: &str) -> String {
 }
 
 /// Six significant digits in scientific notation outside 1e-4..1e9 (the
-/// rule of `screen_geometry::fmt_f64`, which this crate cannot name).
-pub fn fmt_f64(v: f64) -> String {
-    let a = v.abs();
-    if !v.is_finite() || v == 0.0 || (1e-4..1e9).contains(&a) {
-        return v.to_string();
-    }
-    let s = format!("{v:.5e}");
-    match s.split_once('e') {
-        Some((mantissa, exp)) if mantissa.contains('.') => {
-            let m = mantissa.trim_end_matches('0').trim_end_matches('.');
-            format!("{m}e{exp}")
-        }
-        _ => s,
-    }
-}
+/// rule of `ParamError`'s values).
+pub use foveation::fmt_f64;
 
 /// Line and column (1-based) of a dotted field path, found by walking the
 /// text: each named segment is the first `name:` (or map key `"name":`)

@@ -18,6 +18,12 @@ pub struct SamplingModel {
     pub contrast: f64,
     /// Largest spacing ever allowed, pixels (the seed's n_max = 17).
     pub max_spacing_px: f64,
+    /// Diameter, in degrees of visual angle, of a full-resolution inset
+    /// around the POR that the ray mask casts one ray per pixel in whatever
+    /// the CSF allows (Murphy 2007 ch. 7's "high-resolution inset"); 0: none,
+    /// the one-ray-per-pixel disc is the CSF's alone. Set with
+    /// [`SamplingModel::with_inset_deg`].
+    pub inset_deg: f64,
 }
 
 /// The allowed spacing at one point, with what it was derived from.
@@ -65,7 +71,26 @@ impl SamplingModel {
             csf,
             contrast,
             max_spacing_px,
+            inset_deg: 0.0,
         })
+    }
+
+    /// The same model with a full-resolution inset `diameter_deg` wide
+    /// (degrees of visual angle at the eye) around the POR: the mask's
+    /// one-ray-per-pixel disc becomes the larger of the CSF's and the
+    /// smallest disc holding every point within `diameter_deg / 2` of the
+    /// POR ([`crate::mask`]). 0 removes the inset. Errors: not finite, negative,
+    /// or 180° and more (a half-angle of 90° reaches the screen's plane).
+    pub fn with_inset_deg(mut self, diameter_deg: f64) -> Result<Self, ParamError> {
+        if !(diameter_deg.is_finite() && (0.0..180.0).contains(&diameter_deg)) {
+            return Err(ParamError::new(
+                "inset_deg",
+                diameter_deg,
+                "must be a finite diameter in [0, 180) degrees",
+            ));
+        }
+        self.inset_deg = diameter_deg;
+        Ok(self)
     }
 
     /// Allowed spacing in degrees at eccentricity `e_deg`: half a period of

@@ -49,6 +49,7 @@ pub use arcs::{ArcSet, ScreenFromPor};
 
 use crate::error::ParamError;
 use crate::sampling::{PorSampler, SamplingModel, Spacing};
+use crate::ScreenGeometry;
 
 /// Which ring layout to build.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
@@ -308,6 +309,11 @@ pub fn rebuild(
     mask.width_px = model.geometry.width_px;
     mask.height_px = model.geometry.height_px;
     mask.fovea_radius_px = sampler.fovea_radius(layout);
+    if model.inset_deg > 0.0 {
+        let limit = screen.max_distance_px + 1.0;
+        let inset = inset_radius_px(&model.geometry, por_px, 0.5 * model.inset_deg, limit);
+        mask.fovea_radius_px = mask.fovea_radius_px.max(inset);
+    }
     fovea_spans(
         &mut mask.fovea,
         por_px,
@@ -318,6 +324,42 @@ pub fn rebuild(
     sampler.rings(&mut mask.rings, layout, mask.fovea_radius_px);
     mesh_strips(mask, &screen);
     Ok(())
+}
+
+/// Directions [`inset_radius_px`] searches along.
+const INSET_DIRECTIONS: usize = 64;
+
+/// The radius (px) of the disc around `por_px` that holds every screen
+/// point within `half_deg` of it at the eye: along each of
+/// [`INSET_DIRECTIONS`] directions (and a margin of one pixel, for the
+/// directions between them) the distance at which the eccentricity
+/// reaches `half_deg`, by bisection (eccentricity grows monotonically
+/// along a ray from the POR below 90°); the largest of them, at most
+/// `limit` (an inset wider than the screen makes the whole screen the
+/// disc). Bounded work: 64 directions × 48 bisection steps.
+fn inset_radius_px(geometry: &ScreenGeometry, por_px: [f64; 2], half_deg: f64, limit: f64) -> f64 {
+    let ecc = |r: f64, (c, s): (f64, f64)| {
+        geometry.eccentricity_deg(por_px, [por_px[0] + r * c, por_px[1] + r * s])
+    };
+    let mut best: f64 = 0.0;
+    for k in 0..INSET_DIRECTIONS {
+        let a = std::f64::consts::TAU * k as f64 / INSET_DIRECTIONS as f64;
+        let dir = (a.cos(), a.sin());
+        if ecc(limit, dir) <= half_deg {
+            return limit;
+        }
+        let (mut lo, mut hi) = (0.0, limit);
+        for _ in 0..48 {
+            let mid = 0.5 * (lo + hi);
+            if ecc(mid, dir) <= half_deg {
+                lo = mid;
+            } else {
+                hi = mid;
+            }
+        }
+        best = best.max(hi);
+    }
+    (best + 1.0).min(limit)
 }
 
 struct RingSampler {

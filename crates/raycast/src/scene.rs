@@ -34,6 +34,12 @@ pub enum MeshSource {
         amplitude: f32,
         seed: u64,
     },
+    /// A head facing +z (unit scale) with one of the four facial
+    /// expressions of Murphy 2007 §7.1.4 ([`FACE_EXPRESSIONS`]): the same
+    /// topology and silhouette for all four, only the front differs
+    /// ([`TriangleMesh::face`]). 20·4^subdivisions triangles, at most
+    /// [`crate::mesh::FACE_MAX_SUBDIVISIONS`] subdivisions.
+    Face { expression: u32, subdivisions: u32 },
     /// One triangle with the given corners (scene units).
     Triangle {
         a: (f32, f32, f32),
@@ -41,6 +47,9 @@ pub enum MeshSource {
         c: (f32, f32, f32),
     },
 }
+
+/// The expressions of [`MeshSource::Face`], by index.
+pub const FACE_EXPRESSIONS: [&str; 4] = ["neutral", "smile", "frown", "surprise"];
 
 /// Blinn–Phong material.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
@@ -463,6 +472,37 @@ impl Scene {
                         ));
                     }
                     TriangleMesh::bumpy(*triangles, *amplitude, *seed, &field)?
+                }
+                MeshSource::Face {
+                    expression,
+                    subdivisions,
+                } => {
+                    if *expression as usize >= FACE_EXPRESSIONS.len() {
+                        let names: Vec<String> = FACE_EXPRESSIONS
+                            .iter()
+                            .enumerate()
+                            .map(|(i, n)| format!("{i} {n}"))
+                            .collect();
+                        return Err(SceneError::field(
+                            format!("{field}.expression"),
+                            format!(
+                                "must be 0 to {}, found {expression}: {}",
+                                FACE_EXPRESSIONS.len() - 1,
+                                names.join(", ")
+                            ),
+                        ));
+                    }
+                    let max = crate::mesh::FACE_MAX_SUBDIVISIONS;
+                    if *subdivisions > max {
+                        return Err(SceneError::field(
+                            format!("{field}.subdivisions"),
+                            format!(
+                                "subdivisions above {max} ({} triangles) are not supported, found {subdivisions}",
+                                20u64 << (2 * max)
+                            ),
+                        ));
+                    }
+                    TriangleMesh::face(*expression, *subdivisions, &field)?
                 }
                 MeshSource::Triangle { a, b, c } => {
                     for (f, p) in [("a", a), ("b", b), ("c", c)] {

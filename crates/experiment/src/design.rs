@@ -47,6 +47,15 @@ pub struct Design {
     pub stimulus: Stimulus,
     /// Rest breaks.
     pub breaks: Breaks,
+    /// How a search ends (Space; optionally a click on the found object).
+    #[serde(default)]
+    pub response: Response,
+    /// Michelson contrast C of the CSF sampling model for every hybrid
+    /// condition (the renderer's knob: 1 is the worst case). The CSF's own
+    /// one-ray-per-pixel disc grows with C; an inset smaller than it changes
+    /// nothing (see `config/experiments/murphy2007-search.ron`).
+    #[serde(default = "default_contrast")]
+    pub contrast: f64,
     /// Eye-tracker calibration and validation schedule.
     pub calibration: Calibration,
     /// Optional single-point drift checks between trials.
@@ -119,6 +128,50 @@ pub struct Stimulus {
     pub seed: u64,
     /// Search grid as (rows, columns) — Murphy 2007: 5×5.
     pub grid: (u32, u32),
+    /// How many different meshes take part (Murphy 2007: four facial
+    /// expressions). Each is the target equally often within a
+    /// participant's session (exactly when the trial count is a multiple
+    /// of it); the other cells are filled at random from the non-targets.
+    #[serde(default = "default_meshes")]
+    pub meshes: u32,
+    /// Width of one object in degrees of visual angle (Murphy 2007: "each
+    /// target subtended approximately 3.5 degrees").
+    #[serde(default = "default_object_deg")]
+    pub object_deg: f64,
+    /// Width of the whole grid, centre to centre of its outer cells plus
+    /// one object, in degrees (Murphy 2007: "the entire scene subtended
+    /// approximately 20 degrees").
+    #[serde(default = "default_grid_deg")]
+    pub grid_deg: f64,
+}
+
+fn default_contrast() -> f64 {
+    1.0
+}
+fn default_meshes() -> u32 {
+    4
+}
+fn default_object_deg() -> f64 {
+    3.5
+}
+fn default_grid_deg() -> f64 {
+    20.0
+}
+
+/// How a search ends.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, Default)]
+#[serde(deny_unknown_fields)]
+pub struct Response {
+    /// After `Space`, the participant clicks the object they found; the
+    /// trial records the cell and whether it is the target (Murphy 2007
+    /// had no such step: `false`).
+    #[serde(default)]
+    pub confirm_click: bool,
+    /// End a search that has had no response after this many seconds
+    /// (recorded as a time-out); `None`: wait as long as it takes, as in
+    /// Murphy 2007.
+    #[serde(default)]
+    pub max_search_s: Option<f64>,
 }
 
 /// Rest breaks.
@@ -250,6 +303,56 @@ impl Design {
                 "stimulus.grid",
                 format!("must be at least 1x1, got {rows}x{cols}"),
             ));
+        }
+        if !(self.contrast.is_finite() && self.contrast > 0.0 && self.contrast <= 1.0) {
+            return Err(DesignError::invalid(
+                "contrast",
+                format!(
+                    "must be a Michelson contrast in (0, 1], got {}",
+                    self.contrast
+                ),
+            ));
+        }
+        let st = &self.stimulus;
+        if st.meshes < 2 || st.meshes > 64 {
+            return Err(DesignError::invalid(
+                "stimulus.meshes",
+                format!(
+                    "must be between 2 and 64 (a target and at least one distractor), got {}",
+                    st.meshes
+                ),
+            ));
+        }
+        if u64::from(rows) * u64::from(cols) > 1024 {
+            return Err(DesignError::invalid(
+                "stimulus.grid",
+                format!("at most 1024 cells, got {rows}x{cols}"),
+            ));
+        }
+        positive_finite(st.object_deg, "stimulus.object_deg")?;
+        positive_finite(st.grid_deg, "stimulus.grid_deg")?;
+        if st.object_deg >= 170.0 || st.grid_deg >= 170.0 {
+            return Err(DesignError::invalid(
+                "stimulus.grid_deg",
+                "object and grid must each subtend less than 170 degrees",
+            ));
+        }
+        if st.object_deg > st.grid_deg {
+            return Err(DesignError::invalid(
+                "stimulus.object_deg",
+                format!(
+                    "an object ({} deg) cannot be wider than the grid ({} deg)",
+                    st.object_deg, st.grid_deg
+                ),
+            ));
+        }
+        if let Some(t) = self.response.max_search_s {
+            if !(t.is_finite() && t > 0.0 && t <= 3600.0) {
+                return Err(DesignError::invalid(
+                    "response.max_search_s",
+                    format!("must be in (0, 3600] seconds, got {t}"),
+                ));
+            }
         }
         if let Some(k) = self.breaks.break_after_trials {
             let per_run = self.trials_per_run();

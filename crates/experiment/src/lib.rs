@@ -16,12 +16,19 @@
 //! The reference design is Murphy (2007), *Hybrid Image-/Model-Based
 //! Gaze-Contingent Rendering*, ch. 7: `config/experiments/murphy2007-search.ron`.
 
+pub mod analysis;
+pub mod bids;
 pub mod counterbalance;
 pub mod design;
+pub mod figures;
 pub mod plan;
+pub mod session;
 pub mod stats;
 
+pub use analysis::{analyze, AnalysisError, AnalyzeOptions, Report};
+pub use bids::{export_bids, BidsError, BidsExport};
 pub use counterbalance::{latin_square, williams};
 pub use design::{Design, DesignError};
 pub use plan::{plan, Step, Trial};
+pub use session::{read_tsv, ReadOutcome, SessionFileError, SessionInfo, TsvLog, TsvRow};
 pub use stats::StatsError;

@@ -48,6 +48,15 @@ pub struct Trial {
     pub seed: u64,
     /// Target cell (row, column) in the search grid, drawn from `seed`.
     pub target_cell: (u32, u32),
+    /// The target mesh, `0..stimulus.meshes`: drawn without replacement
+    /// from the participant's pre-seeded pool in which every mesh appears
+    /// equally often (Murphy 2007 §7.1.4), so each mesh is the target
+    /// `total / meshes` times (± 1 when that does not divide).
+    pub target_mesh: u32,
+    /// The mesh in every grid cell, row-major (`grid.0 × grid.1`): the
+    /// target at `target_cell`, every other cell one of the non-target
+    /// meshes drawn uniformly from `seed`.
+    pub cells: Vec<u32>,
     /// Steps to run before this trial, in order.
     pub before: Vec<Step>,
 }
@@ -70,6 +79,8 @@ pub fn plan(design: &Design, participant: usize) -> Result<Vec<Trial>, DesignErr
     let (grid_rows, grid_cols) = design.stimulus.grid;
     let cells = u64::from(grid_rows) * u64::from(grid_cols);
     let midpoint = total / 2;
+    let meshes = design.stimulus.meshes;
+    let pool = target_pool(design.stimulus.seed, participant as u64, meshes, total);
     let mut trials = Vec::with_capacity(total);
     for run in 0..design.runs as usize {
         let row = match design.run_order {
@@ -79,11 +90,28 @@ pub fn plan(design: &Design, participant: usize) -> Result<Vec<Trial>, DesignErr
         for (trial_in_run, &condition) in rows[row].iter().enumerate() {
             let index = run * per_run + trial_in_run;
             let seed = trial_seed(design.stimulus.seed, participant as u64, index as u64);
-            let cell = SplitMix64(seed).below(cells);
+            let mut rng = SplitMix64(seed);
+            let cell = rng.below(cells);
             let target_cell = (
                 (cell / u64::from(grid_cols)) as u32,
                 (cell % u64::from(grid_cols)) as u32,
             );
+            let target_mesh = pool[index];
+            let layout: Vec<u32> = (0..cells)
+                .map(|c| {
+                    if c == cell {
+                        target_mesh
+                    } else {
+                        // One of the meshes - 1 others, uniformly.
+                        let k = rng.below(u64::from(meshes - 1)) as u32;
+                        if k >= target_mesh {
+                            k + 1
+                        } else {
+                            k
+                        }
+                    }
+                })
+                .collect();
             let mut before = Vec::new();
             if index > 0 && trial_in_run == 0 && design.breaks.between_runs {
                 before.push(Step::RunBreak);
@@ -116,11 +144,29 @@ pub fn plan(design: &Design, participant: usize) -> Result<Vec<Trial>, DesignErr
                 condition_name: design.conditions[condition].name.clone(),
                 seed,
                 target_cell,
+                target_mesh,
+                cells: layout,
                 before,
             });
         }
     }
     Ok(trials)
+}
+
+/// The participant's target pool: `total` entries in which each of the
+/// `meshes` meshes appears `total / meshes` times (the first
+/// `total % meshes` once more), shuffled by Fisher–Yates with a generator
+/// seeded from the design seed and the participant alone, so the pool
+/// does not depend on the order of conditions.
+pub fn target_pool(base: u64, participant: u64, meshes: u32, total: usize) -> Vec<u32> {
+    let meshes = meshes.max(1);
+    let mut pool: Vec<u32> = (0..total).map(|i| (i % meshes as usize) as u32).collect();
+    let mut rng = SplitMix64(trial_seed(base, participant, u64::MAX));
+    for i in (1..pool.len()).rev() {
+        let j = rng.below(i as u64 + 1) as usize;
+        pool.swap(i, j);
+    }
+    pool
 }
 
 /// A trial's stimulus seed: SplitMix64's finaliser applied to the design

@@ -145,3 +145,55 @@ proptest::proptest! {
         proptest::prop_assert_eq!(trials, plan(&d, participant).unwrap());
     }
 }
+
+/// Murphy 2007 §7.1.4: each mesh is the target the same number of times;
+/// the target mesh sits at the target cell and nowhere else.
+#[test]
+fn each_mesh_is_the_target_equally_often_and_only_once_per_display() {
+    let d = murphy();
+    for participant in [0usize, 1, 7, 123] {
+        let trials = plan(&d, participant).expect("plan");
+        let mut counts = [0usize; 4];
+        for t in &trials {
+            counts[t.target_mesh as usize] += 1;
+            assert_eq!(t.cells.len(), 25);
+            let at = (t.target_cell.0 * 5 + t.target_cell.1) as usize;
+            for (c, &m) in t.cells.iter().enumerate() {
+                assert!(m < 4);
+                assert_eq!(m == t.target_mesh, c == at, "trial {} cell {c}", t.index);
+            }
+        }
+        assert_eq!(counts, [11, 11, 11, 11], "participant {participant}");
+    }
+    // The pool is shuffled: not the same target order for two participants.
+    let a: Vec<u32> = plan(&d, 0)
+        .expect("plan")
+        .iter()
+        .map(|t| t.target_mesh)
+        .collect();
+    let b: Vec<u32> = plan(&d, 1)
+        .expect("plan")
+        .iter()
+        .map(|t| t.target_mesh)
+        .collect();
+    assert_ne!(a, b);
+}
+
+proptest::proptest! {
+    #![proptest_config(proptest::prelude::ProptestConfig::with_cases(64))]
+
+    /// Any mesh count and trial count: the pool's counts differ by at most
+    /// one, and the distractors use every non-target mesh over many cells.
+    #[test]
+    fn target_pool_is_balanced(meshes in 2u32..9, total in 0usize..200, seed in proptest::num::u64::ANY) {
+        let pool = experiment::plan::target_pool(seed, 3, meshes, total);
+        proptest::prop_assert_eq!(pool.len(), total);
+        let mut counts = vec![0usize; meshes as usize];
+        for &m in &pool {
+            proptest::prop_assert!(m < meshes);
+            counts[m as usize] += 1;
+        }
+        let (lo, hi) = (counts.iter().min().copied().unwrap_or(0), counts.iter().max().copied().unwrap_or(0));
+        proptest::prop_assert!(hi - lo <= 1, "{:?}", counts);
+    }
+}

@@ -1,0 +1,1168 @@
+//! The session folder: one folder per participant session, written by the
+//! runner as the session happens and read back by the analysis
+//! ([`crate::analysis`]) and the BIDS export ([`crate::bids`]).
+//!
+//! ```text
+//! <session>/
+//!   session.json          SessionInfo (who, what design, which display and tracker)
+//!   design.ron            a copy of the design file (Design::load)
+//!   trials.tsv            TrialRow, one per completed trial
+//!   samples.tsv           SampleRow, every gaze sample
+//!   events.tsv            EventRow, fixations / saccades / blinks
+//!   markers.tsv           MarkerRow, phase starts, keys, clicks, calibration results
+//!   frames.tsv            FrameRow, every rendered frame
+//!   stimuli/trial-NNN.png the search display of trial NNN (optional, RGB)
+//! ```
+//!
+//! # The TSV files
+//!
+//! Tab-separated, one header line naming the columns ([`TsvRow::COLUMNS`],
+//! in struct field order), `\n` line ends, no quoting at all (as BIDS
+//! TSV): a field is the bytes between two tabs. A missing value
+//! (`Option::None`) is written `n/a`, as BIDS does; on reading, `n/a` or
+//! an empty field is `None`. Booleans are `true` / `false`; numbers are
+//! written in the shortest form that reads back to the same bits
+//! (`0.1`, `1e-300`, `1.7976931348623157e308`; NaN and infinities as `NaN`,
+//! `inf`, `-inf`), so every row round-trips exactly.
+//!
+//! Text fields may hold anything except a tab, a carriage return or a line
+//! feed: with no quoting those would split the field or the row, so
+//! [`TsvLog::write`] **rejects** such a row with an error naming the
+//! column, rather than escaping it (an escape would be one more private
+//! convention every other TSV reader would get wrong). Quote characters,
+//! spaces, `n/a` itself and any other Unicode are kept as they are.
+//!
+//! # Durability policy of [`TsvLog`]
+//!
+//! Each [`TsvLog::write`] formats the whole row in memory first and hands
+//! the OS complete lines only, in one `write` call per flush. By default
+//! every row is flushed at once, so a process that is killed (even with
+//! `SIGKILL`) loses nothing it had written: the rows are in the OS page
+//! cache. [`TsvLog::flush_every`] batches rows for high-rate files
+//! (samples at 1 kHz): rows are then handed to the OS when `rows` are
+//! pending or `interval` has passed since the last flush, *checked at each
+//! write*, so a killed process loses at most those pending rows. Dropping
+//! the log flushes. [`TsvLog::sync`] additionally asks the OS to put the
+//! data on disk (`fsync`), which protects against power loss; call it at
+//! trial ends, not per row.
+//!
+//! A process killed in the middle of the OS `write` can still leave a
+//! half-written last line. [`read_tsv`] reports such a line (any last line
+//! without its `\n`) as a [`ReadWarning`] and skips it; reopening the file
+//! with [`TsvLog::append_to`] cuts it off before appending (and says so in
+//! [`TsvLog::dropped_partial_line`]).
+//!
+//! `session.json` and every output of the analysis are written through
+//! [`AtomicFile`]: a temporary file in the same folder, renamed over the
+//! target once complete, so a reader never sees half a file.
+
+use serde::de::DeserializeOwned;
+use serde::{Deserialize, Serialize};
+use std::fmt;
+use std::fs::{File, OpenOptions};
+use std::io::{self, BufRead, BufReader, Read, Seek, SeekFrom, Write};
+use std::marker::PhantomData;
+use std::path::{Path, PathBuf};
+use std::time::{Duration, Instant};
+
+/// `session.json`: [`SessionInfo`].
+pub const SESSION_JSON: &str = "session.json";
+/// `design.ron`: the copy of the design file.
+pub const DESIGN_RON: &str = "design.ron";
+/// `trials.tsv`: [`TrialRow`].
+pub const TRIALS_TSV: &str = "trials.tsv";
+/// `samples.tsv`: [`SampleRow`].
+pub const SAMPLES_TSV: &str = "samples.tsv";
+/// `events.tsv`: [`EventRow`].
+pub const EVENTS_TSV: &str = "events.tsv";
+/// `markers.tsv`: [`MarkerRow`].
+pub const MARKERS_TSV: &str = "markers.tsv";
+/// `frames.tsv`: [`FrameRow`].
+pub const FRAMES_TSV: &str = "frames.tsv";
+/// The folder of the per-trial stimulus pictures.
+pub const STIMULI_DIR: &str = "stimuli";
+/// What a missing value is written as.
+pub const NA: &str = "n/a";
+
+/// `trial-NNN.png`: the stimulus picture's file name (trial index
+/// zero-padded to 3 digits; more digits from trial 1000 on).
+pub fn stimulus_file_name(trial: usize) -> String {
+    format!("trial-{trial:03}.png")
+}
+
+/// `<dir>/stimuli/trial-NNN.png`.
+pub fn stimulus_path(dir: &Path, trial: usize) -> PathBuf {
+    dir.join(STIMULI_DIR).join(stimulus_file_name(trial))
+}
+
+/// One completed search trial (`trials.tsv`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct TrialRow {
+    /// Participant id (as in `session.json`).
+    pub participant: String,
+    /// Run (repetition), from 0.
+    pub run: usize,
+    /// Position in the session, from 0 (`plan::Trial::index`).
+    pub trial: usize,
+    /// Position within the run, from 0.
+    pub trial_in_run: usize,
+    /// Condition name (`Design::conditions[..].name`).
+    pub condition: String,
+    /// Rendering method (`"full"` or `"hybrid"`).
+    pub method: String,
+    /// Inset diameter in degrees (`n/a` for the full method).
+    #[serde(with = "na")]
+    pub inset_deg: Option<f64>,
+    /// Whether silhouette edges were kept.
+    pub silhouette_edges: bool,
+    /// Target mesh index.
+    pub target_mesh: u32,
+    /// Target cell row in the search grid.
+    pub target_row: u32,
+    /// Target cell column in the search grid.
+    pub target_col: u32,
+    /// Host clock when the search display appeared (µs).
+    pub search_onset_us: u64,
+    /// Host clock of the response key (µs).
+    pub response_us: u64,
+    /// Search time, `(response_us − search_onset_us) / 1e6` (s).
+    pub rt_s: f64,
+    /// Clicked grid row, when the participant confirmed by clicking.
+    #[serde(with = "na")]
+    pub clicked_row: Option<u32>,
+    /// Clicked grid column.
+    #[serde(with = "na")]
+    pub clicked_col: Option<u32>,
+    /// Whether the click hit the target (`n/a` without a click).
+    #[serde(with = "na")]
+    pub correct: Option<bool>,
+    /// Frames rendered during the search.
+    pub frames: u64,
+    /// Of those, frames that missed their deadline.
+    pub frames_late: u64,
+    /// Mean rays cast per frame.
+    pub mean_rays: f64,
+    /// The participant was simulated.
+    pub synthetic: bool,
+}
+
+/// One gaze sample (`samples.tsv`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct SampleRow {
+    /// Host clock when the sample arrived (µs).
+    pub host_us: u64,
+    /// The tracker's own timestamp (µs, tracker clock).
+    pub sample_us: u64,
+    /// Trial index, `n/a` outside trials.
+    #[serde(with = "na")]
+    pub trial: Option<usize>,
+    /// Runner phase (`"search"`, `"target"`, `"calibration"`, …).
+    pub phase: String,
+    /// Raw tracker x (tracker units), `n/a` if the tracker gave none.
+    #[serde(with = "na")]
+    pub raw_x: Option<f64>,
+    /// Raw tracker y.
+    #[serde(with = "na")]
+    pub raw_y: Option<f64>,
+    /// Gaze x in display pixels; `n/a` for an invalid sample (blink, lost).
+    #[serde(with = "na")]
+    pub x_px: Option<f64>,
+    /// Gaze y in display pixels (origin top-left, y down).
+    #[serde(with = "na")]
+    pub y_px: Option<f64>,
+}
+
+/// One eye-movement event (`events.tsv`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct EventRow {
+    /// Trial index, `n/a` outside trials.
+    #[serde(with = "na")]
+    pub trial: Option<usize>,
+    /// `"fixation"`, `"saccade"` or `"blink"`.
+    pub kind: String,
+    /// Host clock at the start (µs).
+    pub onset_us: u64,
+    /// Host clock at the end (µs).
+    pub end_us: u64,
+    /// Fixation: centroid x; saccade: start x (display px).
+    pub x_px: f64,
+    /// Fixation: centroid y; saccade: start y.
+    pub y_px: f64,
+    /// Fixation: equal to `x_px`; saccade: end x.
+    pub end_x_px: f64,
+    /// Fixation: equal to `y_px`; saccade: end y.
+    pub end_y_px: f64,
+}
+
+/// One runner marker (`markers.tsv`): phase starts, keys, clicks,
+/// calibration results.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct MarkerRow {
+    /// Host clock (µs).
+    pub host_us: u64,
+    /// Trial index, `n/a` outside trials.
+    #[serde(with = "na")]
+    pub trial: Option<usize>,
+    /// What happened (`"phase"`, `"key"`, `"click"`, `"validation"`, …).
+    pub event: String,
+    /// Free text (no tabs or line breaks).
+    pub detail: String,
+}
+
+/// One rendered frame (`frames.tsv`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct FrameRow {
+    /// Host clock at presentation (µs).
+    pub host_us: u64,
+    /// Trial index, `n/a` outside trials.
+    #[serde(with = "na")]
+    pub trial: Option<usize>,
+    /// Runner phase.
+    pub phase: String,
+    /// Rays cast.
+    pub rays: u64,
+    /// Render time (ms).
+    pub render_ms: f64,
+    /// Time since the previous frame (ms), `n/a` for the first.
+    #[serde(with = "na")]
+    pub interval_ms: Option<f64>,
+    /// The frame missed its deadline.
+    pub late: bool,
+}
+
+/// A row type of one of the session's TSV files.
+pub trait TsvRow: Serialize + DeserializeOwned {
+    /// The file name in the session folder.
+    const FILE: &'static str;
+    /// The header: the serde field names, in order.
+    const COLUMNS: &'static [&'static str];
+
+    /// The header line without its `\n`.
+    fn header_line() -> String {
+        Self::COLUMNS.join("\t")
+    }
+}
+
+impl TsvRow for TrialRow {
+    const FILE: &'static str = TRIALS_TSV;
+    const COLUMNS: &'static [&'static str] = &[
+        "participant",
+        "run",
+        "trial",
+        "trial_in_run",
+        "condition",
+        "method",
+        "inset_deg",
+        "silhouette_edges",
+        "target_mesh",
+        "target_row",
+        "target_col",
+        "search_onset_us",
+        "response_us",
+        "rt_s",
+        "clicked_row",
+        "clicked_col",
+        "correct",
+        "frames",
+        "frames_late",
+        "mean_rays",
+        "synthetic",
+    ];
+}
+
+impl TsvRow for SampleRow {
+    const FILE: &'static str = SAMPLES_TSV;
+    const COLUMNS: &'static [&'static str] = &[
+        "host_us",
+        "sample_us",
+        "trial",
+        "phase",
+        "raw_x",
+        "raw_y",
+        "x_px",
+        "y_px",
+    ];
+}
+
+impl TsvRow for EventRow {
+    const FILE: &'static str = EVENTS_TSV;
+    const COLUMNS: &'static [&'static str] = &[
+        "trial", "kind", "onset_us", "end_us", "x_px", "y_px", "end_x_px", "end_y_px",
+    ];
+}
+
+impl TsvRow for MarkerRow {
+    const FILE: &'static str = MARKERS_TSV;
+    const COLUMNS: &'static [&'static str] = &["host_us", "trial", "event", "detail"];
+}
+
+impl TsvRow for FrameRow {
+    const FILE: &'static str = FRAMES_TSV;
+    const COLUMNS: &'static [&'static str] = &[
+        "host_us",
+        "trial",
+        "phase",
+        "rays",
+        "render_ms",
+        "interval_ms",
+        "late",
+    ];
+}
+
+/// `session.json`: who, which design, which display and tracker.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct SessionInfo {
+    /// Participant id (free text; the BIDS label is its alphanumerics).
+    pub participant: String,
+    /// Participant index (the counterbalancing row).
+    pub participant_index: usize,
+    /// `Design::name`.
+    pub design_name: String,
+    /// Software and version that ran the session (e.g. `gazecast 0.1.0`).
+    pub software: String,
+    /// The display.
+    pub display: DisplayInfo,
+    /// Tracker description (make, model; `"simulated"` for a simulated one).
+    pub tracker: String,
+    /// Nominal sampling rate, if known.
+    pub tracker_rate_hz: Option<f64>,
+    /// Session start, Unix time (s).
+    pub started_unix_s: f64,
+    /// The participant was simulated: never present these data as human.
+    pub synthetic: bool,
+    /// Free notes.
+    pub notes: Vec<String>,
+}
+
+/// The display the stimuli were shown on.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct DisplayInfo {
+    /// Name or model.
+    pub name: String,
+    /// Width in pixels.
+    pub width_px: u32,
+    /// Height in pixels.
+    pub height_px: u32,
+    /// Visible width (mm).
+    pub width_mm: f64,
+    /// Visible height (mm).
+    pub height_mm: f64,
+    /// Eye-to-screen distance (mm).
+    pub distance_mm: f64,
+}
+
+impl SessionInfo {
+    /// Writes `path` (pretty JSON) through a temporary file and a rename.
+    pub fn write(&self, path: &Path) -> Result<(), SessionFileError> {
+        let mut text =
+            serde_json::to_string_pretty(self).map_err(|source| SessionFileError::Json {
+                path: path.to_path_buf(),
+                source,
+            })?;
+        text.push('\n');
+        write_atomic(path, text.as_bytes()).map_err(|e| SessionFileError::io(path, e))
+    }
+
+    /// Reads `path`; errors name the file (and line and column for JSON).
+    pub fn read(path: &Path) -> Result<Self, SessionFileError> {
+        let text = std::fs::read_to_string(path).map_err(|e| SessionFileError::io(path, e))?;
+        serde_json::from_str(&text).map_err(|source| SessionFileError::Json {
+            path: path.to_path_buf(),
+            source,
+        })
+    }
+}
+
+/// Why a session file could not be read or written. Every variant names
+/// the file; parse errors also the line and, where known, the column.
+#[derive(Debug, thiserror::Error)]
+pub enum SessionFileError {
+    /// The file could not be opened, read or written.
+    #[error("{}: {source}", path.display())]
+    Io {
+        /// The file.
+        path: PathBuf,
+        /// The cause.
+        source: io::Error,
+    },
+    /// The header line is not the expected one.
+    #[error("{}: line 1: the header is not the expected one\n  expected: {expected}\n  found:    {found}", path.display())]
+    Header {
+        /// The file.
+        path: PathBuf,
+        /// The expected header (tab-separated, shown with tabs as ` | `).
+        expected: String,
+        /// The header found.
+        found: String,
+    },
+    /// A row could not be parsed.
+    #[error("{}: line {line}{}: {message}", path.display(), column.as_ref().map(|c| format!(", column {c}")).unwrap_or_default())]
+    Parse {
+        /// The file.
+        path: PathBuf,
+        /// 1-based line number.
+        line: u64,
+        /// Column name, where known.
+        column: Option<String>,
+        /// What is wrong.
+        message: String,
+    },
+    /// A row could not be written (a tab or line break in a text field).
+    #[error("{}: cannot write row {row}{}: {message}", path.display(), column.as_ref().map(|c| format!(", column {c}")).unwrap_or_default())]
+    Write {
+        /// The file.
+        path: PathBuf,
+        /// 1-based data row number within the file.
+        row: u64,
+        /// Column name, where known.
+        column: Option<String>,
+        /// What is wrong.
+        message: String,
+    },
+    /// `session.json` is not valid JSON of the expected shape.
+    #[error("{}: {source}", path.display())]
+    Json {
+        /// The file.
+        path: PathBuf,
+        /// The cause (with line and column).
+        source: serde_json::Error,
+    },
+}
+
+impl SessionFileError {
+    fn io(path: &Path, source: io::Error) -> Self {
+        SessionFileError::Io {
+            path: path.to_path_buf(),
+            source,
+        }
+    }
+
+    /// The file the error is about.
+    pub fn path(&self) -> &Path {
+        match self {
+            SessionFileError::Io { path, .. }
+            | SessionFileError::Header { path, .. }
+            | SessionFileError::Parse { path, .. }
+            | SessionFileError::Write { path, .. }
+            | SessionFileError::Json { path, .. } => path,
+        }
+    }
+}
+
+/// Something [`read_tsv`] skipped rather than failed on (a half-written
+/// last line of a killed session).
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct ReadWarning {
+    /// The file.
+    pub path: PathBuf,
+    /// 1-based line number.
+    pub line: u64,
+    /// What was skipped and why.
+    pub message: String,
+}
+
+impl fmt::Display for ReadWarning {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(
+            f,
+            "{}: line {}: {}",
+            self.path.display(),
+            self.line,
+            self.message
+        )
+    }
+}
+
+/// The rows of a TSV file, with their line numbers and any warnings.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ReadOutcome<T> {
+    /// The rows, in file order.
+    pub rows: Vec<T>,
+    /// `lines[i]` is the 1-based line number of `rows[i]`.
+    pub lines: Vec<u64>,
+    /// Lines skipped (a half-written last line).
+    pub warnings: Vec<ReadWarning>,
+}
+
+fn tsv_reader<R: Read>(r: R) -> csv::Reader<R> {
+    csv::ReaderBuilder::new()
+        .delimiter(b'\t')
+        .has_headers(true)
+        .quoting(false)
+        .flexible(false)
+        .from_reader(r)
+}
+
+fn tsv_writer<W: Write>(w: W) -> csv::Writer<W> {
+    csv::WriterBuilder::new()
+        .delimiter(b'\t')
+        .has_headers(false)
+        .quote_style(csv::QuoteStyle::Never)
+        .terminator(csv::Terminator::Any(b'\n'))
+        .from_writer(w)
+}
+
+/// Length of the file up to and including its last `\n` (0 if none).
+fn complete_len(file: &mut File, len: u64) -> io::Result<u64> {
+    let mut end = len;
+    let mut buf = vec![0u8; 64 * 1024];
+    while end > 0 {
+        let start = end.saturating_sub(buf.len() as u64);
+        let chunk = &mut buf[..(end - start) as usize];
+        file.seek(SeekFrom::Start(start))?;
+        file.read_exact(chunk)?;
+        if let Some(i) = chunk.iter().rposition(|&b| b == b'\n') {
+            return Ok(start + i as u64 + 1);
+        }
+        end = start;
+    }
+    Ok(0)
+}
+
+fn shown(bytes: &[u8]) -> String {
+    let text = String::from_utf8_lossy(bytes);
+    let text = text.replace('\t', " | ");
+    if text.chars().count() > 80 {
+        format!("{}…", text.chars().take(80).collect::<String>())
+    } else {
+        text
+    }
+}
+
+/// Reads every row of a session TSV file.
+///
+/// The header must be exactly [`TsvRow::COLUMNS`]. A last line without its
+/// `\n` (a killed writer) is skipped with a warning, whatever it holds;
+/// every other problem is an error naming the file, the line and, where
+/// known, the column.
+pub fn read_tsv<T: TsvRow>(path: &Path) -> Result<ReadOutcome<T>, SessionFileError> {
+    let mut out = ReadOutcome {
+        rows: Vec::new(),
+        lines: Vec::new(),
+        warnings: Vec::new(),
+    };
+    visit_tsv::<T>(path, |row, line| {
+        out.rows.push(row);
+        out.lines.push(line);
+        Ok(())
+    })
+    .map(|w| {
+        out.warnings = w;
+    })?;
+    Ok(out)
+}
+
+/// Streams the rows of a session TSV file to `each(row, line)` (for files
+/// too large to hold, such as a long session's samples). Same rules as
+/// [`read_tsv`]; returns the warnings.
+pub fn visit_tsv<T: TsvRow>(
+    path: &Path,
+    mut each: impl FnMut(T, u64) -> Result<(), SessionFileError>,
+) -> Result<Vec<ReadWarning>, SessionFileError> {
+    let io_err = |e| SessionFileError::io(path, e);
+    let mut file = File::open(path).map_err(io_err)?;
+    let len = file.metadata().map_err(io_err)?.len();
+    let good = complete_len(&mut file, len).map_err(io_err)?;
+    let mut warnings = Vec::new();
+    if len == 0 {
+        warnings.push(ReadWarning {
+            path: path.to_path_buf(),
+            line: 1,
+            message: "the file is empty (no header): no rows".into(),
+        });
+        return Ok(warnings);
+    }
+    let mut partial = None;
+    if good < len {
+        let mut tail = Vec::new();
+        file.seek(SeekFrom::Start(good)).map_err(io_err)?;
+        file.read_to_end(&mut tail).map_err(io_err)?;
+        partial = Some(tail);
+    }
+    file.seek(SeekFrom::Start(0)).map_err(io_err)?;
+    if good == 0 {
+        // Only a partial header line.
+        warnings.push(ReadWarning {
+            path: path.to_path_buf(),
+            line: 1,
+            message: format!(
+                "incomplete header line (no line end; the writer was stopped?) skipped: {:?}",
+                shown(partial.as_deref().unwrap_or_default())
+            ),
+        });
+        return Ok(warnings);
+    }
+    let mut rdr = tsv_reader(BufReader::new(file.take(good)));
+    let expected = T::header_line();
+    let header = rdr.headers().map_err(|e| csv_error(path, e, T::COLUMNS))?;
+    let found = header.iter().collect::<Vec<_>>().join("\t");
+    if found != expected {
+        return Err(SessionFileError::Header {
+            path: path.to_path_buf(),
+            expected: expected.replace('\t', " | "),
+            found: found.replace('\t', " | "),
+        });
+    }
+    let mut record = csv::StringRecord::new();
+    loop {
+        match rdr.read_record(&mut record) {
+            Ok(false) => break,
+            Ok(true) => {}
+            Err(e) => return Err(csv_error(path, e, T::COLUMNS)),
+        }
+        let line = record.position().map_or(0, |p| p.line());
+        let row: T =
+            row_de::from_fields(&record).map_err(|(i, message)| SessionFileError::Parse {
+                path: path.to_path_buf(),
+                line,
+                column: Some(
+                    T::COLUMNS
+                        .get(i)
+                        .map_or_else(|| format!("#{}", i + 1), |c| c.to_string()),
+                ),
+                message,
+            })?;
+        each(row, line)?;
+    }
+    if let Some(tail) = partial {
+        let line = rdr.position().line();
+        warnings.push(ReadWarning {
+            path: path.to_path_buf(),
+            line,
+            message: format!(
+                "incomplete last line (no line end; the writer was stopped?) skipped: {:?}",
+                shown(&tail)
+            ),
+        });
+    }
+    Ok(warnings)
+}
+
+fn csv_error(path: &Path, e: csv::Error, columns: &[&str]) -> SessionFileError {
+    let column_name = |i: u64| {
+        columns
+            .get(i as usize)
+            .map(|c| c.to_string())
+            .unwrap_or_else(|| format!("#{}", i + 1))
+    };
+    match e.into_kind() {
+        csv::ErrorKind::Io(source) => SessionFileError::io(path, source),
+        csv::ErrorKind::Utf8 { pos, err } => SessionFileError::Parse {
+            path: path.to_path_buf(),
+            line: pos.map_or(0, |p| p.line()),
+            column: Some(column_name(err.field() as u64)),
+            message: format!("not UTF-8 text ({err})"),
+        },
+        csv::ErrorKind::UnequalLengths {
+            pos,
+            expected_len,
+            len,
+        } => SessionFileError::Parse {
+            path: path.to_path_buf(),
+            line: pos.map_or(0, |p| p.line()),
+            column: None,
+            message: format!("{len} fields, expected {expected_len} (a tab too many or too few?)"),
+        },
+        csv::ErrorKind::Deserialize { pos, err } => SessionFileError::Parse {
+            path: path.to_path_buf(),
+            line: pos.map_or(0, |p| p.line()),
+            column: err.field().map(column_name),
+            message: match err.kind() {
+                csv::DeserializeErrorKind::Message(m) => m.clone(),
+                other => other.to_string(),
+            },
+        },
+        other => SessionFileError::Parse {
+            path: path.to_path_buf(),
+            line: 0,
+            column: None,
+            message: format!("{other:?}"),
+        },
+    }
+}
+
+/// An append-only TSV log of `T` rows: see the module documentation for
+/// the durability policy.
+pub struct TsvLog<T: TsvRow> {
+    path: PathBuf,
+    file: File,
+    pending: Vec<u8>,
+    pending_rows: usize,
+    rows: u64,
+    flush_rows: usize,
+    flush_interval: Duration,
+    last_flush: Instant,
+    dropped: Option<String>,
+    _row: PhantomData<fn(&T)>,
+}
+
+impl<T: TsvRow> TsvLog<T> {
+    /// Opens `path` for appending rows: creates it with the header line,
+    /// or opens an existing file after checking that its header line is
+    /// [`TsvRow::COLUMNS`] (a mismatch is [`SessionFileError::Header`]
+    /// naming the file). A half-written last line left by a killed writer
+    /// is cut off first (see [`TsvLog::dropped_partial_line`]); an
+    /// incomplete header line is rewritten.
+    pub fn append_to(path: impl AsRef<Path>) -> Result<Self, SessionFileError> {
+        let path = path.as_ref();
+        let io_err = |e| SessionFileError::io(path, e);
+        let expected = T::header_line();
+        let mut file = OpenOptions::new()
+            .read(true)
+            .write(true)
+            .create(true)
+            .truncate(false)
+            .open(path)
+            .map_err(io_err)?;
+        let len = file.metadata().map_err(io_err)?.len();
+        let mut rows = 0;
+        let mut dropped = None;
+        let good = complete_len(&mut file, len).map_err(io_err)?;
+        if good == 0 {
+            // New, empty, or only part of the header line.
+            let mut have = Vec::new();
+            file.seek(SeekFrom::Start(0)).map_err(io_err)?;
+            file.read_to_end(&mut have).map_err(io_err)?;
+            if !expected.as_bytes().starts_with(&have) {
+                return Err(SessionFileError::Header {
+                    path: path.to_path_buf(),
+                    expected: expected.replace('\t', " | "),
+                    found: shown(&have),
+                });
+            }
+            file.set_len(0).map_err(io_err)?;
+            file.seek(SeekFrom::Start(0)).map_err(io_err)?;
+            file.write_all(format!("{expected}\n").as_bytes())
+                .map_err(io_err)?;
+        } else {
+            file.seek(SeekFrom::Start(0)).map_err(io_err)?;
+            let mut reader = BufReader::new(&mut file);
+            let mut first = Vec::new();
+            reader.read_until(b'\n', &mut first).map_err(io_err)?;
+            let found = String::from_utf8_lossy(&first);
+            let found = found.trim_end_matches('\n').trim_end_matches('\r');
+            if found != expected {
+                return Err(SessionFileError::Header {
+                    path: path.to_path_buf(),
+                    expected: expected.replace('\t', " | "),
+                    found: found.replace('\t', " | "),
+                });
+            }
+            // Count the data lines (for row numbers in errors).
+            let mut line = Vec::new();
+            let mut read = first.len() as u64;
+            while read < good {
+                line.clear();
+                let n = reader.read_until(b'\n', &mut line).map_err(io_err)?;
+                if n == 0 {
+                    break;
+                }
+                read += n as u64;
+                rows += 1;
+            }
+            drop(reader);
+            if good < len {
+                let mut tail = Vec::new();
+                file.seek(SeekFrom::Start(good)).map_err(io_err)?;
+                file.read_to_end(&mut tail).map_err(io_err)?;
+                dropped = Some(String::from_utf8_lossy(&tail).into_owned());
+                file.set_len(good).map_err(io_err)?;
+            }
+        }
+        file.seek(SeekFrom::End(0)).map_err(io_err)?;
+        Ok(TsvLog {
+            path: path.to_path_buf(),
+            file,
+            pending: Vec::new(),
+            pending_rows: 0,
+            rows,
+            flush_rows: 1,
+            flush_interval: Duration::ZERO,
+            last_flush: Instant::now(),
+            dropped,
+            _row: PhantomData,
+        })
+    }
+
+    /// Batches rows: hand them to the OS when `rows` rows are pending or
+    /// `interval` has passed since the last flush (checked at each write).
+    /// `rows = 1` (the default) flushes every row.
+    pub fn flush_every(mut self, rows: usize, interval: Duration) -> Self {
+        self.flush_rows = rows.max(1);
+        self.flush_interval = interval;
+        self
+    }
+
+    /// The file.
+    pub fn path(&self) -> &Path {
+        &self.path
+    }
+
+    /// Data rows in the file so far (including those still pending).
+    pub fn rows(&self) -> u64 {
+        self.rows
+    }
+
+    /// The half-written last line [`TsvLog::append_to`] cut off, if any.
+    pub fn dropped_partial_line(&self) -> Option<&str> {
+        self.dropped.as_deref()
+    }
+
+    /// Appends one row. A text field holding a tab, carriage return or
+    /// line feed is refused ([`SessionFileError::Write`] naming the
+    /// column) and nothing is written.
+    pub fn write(&mut self, row: &T) -> Result<(), SessionFileError> {
+        let line = format_row(row).map_err(|(column, message)| SessionFileError::Write {
+            path: self.path.clone(),
+            row: self.rows + 1,
+            column,
+            message,
+        })?;
+        self.pending.extend_from_slice(&line);
+        self.pending_rows += 1;
+        self.rows += 1;
+        if self.pending_rows >= self.flush_rows
+            || (self.flush_interval > Duration::ZERO
+                && self.last_flush.elapsed() >= self.flush_interval)
+        {
+            self.flush()?;
+        }
+        Ok(())
+    }
+
+    /// Hands every pending row to the OS (one `write` of whole lines).
+    pub fn flush(&mut self) -> Result<(), SessionFileError> {
+        if !self.pending.is_empty() {
+            self.file
+                .write_all(&self.pending)
+                .map_err(|e| SessionFileError::io(&self.path, e))?;
+            self.pending.clear();
+            self.pending_rows = 0;
+        }
+        self.last_flush = Instant::now();
+        Ok(())
+    }
+
+    /// Flushes and asks the OS to put the data on disk (`fsync`).
+    pub fn sync(&mut self) -> Result<(), SessionFileError> {
+        self.flush()?;
+        self.file
+            .sync_data()
+            .map_err(|e| SessionFileError::io(&self.path, e))
+    }
+}
+
+impl<T: TsvRow> Drop for TsvLog<T> {
+    fn drop(&mut self) {
+        let _ = self.flush();
+    }
+}
+
+/// The row as one TSV line with its `\n`, or the offending column and why.
+fn format_row<T: TsvRow>(row: &T) -> Result<Vec<u8>, (Option<String>, String)> {
+    let mut w = tsv_writer(Vec::new());
+    w.serialize(row)
+        .map_err(|e| (None, format!("cannot serialize: {e}")))?;
+    let line = w
+        .into_inner()
+        .map_err(|e| (None, format!("cannot serialize: {}", e.error())))?;
+    let tabs = line.iter().filter(|&&b| b == b'\t').count();
+    let breaks = line.iter().filter(|&&b| b == b'\n' || b == b'\r').count();
+    if tabs + 1 == T::COLUMNS.len() && breaks == 1 && line.last() == Some(&b'\n') {
+        return Ok(line);
+    }
+    // Find the culprit: serialize again with quoting, which keeps fields whole.
+    let mut q = csv::WriterBuilder::new()
+        .delimiter(b'\t')
+        .has_headers(false)
+        .from_writer(Vec::new());
+    let column = q.serialize(row).ok().and_then(|_| {
+        let bytes = q.into_inner().ok()?;
+        let mut r = csv::ReaderBuilder::new()
+            .delimiter(b'\t')
+            .has_headers(false)
+            .from_reader(bytes.as_slice());
+        let rec = r.records().next()?.ok()?;
+        let i = rec.iter().position(|f| f.contains(['\t', '\n', '\r']))?;
+        T::COLUMNS.get(i).map(|c| c.to_string())
+    });
+    Err((
+        column,
+        "a text field contains a tab or a line break, which TSV cannot hold (not written)".into(),
+    ))
+}
+
+/// Deserializes one row from its text fields, knowing which field fails
+/// (csv's own deserializer loses the position of errors raised by custom
+/// field parsers such as [`na`]): `Err((field index, message))`.
+mod row_de {
+    use serde::de::{self, DeserializeSeed, IntoDeserializer, SeqAccess, Visitor};
+    use std::fmt;
+
+    #[derive(Debug)]
+    pub struct Error(pub String);
+
+    impl fmt::Display for Error {
+        fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+            f.write_str(&self.0)
+        }
+    }
+
+    impl std::error::Error for Error {}
+
+    impl de::Error for Error {
+        fn custom<T: fmt::Display>(msg: T) -> Self {
+            Error(msg.to_string())
+        }
+    }
+
+    pub fn from_fields<T: de::DeserializeOwned>(
+        record: &csv::StringRecord,
+    ) -> Result<T, (usize, String)> {
+        let fields: Vec<&str> = record.iter().collect();
+        let mut row = Row {
+            fields: &fields,
+            next: 0,
+            failed: None,
+        };
+        match T::deserialize(&mut row) {
+            Ok(t) => Ok(t),
+            Err(e) => Err((row.failed.unwrap_or(row.next.saturating_sub(1)), e.0)),
+        }
+    }
+
+    struct Row<'r, 'a> {
+        fields: &'r [&'a str],
+        next: usize,
+        failed: Option<usize>,
+    }
+
+    impl<'de> de::Deserializer<'de> for &mut Row<'_, '_> {
+        type Error = Error;
+
+        fn deserialize_any<V: Visitor<'de>>(self, visitor: V) -> Result<V::Value, Error> {
+            visitor.visit_seq(self)
+        }
+
+        serde::forward_to_deserialize_any! {
+            bool i8 i16 i32 i64 i128 u8 u16 u32 u64 u128 f32 f64 char str string
+            bytes byte_buf option unit unit_struct newtype_struct seq tuple
+            tuple_struct map struct enum identifier ignored_any
+        }
+    }
+
+    impl<'de> SeqAccess<'de> for &mut Row<'_, '_> {
+        type Error = Error;
+
+        fn next_element_seed<S: DeserializeSeed<'de>>(
+            &mut self,
+            seed: S,
+        ) -> Result<Option<S::Value>, Error> {
+            let Some(&text) = self.fields.get(self.next) else {
+                return Ok(None);
+            };
+            let i = self.next;
+            self.next += 1;
+            seed.deserialize(Field(text)).map(Some).inspect_err(|_| {
+                self.failed = Some(i);
+            })
+        }
+    }
+
+    struct Field<'a>(&'a str);
+
+    impl Field<'_> {
+        fn parse<T: std::str::FromStr>(&self, what: &str) -> Result<T, Error> {
+            self.0
+                .parse()
+                .map_err(|_| Error(format!("{:?} is not {what}", self.0)))
+        }
+    }
+
+    macro_rules! parse_int {
+        ($($m:ident $v:ident $t:ty),*) => {$(
+            fn $m<V: Visitor<'de>>(self, visitor: V) -> Result<V::Value, Error> {
+                visitor.$v(self.parse::<$t>("an integer of the column's range")?)
+            }
+        )*};
+    }
+
+    impl<'de> de::Deserializer<'de> for Field<'_> {
+        type Error = Error;
+
+        fn deserialize_any<V: Visitor<'de>>(self, visitor: V) -> Result<V::Value, Error> {
+            visitor.visit_str(self.0)
+        }
+        fn deserialize_bool<V: Visitor<'de>>(self, visitor: V) -> Result<V::Value, Error> {
+            visitor.visit_bool(self.parse("true or false")?)
+        }
+        parse_int!(
+            deserialize_u8 visit_u8 u8, deserialize_u16 visit_u16 u16,
+            deserialize_u32 visit_u32 u32, deserialize_u64 visit_u64 u64,
+            deserialize_i8 visit_i8 i8, deserialize_i16 visit_i16 i16,
+            deserialize_i32 visit_i32 i32, deserialize_i64 visit_i64 i64
+        );
+        fn deserialize_f32<V: Visitor<'de>>(self, visitor: V) -> Result<V::Value, Error> {
+            visitor.visit_f32(self.parse("a number")?)
+        }
+        fn deserialize_f64<V: Visitor<'de>>(self, visitor: V) -> Result<V::Value, Error> {
+            visitor.visit_f64(self.parse("a number")?)
+        }
+        fn deserialize_option<V: Visitor<'de>>(self, visitor: V) -> Result<V::Value, Error> {
+            if self.0.is_empty() || self.0 == super::NA {
+                visitor.visit_none()
+            } else {
+                visitor.visit_some(self)
+            }
+        }
+        fn deserialize_enum<V: Visitor<'de>>(
+            self,
+            _name: &'static str,
+            _variants: &'static [&'static str],
+            visitor: V,
+        ) -> Result<V::Value, Error> {
+            visitor.visit_enum(self.0.into_deserializer())
+        }
+
+        serde::forward_to_deserialize_any! {
+            i128 u128 char str string bytes byte_buf unit unit_struct
+            newtype_struct seq tuple tuple_struct map struct identifier ignored_any
+        }
+    }
+}
+
+/// Serde helpers for `Option` fields written `n/a` when missing (BIDS).
+pub mod na {
+    use serde::{Deserialize, Deserializer, Serializer};
+
+    /// A value that can stand in an `n/a`-able TSV field.
+    pub trait NaValue: Sized {
+        /// The field text.
+        fn to_field(&self) -> String;
+        /// Parses the field text.
+        fn from_field(s: &str) -> Result<Self, String>;
+    }
+
+    impl NaValue for f64 {
+        fn to_field(&self) -> String {
+            // Debug: shortest round-trip form, exponent for tiny/huge values.
+            format!("{self:?}")
+        }
+        fn from_field(s: &str) -> Result<Self, String> {
+            s.parse()
+                .map_err(|_| format!("{s:?} is not a number or {}", super::NA))
+        }
+    }
+
+    impl NaValue for bool {
+        fn to_field(&self) -> String {
+            self.to_string()
+        }
+        fn from_field(s: &str) -> Result<Self, String> {
+            s.parse()
+                .map_err(|_| format!("{s:?} is not true, false or {}", super::NA))
+        }
+    }
+
+    macro_rules! na_int {
+        ($($t:ty),*) => {$(
+            impl NaValue for $t {
+                fn to_field(&self) -> String {
+                    self.to_string()
+                }
+                fn from_field(s: &str) -> Result<Self, String> {
+                    s.parse().map_err(|_| {
+                        format!("{s:?} is not a non-negative integer or {}", super::NA)
+                    })
+                }
+            }
+        )*};
+    }
+    na_int!(u32, u64, usize);
+
+    /// `None` → `n/a`.
+    pub fn serialize<T: NaValue, S: Serializer>(v: &Option<T>, s: S) -> Result<S::Ok, S::Error> {
+        match v {
+            Some(x) => s.serialize_str(&x.to_field()),
+            None => s.serialize_str(super::NA),
+        }
+    }
+
+    /// `n/a` or an empty field → `None`.
+    pub fn deserialize<'de, T: NaValue, D: Deserializer<'de>>(d: D) -> Result<Option<T>, D::Error> {
+        let s = String::deserialize(d)?;
+        if s == super::NA || s.is_empty() {
+            Ok(None)
+        } else {
+            T::from_field(&s)
+                .map(Some)
+                .map_err(serde::de::Error::custom)
+        }
+    }
+}
+
+/// A file written whole or not at all: the bytes go to a temporary file
+/// in the same folder, which [`AtomicFile::commit`] renames over the
+/// target. Dropped without a commit, the temporary file is removed and the
+/// target is untouched.
+pub struct AtomicFile {
+    target: PathBuf,
+    temp: PathBuf,
+    file: Option<io::BufWriter<File>>,
+}
+
+impl AtomicFile {
+    /// Starts writing `target`.
+    pub fn create(target: &Path) -> io::Result<Self> {
+        use std::sync::atomic::{AtomicU64, Ordering};
+        static COUNTER: AtomicU64 = AtomicU64::new(0);
+        let name = target
+            .file_name()
+            .ok_or_else(|| io::Error::new(io::ErrorKind::InvalidInput, "no file name"))?
+            .to_string_lossy();
+        let temp = target.with_file_name(format!(
+            ".{name}.tmp-{}-{}",
+            std::process::id(),
+            COUNTER.fetch_add(1, Ordering::Relaxed)
+        ));
+        let file = File::create(&temp)?;
+        Ok(AtomicFile {
+            target: target.to_path_buf(),
+            temp,
+            file: Some(io::BufWriter::new(file)),
+        })
+    }
+
+    /// Flushes, syncs and renames the temporary file over the target.
+    pub fn commit(mut self) -> io::Result<()> {
+        let file = self.file.take().expect("not yet committed");
+        let file = file.into_inner().map_err(|e| e.into_error())?;
+        file.sync_all()?;
+        drop(file);
+        std::fs::rename(&self.temp, &self.target)
+    }
+}
+
+impl Write for AtomicFile {
+    fn write(&mut self, buf: &[u8]) -> io::Result<usize> {
+        self.file.as_mut().expect("not yet committed").write(buf)
+    }
+    fn flush(&mut self) -> io::Result<()> {
+        self.file.as_mut().expect("not yet committed").flush()
+    }
+}
+
+impl Drop for AtomicFile {
+    fn drop(&mut self) {
+        if self.file.take().is_some() {
+            let _ = std::fs::remove_file(&self.temp);
+        }
+    }
+}
+
+/// Writes `bytes` to `path` whole or not at all ([`AtomicFile`]).
+pub fn write_atomic(path: &Path, bytes: &[u8]) -> io::Result<()> {
+    let mut f = AtomicFile::create(path)?;
+    f.write_all(bytes)?;
+    f.commit()
+}

@@ -1,0 +1,401 @@
+//! BIDS export: the files, the gzip recording (decodes, one row per
+//! sample, n/a for invalid samples), the sidecars' REQUIRED keys, the
+//! events, the labels, and the refusals.
+
+use experiment::bids::{bids_label, export_bids, BidsError, BIDS_VERSION};
+use experiment::session::{
+    DisplayInfo, SampleRow, SessionInfo, TrialRow, TsvLog, DESIGN_RON, SAMPLES_TSV, SESSION_JSON,
+    TRIALS_TSV,
+};
+use serde_json::Value;
+use std::io::Read;
+use std::path::{Path, PathBuf};
+
+const SEED_DESIGN: &str = concat!(
+    env!("CARGO_MANIFEST_DIR"),
+    "/../../config/experiments/murphy2007-search.ron"
+);
+
+struct Made {
+    dir: PathBuf,
+    samples: Vec<SampleRow>,
+    trials: Vec<TrialRow>,
+}
+
+/// A session with `n_samples` samples at a nominal 50 Hz (20 ms, with a
+/// few jittered and one dropped), every 7th invalid, and 3 trials.
+fn make(root: &Path, participant: &str, synthetic: bool, n_samples: usize) -> Made {
+    let dir = root.join(format!("in-{}", participant.replace('/', "_")));
+    std::fs::create_dir_all(&dir).unwrap();
+    std::fs::copy(SEED_DESIGN, dir.join(DESIGN_RON)).unwrap();
+    SessionInfo {
+        participant: participant.into(),
+        participant_index: 2,
+        design_name: "murphy2007-search".into(),
+        software: "gazecast 0.1.0-test".into(),
+        display: DisplayInfo {
+            name: "LCD".into(),
+            width_px: 1280,
+            height_px: 1024,
+            width_mm: 337.9,
+            height_mm: 270.3,
+            distance_mm: 540.0,
+        },
+        tracker: "Tobii ET-1750".into(),
+        tracker_rate_hz: Some(50.0),
+        started_unix_s: 1.7e9,
+        synthetic,
+        notes: vec![],
+    }
+    .write(&dir.join(SESSION_JSON))
+    .unwrap();
+    let mut log = TsvLog::<SampleRow>::append_to(dir.join(SAMPLES_TSV)).unwrap();
+    let mut samples = Vec::new();
+    let mut t = 7_000_000u64;
+    for i in 0..n_samples {
+        let jitter = [0, 1_000, 0, 0, 2_000, 0][i % 6];
+        t += 20_000 + jitter - if i % 6 == 5 { 3_000 } else { 0 };
+        if i == 10 {
+            t += 20_000; // a dropped sample
+        }
+        let valid = i % 7 != 3;
+        let s = SampleRow {
+            host_us: 1_000_000_000 + t + 1_500,
+            sample_us: t,
+            trial: Some(i / 100),
+            phase: "search".into(),
+            raw_x: Some(0.5),
+            raw_y: Some(0.25),
+            x_px: valid.then_some(100.25 + i as f64),
+            y_px: valid.then_some(200.5),
+        };
+        log.write(&s).unwrap();
+        samples.push(s);
+    }
+    drop(log);
+    let mut log = TsvLog::<TrialRow>::append_to(dir.join(TRIALS_TSV)).unwrap();
+    let first = samples.first().map_or(1_000_000_000, |s| s.host_us);
+    let trials: Vec<TrialRow> = (0..3)
+        .map(|k| TrialRow {
+            participant: participant.into(),
+            run: 0,
+            trial: k,
+            trial_in_run: k,
+            condition: ["control", "NE2", "E20"][k].into(),
+            method: ["full", "hybrid", "hybrid"][k].into(),
+            inset_deg: [None, Some(2.0), Some(20.0)][k],
+            silhouette_edges: k == 2,
+            target_mesh: 1,
+            target_row: k as u32,
+            target_col: 4 - k as u32,
+            search_onset_us: first + 250_000 + k as u64 * 2_000_000,
+            response_us: first + 1_750_000 + k as u64 * 2_000_000,
+            rt_s: 1.5,
+            clicked_row: None,
+            clicked_col: None,
+            correct: [Some(true), Some(false), None][k],
+            frames: 1,
+            frames_late: 0,
+            mean_rays: 1.0,
+            synthetic,
+        })
+        .collect();
+    for t in &trials {
+        log.write(t).unwrap();
+    }
+    Made {
+        dir,
+        samples,
+        trials,
+    }
+}
+
+fn json(path: &Path) -> Value {
+    serde_json::from_str(&std::fs::read_to_string(path).unwrap())
+        .unwrap_or_else(|e| panic!("{}: {e}", path.display()))
+}
+
+fn gunzip(path: &Path) -> String {
+    let mut s = String::new();
+    flate2::read::GzDecoder::new(std::fs::File::open(path).unwrap())
+        .read_to_string(&mut s)
+        .unwrap();
+    s
+}
+
+#[test]
+fn export_writes_a_bids_eyetracking_dataset() {
+    let tmp = tempfile::tempdir().unwrap();
+    let a = make(tmp.path(), "P-01", false, 250);
+    let b = make(tmp.path(), "P02", false, 40);
+    let out = tmp.path().join("bids");
+    let export = export_bids(&[a.dir.clone(), b.dir.clone()], &out, "visualSearch").unwrap();
+    assert_eq!(export.labels, vec!["P01", "P02"]);
+    assert_eq!(export.samples, vec![250, 40]);
+    for f in &export.files {
+        assert!(f.is_file(), "{}", f.display());
+    }
+
+    let dd = json(&out.join("dataset_description.json"));
+    assert_eq!(dd["BIDSVersion"], BIDS_VERSION);
+    assert!(dd["Name"].as_str().unwrap().contains("murphy2007-search"));
+    assert!(!dd["Name"].as_str().unwrap().contains("SYNTHETIC"));
+    assert_eq!(dd["DatasetType"], "raw");
+    assert_eq!(dd["GeneratedBy"][0]["Name"], "gazecast");
+
+    let parts = std::fs::read_to_string(out.join("participants.tsv")).unwrap();
+    let lines: Vec<&str> = parts.lines().collect();
+    assert_eq!(lines[0].split('\t').next(), Some("participant_id"));
+    assert_eq!(lines.len(), 3);
+    assert!(lines[1].starts_with("sub-P01\tP-01\t2\tfalse"));
+    assert!(lines[2].starts_with("sub-P02\tP02\t"));
+
+    let beh = out.join("sub-P01/beh");
+    let gz = beh.join("sub-P01_task-visualSearch_recording-eye1_physio.tsv.gz");
+    let text = gunzip(&gz);
+    let rows: Vec<Vec<&str>> = text.lines().map(|l| l.split('\t').collect()).collect();
+    assert_eq!(rows.len(), a.samples.len(), "one row per sample, no header");
+    for (r, s) in rows.iter().zip(&a.samples) {
+        assert_eq!(r.len(), 4);
+        assert_eq!(r[0], s.sample_us.to_string());
+        assert_eq!(r[3], s.host_us.to_string());
+        match s.x_px {
+            Some(x) => {
+                assert_eq!(r[1].parse::<f64>().unwrap(), x);
+                assert_eq!(r[2].parse::<f64>().unwrap(), s.y_px.unwrap());
+            }
+            None => assert_eq!((r[1], r[2]), ("n/a", "n/a")),
+        }
+    }
+    assert!(rows.iter().any(|r| r[1] == "n/a"));
+    let b_rows =
+        gunzip(&out.join("sub-P02/beh/sub-P02_task-visualSearch_recording-eye1_physio.tsv.gz"));
+    assert_eq!(b_rows.lines().count(), 40);
+
+    let side = json(&beh.join("sub-P01_task-visualSearch_recording-eye1_physio.json"));
+    // REQUIRED (BIDS 1.11 physio + eyetrack).
+    for key in [
+        "SamplingFrequency",
+        "StartTime",
+        "Columns",
+        "PhysioType",
+        "RecordedEye",
+        "SampleCoordinateSystem",
+    ] {
+        assert!(side.get(key).is_some(), "physio.json lacks {key}");
+    }
+    assert_eq!(side["PhysioType"], "eyetrack");
+    assert_eq!(side["SampleCoordinateSystem"], "gaze-on-screen");
+    assert!(["left", "right", "cyclopean"].contains(&side["RecordedEye"].as_str().unwrap()));
+    assert_eq!(side["Columns"][0], "timestamp");
+    assert_eq!(side["Columns"][1], "x_coordinate");
+    assert_eq!(side["Columns"][2], "y_coordinate");
+    assert_eq!(side["Columns"].as_array().unwrap().len(), 4);
+    assert_eq!(side["x_coordinate"]["Units"], "pixel");
+    assert_eq!(side["y_coordinate"]["Units"], "pixel");
+    assert_eq!(side["Manufacturer"], "Tobii ET-1750");
+    assert_eq!(side["ScreenResolution"], serde_json::json!([1280, 1024]));
+    assert!((side["ScreenDistance"].as_f64().unwrap() - 0.54).abs() < 1e-12);
+    assert!((side["ScreenSize"][0].as_f64().unwrap() - 0.3379).abs() < 1e-12);
+    // Median interval 20 ms → 50 Hz, and the sidecar says it was estimated.
+    assert!((side["SamplingFrequency"].as_f64().unwrap() - 50.0).abs() < 1e-9);
+    assert!(side["SamplingFrequencyEstimate"]
+        .as_str()
+        .unwrap()
+        .contains("median"));
+
+    let events = std::fs::read_to_string(beh.join("sub-P01_task-visualSearch_events.tsv")).unwrap();
+    let lines: Vec<&str> = events.lines().collect();
+    let header: Vec<&str> = lines[0].split('\t').collect();
+    assert_eq!(&header[..3], &["onset", "duration", "trial_type"]);
+    for col in [
+        "trial",
+        "target_row",
+        "target_col",
+        "response_time",
+        "correct",
+    ] {
+        assert!(header.contains(&col), "events.tsv lacks {col}");
+    }
+    assert_eq!(lines.len(), 1 + a.trials.len());
+    let col = |row: &str, name: &str| -> String {
+        let i = header.iter().position(|h| *h == name).unwrap();
+        row.split('\t').nth(i).unwrap().to_string()
+    };
+    let t0 = a.samples[0].host_us;
+    for (l, t) in lines[1..].iter().zip(&a.trials) {
+        let onset: f64 = col(l, "onset").parse().unwrap();
+        assert!((onset - (t.search_onset_us - t0) as f64 / 1e6).abs() < 1e-6);
+        let duration: f64 = col(l, "duration").parse().unwrap();
+        assert!((duration - 1.5).abs() < 1e-6);
+        assert_eq!(col(l, "trial_type"), t.condition);
+        assert_eq!(col(l, "trial"), t.trial.to_string());
+        assert_eq!(col(l, "target_row"), t.target_row.to_string());
+        assert_eq!(col(l, "target_col"), t.target_col.to_string());
+        assert_eq!(col(l, "response_time"), "1.5");
+    }
+    assert_eq!(col(lines[1], "correct"), "1");
+    assert_eq!(col(lines[2], "correct"), "0");
+    assert_eq!(col(lines[3], "correct"), "n/a");
+    assert_eq!(col(lines[1], "inset_deg"), "n/a");
+
+    let ej = json(&beh.join("sub-P01_task-visualSearch_events.json"));
+    let sp = &ej["StimulusPresentation"];
+    for key in [
+        "ScreenDistance",
+        "ScreenOrigin",
+        "ScreenResolution",
+        "ScreenSize",
+    ] {
+        assert!(
+            sp.get(key).is_some(),
+            "events.json StimulusPresentation lacks {key}"
+        );
+    }
+    assert_eq!(sp["ScreenOrigin"], serde_json::json!(["top", "left"]));
+    for h in &header {
+        assert!(ej.get(*h).is_some(), "events.json does not describe {h}");
+    }
+    // Nothing but what the export lists (and no temporary files).
+    let mut on_disk = Vec::new();
+    let mut stack = vec![out.clone()];
+    while let Some(d) = stack.pop() {
+        for e in std::fs::read_dir(&d).unwrap() {
+            let p = e.unwrap().path();
+            if p.is_dir() {
+                stack.push(p);
+            } else {
+                on_disk.push(p);
+            }
+        }
+    }
+    on_disk.sort();
+    let mut listed = export.files.clone();
+    listed.sort();
+    assert_eq!(on_disk, listed);
+}
+
+#[test]
+fn synthetic_sessions_are_labelled() {
+    let tmp = tempfile::tempdir().unwrap();
+    let a = make(tmp.path(), "sim01", true, 30);
+    let out = tmp.path().join("bids");
+    export_bids(&[a.dir], &out, "search").unwrap();
+    let dd = json(&out.join("dataset_description.json"));
+    assert!(dd["Name"].as_str().unwrap().starts_with("SYNTHETIC DATA"));
+    let readme = std::fs::read_to_string(out.join("README.md")).unwrap();
+    assert!(readme.lines().next().unwrap().contains("SYNTHETIC DATA"));
+    let parts = std::fs::read_to_string(out.join("participants.tsv")).unwrap();
+    assert!(parts.lines().nth(1).unwrap().ends_with("\ttrue"));
+    let side = json(&out.join("sub-sim01/beh/sub-sim01_task-search_recording-eye1_physio.json"));
+    assert_eq!(side["SyntheticData"], true);
+}
+
+#[test]
+fn labels_are_the_alphanumerics_and_must_be_unique() {
+    assert_eq!(bids_label("P-01").as_deref(), Some("P01"));
+    assert_eq!(bids_label(" sub_7 (pilot) ").as_deref(), Some("sub7pilot"));
+    assert_eq!(bids_label("--"), None);
+    assert_eq!(bids_label("ü"), None);
+
+    let tmp = tempfile::tempdir().unwrap();
+    let out = tmp.path().join("bids");
+    let bad = make(tmp.path(), "--", false, 5);
+    let err = export_bids(std::slice::from_ref(&bad.dir), &out, "search").unwrap_err();
+    assert!(matches!(err, BidsError::BadLabel { .. }));
+    assert!(
+        err.to_string()
+            .contains(&bad.dir.join(SESSION_JSON).display().to_string()),
+        "{err}"
+    );
+
+    let a = make(tmp.path(), "P-1", false, 5);
+    let b = make(tmp.path(), "P1", false, 5);
+    let err = export_bids(&[a.dir.clone(), b.dir.clone()], &out, "search").unwrap_err();
+    assert!(matches!(err, BidsError::DuplicateLabel { .. }));
+    let msg = err.to_string();
+    assert!(
+        msg.contains(&a.dir.display().to_string()) && msg.contains(&b.dir.display().to_string()),
+        "{msg}"
+    );
+    assert!(!out.exists(), "nothing written");
+
+    for task in ["", "visual-search", "a b"] {
+        assert!(matches!(
+            export_bids(std::slice::from_ref(&a.dir), &out, task),
+            Err(BidsError::BadTask(_))
+        ));
+    }
+    assert!(matches!(
+        export_bids(&[], &out, "x"),
+        Err(BidsError::NoInputs)
+    ));
+}
+
+#[test]
+fn output_inside_an_input_is_refused() {
+    let tmp = tempfile::tempdir().unwrap();
+    let a = make(tmp.path(), "P01", false, 5);
+    for out in [a.dir.clone(), a.dir.join("bids")] {
+        let err = export_bids(std::slice::from_ref(&a.dir), &out, "search").unwrap_err();
+        assert!(matches!(err, BidsError::Output { .. }), "{err}");
+        assert!(err.to_string().contains("inside"), "{err}");
+    }
+    assert!(!a.dir.join("bids").exists());
+    assert!(!a.dir.join("dataset_description.json").exists());
+}
+
+#[test]
+fn missing_or_corrupt_samples_are_errors_naming_the_file() {
+    let tmp = tempfile::tempdir().unwrap();
+    let a = make(tmp.path(), "P01", false, 5);
+    let p = a.dir.join(SAMPLES_TSV);
+    let text = std::fs::read_to_string(&p).unwrap();
+    std::fs::write(&p, text.replacen("\tsearch\t", "\tsearch\tx\t", 1)).unwrap();
+    let err = export_bids(
+        std::slice::from_ref(&a.dir),
+        &tmp.path().join("o"),
+        "search",
+    )
+    .unwrap_err();
+    let msg = err.to_string();
+    assert!(
+        msg.contains(&p.display().to_string()) && msg.contains("line 2"),
+        "{msg}"
+    );
+    // No half-written recording is left behind.
+    let gz = tmp
+        .path()
+        .join("o/sub-P01/beh/sub-P01_task-search_recording-eye1_physio.tsv.gz");
+    assert!(!gz.exists());
+    std::fs::remove_file(&p).unwrap();
+    let msg = export_bids(
+        std::slice::from_ref(&a.dir),
+        &tmp.path().join("o"),
+        "search",
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(msg.contains(&p.display().to_string()), "{msg}");
+}
+
+#[test]
+fn without_samples_events_are_still_written_and_a_warning_says_why() {
+    let tmp = tempfile::tempdir().unwrap();
+    let a = make(tmp.path(), "P01", false, 0);
+    let out = tmp.path().join("o");
+    let export = export_bids(std::slice::from_ref(&a.dir), &out, "search").unwrap();
+    assert_eq!(export.samples, vec![0]);
+    assert!(
+        export.warnings.iter().any(|w| w.contains("no samples")),
+        "{:?}",
+        export.warnings
+    );
+    assert!(!out
+        .join("sub-P01/beh/sub-P01_task-search_recording-eye1_physio.tsv.gz")
+        .exists());
+    let ev =
+        std::fs::read_to_string(out.join("sub-P01/beh/sub-P01_task-search_events.tsv")).unwrap();
+    assert_eq!(ev.lines().count(), 4);
+    assert!(ev.lines().nth(1).unwrap().starts_with("0.000000\t"));
+}

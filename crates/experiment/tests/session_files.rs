@@ -1,0 +1,828 @@
+//! The session folder's file formats: exact round trips (proptest), the
+//! header lines, `n/a`, a killed writer's half line, header mismatches,
+//! parse errors that name file, line and column, refused tabs and line
+//! breaks, the flush policy, and session.json.
+
+use experiment::session::{
+    read_tsv, DisplayInfo, EventRow, FrameRow, MarkerRow, SampleRow, SessionFileError, SessionInfo,
+    TrialRow, TsvLog, TsvRow,
+};
+use proptest::prelude::*;
+use std::io::Write;
+use std::path::Path;
+use std::time::Duration;
+
+fn trial(i: usize) -> TrialRow {
+    TrialRow {
+        participant: "P 01".into(),
+        run: i / 11,
+        trial: i,
+        trial_in_run: i % 11,
+        condition: "NE2".into(),
+        method: "hybrid".into(),
+        inset_deg: Some(2.0),
+        silhouette_edges: false,
+        target_mesh: 3,
+        target_row: 1,
+        target_col: 4,
+        search_onset_us: 1_000_000 + i as u64 * 10_000_000,
+        response_us: 9_000_000 + i as u64 * 10_000_000,
+        rt_s: 8.0 + i as f64 * 0.125,
+        clicked_row: None,
+        clicked_col: Some(4),
+        correct: None,
+        frames: 240,
+        frames_late: 2,
+        mean_rays: 123456.5,
+        synthetic: true,
+    }
+}
+
+fn write_rows<T: TsvRow>(path: &Path, rows: &[T]) {
+    let mut log = TsvLog::<T>::append_to(path).expect("open");
+    for r in rows {
+        log.write(r).expect("write");
+    }
+}
+
+fn first_line(path: &Path) -> String {
+    std::fs::read_to_string(path)
+        .unwrap()
+        .lines()
+        .next()
+        .unwrap()
+        .to_string()
+}
+
+#[test]
+fn header_lines_are_the_documented_ones() {
+    // Hard-coded: renaming or reordering a field must fail here.
+    let dir = tempfile::tempdir().unwrap();
+    type Writer = Box<dyn Fn(&Path)>;
+    let cases: [(&str, Writer); 5] = [
+        (
+            "participant\trun\ttrial\ttrial_in_run\tcondition\tmethod\tinset_deg\tsilhouette_edges\ttarget_mesh\ttarget_row\ttarget_col\tsearch_onset_us\tresponse_us\trt_s\tclicked_row\tclicked_col\tcorrect\tframes\tframes_late\tmean_rays\tsynthetic",
+            Box::new(|p| write_rows(p, &[trial(0)])),
+        ),
+        (
+            "host_us\tsample_us\ttrial\tphase\traw_x\traw_y\tx_px\ty_px",
+            Box::new(|p| write_rows::<SampleRow>(p, &[])),
+        ),
+        (
+            "trial\tkind\tonset_us\tend_us\tx_px\ty_px\tend_x_px\tend_y_px",
+            Box::new(|p| write_rows::<EventRow>(p, &[])),
+        ),
+        (
+            "host_us\ttrial\tevent\tdetail",
+            Box::new(|p| write_rows::<MarkerRow>(p, &[])),
+        ),
+        (
+            "host_us\ttrial\tphase\trays\trender_ms\tinterval_ms\tlate",
+            Box::new(|p| write_rows::<FrameRow>(p, &[])),
+        ),
+    ];
+    for (i, (header, write)) in cases.iter().enumerate() {
+        let p = dir.path().join(format!("f{i}.tsv"));
+        write(&p);
+        assert_eq!(&first_line(&p), header);
+    }
+    assert_eq!(TrialRow::FILE, "trials.tsv");
+    assert_eq!(SampleRow::FILE, "samples.tsv");
+    assert_eq!(EventRow::FILE, "events.tsv");
+    assert_eq!(MarkerRow::FILE, "markers.tsv");
+    assert_eq!(FrameRow::FILE, "frames.tsv");
+}
+
+#[test]
+fn columns_are_the_serde_field_names() {
+    // COLUMNS must list what serde writes, in order: compare with the
+    // header csv derives from the struct itself.
+    fn serde_header<T: TsvRow>(row: &T) -> Vec<String> {
+        let mut w = csv::WriterBuilder::new()
+            .delimiter(b'\t')
+            .from_writer(Vec::new());
+        w.serialize(row).unwrap();
+        let bytes = w.into_inner().unwrap();
+        let text = String::from_utf8(bytes).unwrap();
+        text.lines()
+            .next()
+            .unwrap()
+            .split('\t')
+            .map(String::from)
+            .collect()
+    }
+    fn cols<T: TsvRow>() -> Vec<String> {
+        T::COLUMNS.iter().map(|s| s.to_string()).collect()
+    }
+    assert_eq!(serde_header(&trial(0)), cols::<TrialRow>());
+    let s = SampleRow {
+        host_us: 1,
+        sample_us: 2,
+        trial: None,
+        phase: "search".into(),
+        raw_x: None,
+        raw_y: None,
+        x_px: None,
+        y_px: None,
+    };
+    assert_eq!(serde_header(&s), cols::<SampleRow>());
+    let e = EventRow {
+        trial: None,
+        kind: "fixation".into(),
+        onset_us: 0,
+        end_us: 1,
+        x_px: 0.0,
+        y_px: 0.0,
+        end_x_px: 0.0,
+        end_y_px: 0.0,
+    };
+    assert_eq!(serde_header(&e), cols::<EventRow>());
+    let m = MarkerRow {
+        host_us: 0,
+        trial: None,
+        event: "key".into(),
+        detail: "space".into(),
+    };
+    assert_eq!(serde_header(&m), cols::<MarkerRow>());
+    let f = FrameRow {
+        host_us: 0,
+        trial: None,
+        phase: "search".into(),
+        rays: 0,
+        render_ms: 0.0,
+        interval_ms: None,
+        late: false,
+    };
+    assert_eq!(serde_header(&f), cols::<FrameRow>());
+}
+
+#[test]
+fn missing_values_are_written_n_a() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = dir.path().join("trials.tsv");
+    write_rows(&p, &[trial(0)]);
+    let text = std::fs::read_to_string(&p).unwrap();
+    let row: Vec<&str> = text.lines().nth(1).unwrap().split('\t').collect();
+    assert_eq!(row.len(), 21);
+    assert_eq!(row[0], "P 01", "spaces kept, no quoting");
+    assert_eq!(row[6], "2.0");
+    assert_eq!(row[14], "n/a", "clicked_row None");
+    assert_eq!(row[15], "4");
+    assert_eq!(row[16], "n/a", "correct None");
+    assert_eq!(row[20], "true");
+    // An empty field reads as None too (hand-edited files).
+    let edited = text.replace("\tn/a\t4\tn/a\t", "\t\t4\t\t");
+    std::fs::write(&p, edited).unwrap();
+    let back = read_tsv::<TrialRow>(&p).unwrap();
+    assert_eq!(back.rows, vec![trial(0)]);
+}
+
+fn same_f64(a: f64, b: f64) -> bool {
+    a.to_bits() == b.to_bits() || (a.is_nan() && b.is_nan())
+}
+
+fn same_opt(a: Option<f64>, b: Option<f64>) -> bool {
+    match (a, b) {
+        (Some(a), Some(b)) => same_f64(a, b),
+        (None, None) => true,
+        _ => false,
+    }
+}
+
+/// Every f64 class but NaN (whose payload and sign TSV cannot keep; see
+/// `nan_and_infinities_round_trip`).
+fn any_f64() -> impl Strategy<Value = f64> {
+    prop_oneof![
+        proptest::num::f64::POSITIVE
+            | proptest::num::f64::NEGATIVE
+            | proptest::num::f64::NORMAL
+            | proptest::num::f64::SUBNORMAL
+            | proptest::num::f64::ZERO
+            | proptest::num::f64::INFINITE,
+        Just(f64::MIN_POSITIVE),
+        Just(5e-324),
+        Just(f64::MAX),
+        Just(f64::MIN),
+        Just(-0.0),
+        Just(1e-300),
+        Just(1e300),
+        Just(0.1),
+    ]
+}
+
+/// Text without tab, CR or LF: spaces, quotes, `n/a`, Unicode.
+fn text() -> impl Strategy<Value = String> {
+    prop_oneof![
+        "[^\t\n\r]{0,24}",
+        Just(String::new()),
+        Just("n/a".to_string()),
+        Just("  two  spaces ".to_string()),
+        Just("\"quoted\" and 'single'".to_string()),
+        Just("ümlaut ° ± 视觉".to_string()),
+    ]
+}
+
+fn trial_row() -> impl Strategy<Value = TrialRow> {
+    (
+        (
+            text(),
+            any::<usize>(),
+            any::<usize>(),
+            any::<usize>(),
+            text(),
+            text(),
+        ),
+        (
+            proptest::option::of(any_f64()),
+            any::<bool>(),
+            any::<u32>(),
+            any::<u32>(),
+            any::<u32>(),
+        ),
+        (any::<u64>(), any::<u64>(), any_f64()),
+        (
+            proptest::option::of(any::<u32>()),
+            proptest::option::of(any::<u32>()),
+            proptest::option::of(any::<bool>()),
+        ),
+        (any::<u64>(), any::<u64>(), any_f64(), any::<bool>()),
+    )
+        .prop_map(
+            |(
+                (participant, run, trial, trial_in_run, condition, method),
+                (inset_deg, silhouette_edges, target_mesh, target_row, target_col),
+                (search_onset_us, response_us, rt_s),
+                (clicked_row, clicked_col, correct),
+                (frames, frames_late, mean_rays, synthetic),
+            )| TrialRow {
+                participant,
+                run,
+                trial,
+                trial_in_run,
+                condition,
+                method,
+                inset_deg,
+                silhouette_edges,
+                target_mesh,
+                target_row,
+                target_col,
+                search_onset_us,
+                response_us,
+                rt_s,
+                clicked_row,
+                clicked_col,
+                correct,
+                frames,
+                frames_late,
+                mean_rays,
+                synthetic,
+            },
+        )
+}
+
+fn trial_same(a: &TrialRow, b: &TrialRow) -> bool {
+    same_opt(a.inset_deg, b.inset_deg)
+        && same_f64(a.rt_s, b.rt_s)
+        && same_f64(a.mean_rays, b.mean_rays)
+        && TrialRow {
+            inset_deg: None,
+            rt_s: 0.0,
+            mean_rays: 0.0,
+            ..a.clone()
+        } == TrialRow {
+            inset_deg: None,
+            rt_s: 0.0,
+            mean_rays: 0.0,
+            ..b.clone()
+        }
+}
+
+fn sample_row() -> impl Strategy<Value = SampleRow> {
+    (
+        any::<u64>(),
+        any::<u64>(),
+        proptest::option::of(any::<usize>()),
+        text(),
+        proptest::option::of(any_f64()),
+        proptest::option::of(any_f64()),
+        proptest::option::of(any_f64()),
+        proptest::option::of(any_f64()),
+    )
+        .prop_map(
+            |(host_us, sample_us, trial, phase, raw_x, raw_y, x_px, y_px)| SampleRow {
+                host_us,
+                sample_us,
+                trial,
+                phase,
+                raw_x,
+                raw_y,
+                x_px,
+                y_px,
+            },
+        )
+}
+
+fn sample_same(a: &SampleRow, b: &SampleRow) -> bool {
+    a.host_us == b.host_us
+        && a.sample_us == b.sample_us
+        && a.trial == b.trial
+        && a.phase == b.phase
+        && same_opt(a.raw_x, b.raw_x)
+        && same_opt(a.raw_y, b.raw_y)
+        && same_opt(a.x_px, b.x_px)
+        && same_opt(a.y_px, b.y_px)
+}
+
+fn event_row() -> impl Strategy<Value = EventRow> {
+    (
+        proptest::option::of(any::<usize>()),
+        text(),
+        any::<u64>(),
+        any::<u64>(),
+        any_f64(),
+        any_f64(),
+        any_f64(),
+        any_f64(),
+    )
+        .prop_map(
+            |(trial, kind, onset_us, end_us, x_px, y_px, end_x_px, end_y_px)| EventRow {
+                trial,
+                kind,
+                onset_us,
+                end_us,
+                x_px,
+                y_px,
+                end_x_px,
+                end_y_px,
+            },
+        )
+}
+
+fn event_same(a: &EventRow, b: &EventRow) -> bool {
+    a.trial == b.trial
+        && a.kind == b.kind
+        && a.onset_us == b.onset_us
+        && a.end_us == b.end_us
+        && same_f64(a.x_px, b.x_px)
+        && same_f64(a.y_px, b.y_px)
+        && same_f64(a.end_x_px, b.end_x_px)
+        && same_f64(a.end_y_px, b.end_y_px)
+}
+
+fn marker_row() -> impl Strategy<Value = MarkerRow> {
+    (
+        any::<u64>(),
+        proptest::option::of(any::<usize>()),
+        text(),
+        text(),
+    )
+        .prop_map(|(host_us, trial, event, detail)| MarkerRow {
+            host_us,
+            trial,
+            event,
+            detail,
+        })
+}
+
+fn frame_row() -> impl Strategy<Value = FrameRow> {
+    (
+        any::<u64>(),
+        proptest::option::of(any::<usize>()),
+        text(),
+        any::<u64>(),
+        any_f64(),
+        proptest::option::of(any_f64()),
+        any::<bool>(),
+    )
+        .prop_map(
+            |(host_us, trial, phase, rays, render_ms, interval_ms, late)| FrameRow {
+                host_us,
+                trial,
+                phase,
+                rays,
+                render_ms,
+                interval_ms,
+                late,
+            },
+        )
+}
+
+fn frame_same(a: &FrameRow, b: &FrameRow) -> bool {
+    a.host_us == b.host_us
+        && a.trial == b.trial
+        && a.phase == b.phase
+        && a.rays == b.rays
+        && same_f64(a.render_ms, b.render_ms)
+        && same_opt(a.interval_ms, b.interval_ms)
+        && a.late == b.late
+}
+
+/// Writes `rows` in two sessions of the log (reopened in between, as a
+/// resumed session would) and reads them back.
+fn round_trip<T: TsvRow + Clone>(rows: &[T], split: usize) -> Vec<T> {
+    let dir = tempfile::tempdir().unwrap();
+    let p = dir.path().join(T::FILE);
+    let split = split.min(rows.len());
+    write_rows(&p, &rows[..split]);
+    write_rows(&p, &rows[split..]);
+    let back = read_tsv::<T>(&p).unwrap();
+    assert!(back.warnings.is_empty(), "{:?}", back.warnings);
+    assert_eq!(back.lines, (2..2 + rows.len() as u64).collect::<Vec<_>>());
+    back.rows
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(48))]
+
+    #[test]
+    fn trials_round_trip(rows in proptest::collection::vec(trial_row(), 0..12), split in 0usize..12) {
+        let back = round_trip(&rows, split);
+        prop_assert_eq!(back.len(), rows.len());
+        for (a, b) in rows.iter().zip(&back) {
+            prop_assert!(trial_same(a, b), "{:?}\n!=\n{:?}", a, b);
+        }
+    }
+
+    #[test]
+    fn samples_round_trip(rows in proptest::collection::vec(sample_row(), 0..16), split in 0usize..16) {
+        let back = round_trip(&rows, split);
+        prop_assert_eq!(back.len(), rows.len());
+        for (a, b) in rows.iter().zip(&back) {
+            prop_assert!(sample_same(a, b), "{:?}\n!=\n{:?}", a, b);
+        }
+    }
+
+    #[test]
+    fn events_round_trip(rows in proptest::collection::vec(event_row(), 0..16), split in 0usize..16) {
+        let back = round_trip(&rows, split);
+        prop_assert_eq!(back.len(), rows.len());
+        for (a, b) in rows.iter().zip(&back) {
+            prop_assert!(event_same(a, b), "{:?}\n!=\n{:?}", a, b);
+        }
+    }
+
+    #[test]
+    fn markers_round_trip(rows in proptest::collection::vec(marker_row(), 0..16), split in 0usize..16) {
+        let back = round_trip(&rows, split);
+        prop_assert_eq!(back, rows);
+    }
+
+    #[test]
+    fn frames_round_trip(rows in proptest::collection::vec(frame_row(), 0..16), split in 0usize..16) {
+        let back = round_trip(&rows, split);
+        prop_assert_eq!(back.len(), rows.len());
+        for (a, b) in rows.iter().zip(&back) {
+            prop_assert!(frame_same(a, b), "{:?}\n!=\n{:?}", a, b);
+        }
+    }
+
+    #[test]
+    fn tabs_and_line_breaks_are_refused(
+        before in "[a-z ]{0,5}",
+        bad in prop_oneof![Just('\t'), Just('\n'), Just('\r')],
+        after in "[a-z ]{0,5}",
+    ) {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("markers.tsv");
+        let mut log = TsvLog::<MarkerRow>::append_to(&p).unwrap();
+        let good = MarkerRow { host_us: 1, trial: Some(0), event: "key".into(), detail: "space".into() };
+        log.write(&good).unwrap();
+        let row = MarkerRow { detail: format!("{before}{bad}{after}"), ..good.clone() };
+        let err = log.write(&row).unwrap_err();
+        match &err {
+            SessionFileError::Write { path, row, column, .. } => {
+                prop_assert_eq!(path, &p);
+                prop_assert_eq!(*row, 2);
+                prop_assert_eq!(column.as_deref(), Some("detail"));
+            }
+            other => prop_assert!(false, "unexpected {:?}", other),
+        }
+        log.write(&good).unwrap();
+        drop(log);
+        // Nothing of the refused row reached the file.
+        let back = read_tsv::<MarkerRow>(&p).unwrap();
+        prop_assert_eq!(back.rows, vec![good.clone(), good]);
+        prop_assert!(back.warnings.is_empty());
+    }
+}
+
+#[test]
+fn nan_and_infinities_round_trip() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = dir.path().join("frames.tsv");
+    let rows: Vec<FrameRow> = [f64::NAN, f64::INFINITY, f64::NEG_INFINITY]
+        .iter()
+        .map(|&v| FrameRow {
+            host_us: 0,
+            trial: None,
+            phase: "x".into(),
+            rays: 0,
+            render_ms: v,
+            interval_ms: Some(v),
+            late: false,
+        })
+        .collect();
+    write_rows(&p, &rows);
+    let back = read_tsv::<FrameRow>(&p).unwrap().rows;
+    assert!(back[0].render_ms.is_nan() && back[0].interval_ms.unwrap().is_nan());
+    assert_eq!(back[1].render_ms, f64::INFINITY);
+    assert_eq!(back[1].interval_ms, Some(f64::INFINITY));
+    assert_eq!(back[2].render_ms, f64::NEG_INFINITY);
+    assert_eq!(back[2].interval_ms, Some(f64::NEG_INFINITY));
+}
+
+#[test]
+fn killed_writer_half_line_is_a_warning_and_append_cuts_it() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = dir.path().join("trials.tsv");
+    write_rows(&p, &[trial(0), trial(1), trial(2)]);
+    // A killed writer: half of the fourth row, no line end.
+    let full = std::fs::read_to_string(&p).unwrap();
+    let row3 = full.lines().nth(3).unwrap().to_string();
+    let mut f = std::fs::OpenOptions::new().append(true).open(&p).unwrap();
+    f.write_all(&row3.as_bytes()[..row3.len() / 2]).unwrap();
+    drop(f);
+
+    let read = read_tsv::<TrialRow>(&p).unwrap();
+    assert_eq!(read.rows, vec![trial(0), trial(1), trial(2)]);
+    assert_eq!(read.warnings.len(), 1);
+    let w = &read.warnings[0];
+    assert_eq!(w.path, p);
+    assert_eq!(w.line, 5);
+    let shown = w.to_string();
+    assert!(
+        shown.contains("trials.tsv") && shown.contains("line 5") && shown.contains("incomplete"),
+        "{shown}"
+    );
+
+    // Resuming cuts the half line off, then appends cleanly.
+    let mut log = TsvLog::<TrialRow>::append_to(&p).unwrap();
+    assert_eq!(log.dropped_partial_line(), Some(&row3[..row3.len() / 2]));
+    assert_eq!(log.rows(), 3);
+    log.write(&trial(3)).unwrap();
+    drop(log);
+    let read = read_tsv::<TrialRow>(&p).unwrap();
+    assert_eq!(read.rows, vec![trial(0), trial(1), trial(2), trial(3)]);
+    assert!(read.warnings.is_empty());
+}
+
+#[test]
+fn a_half_header_is_a_warning_and_is_rewritten() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = dir.path().join("markers.tsv");
+    std::fs::write(&p, "host_us\ttri").unwrap();
+    let read = read_tsv::<MarkerRow>(&p).unwrap();
+    assert!(read.rows.is_empty());
+    assert_eq!(read.warnings.len(), 1);
+    assert_eq!(read.warnings[0].line, 1);
+    let row = MarkerRow {
+        host_us: 5,
+        trial: None,
+        event: "phase".into(),
+        detail: "calibration".into(),
+    };
+    write_rows(&p, std::slice::from_ref(&row));
+    assert_eq!(read_tsv::<MarkerRow>(&p).unwrap().rows, vec![row]);
+    // An empty file: a warning, no rows.
+    std::fs::write(&p, "").unwrap();
+    let read = read_tsv::<MarkerRow>(&p).unwrap();
+    assert!(read.rows.is_empty() && read.warnings.len() == 1);
+}
+
+#[test]
+fn header_mismatch_is_an_error_naming_the_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = dir.path().join("events.tsv");
+    std::fs::write(&p, "trial\tkind\tonset_us\n1\tfixation\t5\n").unwrap();
+    let before = std::fs::read(&p).unwrap();
+    let err = match TsvLog::<EventRow>::append_to(&p) {
+        Err(e) => e,
+        Ok(_) => panic!("a mismatched header was accepted"),
+    };
+    assert!(matches!(&err, SessionFileError::Header { path, .. } if path == &p));
+    let msg = err.to_string();
+    assert!(
+        msg.contains("events.tsv") && msg.contains("header"),
+        "{msg}"
+    );
+    assert_eq!(std::fs::read(&p).unwrap(), before, "file untouched");
+    // Reading too.
+    let err = read_tsv::<EventRow>(&p).unwrap_err();
+    assert!(matches!(&err, SessionFileError::Header { path, .. } if path == &p));
+    // A trials header offered to the samples reader.
+    let t = dir.path().join("trials.tsv");
+    write_rows(&t, &[trial(0)]);
+    assert!(matches!(
+        read_tsv::<SampleRow>(&t),
+        Err(SessionFileError::Header { .. })
+    ));
+    // A partial header that is not a prefix of the expected one.
+    std::fs::write(&p, "nonsense").unwrap();
+    assert!(matches!(
+        TsvLog::<EventRow>::append_to(&p),
+        Err(SessionFileError::Header { .. })
+    ));
+}
+
+#[test]
+fn parse_errors_name_file_line_and_column() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = dir.path().join("trials.tsv");
+    write_rows(&p, &[trial(0), trial(1), trial(2)]);
+    let text = std::fs::read_to_string(&p).unwrap();
+    let mut lines: Vec<String> = text.lines().map(String::from).collect();
+    let mut fields: Vec<String> = lines[2].split('\t').map(String::from).collect();
+    fields[13] = "fast".into(); // rt_s
+    lines[2] = fields.join("\t");
+    std::fs::write(&p, lines.join("\n") + "\n").unwrap();
+    let err = read_tsv::<TrialRow>(&p).unwrap_err();
+    match &err {
+        SessionFileError::Parse {
+            path, line, column, ..
+        } => {
+            assert_eq!(path, &p);
+            assert_eq!(*line, 3);
+            assert_eq!(column.as_deref(), Some("rt_s"));
+        }
+        other => panic!("unexpected {other:?}"),
+    }
+    let msg = err.to_string();
+    assert!(
+        msg.contains("trials.tsv") && msg.contains("line 3") && msg.contains("rt_s"),
+        "{msg}"
+    );
+
+    // n/a where a value is required.
+    fields[13] = "8.5".into();
+    fields[8] = "n/a".into(); // target_mesh
+    lines[2] = fields.join("\t");
+    std::fs::write(&p, lines.join("\n") + "\n").unwrap();
+    let err = read_tsv::<TrialRow>(&p).unwrap_err();
+    assert!(
+        matches!(&err, SessionFileError::Parse { line: 3, column: Some(c), .. } if c == "target_mesh"),
+        "{err}"
+    );
+
+    // Too few fields on a complete line.
+    lines[2] = "P 01\t0\t1".into();
+    std::fs::write(&p, lines.join("\n") + "\n").unwrap();
+    let err = read_tsv::<TrialRow>(&p).unwrap_err();
+    assert!(
+        matches!(&err, SessionFileError::Parse { line: 3, .. }),
+        "{err}"
+    );
+
+    // A bad Option value names its column too.
+    fields[8] = "3".into();
+    fields[16] = "maybe".into(); // correct
+    lines[2] = fields.join("\t");
+    std::fs::write(&p, lines.join("\n") + "\n").unwrap();
+    let err = read_tsv::<TrialRow>(&p).unwrap_err();
+    assert!(
+        matches!(&err, SessionFileError::Parse { line: 3, column: Some(c), .. } if c == "correct"),
+        "{err}"
+    );
+
+    // A missing file names it.
+    let missing = dir.path().join("nope.tsv");
+    let err = read_tsv::<TrialRow>(&missing).unwrap_err();
+    assert!(matches!(&err, SessionFileError::Io { path, .. } if path == &missing));
+    assert!(err.to_string().contains("nope.tsv"));
+}
+
+#[test]
+fn every_row_reaches_the_os_by_default_and_batches_flush_on_drop() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = dir.path().join("samples.tsv");
+    let s = |i: u64| SampleRow {
+        host_us: i,
+        sample_us: i * 2,
+        trial: Some(0),
+        phase: "search".into(),
+        raw_x: Some(0.5),
+        raw_y: None,
+        x_px: Some(640.25),
+        y_px: None,
+    };
+    let mut log = TsvLog::<SampleRow>::append_to(&p).unwrap();
+    log.write(&s(1)).unwrap();
+    // Still open: another reader already sees the row.
+    assert_eq!(read_tsv::<SampleRow>(&p).unwrap().rows, vec![s(1)]);
+    drop(log);
+
+    let mut log = TsvLog::<SampleRow>::append_to(&p)
+        .unwrap()
+        .flush_every(100, Duration::from_secs(3600));
+    log.write(&s(2)).unwrap();
+    log.write(&s(3)).unwrap();
+    assert_eq!(
+        read_tsv::<SampleRow>(&p).unwrap().rows.len(),
+        1,
+        "batched rows still pending"
+    );
+    log.flush().unwrap();
+    assert_eq!(read_tsv::<SampleRow>(&p).unwrap().rows.len(), 3);
+    log.write(&s(4)).unwrap();
+    log.sync().unwrap();
+    assert_eq!(read_tsv::<SampleRow>(&p).unwrap().rows.len(), 4);
+    log.write(&s(5)).unwrap();
+    drop(log);
+    assert_eq!(
+        read_tsv::<SampleRow>(&p).unwrap().rows,
+        vec![s(1), s(2), s(3), s(4), s(5)]
+    );
+
+    // Time-based batching: an elapsed interval flushes at the next write.
+    let mut log = TsvLog::<SampleRow>::append_to(&p)
+        .unwrap()
+        .flush_every(1000, Duration::from_millis(1));
+    std::thread::sleep(Duration::from_millis(5));
+    log.write(&s(6)).unwrap();
+    assert_eq!(read_tsv::<SampleRow>(&p).unwrap().rows.len(), 6);
+    std::mem::forget(log); // as if killed: nothing pending is lost
+    assert_eq!(read_tsv::<SampleRow>(&p).unwrap().rows.len(), 6);
+}
+
+fn info() -> SessionInfo {
+    SessionInfo {
+        participant: "P01".into(),
+        participant_index: 3,
+        design_name: "murphy2007-search".into(),
+        software: "gazecast 0.1.0".into(),
+        display: DisplayInfo {
+            name: "17\" LCD".into(),
+            width_px: 1280,
+            height_px: 1024,
+            width_mm: 337.9,
+            height_mm: 270.3,
+            distance_mm: 540.0,
+        },
+        tracker: "Tobii ET-1750".into(),
+        tracker_rate_hz: Some(50.0),
+        started_unix_s: 1_700_000_000.123456,
+        synthetic: false,
+        notes: vec!["chin rest".into(), "tab\there".into()],
+    }
+}
+
+#[test]
+fn session_json_round_trips_through_a_rename() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = dir.path().join("session.json");
+    info().write(&p).unwrap();
+    assert_eq!(SessionInfo::read(&p).unwrap(), info());
+    // Overwrite: no temporary files left behind.
+    let mut other = info();
+    other.tracker_rate_hz = None;
+    other.write(&p).unwrap();
+    assert_eq!(SessionInfo::read(&p).unwrap(), other);
+    let names: Vec<_> = std::fs::read_dir(dir.path())
+        .unwrap()
+        .map(|e| e.unwrap().file_name())
+        .collect();
+    assert_eq!(names, vec![std::ffi::OsString::from("session.json")]);
+    let text = std::fs::read_to_string(&p).unwrap();
+    assert!(text.contains("\"tracker_rate_hz\": null"), "{text}");
+}
+
+#[test]
+fn corrupt_session_json_names_file_and_line() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = dir.path().join("session.json");
+    info().write(&p).unwrap();
+    let text = std::fs::read_to_string(&p).unwrap();
+    std::fs::write(
+        &p,
+        text.replace(
+            "\"participant_index\": 3",
+            "\"participant_index\": \"three\"",
+        ),
+    )
+    .unwrap();
+    let err = SessionInfo::read(&p).unwrap_err();
+    let msg = err.to_string();
+    assert!(matches!(&err, SessionFileError::Json { path, .. } if path == &p));
+    assert!(
+        msg.contains("session.json") && msg.contains("line 3"),
+        "{msg}"
+    );
+    let missing = dir.path().join("none.json");
+    assert!(SessionInfo::read(&missing)
+        .unwrap_err()
+        .to_string()
+        .contains("none.json"));
+}
+
+#[test]
+fn stimulus_names_are_zero_padded() {
+    assert_eq!(experiment::session::stimulus_file_name(7), "trial-007.png");
+    assert_eq!(experiment::session::stimulus_file_name(43), "trial-043.png");
+    assert_eq!(
+        experiment::session::stimulus_file_name(1234),
+        "trial-1234.png"
+    );
+    assert_eq!(
+        experiment::session::stimulus_path(Path::new("s"), 5),
+        Path::new("s/stimuli/trial-005.png")
+    );
+}

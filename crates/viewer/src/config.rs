@@ -418,6 +418,19 @@ pub fn load_display(path: &Path) -> Result<foveation::Display, ConfigError> {
     Ok(display)
 }
 
+/// Loads an experiment design and checks it
+/// (`experiment::Design::validate`); errors name the file, line and field.
+pub fn load_design(path: &Path) -> Result<experiment::Design, ConfigError> {
+    let (design, text): (experiment::Design, String) = load(path)?;
+    design.validate().map_err(|e| match e {
+        experiment::DesignError::Invalid { field, message } => {
+            invalid_field(path, &text, &field, message)
+        }
+        other => ConfigError::invalid(path, 0, 0, None, other.to_string()),
+    })?;
+    Ok(design)
+}
+
 /// Loads a tracker file and checks its values, and that its mapping takes
 /// the tracker's whole range onto the screen
 /// (`tracker_hal::Mapping::check_range`).

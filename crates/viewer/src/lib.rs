@@ -8,6 +8,7 @@ pub mod bench;
 pub mod calibrate_cmd;
 pub mod config;
 pub mod demo_cmd;
+pub mod experiment_cmd;
 pub mod gaze_feed;
 pub mod live;
 pub mod mask_cmd;
@@ -15,6 +16,7 @@ pub mod output;
 pub mod picture;
 pub mod plots;
 pub mod render_cmd;
+pub mod runner;
 pub mod screen;
 pub mod stats;
 pub mod tracker_cmd;
@@ -59,6 +61,10 @@ pub enum Command {
     /// The calibration screen: targets in order, a fit, validation in
     /// degrees (arrows per point), redo of bad points, saved as RON.
     Calibrate(calibrate_cmd::CalibrateArgs),
+    /// Experiments: run a design's session in a window (`run`), list a
+    /// participant's trials (`plan`), analyse session folders (`analyze`),
+    /// export them to BIDS (`export-bids`).
+    Experiment(experiment_cmd::ExperimentArgs),
 }
 
 /// Runs a parsed command line, writing normal output to `out`.
@@ -74,5 +80,6 @@ pub fn run(cli: Cli, out: &mut dyn std::io::Write) -> Result<(), String> {
         Command::Demo(args) => demo_cmd::run(&args, out),
         Command::View(args) => view_cmd::run(&args, out),
         Command::Calibrate(args) => calibrate_cmd::run(&args, out),
+        Command::Experiment(args) => experiment_cmd::run(&args, out),
     }
 }

@@ -1,0 +1,321 @@
+//! A simulated participant for tests and demonstrations: it looks where a
+//! person would look and presses what a person would press, through the
+//! same paths a person uses — its gaze goes into the mouse tracker's
+//! cursor input (tracker-hal's mouse device then adds the tracker file's
+//! jitter, main-sequence saccades and latency, and the samples are
+//! decoded, recorded and mapped like any tracker's), and its keys and
+//! clicks reach the runner's one input handler beside the window's.
+//!
+//! The behaviour is a plausible stand-in, not fitted to people:
+//! - a text screen (instructions, a break) is read for 0.4 s, then Space;
+//! - calibration, validation and drift targets are fixated as shown;
+//! - the target preview is examined for 0.5–0.9 s, then Space;
+//! - a search starts at the centre (where the preview was), visits 3–8
+//!   distractors (the nearest of three random candidates each time, as
+//!   searches tend to go), fixating each for 200–400 ms, then the target
+//!   for 300–500 ms, then presses Space; saccade times between fixations
+//!   follow the main sequence;
+//! - the confirming click goes to the fixated target, or with probability
+//!   [`WRONG_CLICK`] to a neighbouring cell (so incorrect trials occur).
+//!
+//! Its search times are synthetic: they say nothing about people, and do
+//! not depend on the condition (the model never looks at the image). The
+//! session it runs is marked synthetic in every file.
+
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{Arc, Mutex};
+use std::time::Duration;
+
+use crossbeam_channel::{Receiver, Sender};
+use foveation::ScreenGeometry;
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use tracker_hal::clock::monotonic_us;
+use tracker_hal::mouse::CursorEvent;
+use tracker_hal::sim::main_sequence_duration_ms;
+
+use super::flow::Phase;
+
+/// Probability that the confirming click lands on a neighbouring cell.
+pub const WRONG_CLICK: f64 = 0.05;
+
+/// What the participant does, with the host time it did it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Action {
+    Space { host_us: u64 },
+    Click { host_us: u64, px: [f64; 2] },
+}
+
+/// What the screen shows, as the participant needs to know it.
+#[derive(Debug, Clone, Default)]
+struct Seen {
+    /// Incremented at every new screen.
+    epoch: u64,
+    phase: Option<Phase>,
+    since_us: u64,
+    /// A calibration/validation target (px).
+    target_px: Option<[f64; 2]>,
+    /// Search display: every object's centre and the target's.
+    objects: Vec<[f64; 2]>,
+    target_object: Option<[f64; 2]>,
+}
+
+/// The participant's thread.
+pub struct Participant {
+    seen: Arc<Mutex<Seen>>,
+    actions: Receiver<Action>,
+    stop: Arc<AtomicBool>,
+    thread: Option<std::thread::JoinHandle<()>>,
+}
+
+/// Fixation plan of one search: (position, start ms after onset), and when
+/// Space is pressed.
+fn search_plan(
+    geometry: &ScreenGeometry,
+    objects: &[[f64; 2]],
+    target: [f64; 2],
+    rng: &mut ChaCha8Rng,
+) -> (Vec<([f64; 2], f64)>, f64) {
+    let mut stops = vec![geometry.centre_px()];
+    let mut left: Vec<[f64; 2]> = objects.iter().copied().filter(|o| *o != target).collect();
+    let visits = rng.random_range(3..=8usize).min(left.len());
+    for _ in 0..visits {
+        let here = stops[stops.len() - 1];
+        let best = (0..3)
+            .map(|_| rng.random_range(0..left.len()))
+            .min_by(|&a, &b| {
+                let d = |i: usize| (left[i][0] - here[0]).hypot(left[i][1] - here[1]);
+                d(a).total_cmp(&d(b))
+            })
+            .unwrap_or(0);
+        stops.push(left.swap_remove(best));
+    }
+    stops.push(target);
+    let mut t = 0.0;
+    let mut plan = Vec::with_capacity(stops.len());
+    for (k, &p) in stops.iter().enumerate() {
+        if k > 0 {
+            let amp = geometry.eccentricity_deg(stops[k - 1], p);
+            t += main_sequence_duration_ms(amp);
+        }
+        plan.push((p, t));
+        let last = k + 1 == stops.len();
+        t += if last {
+            rng.random_range(300.0..500.0)
+        } else {
+            rng.random_range(200.0..400.0)
+        };
+    }
+    (plan, t)
+}
+
+impl Participant {
+    /// Starts the participant; its gaze goes to `cursor` (the mouse
+    /// tracker's input), its actions to [`Participant::take_actions`].
+    pub fn spawn(cursor: Sender<CursorEvent>, geometry: ScreenGeometry, seed: u64) -> Self {
+        let seen = Arc::new(Mutex::new(Seen::default()));
+        let stop = Arc::new(AtomicBool::new(false));
+        let (tx, actions) = crossbeam_channel::unbounded();
+        let (s, st) = (seen.clone(), stop.clone());
+        let thread = std::thread::Builder::new()
+            .name("participant".into())
+            .spawn(move || behave(&s, &st, &cursor, &tx, geometry, seed))
+            .ok();
+        Self {
+            seen,
+            actions,
+            stop,
+            thread,
+        }
+    }
+
+    /// A new screen is shown (since `since_us`, host µs): for a search,
+    /// `objects` (centres, px) and the target's centre.
+    pub fn show(
+        &self,
+        phase: Phase,
+        since_us: u64,
+        objects: &[[f64; 2]],
+        target: Option<[f64; 2]>,
+    ) {
+        if let Ok(mut s) = self.seen.lock() {
+            s.epoch += 1;
+            s.phase = Some(phase);
+            s.since_us = since_us;
+            s.target_px = None;
+            s.objects = objects.to_vec();
+            s.target_object = target;
+        }
+    }
+
+    /// The calibration or validation target now shown (px), if any.
+    pub fn show_target(&self, target: Option<[f64; 2]>) {
+        if let Ok(mut s) = self.seen.lock() {
+            s.target_px = target;
+        }
+    }
+
+    /// What the participant did since the last call.
+    pub fn take_actions(&self) -> Vec<Action> {
+        self.actions.try_iter().collect()
+    }
+}
+
+impl Drop for Participant {
+    fn drop(&mut self) {
+        self.stop.store(true, Ordering::Relaxed);
+        if let Some(t) = self.thread.take() {
+            let _ = t.join();
+        }
+    }
+}
+
+/// The participant's loop: every 4 ms, look where the screen asks and act
+/// when the time has come; one act per screen.
+fn behave(
+    seen: &Mutex<Seen>,
+    stop: &AtomicBool,
+    cursor: &Sender<CursorEvent>,
+    actions: &Sender<Action>,
+    geometry: ScreenGeometry,
+    seed: u64,
+) {
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let mut epoch = u64::MAX;
+    let mut acted = false;
+    let mut wait_ms = 0.0;
+    let mut search: (Vec<([f64; 2], f64)>, f64) = (Vec::new(), 0.0);
+    let mut click_px = geometry.centre_px();
+    let mut looking: Option<[f64; 2]> = None;
+    let look = |p: [f64; 2], looking: &mut Option<[f64; 2]>| {
+        if *looking != Some(p) {
+            *looking = Some(p);
+            let _ = cursor.send(CursorEvent {
+                t_us: monotonic_us(),
+                position_px: p,
+                blink: false,
+            });
+        }
+    };
+    while !stop.load(Ordering::Relaxed) {
+        std::thread::sleep(Duration::from_millis(4));
+        let s = match seen.lock() {
+            Ok(s) => s.clone(),
+            Err(_) => return,
+        };
+        let Some(phase) = s.phase else { continue };
+        let now = monotonic_us();
+        let elapsed_ms = now.saturating_sub(s.since_us) as f64 / 1e3;
+        if s.epoch != epoch {
+            epoch = s.epoch;
+            acted = false;
+            match phase {
+                Phase::Preview => wait_ms = rng.random_range(500.0..900.0),
+                Phase::Search => {
+                    if let Some(t) = s.target_object {
+                        search = search_plan(&geometry, &s.objects, t, &mut rng);
+                    }
+                }
+                Phase::Confirm => {
+                    let t = s.target_object.unwrap_or(geometry.centre_px());
+                    click_px = t;
+                    if rng.random::<f64>() < WRONG_CLICK && s.objects.len() > 1 {
+                        // The nearest other object.
+                        if let Some(o) = s.objects.iter().filter(|o| **o != t).min_by(|a, b| {
+                            let d = |p: &[f64; 2]| (p[0] - t[0]).hypot(p[1] - t[1]);
+                            d(a).total_cmp(&d(b))
+                        }) {
+                            click_px = *o;
+                        }
+                    }
+                    wait_ms = rng.random_range(250.0..450.0);
+                }
+                _ => wait_ms = 400.0,
+            }
+        }
+        match phase {
+            Phase::Instructions | Phase::Rest { .. } => {
+                if !acted && elapsed_ms >= wait_ms {
+                    acted = true;
+                    let _ = actions.send(Action::Space { host_us: now });
+                }
+            }
+            Phase::Calibration | Phase::Validation { .. } | Phase::DriftCheck => {
+                if let Some(t) = s.target_px {
+                    look(t, &mut looking);
+                }
+            }
+            Phase::Preview => {
+                look(geometry.centre_px(), &mut looking);
+                if !acted && elapsed_ms >= wait_ms {
+                    acted = true;
+                    let _ = actions.send(Action::Space { host_us: now });
+                }
+            }
+            Phase::Search => {
+                // The fixation due now.
+                if let Some(&(p, _)) = search.0.iter().rev().find(|(_, t)| *t <= elapsed_ms) {
+                    look(p, &mut looking);
+                }
+                if !acted && elapsed_ms >= search.1 {
+                    acted = true;
+                    let _ = actions.send(Action::Space { host_us: now });
+                }
+            }
+            Phase::Confirm => {
+                look(click_px, &mut looking);
+                if !acted && elapsed_ms >= wait_ms {
+                    acted = true;
+                    let _ = actions.send(Action::Click {
+                        host_us: now,
+                        px: click_px,
+                    });
+                }
+            }
+            Phase::Done => {}
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn geometry() -> ScreenGeometry {
+        foveation::Display {
+            name: "t".into(),
+            resolution_px: (1280, 1024),
+            size_mm: (337.9, 270.3),
+            eye_distance_mm: 540.0,
+            eye_point_px: None,
+        }
+        .geometry()
+        .expect("geometry")
+    }
+
+    #[test]
+    fn a_search_plan_ends_on_the_target_after_visiting_distractors() {
+        let g = geometry();
+        let objects: Vec<[f64; 2]> = (0..25)
+            .map(|k| {
+                [
+                    200.0 + 200.0 * f64::from(k % 5),
+                    112.0 + 200.0 * f64::from(k / 5),
+                ]
+            })
+            .collect();
+        for seed in 0..50 {
+            let mut rng = ChaCha8Rng::seed_from_u64(seed);
+            let target = objects[(seed % 25) as usize];
+            let (plan, space_ms) = search_plan(&g, &objects, target, &mut rng);
+            assert_eq!(plan.first().map(|p| p.0), Some(g.centre_px()));
+            assert_eq!(plan.last().map(|p| p.0), Some(target));
+            assert!((5..=10).contains(&plan.len()), "{}", plan.len());
+            assert!(plan.windows(2).all(|w| w[1].1 > w[0].1));
+            assert!(space_ms > plan[plan.len() - 1].1 + 299.0);
+            // Distractors are visited once each and never the target early.
+            let mid = &plan[1..plan.len() - 1];
+            assert!(mid.iter().all(|p| p.0 != target));
+        }
+    }
+}

@@ -1,0 +1,303 @@
+//! The participant's session folder as the runner writes it
+//! (`experiment::session` defines the files): created for a new session,
+//! reopened for `--resume` after checks that it is the same participant
+//! and the same design, appended to as the session happens.
+
+use std::path::{Path, PathBuf};
+use std::time::Duration;
+
+use experiment::design::Design;
+use experiment::session::{
+    self, read_tsv, DisplayInfo, EventRow, FrameRow, MarkerRow, SampleRow, SessionInfo, TrialRow,
+    TsvLog,
+};
+use foveation::Display;
+
+use super::RunOptions;
+use crate::gaze_feed::GazeSetup;
+
+/// Largest participant id accepted (characters).
+const MAX_ID: usize = 64;
+
+/// The open session folder.
+pub struct SessionDir {
+    path: PathBuf,
+    participant: String,
+    next_trial: usize,
+    sitting: u32,
+    trials: TsvLog<TrialRow>,
+    samples: TsvLog<SampleRow>,
+    events: TsvLog<EventRow>,
+    markers: TsvLog<MarkerRow>,
+    frames: TsvLog<FrameRow>,
+    /// The first write that failed (the runner then stops).
+    error: Option<String>,
+    written_trials: usize,
+}
+
+/// A participant id usable as a folder name and a BIDS label: letters,
+/// digits, `-` and `_`, at most [`MAX_ID`] characters.
+pub fn check_id(id: &str) -> Result<(), String> {
+    if id.is_empty() || id.chars().count() > MAX_ID {
+        return Err(format!(
+            "--participant: give an id of 1 to {MAX_ID} characters, got {id:?}"
+        ));
+    }
+    if let Some(c) = id
+        .chars()
+        .find(|c| !(c.is_ascii_alphanumeric() || *c == '-' || *c == '_'))
+    {
+        return Err(format!(
+            "--participant {id:?}: {c:?} is not allowed (letters, digits, '-' and '_' only: the id names a folder)"
+        ));
+    }
+    Ok(())
+}
+
+fn io<E: std::fmt::Display>(path: &Path) -> impl Fn(E) -> String + '_ {
+    move |e| format!("{}: {e}", path.display())
+}
+
+impl SessionDir {
+    /// Creates the folder for a new session, or reopens it with `--resume`.
+    pub fn open(
+        opts: &RunOptions,
+        design: &Design,
+        display: &Display,
+        index: usize,
+        gaze: &GazeSetup,
+    ) -> Result<Self, String> {
+        check_id(&opts.participant)?;
+        let design_text = std::fs::read_to_string(&opts.design).map_err(io(&opts.design))?;
+        let path = opts
+            .out
+            .join(&design.name)
+            .join(format!("sub-{}", opts.participant));
+        let info_path = path.join(session::SESSION_JSON);
+        let trials_path = path.join(session::TRIALS_TSV);
+        let exists = info_path.exists() || trials_path.exists();
+        let mut next_trial = 0;
+        let mut sitting = 1;
+        if exists && !opts.resume {
+            return Err(format!(
+                "{}: a session of {} is already there; --resume continues it (nothing is overwritten)",
+                path.display(),
+                opts.participant
+            ));
+        }
+        if !exists && opts.resume {
+            return Err(format!(
+                "--resume: {} holds no session to continue",
+                path.display()
+            ));
+        }
+        let software = format!("gazecast {}", env!("CARGO_PKG_VERSION"));
+        if exists {
+            let mut info = SessionInfo::read(&info_path).map_err(|e| e.to_string())?;
+            if info.participant_index != index {
+                return Err(format!(
+                    "--resume: {} was run with counterbalancing row {}, not {index}",
+                    info_path.display(),
+                    info.participant_index
+                ));
+            }
+            let copy_path = path.join(session::DESIGN_RON);
+            let copy = std::fs::read_to_string(&copy_path).map_err(io(&copy_path))?;
+            if copy != design_text {
+                return Err(format!(
+                    "--resume: {} differs from the session's copy {}; a session continues with the design it started with",
+                    opts.design.display(),
+                    copy_path.display()
+                ));
+            }
+            let done = read_tsv::<TrialRow>(&trials_path).map_err(|e| e.to_string())?;
+            for w in &done.warnings {
+                eprintln!("warning: {w}");
+            }
+            for (k, row) in done.rows.iter().enumerate() {
+                if row.trial != k {
+                    return Err(format!(
+                        "{}: row {} is trial {}, expected {k}: the trial table is out of order",
+                        trials_path.display(),
+                        k + 2,
+                        row.trial
+                    ));
+                }
+            }
+            next_trial = done.rows.len();
+            sitting = 1 + info
+                .notes
+                .iter()
+                .filter(|n| n.starts_with("sitting "))
+                .count() as u32;
+            info.notes.push(format!(
+                "sitting {sitting} from trial {} ({software}, {})",
+                next_trial + 1,
+                gaze.name
+            ));
+            info.synthetic |= opts.simulate.is_some();
+            info.write(&info_path).map_err(|e| e.to_string())?;
+        } else {
+            std::fs::create_dir_all(path.join(session::STIMULI_DIR)).map_err(io(&path))?;
+            let copy_path = path.join(session::DESIGN_RON);
+            std::fs::write(&copy_path, &design_text).map_err(io(&copy_path))?;
+            let geometry = display.geometry().map_err(|e| e.to_string())?;
+            let rate = match &gaze.tracker.driver {
+                tracker_hal::Driver::Mouse(m) => Some(m.rate_hz),
+                _ => None,
+            };
+            let info = SessionInfo {
+                participant: opts.participant.clone(),
+                participant_index: index,
+                design_name: design.name.clone(),
+                software: software.clone(),
+                display: DisplayInfo {
+                    name: display.name.clone(),
+                    width_px: geometry.width_px,
+                    height_px: geometry.height_px,
+                    width_mm: display.size_mm.0,
+                    height_mm: display.size_mm.1,
+                    distance_mm: display.eye_distance_mm,
+                },
+                tracker: gaze.name.clone(),
+                tracker_rate_hz: rate,
+                started_unix_s: std::time::SystemTime::now()
+                    .duration_since(std::time::UNIX_EPOCH)
+                    .map(|d| d.as_secs_f64())
+                    .unwrap_or(0.0),
+                synthetic: opts.simulate.is_some(),
+                notes: vec![format!(
+                    "sitting 1 from trial 1 ({software}, {})",
+                    gaze.name
+                )],
+            };
+            info.write(&info_path).map_err(|e| e.to_string())?;
+        }
+        let open = |name: &str| path.join(name);
+        let err = |e: session::SessionFileError| e.to_string();
+        let every = Duration::from_millis(200);
+        Ok(Self {
+            participant: opts.participant.clone(),
+            next_trial,
+            sitting,
+            trials: TsvLog::append_to(open(session::TRIALS_TSV)).map_err(err)?,
+            samples: TsvLog::append_to(open(session::SAMPLES_TSV))
+                .map_err(err)?
+                .flush_every(256, every),
+            events: TsvLog::append_to(open(session::EVENTS_TSV)).map_err(err)?,
+            markers: TsvLog::append_to(open(session::MARKERS_TSV)).map_err(err)?,
+            frames: TsvLog::append_to(open(session::FRAMES_TSV))
+                .map_err(err)?
+                .flush_every(64, every),
+            path,
+            error: None,
+            written_trials: 0,
+        })
+    }
+
+    pub fn path(&self) -> &Path {
+        &self.path
+    }
+
+    pub fn participant(&self) -> &str {
+        &self.participant
+    }
+
+    /// The first trial not yet in the trial table.
+    pub fn next_trial(&self) -> usize {
+        self.next_trial
+    }
+
+    /// This sitting's recording of every tracker byte: `gaze-N.gzrec`.
+    pub fn recording_path(&self) -> PathBuf {
+        self.path.join(format!("gaze-{}.gzrec", self.sitting))
+    }
+
+    /// The first write that failed.
+    pub fn error(&self) -> Option<&str> {
+        self.error.as_deref()
+    }
+
+    fn keep<T>(&mut self, r: Result<T, session::SessionFileError>) {
+        if let Err(e) = r {
+            self.error.get_or_insert(e.to_string());
+        }
+    }
+
+    pub fn sample(&mut self, row: &SampleRow) {
+        let r = self.samples.write(row);
+        self.keep(r);
+    }
+
+    pub fn marker(&mut self, row: &MarkerRow) {
+        let r = self.markers.write(row);
+        self.keep(r);
+    }
+
+    pub fn frame(&mut self, row: &FrameRow) {
+        let r = self.frames.write(row);
+        self.keep(r);
+    }
+
+    pub fn event(&mut self, row: &EventRow) {
+        let r = self.events.write(row);
+        self.keep(r);
+    }
+
+    /// A completed trial: its row, then everything else pushed to the OS
+    /// and the trial table to the disk, so a crash after this keeps it.
+    pub fn trial(&mut self, row: &TrialRow) -> Result<(), String> {
+        self.trials.write(row).map_err(|e| e.to_string())?;
+        for r in [
+            self.samples.flush(),
+            self.events.flush(),
+            self.markers.flush(),
+            self.frames.flush(),
+            self.trials.sync(),
+        ] {
+            r.map_err(|e| e.to_string())?;
+        }
+        self.written_trials += 1;
+        Ok(())
+    }
+
+    /// Flushes every file; the closing line for the log.
+    pub fn close(&mut self) -> String {
+        for r in [
+            self.samples.flush(),
+            self.events.flush(),
+            self.markers.flush(),
+            self.frames.flush(),
+            self.trials.flush(),
+        ] {
+            self.keep(r);
+        }
+        match &self.error {
+            Some(e) => format!(
+                "session folder {}: writing failed: {e}",
+                self.path.display()
+            ),
+            None => format!(
+                "session folder {}: {} trials this sitting, {} in all",
+                self.path.display(),
+                self.written_trials,
+                self.next_trial + self.written_trials
+            ),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn ids_name_a_folder_and_nothing_else() {
+        for ok in ["P01", "sub_3", "a-b", "X"] {
+            assert!(check_id(ok).is_ok(), "{ok}");
+        }
+        for bad in ["", "../P01", "P 01", "P/1", "é", &"x".repeat(65)] {
+            assert!(check_id(bad).is_err(), "{bad:?}");
+        }
+    }
+}

@@ -1,0 +1,388 @@
+//! One trial on the screen: its scenes (search display and target
+//! preview), the search display's renderer with the condition's method,
+//! the response times, and what is written when it ends; and the plain
+//! screens (text, calibration targets).
+
+use std::path::Path;
+
+use experiment::session::{self, EventRow, TrialRow};
+use experiment::Trial;
+use pipeline::{BackendChoice, Method, Options, Renderer};
+use plotters::prelude::*;
+use plotters::style::text_anchor::{HPos, Pos, VPos};
+use raycast::{Camera, Frame, Scene};
+use tracker_hal::clock::monotonic_us;
+use tracker_hal::events::{classify, EventKind, IvtConfig};
+
+use super::flow::Phase;
+use super::session_dir::SessionDir;
+use super::{stimulus, Setup};
+use crate::picture::{register_font, save_png};
+
+type SearchRenderer<'a> = Renderer<'a>;
+
+self_cell::self_cell!(
+    /// The search display's scene and the renderer that borrows it.
+    struct SearchScene {
+        owner: Scene,
+        #[not_covariant]
+        dependent: SearchRenderer,
+    }
+);
+
+/// A trial from its preview to its response.
+pub struct TrialState {
+    search: SearchScene,
+    preview_rgb: Vec<u8>,
+    confirm_rgb: Option<Vec<u8>>,
+    last: Option<Frame>,
+    onset_us: Option<u64>,
+    response_us: Option<u64>,
+    frames: u64,
+    late: u64,
+    rays: u64,
+    /// Mapped gaze (host µs, px or invalid) from the preview on.
+    samples: Vec<(u64, Option<[f64; 2]>)>,
+}
+
+/// Most samples a trial keeps for its events (an hour at 1 kHz); beyond,
+/// the events cover the first hour and samples.tsv still has every one.
+const MAX_TRIAL_SAMPLES: usize = 3_600_000;
+
+fn build(file: &raycast::SceneFile) -> Result<Scene, String> {
+    Scene::build(file, Path::new(".")).map_err(|e| format!("stimulus scene {}: {e}", file.name))
+}
+
+impl TrialState {
+    /// Builds the trial's scenes and renders the preview (full resolution).
+    pub fn new(setup: &Setup, trial: &Trial) -> Result<Self, String> {
+        let design = &setup.design;
+        let condition = &design.conditions[trial.condition];
+        let camera = Camera::new(&setup.geometry);
+        let preview = build(&stimulus::preview_scene(design, trial, &setup.layout))?;
+        let model = pipeline::sampling_model(setup.geometry, 1.0).map_err(|e| e.to_string())?;
+        let mut full = Renderer::new(
+            &preview,
+            camera,
+            model,
+            &Options {
+                method: Method::Full,
+                backend: BackendChoice::Cpu,
+                ..Options::default()
+            },
+        )
+        .map_err(|e| e.to_string())?;
+        let (frame, _) = full
+            .render(setup.geometry.centre_px())
+            .map_err(|e| e.to_string())?;
+        let search_model = pipeline::sampling_model(setup.geometry, design.contrast)
+            .map_err(|e| format!("contrast: {e}"))?
+            .with_inset_deg(condition.inset_deg.unwrap_or(0.0))
+            .map_err(|e| format!("conditions[{}].inset_deg: {e}", trial.condition))?;
+        let scene = build(&stimulus::search_scene(design, trial, &setup.layout))?;
+        let options = Options {
+            method: if condition.method == "hybrid" {
+                Method::Hybrid
+            } else {
+                Method::Full
+            },
+            backend: setup.backend,
+            ..Options::default()
+        };
+        let search = SearchScene::try_new(scene, |s| {
+            Renderer::new(s, camera, search_model, &options).map_err(|e| e.to_string())
+        })?;
+        Ok(Self {
+            search,
+            preview_rgb: frame.rgb,
+            confirm_rgb: None,
+            last: None,
+            onset_us: None,
+            response_us: None,
+            frames: 0,
+            late: 0,
+            rays: 0,
+            samples: Vec::new(),
+        })
+    }
+
+    /// A gaze sample during the trial.
+    pub fn sample(&mut self, host_us: u64, gaze: Option<[f64; 2]>) {
+        if self.response_us.is_none() && self.samples.len() < MAX_TRIAL_SAMPLES {
+            self.samples.push((host_us, gaze));
+        }
+    }
+
+    /// Renders the search display for `gaze`: (rays, render ms).
+    pub fn render_search(&mut self, gaze: [f64; 2]) -> Result<(u64, f64), String> {
+        let old = self.last.take();
+        let (frame, stats) = self
+            .search
+            .with_dependent_mut(|_, r| {
+                if let Some(f) = old {
+                    r.recycle(f);
+                }
+                r.render(gaze)
+            })
+            .map_err(|e| e.to_string())?;
+        self.last = Some(frame);
+        Ok((stats.rays_total, stats.time_ms))
+    }
+
+    /// The picture of `phase`.
+    pub fn rgb(&self, phase: Phase) -> &[u8] {
+        match phase {
+            Phase::Confirm => self
+                .confirm_rgb
+                .as_deref()
+                .unwrap_or(self.preview_rgb.as_slice()),
+            Phase::Search => self
+                .last
+                .as_ref()
+                .map_or(self.preview_rgb.as_slice(), |f| f.rgb.as_slice()),
+            _ => &self.preview_rgb,
+        }
+    }
+
+    /// The frozen search display with the click instruction (once).
+    pub fn confirm_overlay(&mut self) {
+        if self.confirm_rgb.is_some() {
+            return;
+        }
+        if let Some(f) = &self.last {
+            let mut rgb = f.rgb.clone();
+            let _ = crate::picture::draw_text_lines(
+                &mut rgb,
+                (f.width_px, f.height_px),
+                &["Click on the face you found."],
+            );
+            self.confirm_rgb = Some(rgb);
+        }
+    }
+
+    /// A search frame was presented at `present_us`; true for the first
+    /// (the search's onset).
+    pub fn presented(&mut self, present_us: u64, rays: u64, late: bool) -> bool {
+        if self.response_us.is_some() {
+            return false;
+        }
+        self.frames += 1;
+        self.late += u64::from(late);
+        self.rays += rays;
+        if self.onset_us.is_none() {
+            self.onset_us = Some(present_us);
+            return true;
+        }
+        false
+    }
+
+    /// The participant pressed Space at `host_us`: the search ends if it
+    /// had begun (a key before the first search frame is ignored).
+    pub fn respond(&mut self, host_us: u64) -> bool {
+        match (self.onset_us, self.response_us) {
+            (Some(onset), None) if host_us >= onset => {
+                self.response_us = Some(host_us);
+                true
+            }
+            _ => false,
+        }
+    }
+
+    /// More than `limit_s` since the onset without a response.
+    pub fn timed_out(&self, limit_s: f64) -> bool {
+        self.response_us.is_none()
+            && self
+                .onset_us
+                .is_some_and(|o| monotonic_us().saturating_sub(o) as f64 > limit_s * 1e6)
+    }
+
+    /// Writes the trial: its eye-movement events, its row (then the files
+    /// are flushed and the table synced), the stimulus picture. The log's
+    /// line.
+    pub fn finish(
+        self,
+        setup: &Setup,
+        trial: &Trial,
+        participant: &str,
+        click: Option<Option<(u32, u32)>>,
+        synthetic: bool,
+        dir: &mut SessionDir,
+    ) -> Result<String, String> {
+        let design = &setup.design;
+        let condition = &design.conditions[trial.condition];
+        let (Some(onset), Some(response)) = (self.onset_us, self.response_us) else {
+            return Err(format!("trial {}: ended without a search", trial.index + 1));
+        };
+        for e in classify(&self.samples, &setup.geometry, &IvtConfig::default()) {
+            let (kind, (x, y), (ex, ey)) = match e.kind {
+                EventKind::Fixation { centroid_px } => (
+                    "fixation",
+                    (centroid_px[0], centroid_px[1]),
+                    (centroid_px[0], centroid_px[1]),
+                ),
+                EventKind::Saccade { .. } => {
+                    let at = |t: u64| {
+                        self.samples
+                            .iter()
+                            .filter(|s| s.0 >= t)
+                            .find_map(|s| s.1)
+                            .unwrap_or([f64::NAN, f64::NAN])
+                    };
+                    let (a, b) = (at(e.start_us), at(e.end_us));
+                    ("saccade", (a[0], a[1]), (b[0], b[1]))
+                }
+                EventKind::Blink => ("blink", (f64::NAN, f64::NAN), (f64::NAN, f64::NAN)),
+                EventKind::Lost => ("lost", (f64::NAN, f64::NAN), (f64::NAN, f64::NAN)),
+            };
+            dir.event(&EventRow {
+                trial: Some(trial.index),
+                kind: kind.into(),
+                onset_us: e.start_us,
+                end_us: e.end_us,
+                x_px: x,
+                y_px: y,
+                end_x_px: ex,
+                end_y_px: ey,
+            });
+        }
+        let (clicked, correct) = match click {
+            Some(Some(c)) => (Some(c), Some(c == trial.target_cell)),
+            Some(None) => (None, Some(false)),
+            None => (None, None),
+        };
+        let rt_s = response.saturating_sub(onset) as f64 / 1e6;
+        let row = TrialRow {
+            participant: participant.to_string(),
+            run: trial.run,
+            trial: trial.index,
+            trial_in_run: trial.trial_in_run,
+            condition: condition.name.clone(),
+            method: condition.method.clone(),
+            inset_deg: condition.inset_deg,
+            silhouette_edges: condition.silhouette_edges,
+            target_mesh: trial.target_mesh,
+            target_row: trial.target_cell.0,
+            target_col: trial.target_cell.1,
+            search_onset_us: onset,
+            response_us: response,
+            rt_s,
+            clicked_row: clicked.map(|c| c.0),
+            clicked_col: clicked.map(|c| c.1),
+            correct,
+            frames: self.frames,
+            frames_late: self.late,
+            mean_rays: self.rays as f64 / (self.frames.max(1)) as f64,
+            synthetic,
+        };
+        dir.trial(&row)?;
+        if setup.stimulus_pictures {
+            self.stimulus_picture(setup, trial, dir.path())?;
+        }
+        Ok(format!(
+            "trial {} {}: {rt_s:.2} s, target {} at ({}, {}){}, {} frames ({} late), mean {:.0} rays",
+            trial.index + 1,
+            condition.name,
+            raycast::scene::FACE_EXPRESSIONS
+                .get(trial.target_mesh as usize)
+                .copied()
+                .unwrap_or("?"),
+            trial.target_cell.0,
+            trial.target_cell.1,
+            match correct {
+                Some(true) => ", clicked correctly",
+                Some(false) => ", clicked WRONG",
+                None => "",
+            },
+            row.frames,
+            row.frames_late,
+            row.mean_rays
+        ))
+    }
+
+    /// The search display at full resolution, for the scanpath pictures:
+    /// written to a temporary file and renamed.
+    fn stimulus_picture(&self, setup: &Setup, trial: &Trial, dir: &Path) -> Result<(), String> {
+        let scene = self.search.borrow_owner();
+        let model = pipeline::sampling_model(setup.geometry, 1.0).map_err(|e| e.to_string())?;
+        let mut full = Renderer::new(
+            scene,
+            Camera::new(&setup.geometry),
+            model,
+            &Options {
+                method: Method::Full,
+                backend: BackendChoice::Cpu,
+                ..Options::default()
+            },
+        )
+        .map_err(|e| e.to_string())?;
+        let (f, _) = full
+            .render(setup.geometry.centre_px())
+            .map_err(|e| e.to_string())?;
+        let path = session::stimulus_path(dir, trial.index);
+        let tmp = path.with_extension("png.part");
+        save_png(&tmp, (f.width_px, f.height_px), &f.rgb)
+            .map_err(|e| format!("{}: {e}", tmp.display()))?;
+        std::fs::rename(&tmp, &path).map_err(|e| format!("{}: {e}", path.display()))
+    }
+}
+
+/// Background of the plain screens (the scenes' background).
+const BACKGROUND: RGBColor = RGBColor(15, 15, 20);
+
+fn clear(canvas: &mut Vec<u8>, (w, h): (u32, u32), c: RGBColor) {
+    let n = w as usize * h as usize * 3;
+    canvas.resize(n, 0);
+    for px in canvas.chunks_exact_mut(3) {
+        px.copy_from_slice(&[c.0, c.1, c.2]);
+    }
+}
+
+/// Text lines centred on the screen.
+pub fn text_screen(canvas: &mut Vec<u8>, (w, h): (u32, u32), lines: &[String]) {
+    clear(canvas, (w, h), BACKGROUND);
+    register_font();
+    let size = (f64::from(h) / 36.0).clamp(10.0, 40.0);
+    let root = BitMapBackend::with_buffer(canvas, (w, h)).into_drawing_area();
+    let step = size * 1.6;
+    let top = f64::from(h) / 2.0 - step * (lines.len() as f64 - 1.0) / 2.0;
+    for (k, line) in lines.iter().enumerate() {
+        let style = ("sans-serif", size)
+            .into_font()
+            .color(&WHITE)
+            .pos(Pos::new(HPos::Center, VPos::Center));
+        let _ = root.draw(&Text::new(
+            line.clone(),
+            ((w / 2) as i32, (top + step * k as f64) as i32),
+            style,
+        ));
+    }
+    let _ = root.present();
+}
+
+/// A calibration target (a white disc with a dark centre) and optional
+/// text lines at the bottom.
+pub fn target_screen(
+    canvas: &mut Vec<u8>,
+    (w, h): (u32, u32),
+    target: Option<[f64; 2]>,
+    lines: &[String],
+) {
+    clear(canvas, (w, h), RGBColor(40, 40, 44));
+    register_font();
+    let root = BitMapBackend::with_buffer(canvas, (w, h)).into_drawing_area();
+    if let Some([x, y]) = target.filter(|t| t[0].is_finite() && t[1].is_finite()) {
+        let r = (f64::from(h.min(w)) / 70.0).max(4.0) as i32;
+        let c = (x.round() as i32, y.round() as i32);
+        let _ = root.draw(&Circle::new(c, r, WHITE.filled()));
+        let _ = root.draw(&Circle::new(c, (r / 4).max(1), BLACK.filled()));
+    }
+    for (k, line) in lines.iter().enumerate() {
+        let style = ("sans-serif", 16.0)
+            .into_font()
+            .color(&WHITE)
+            .pos(Pos::new(HPos::Center, VPos::Center));
+        let y = h as i32 - 30 * (lines.len() - k) as i32;
+        let _ = root.draw(&Text::new(line.clone(), ((w / 2) as i32, y), style));
+    }
+    let _ = root.present();
+}

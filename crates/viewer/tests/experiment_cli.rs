@@ -1,0 +1,190 @@
+//! The visual-search experiment end to end: two simulated participants
+//! run the 11 scene types in a real window (Xvfb, lavapipe presents),
+//! through the mouse tracker's device path; one is stopped after 4 trials
+//! and resumed; then the analysis and the BIDS export run on the session
+//! folders. The search times are synthetic (the simulated participant's).
+
+mod common;
+
+use std::path::{Path, PathBuf};
+
+use common::{windowed, Run, Xvfb};
+
+fn run_session(x: &Xvfb, out: &Path, id: &str, seed: u64, extra: &[&str]) -> std::process::Output {
+    let mut c = windowed(x);
+    c.args([
+        "experiment",
+        "run",
+        "tests/data/experiment-small.ron",
+        "--participant",
+        id,
+        "--tracker",
+        "tests/data/mouse-participant.ron",
+        "--display",
+        "tests/data/display-small.ron",
+        "--backend",
+        "cpu",
+        "--out",
+    ])
+    .arg(out)
+    .args(["--simulate-participant", &seed.to_string()])
+    .args(extra);
+    c.output().expect("the binary runs")
+}
+
+fn lines(path: &Path) -> Vec<String> {
+    std::fs::read_to_string(path)
+        .unwrap_or_else(|e| panic!("{}: {e}", path.display()))
+        .lines()
+        .map(str::to_string)
+        .collect()
+}
+
+/// Column `name` of a TSV file's rows.
+fn column(path: &Path, name: &str) -> Vec<String> {
+    let l = lines(path);
+    let header: Vec<&str> = l[0].split('\t').collect();
+    let k = header
+        .iter()
+        .position(|h| *h == name)
+        .unwrap_or_else(|| panic!("{}: no column {name}", path.display()));
+    l[1..]
+        .iter()
+        .map(|r| r.split('\t').nth(k).unwrap_or("").to_string())
+        .collect()
+}
+
+#[test]
+fn two_simulated_participants_run_resume_and_are_analysed() {
+    let x = Xvfb::start();
+    let tmp = tempfile::tempdir().expect("tempdir");
+    let out = tmp.path().join("data");
+    // P01: 4 trials, stopped, then resumed to the end.
+    let first = run_session(&x, &out, "P01", 1, &["--max-trials", "4"]);
+    let log = String::from_utf8_lossy(&first.stdout);
+    assert!(
+        first.status.success(),
+        "{log}\n{}",
+        String::from_utf8_lossy(&first.stderr)
+    );
+    assert!(log.contains("SIMULATED participant"), "{log}");
+    assert!(log.contains("stopping after 4 trials"), "{log}");
+    let p01: PathBuf = out.join("small-search").join("sub-P01");
+    assert_eq!(lines(&p01.join("trials.tsv")).len(), 1 + 4);
+    // Running it again without --resume is refused and changes nothing.
+    let before = std::fs::read(p01.join("trials.tsv")).expect("trials");
+    let again = run_session(&x, &out, "P01", 1, &[]);
+    assert!(!again.status.success());
+    assert!(String::from_utf8_lossy(&again.stderr).contains("--resume"));
+    assert_eq!(
+        std::fs::read(p01.join("trials.tsv")).expect("trials"),
+        before
+    );
+    let resumed = run_session(&x, &out, "P01", 2, &["--resume"]);
+    let log = String::from_utf8_lossy(&resumed.stdout);
+    assert!(
+        resumed.status.success(),
+        "{log}\n{}",
+        String::from_utf8_lossy(&resumed.stderr)
+    );
+    assert!(log.contains("trial 5 of 11"), "{log}");
+    assert!(log.contains("session complete"), "{log}");
+    // P02 in one sitting.
+    let second = run_session(&x, &out, "P02", 3, &[]);
+    let log = String::from_utf8_lossy(&second.stdout);
+    assert!(
+        second.status.success(),
+        "{log}\n{}",
+        String::from_utf8_lossy(&second.stderr)
+    );
+    let p02 = out.join("small-search").join("sub-P02");
+
+    for (dir, sittings) in [(&p01, 2), (&p02, 1)] {
+        let trials = dir.join("trials.tsv");
+        let t = column(&trials, "trial");
+        assert_eq!(t, (0..11).map(|k| k.to_string()).collect::<Vec<_>>());
+        // Every condition once (one run of the Latin square's row).
+        let mut c = column(&trials, "condition");
+        c.sort();
+        assert_eq!(c.len(), 11);
+        c.dedup();
+        assert_eq!(c.len(), 11, "{c:?}");
+        for rt in column(&trials, "rt_s") {
+            let v: f64 = rt.parse().expect("rt");
+            // The model's search: 3-8 fixations of 200-400 ms and the target's.
+            assert!((0.5..30.0).contains(&v), "rt {v}");
+        }
+        assert!(column(&trials, "correct")
+            .iter()
+            .all(|c| c == "true" || c == "false"));
+        assert!(column(&trials, "synthetic").iter().all(|s| s == "true"));
+        assert!(column(&trials, "frames")
+            .iter()
+            .all(|f| f.parse::<u64>().expect("frames") > 0));
+        // Foveated conditions cast fewer rays than the control.
+        let rays: Vec<f64> = column(&trials, "mean_rays")
+            .iter()
+            .map(|r| r.parse().expect("rays"))
+            .collect();
+        let conds = column(&trials, "condition");
+        let control = conds.iter().position(|c| c == "control").expect("control");
+        let ne2 = conds.iter().position(|c| c == "NE2").expect("NE2");
+        assert!(rays[ne2] < 0.8 * rays[control], "{rays:?}");
+        assert!((rays[control] - 640.0 * 512.0).abs() < 1.0, "{rays:?}");
+        // Samples, events, markers, frames and the raw recordings.
+        assert!(lines(&dir.join("samples.tsv")).len() > 500);
+        let kinds = column(&dir.join("events.tsv"), "kind");
+        assert!(
+            kinds.iter().filter(|k| *k == "fixation").count() >= 11 * 3,
+            "{kinds:?}"
+        );
+        let markers = column(&dir.join("markers.tsv"), "event");
+        assert_eq!(markers.iter().filter(|m| *m == "search-onset").count(), 11);
+        assert!(markers.iter().any(|m| m == "calibration-result"));
+        assert!(lines(&dir.join("frames.tsv")).len() > 11);
+        for k in 1..=sittings {
+            let rec = dir.join(format!("gaze-{k}.gzrec"));
+            assert!(
+                std::fs::metadata(&rec).map(|m| m.len()).unwrap_or(0) > 1000,
+                "{}",
+                rec.display()
+            );
+        }
+        assert!(dir.join("stimuli").join("trial-010.png").exists());
+        assert!(std::fs::read_to_string(dir.join("session.json"))
+            .expect("json")
+            .contains("\"synthetic\": true"));
+    }
+
+    // The analysis of both sessions.
+    let report_dir = tmp.path().join("analysis");
+    let mut a = common::gazecast();
+    a.args(["experiment", "analyze"])
+        .arg(&p01)
+        .arg(&p02)
+        .arg("--out")
+        .arg(&report_dir);
+    a.succeed();
+    let report = std::fs::read_to_string(report_dir.join("report.md")).expect("report");
+    assert!(report.to_lowercase().contains("synthetic"), "{report}");
+    assert!(report.contains("F(10,"), "{report}");
+    for f in [
+        "fig-7.3.png",
+        "fig-7.4.png",
+        "table-7.1.csv",
+        "conditions.csv",
+    ] {
+        assert!(report_dir.join(f).exists(), "{f}");
+    }
+    // BIDS.
+    let bids = tmp.path().join("bids");
+    let mut b = common::gazecast();
+    b.args(["experiment", "export-bids"])
+        .arg(&p01)
+        .arg(&p02)
+        .arg("--out")
+        .arg(&bids);
+    b.succeed();
+    assert!(bids.join("dataset_description.json").exists());
+    assert!(bids.join("participants.tsv").exists());
+}

@@ -188,3 +188,143 @@ fn two_simulated_participants_run_resume_and_are_analysed() {
     assert!(bids.join("dataset_description.json").exists());
     assert!(bids.join("participants.tsv").exists());
 }
+
+/// The same protocol with an ISCAN on a pseudo-terminal that reports the
+/// raw units of an uncalibrated tracker: the session's calibration must
+/// find the mapping before the trials can use the gaze.
+#[test]
+fn a_simulated_participant_on_an_uncalibrated_iscan_is_calibrated_and_searches() {
+    let x = Xvfb::start();
+    let tmp = tempfile::tempdir().expect("tempdir");
+    let out = tmp.path().join("data");
+    let mut c = windowed(&x);
+    c.args([
+        "experiment",
+        "run",
+        "tests/data/experiment-small.ron",
+        "--participant",
+        "S07",
+        "--tracker",
+        "config/trackers/iscan-binary.ron",
+        "--display",
+        "tests/data/display-small.ron",
+        "--backend",
+        "cpu",
+        "--simulate-participant",
+        "4",
+        "--max-trials",
+        "2",
+        "--no-stimulus-pictures",
+        "--out",
+    ])
+    .arg(&out);
+    let run = c.output().expect("runs");
+    let log = String::from_utf8_lossy(&run.stdout);
+    assert!(
+        run.status.success(),
+        "{log}\n{}",
+        String::from_utf8_lossy(&run.stderr)
+    );
+    assert!(
+        !log.contains("lost") && !log.contains("reconnecting"),
+        "{log}"
+    );
+    let dir = out.join("small-search").join("sub-S07");
+    assert_eq!(lines(&dir.join("trials.tsv")).len(), 1 + 2);
+    // Calibrated within the design's 1 deg.
+    let results: Vec<String> = lines(&dir.join("markers.tsv"))
+        .into_iter()
+        .filter(|l| l.contains("calibration-result"))
+        .collect();
+    assert!(
+        results
+            .iter()
+            .any(|l| l.contains("calibrated: validation accuracy")),
+        "{results:?}"
+    );
+    // Raw samples are in the ISCAN's 512-unit frame, mapped ones on the
+    // 640x512 screen, and they differ (the mapping is not the identity).
+    let samples = dir.join("samples.tsv");
+    let search: Vec<bool> = column(&samples, "phase")
+        .iter()
+        .map(|p| p == "search")
+        .collect();
+    let pick = |name: &str| -> Vec<f64> {
+        column(&samples, name)
+            .iter()
+            .zip(&search)
+            .filter(|(_, s)| **s)
+            .filter_map(|(v, _)| v.parse().ok())
+            .collect()
+    };
+    let (raw, x_px) = (pick("raw_x"), pick("x_px"));
+    assert!(
+        raw.len() > 60 && raw.len() == x_px.len(),
+        "{} {}",
+        raw.len(),
+        x_px.len()
+    );
+    assert!(raw.iter().all(|r| (0.0..=512.0).contains(r)));
+    assert!(x_px.iter().all(|x| (-64.0..=704.0).contains(x)));
+    assert!(raw.iter().zip(&x_px).any(|(r, x)| (r - x).abs() > 20.0));
+}
+
+/// A bad design names its file, line and field; `plan` lists a
+/// participant's trials with each mesh the target 11 times.
+#[test]
+fn plan_lists_the_trials_and_a_bad_design_names_file_line_and_field() {
+    let out = common::gazecast()
+        .args([
+            "experiment",
+            "plan",
+            "config/experiments/murphy2007-search.ron",
+            "--participant-index",
+            "3",
+        ])
+        .succeed();
+    let text = String::from_utf8_lossy(&out.stdout);
+    let rows: Vec<&str> = text.lines().skip(1).collect();
+    assert_eq!(rows.len(), 44);
+    for mesh in 0..4 {
+        let n = rows
+            .iter()
+            .filter(|r| r.split('\t').nth(5) == Some(&mesh.to_string()))
+            .count();
+        assert_eq!(n, 11, "mesh {mesh}");
+    }
+    let tmp = tempfile::tempdir().expect("tempdir");
+    let bad = tmp.path().join("bad.ron");
+    let good = std::fs::read_to_string(
+        Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("../../config/experiments/murphy2007-search.ron"),
+    )
+    .expect("design");
+    std::fs::write(
+        &bad,
+        good.replace("inset_deg: Some(5.0)", "inset_deg: Some(-5.0)"),
+    )
+    .expect("write");
+    let out = common::gazecast()
+        .args(["experiment", "plan"])
+        .arg(&bad)
+        .output()
+        .expect("runs");
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("bad.ron:") && err.contains("field `conditions[2].inset_deg`"),
+        "{err}"
+    );
+    let line: usize = err
+        .split("bad.ron:")
+        .nth(1)
+        .and_then(|s| s.split(':').next())
+        .and_then(|s| s.parse().ok())
+        .expect("a line number");
+    assert!(
+        good.lines()
+            .nth(line - 1)
+            .is_some_and(|l| l.contains("NE5")),
+        "line {line}"
+    );
+}

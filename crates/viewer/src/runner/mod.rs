@@ -265,8 +265,15 @@ impl Runner<'_> {
         match phase {
             Phase::Calibration => {
                 let (cal, val) = self.setup.cal_plans.clone();
+                // A second-order polynomial follows an eye's bow where there
+                // are points enough (9: the seed's); 5 points fit a homography.
+                let model = if self.setup.design.calibration.points >= 9 {
+                    Model::Polynomial2
+                } else {
+                    Model::Homography
+                };
                 let s = Session::new(
-                    Model::Homography,
+                    model,
                     cal,
                     val,
                     self.setup.geometry,
@@ -798,9 +805,28 @@ pub fn run(opts: &RunOptions, out: &mut dyn Write) -> Result<(), String> {
         })?,
     };
     let trials = experiment::plan(&design, index).map_err(|e| e.to_string())?;
-    let setup_gaze = GazeSetup::resolve(opts.tracker.as_deref(), None)?;
-    if opts.simulate.is_some() && !setup_gaze.is_mouse() {
-        return Err("--simulate-participant drives the mouse tracker: give --tracker config/trackers/mouse.ron (or another Mouse tracker file)".into());
+    let mut setup_gaze = GazeSetup::resolve(opts.tracker.as_deref(), None)?;
+    // The simulated participant's ISCAN: a pseudo-terminal whose slave the
+    // tracker opens in place of the file's port.
+    let mut iscan_master = None;
+    if opts.simulate.is_some() {
+        match &mut setup_gaze.tracker.driver {
+            tracker_hal::Driver::Mouse(_) => {}
+            tracker_hal::Driver::Iscan(c) => {
+                use serialport::SerialPort;
+                let (master, slave) =
+                    serialport::TTYPort::pair().map_err(|e| format!("a pseudo-terminal for the simulated ISCAN: {e}"))?;
+                let name = slave
+                    .name()
+                    .ok_or("the simulated ISCAN's pseudo-terminal has no name")?;
+                drop(slave); // the port is opened exclusively, by path
+                c.port = Some(name);
+                iscan_master = Some((master, c.clone()));
+            }
+            _ => {
+                return Err("--simulate-participant drives a Mouse or an ISCAN tracker file (config/trackers/mouse.ron, iscan-binary.ron)".into())
+            }
+        }
     }
     let dir = SessionDir::open(opts, &design, &display, index, &setup_gaze)?;
     let start = dir.next_trial();
@@ -858,11 +884,23 @@ pub fn run(opts: &RunOptions, out: &mut dyn Write) -> Result<(), String> {
     let feed = setup_gaze
         .with_screen(setup.geometry.size_px())
         .spawn(None, Some((&record, display.name.as_str())))?;
-    let participant = opts.simulate.map(|seed| {
-        let tx = feed.cursor_tx.clone();
-        tx.map(|tx| Participant::spawn(tx, setup.geometry, seed))
-    });
-    let participant = participant.flatten();
+    let size_px = (setup.geometry.width_px, setup.geometry.height_px);
+    let participant = match (opts.simulate, iscan_master) {
+        (Some(seed), Some((port, config))) => Some(Participant::spawn(
+            participant::Eye::Iscan {
+                port,
+                config,
+                screen_px: size_px,
+            },
+            setup.geometry,
+            seed,
+        )),
+        (Some(seed), None) => feed
+            .cursor_tx
+            .clone()
+            .map(|tx| Participant::spawn(participant::Eye::Mouse(tx), setup.geometry, seed)),
+        _ => None,
+    };
     let resumed = start > 0;
     let flow = Flow::new(
         trials,
@@ -912,8 +950,10 @@ pub fn run(opts: &RunOptions, out: &mut dyn Write) -> Result<(), String> {
     };
     runner.entered();
     let result = event_loop.run_app(&mut runner);
-    runner.participant = None;
+    // The tracker first: the simulated participant's line closing under a
+    // running tracker would be reported as a lost device.
     let recorded = runner.feed.finish();
+    runner.participant = None;
     runner.drain();
     for l in runner.feed.report() {
         runner.say(&l);

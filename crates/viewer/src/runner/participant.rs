@@ -1,10 +1,17 @@
 //! A simulated participant for tests and demonstrations: it looks where a
 //! person would look and presses what a person would press, through the
-//! same paths a person uses — its gaze goes into the mouse tracker's
-//! cursor input (tracker-hal's mouse device then adds the tracker file's
-//! jitter, main-sequence saccades and latency, and the samples are
-//! decoded, recorded and mapped like any tracker's), and its keys and
-//! clicks reach the runner's one input handler beside the window's.
+//! same paths a person uses. Its gaze goes to a tracker:
+//! - the mouse tracker's cursor input (tracker-hal's mouse device then adds
+//!   the tracker file's jitter, main-sequence saccades and latency), or
+//! - an ISCAN on a pseudo-terminal: binary records at [`ISCAN_RATE_HZ`] in
+//!   the raw units of an *uncalibrated* tracker
+//!   (`tracker_hal::sim::uncalibrated_raw`: a perspective view of the
+//!   screen plus a bow), with 0.1° of jitter, so the session's calibration
+//!   has a real mapping to find;
+//!
+//! and the samples are decoded, recorded and mapped like any tracker's. Its
+//! keys and clicks reach the runner's one input handler beside the
+//! window's.
 //!
 //! The behaviour is a plausible stand-in, not fitted to people:
 //! - a text screen (instructions, a break) is read for 0.4 s, then Space;
@@ -31,13 +38,30 @@ use foveation::ScreenGeometry;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use tracker_hal::clock::monotonic_us;
+use tracker_hal::iscan::{encode_binary, IscanConfig, IscanMode, IscanParam};
 use tracker_hal::mouse::CursorEvent;
-use tracker_hal::sim::main_sequence_duration_ms;
+use tracker_hal::sim::{main_sequence_duration_ms, uncalibrated_raw};
 
 use super::flow::Phase;
 
 /// Probability that the confirming click lands on a neighbouring cell.
 pub const WRONG_CLICK: f64 = 0.05;
+
+/// Records per second of the simulated ISCAN.
+pub const ISCAN_RATE_HZ: f64 = 60.0;
+
+/// Where the participant's gaze goes.
+pub enum Eye {
+    /// The mouse tracker's cursor input.
+    Mouse(Sender<CursorEvent>),
+    /// An ISCAN's serial line (the master side of a pseudo-terminal whose
+    /// slave the tracker opens).
+    Iscan {
+        port: serialport::TTYPort,
+        config: IscanConfig,
+        screen_px: (u32, u32),
+    },
+}
 
 /// What the participant does, with the host time it did it.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -66,6 +90,8 @@ pub struct Participant {
     actions: Receiver<Action>,
     stop: Arc<AtomicBool>,
     thread: Option<std::thread::JoinHandle<()>>,
+    /// The ISCAN writer, when the eye is one.
+    writer: Option<std::thread::JoinHandle<()>>,
 }
 
 /// Fixation plan of one search: (position, start ms after onset), and when
@@ -110,22 +136,39 @@ fn search_plan(
 }
 
 impl Participant {
-    /// Starts the participant; its gaze goes to `cursor` (the mouse
-    /// tracker's input), its actions to [`Participant::take_actions`].
-    pub fn spawn(cursor: Sender<CursorEvent>, geometry: ScreenGeometry, seed: u64) -> Self {
+    /// Starts the participant; its gaze goes to `eye`, its actions to
+    /// [`Participant::take_actions`].
+    pub fn spawn(eye: Eye, geometry: ScreenGeometry, seed: u64) -> Self {
         let seen = Arc::new(Mutex::new(Seen::default()));
         let stop = Arc::new(AtomicBool::new(false));
         let (tx, actions) = crossbeam_channel::unbounded();
         let (s, st) = (seen.clone(), stop.clone());
+        let gaze = Arc::new(Mutex::new(geometry.centre_px()));
+        let (cursor, writer) = match eye {
+            Eye::Mouse(c) => (Some(c), None),
+            Eye::Iscan {
+                port,
+                config,
+                screen_px,
+            } => {
+                let (g, st) = (gaze.clone(), stop.clone());
+                let w = std::thread::Builder::new()
+                    .name("participant-iscan".into())
+                    .spawn(move || iscan_writer(port, &config, screen_px, &g, &st, seed))
+                    .ok();
+                (None, w)
+            }
+        };
         let thread = std::thread::Builder::new()
             .name("participant".into())
-            .spawn(move || behave(&s, &st, &cursor, &tx, geometry, seed))
+            .spawn(move || behave(&s, &st, cursor.as_ref(), &gaze, &tx, geometry, seed))
             .ok();
         Self {
             seen,
             actions,
             stop,
             thread,
+            writer,
         }
     }
 
@@ -164,8 +207,61 @@ impl Participant {
 impl Drop for Participant {
     fn drop(&mut self) {
         self.stop.store(true, Ordering::Relaxed);
-        if let Some(t) = self.thread.take() {
+        for t in [self.thread.take(), self.writer.take()]
+            .into_iter()
+            .flatten()
+        {
             let _ = t.join();
+        }
+    }
+}
+
+/// The simulated ISCAN: every 1/[`ISCAN_RATE_HZ`] s a binary record of the
+/// uncalibrated raw units of where the participant looks (both eyes the
+/// same), with Gaussian-like jitter of about 0.1° (the sum of four
+/// uniforms). Ends at the stop flag or when the line closes.
+fn iscan_writer(
+    mut port: serialport::TTYPort,
+    config: &IscanConfig,
+    screen_px: (u32, u32),
+    gaze: &Mutex<[f64; 2]>,
+    stop: &AtomicBool,
+    seed: u64,
+) {
+    use std::io::Write;
+    let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0x15CA);
+    let period = Duration::from_secs_f64(1.0 / ISCAN_RATE_HZ);
+    // 0.1 deg at about 35 px per degree, in raw units.
+    let jitter_px = 3.5;
+    let mut next = std::time::Instant::now();
+    while !stop.load(Ordering::Relaxed) {
+        let p = gaze.lock().map(|g| *g).unwrap_or([0.0, 0.0]);
+        let mut j = || (0..4).map(|_| rng.random_range(-1.0..1.0)).sum::<f64>() * jitter_px / 2.0;
+        let px = [p[0] + j(), p[1] + j()];
+        let raw = uncalibrated_raw(px, screen_px, config.frame);
+        let values: Vec<Option<f64>> = config
+            .parameters
+            .iter()
+            .map(|k| match k {
+                IscanParam::LeftPorH | IscanParam::RightPorH => Some(raw[0]),
+                IscanParam::LeftPorV | IscanParam::RightPorV => Some(raw[1]),
+                IscanParam::LeftPupil | IscanParam::RightPupil => Some(30.0),
+                IscanParam::Other => Some(0.0),
+            })
+            .collect();
+        let record = match config.mode {
+            IscanMode::Binary => encode_binary(&values),
+            IscanMode::Ascii => tracker_hal::iscan::encode_ascii(&values),
+        };
+        if port.write_all(&record).is_err() {
+            return;
+        }
+        next += period;
+        let now = std::time::Instant::now();
+        if next > now {
+            std::thread::sleep(next - now);
+        } else {
+            next = now;
         }
     }
 }
@@ -175,7 +271,8 @@ impl Drop for Participant {
 fn behave(
     seen: &Mutex<Seen>,
     stop: &AtomicBool,
-    cursor: &Sender<CursorEvent>,
+    cursor: Option<&Sender<CursorEvent>>,
+    gaze: &Mutex<[f64; 2]>,
     actions: &Sender<Action>,
     geometry: ScreenGeometry,
     seed: u64,
@@ -190,11 +287,16 @@ fn behave(
     let look = |p: [f64; 2], looking: &mut Option<[f64; 2]>| {
         if *looking != Some(p) {
             *looking = Some(p);
-            let _ = cursor.send(CursorEvent {
-                t_us: monotonic_us(),
-                position_px: p,
-                blink: false,
-            });
+            if let Ok(mut g) = gaze.lock() {
+                *g = p;
+            }
+            if let Some(c) = cursor {
+                let _ = c.send(CursorEvent {
+                    t_us: monotonic_us(),
+                    position_px: p,
+                    blink: false,
+                });
+            }
         }
     };
     while !stop.load(Ordering::Relaxed) {

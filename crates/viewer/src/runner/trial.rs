@@ -12,7 +12,7 @@ use plotters::prelude::*;
 use plotters::style::text_anchor::{HPos, Pos, VPos};
 use raycast::{Camera, Frame, Scene};
 use tracker_hal::clock::monotonic_us;
-use tracker_hal::events::{classify, EventKind, IvtConfig};
+use tracker_hal::events::{classify, merge_congruent_fixations, EventKind, IvtConfig};
 
 use super::flow::Phase;
 use super::session_dir::SessionDir;
@@ -44,6 +44,12 @@ pub struct TrialState {
     /// Mapped gaze (host µs, px or invalid) from the preview on.
     samples: Vec<(u64, Option<[f64; 2]>)>,
 }
+
+/// Fixations closer than this (degrees) with only saccades shorter than
+/// [`CONGRUENT_GAP_US`] between them are one ("congruent", Murphy 2007
+/// §7.3): about twice a good video tracker's noise, half an object's width.
+const CONGRUENT_DEG: f64 = 1.0;
+const CONGRUENT_GAP_US: u64 = 75_000;
 
 /// Most samples a trial keeps for its events (an hour at 1 kHz); beyond,
 /// the events cover the first hour and samples.tsv still has every one.
@@ -213,7 +219,14 @@ impl TrialState {
         let (Some(onset), Some(response)) = (self.onset_us, self.response_us) else {
             return Err(format!("trial {}: ended without a search", trial.index + 1));
         };
-        for e in classify(&self.samples, &setup.geometry, &IvtConfig::default()) {
+        let raw_events = classify(&self.samples, &setup.geometry, &IvtConfig::default());
+        let events = merge_congruent_fixations(
+            &raw_events,
+            &setup.geometry,
+            CONGRUENT_DEG,
+            CONGRUENT_GAP_US,
+        );
+        for e in events {
             let (kind, (x, y), (ex, ey)) = match e.kind {
                 EventKind::Fixation { centroid_px } => (
                     "fixation",

@@ -49,6 +49,10 @@ use std::path::{Component, Path, PathBuf};
 pub const REPORT_MD: &str = "report.md";
 /// `conditions.csv`.
 pub const CONDITIONS_CSV: &str = "conditions.csv";
+/// `trials.csv`: every analysed session's trial table in one plain CSV
+/// (a `data_source` column, then the `trials.tsv` columns), for R, SPSS or
+/// a spreadsheet.
+pub const TRIALS_CSV: &str = "trials.csv";
 /// `table-7.1.csv`.
 pub const TABLE_7_1_CSV: &str = "table-7.1.csv";
 /// `fig-conditions.png`: mean search time per condition.
@@ -1134,6 +1138,42 @@ fn write_outputs(
             message: e.to_string(),
         })?;
         text.push_str(&String::from_utf8_lossy(&bytes));
+        w.bytes(&path, text.as_bytes())?;
+        outputs.push(path);
+    }
+    // trials.csv: every trial read, in input order.
+    {
+        let path = w.path(TRIALS_CSV);
+        let io = |e: csv::Error| AnalysisError::Output {
+            path: path.clone(),
+            message: e.to_string(),
+        };
+        let mut text = String::new();
+        if report.synthetic {
+            text.push_str(SYNTHETIC_CSV);
+            text.push('\n');
+        }
+        text.push_str("data_source,");
+        text.push_str(&<TrialRow as crate::session::TsvRow>::COLUMNS.join(","));
+        text.push('\n');
+        let mut csv = csv::WriterBuilder::new()
+            .has_headers(false)
+            .from_writer(Vec::new());
+        for l in sessions {
+            for t in &l.trials {
+                csv.serialize(t).map_err(io)?;
+            }
+        }
+        let bytes = csv.into_inner().map_err(|e| AnalysisError::Output {
+            path: path.clone(),
+            message: e.to_string(),
+        })?;
+        for line in String::from_utf8_lossy(&bytes).lines() {
+            text.push_str(data_source(report));
+            text.push(',');
+            text.push_str(line);
+            text.push('\n');
+        }
         w.bytes(&path, text.as_bytes())?;
         outputs.push(path);
     }

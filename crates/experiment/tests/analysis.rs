@@ -506,6 +506,21 @@ fn numbers_match_stats_called_directly() {
     );
     assert!(lines[3].starts_with("human,Control,n/a,"));
 
+    // trials.csv: every trial of every session, in input order, rt exact.
+    let all = std::fs::read_to_string(out.join("trials.csv")).unwrap();
+    let lines: Vec<&str> = all.lines().collect();
+    let header: Vec<&str> = lines[0].split(',').collect();
+    assert_eq!(&header[..3], &["data_source", "participant", "run"]);
+    let rt = header.iter().position(|h| *h == "rt_s").unwrap();
+    let flat: Vec<&TrialRow> = rows.iter().flatten().collect();
+    assert_eq!(lines.len(), 1 + flat.len());
+    for (line, want) in lines[1..].iter().zip(&flat) {
+        let f: Vec<&str> = line.split(',').collect();
+        assert_eq!(f[0], "human");
+        assert_eq!(f[1], want.participant);
+        assert_eq!(f[rt].parse::<f64>().unwrap(), want.rt_s);
+    }
+
     if let Ok(keep) = std::env::var("ANALYSIS_SAMPLE_DIR") {
         keep_sample(Path::new(&keep));
     }
@@ -569,7 +584,7 @@ fn synthetic_data_are_labelled_everywhere() {
         "{first}"
     );
     assert!(md.contains("(SYNTHETIC DATA)"), "in the title too");
-    for name in ["conditions.csv", "table-7.1.csv"] {
+    for name in ["conditions.csv", "table-7.1.csv", "trials.csv"] {
         let text = std::fs::read_to_string(out.join(name)).unwrap();
         let mut lines = text.lines();
         assert!(

@@ -328,3 +328,72 @@ fn plan_lists_the_trials_and_a_bad_design_names_file_line_and_field() {
         "line {line}"
     );
 }
+
+/// A session killed with SIGKILL in the middle keeps every trial it had
+/// finished, and `--resume` completes it without a gap or a repeat.
+#[test]
+fn a_killed_session_loses_no_finished_trial_and_resumes() {
+    let x = Xvfb::start();
+    let tmp = tempfile::tempdir().expect("tempdir");
+    let out = tmp.path().join("data");
+    let mut c = windowed(&x);
+    c.args([
+        "experiment",
+        "run",
+        "tests/data/experiment-small.ron",
+        "--participant",
+        "K01",
+        "--tracker",
+        "tests/data/mouse-participant.ron",
+        "--display",
+        "tests/data/display-small.ron",
+        "--backend",
+        "cpu",
+        "--simulate-participant",
+        "8",
+        "--no-stimulus-pictures",
+        "--out",
+    ])
+    .arg(&out)
+    .stdout(std::process::Stdio::null())
+    .stderr(std::process::Stdio::null());
+    let mut child = c.spawn().expect("starts");
+    let dir = out.join("small-search").join("sub-K01");
+    let trials = dir.join("trials.tsv");
+    let started = std::time::Instant::now();
+    // Kill it once two trials are in the table (or fail after 3 minutes).
+    loop {
+        let n = std::fs::read_to_string(&trials)
+            .map(|t| t.lines().count())
+            .unwrap_or(0);
+        if n >= 3 {
+            break;
+        }
+        assert!(
+            started.elapsed().as_secs() < 180,
+            "no trial written in time"
+        );
+        assert!(
+            child.try_wait().expect("wait").is_none(),
+            "ended before it was killed"
+        );
+        std::thread::sleep(std::time::Duration::from_millis(100));
+    }
+    child.kill().expect("SIGKILL");
+    let _ = child.wait();
+    let kept = lines(&trials).len() - 1;
+    assert!(kept >= 2);
+    let resumed = run_session(&x, &out, "K01", 9, &["--resume", "--no-stimulus-pictures"]);
+    let log = String::from_utf8_lossy(&resumed.stdout);
+    assert!(
+        resumed.status.success(),
+        "{log}\n{}",
+        String::from_utf8_lossy(&resumed.stderr)
+    );
+    assert!(log.contains(&format!("trial {} of 11", kept + 1)), "{log}");
+    let t = column(&trials, "trial");
+    assert_eq!(t, (0..11).map(|k| k.to_string()).collect::<Vec<_>>());
+    // Both sittings' raw recordings are there; the killed one may be
+    // unclosed, and says so when read.
+    assert!(dir.join("gaze-1.gzrec").exists() && dir.join("gaze-2.gzrec").exists());
+}

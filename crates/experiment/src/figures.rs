@@ -388,16 +388,18 @@ fn draw_scanpath(buf: &mut [u8], (w, h): (u32, u32), sp: &Scanpath) -> Result<()
         .iter()
         .map(|f| ((f.x * sx).round() as i32, (f.y * sy).round() as i32))
         .collect();
-    // Saccade lines first, under the circles.
-    if pts.len() > 1 {
-        root.draw(&PathElement::new(
-            pts.clone(),
-            RGBColor(20, 20, 20).stroke_width((5.0 * scale).max(2.0) as u32),
-        ))?;
-        root.draw(&PathElement::new(
-            pts.clone(),
-            RGBColor(255, 230, 0).stroke_width((3.0 * scale).max(1.0) as u32),
-        ))?;
+    // Saccade lines first, under the circles: one segment at a time (a
+    // thick polyline's miter joins spike far out at sharp turns).
+    for (style, width) in [
+        (RGBColor(20, 20, 20), (5.0 * scale).max(2.0)),
+        (RGBColor(255, 230, 0), (3.0 * scale).max(1.0)),
+    ] {
+        for seg in pts.windows(2) {
+            root.draw(&PathElement::new(
+                seg.to_vec(),
+                style.stroke_width(width as u32),
+            ))?;
+        }
     }
     let last = pts.len().saturating_sub(1);
     for (i, (f, &p)) in sp.fixations.iter().zip(&pts).enumerate() {

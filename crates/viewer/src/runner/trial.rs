@@ -45,11 +45,14 @@ pub struct TrialState {
     samples: Vec<(u64, Option<[f64; 2]>)>,
 }
 
-/// Fixations closer than this (degrees) with only saccades shorter than
-/// [`CONGRUENT_GAP_US`] between them are one ("congruent", Murphy 2007
-/// §7.3): about twice a good video tracker's noise, half an object's width.
+/// Fixations closer than this (degrees) with only saccades between them,
+/// at most [`CONGRUENT_GAP_US`] apart, are one ("congruent", Murphy 2007
+/// §7.3): 1° is several times a good video tracker's noise and under a
+/// third of an object's width; 250 ms is longer than any noise "saccade"
+/// and too short for a real look away and back (that puts a fixation
+/// elsewhere between them, which is never bridged).
 const CONGRUENT_DEG: f64 = 1.0;
-const CONGRUENT_GAP_US: u64 = 75_000;
+const CONGRUENT_GAP_US: u64 = 250_000;
 
 /// Most samples a trial keeps for its events (an hour at 1 kHz); beyond,
 /// the events cover the first hour and samples.tsv still has every one.

@@ -28,7 +28,7 @@ mod wire;
 
 pub use fixation::{fixation_script, Stop};
 pub use saccade::{main_sequence_duration_ms, saccade_profile};
-pub use scanpath::search_scanpath;
+pub use scanpath::{search_scanpath, search_stops};
 pub use search::{gaze_script, Script};
 pub use uncalibrated::{calibration_stops, uncalibrated_raw, NoSuchTarget};
 pub use wire::{simulate_iscan, simulate_mouse};

@@ -16,21 +16,23 @@ use super::saccade::{main_sequence_duration_ms, saccade_profile};
 /// along [`saccade_profile`]. Deterministic for a seed. The fixation
 /// durations and the nearest-of-three choice are plausible stand-ins for a
 /// search, not fitted to recorded searches.
-pub fn search_scanpath(
-    geometry: &ScreenGeometry,
+/// The places a search fixates: `start`, then a number of the objects
+/// other than the target drawn from `visits` (each visited once, each the
+/// nearest of three random candidates from where the eye is, as searches
+/// tend to go), then the target. Shared by the demo's scanpath and the
+/// experiment's simulated participant.
+pub fn search_stops<R: Rng>(
+    start: [f64; 2],
     objects: &[[f64; 2]],
     target: [f64; 2],
-    fps: f64,
-    seed: u64,
+    visits: std::ops::RangeInclusive<usize>,
+    rng: &mut R,
 ) -> Vec<[f64; 2]> {
-    let g = geometry;
-    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
-    let mut stops = vec![g.centre_px()];
+    let mut stops = vec![start];
     let mut left: Vec<[f64; 2]> = objects.iter().copied().filter(|o| *o != target).collect();
-    let visits = rng.random_range(4..=6usize).min(left.len());
+    let visits = rng.random_range(visits).min(left.len());
     for _ in 0..visits {
         let here = stops[stops.len() - 1];
-        // Prefer near objects: pick the nearest of three random candidates.
         let best = (0..3)
             .map(|_| rng.random_range(0..left.len()))
             .min_by(|&a, &b| {
@@ -41,6 +43,19 @@ pub fn search_scanpath(
         stops.push(left.swap_remove(best));
     }
     stops.push(target);
+    stops
+}
+
+pub fn search_scanpath(
+    geometry: &ScreenGeometry,
+    objects: &[[f64; 2]],
+    target: [f64; 2],
+    fps: f64,
+    seed: u64,
+) -> Vec<[f64; 2]> {
+    let g = geometry;
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+    let stops = search_stops(g.centre_px(), objects, target, 4..=6, &mut rng);
     let dt = 1.0 / fps;
     let px_per_deg = g.local_ppd(g.centre_px());
     let mut frames = Vec::new();

@@ -40,7 +40,7 @@ use rand_chacha::ChaCha8Rng;
 use tracker_hal::clock::monotonic_us;
 use tracker_hal::iscan::{encode_binary, IscanConfig, IscanMode, IscanParam};
 use tracker_hal::mouse::CursorEvent;
-use tracker_hal::sim::{main_sequence_duration_ms, uncalibrated_raw};
+use tracker_hal::sim::{main_sequence_duration_ms, search_stops, uncalibrated_raw};
 
 use super::flow::Phase;
 
@@ -102,21 +102,7 @@ fn search_plan(
     target: [f64; 2],
     rng: &mut ChaCha8Rng,
 ) -> (Vec<([f64; 2], f64)>, f64) {
-    let mut stops = vec![geometry.centre_px()];
-    let mut left: Vec<[f64; 2]> = objects.iter().copied().filter(|o| *o != target).collect();
-    let visits = rng.random_range(3..=8usize).min(left.len());
-    for _ in 0..visits {
-        let here = stops[stops.len() - 1];
-        let best = (0..3)
-            .map(|_| rng.random_range(0..left.len()))
-            .min_by(|&a, &b| {
-                let d = |i: usize| (left[i][0] - here[0]).hypot(left[i][1] - here[1]);
-                d(a).total_cmp(&d(b))
-            })
-            .unwrap_or(0);
-        stops.push(left.swap_remove(best));
-    }
-    stops.push(target);
+    let stops = search_stops(geometry.centre_px(), objects, target, 3..=8, rng);
     let mut t = 0.0;
     let mut plan = Vec::with_capacity(stops.len());
     for (k, &p) in stops.iter().enumerate() {

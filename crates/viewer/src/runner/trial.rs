@@ -58,6 +58,23 @@ const CONGRUENT_GAP_US: u64 = 250_000;
 /// the events cover the first hour and samples.tsv still has every one.
 const MAX_TRIAL_SAMPLES: usize = 3_600_000;
 
+/// `scene` at full resolution on the CPU (the preview, the stimulus
+/// pictures): the same picture on every machine.
+fn full_resolution(scene: &Scene, setup: &Setup) -> Result<Frame, String> {
+    let model = pipeline::sampling_model(setup.geometry, 1.0).map_err(|e| e.to_string())?;
+    let options = Options {
+        method: Method::Full,
+        backend: BackendChoice::Cpu,
+        ..Options::default()
+    };
+    let mut full = Renderer::new(scene, Camera::new(&setup.geometry), model, &options)
+        .map_err(|e| e.to_string())?;
+    let (frame, _) = full
+        .render(setup.geometry.centre_px())
+        .map_err(|e| e.to_string())?;
+    Ok(frame)
+}
+
 fn build(file: &raycast::SceneFile) -> Result<Scene, String> {
     Scene::build(file, Path::new(".")).map_err(|e| format!("stimulus scene {}: {e}", file.name))
 }
@@ -69,21 +86,7 @@ impl TrialState {
         let condition = &design.conditions[trial.condition];
         let camera = Camera::new(&setup.geometry);
         let preview = build(&stimulus::preview_scene(design, trial, &setup.layout))?;
-        let model = pipeline::sampling_model(setup.geometry, 1.0).map_err(|e| e.to_string())?;
-        let mut full = Renderer::new(
-            &preview,
-            camera,
-            model,
-            &Options {
-                method: Method::Full,
-                backend: BackendChoice::Cpu,
-                ..Options::default()
-            },
-        )
-        .map_err(|e| e.to_string())?;
-        let (frame, _) = full
-            .render(setup.geometry.centre_px())
-            .map_err(|e| e.to_string())?;
+        let frame = full_resolution(&preview, setup)?;
         let search_model = pipeline::sampling_model(setup.geometry, design.contrast)
             .map_err(|e| format!("contrast: {e}"))?
             .with_inset_deg(condition.inset_deg.unwrap_or(0.0))
@@ -318,22 +321,7 @@ impl TrialState {
     /// The search display at full resolution, for the scanpath pictures:
     /// written to a temporary file and renamed.
     fn stimulus_picture(&self, setup: &Setup, trial: &Trial, dir: &Path) -> Result<(), String> {
-        let scene = self.search.borrow_owner();
-        let model = pipeline::sampling_model(setup.geometry, 1.0).map_err(|e| e.to_string())?;
-        let mut full = Renderer::new(
-            scene,
-            Camera::new(&setup.geometry),
-            model,
-            &Options {
-                method: Method::Full,
-                backend: BackendChoice::Cpu,
-                ..Options::default()
-            },
-        )
-        .map_err(|e| e.to_string())?;
-        let (f, _) = full
-            .render(setup.geometry.centre_px())
-            .map_err(|e| e.to_string())?;
+        let f = full_resolution(self.search.borrow_owner(), setup)?;
         let path = session::stimulus_path(dir, trial.index);
         let tmp = path.with_extension("png.part");
         save_png(&tmp, (f.width_px, f.height_px), &f.rgb)

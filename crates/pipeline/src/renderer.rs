@@ -77,6 +77,8 @@ pub struct Renderer<'s> {
     /// The CPU hybrid method's buffers (mask, vertex hits, pixel owners),
     /// reused frame after frame, and the last frame's stage times.
     scratch: Scratch,
+    /// The wall clock [`Renderer::render`] times frames by (its origin).
+    clock: std::time::Instant,
 }
 
 impl<'s> Renderer<'s> {
@@ -114,6 +116,7 @@ impl<'s> Renderer<'s> {
             surface: options.surface,
             spare: None,
             scratch: Scratch::default(),
+            clock: std::time::Instant::now(),
         })
     }
 
@@ -131,8 +134,22 @@ impl<'s> Renderer<'s> {
 
     /// Renders one frame for the point of regard `gaze_px` (screen pixels):
     /// the method fills the G-buffer, then the effect passes run. `Stats`
-    /// time the method.
+    /// time the method. Passes with dynamics (depth of field's refocusing)
+    /// are timed by the wall clock (seconds since the renderer was made).
     pub fn render(&mut self, gaze_px: [f64; 2]) -> Result<(Frame, Stats), RenderError> {
+        let time_s = self.clock.elapsed().as_secs_f64();
+        self.render_at(gaze_px, time_s)
+    }
+
+    /// [`Renderer::render`] for a frame at `time_s` (seconds, any fixed
+    /// origin) instead of the wall clock: scripted, deterministic frames.
+    /// A NaN or infinite time is refused by the passes with dynamics (they
+    /// hold their state).
+    pub fn render_at(
+        &mut self,
+        gaze_px: [f64; 2],
+        time_s: f64,
+    ) -> Result<(Frame, Stats), RenderError> {
         let surface = self.wants_surface();
         let (mut frame, stats) = match (self.method, &mut self.backend) {
             (Method::Full | Method::Hybrid, Backend::Cpu) => {
@@ -163,6 +180,7 @@ impl<'s> Renderer<'s> {
             scene: self.scene,
             camera: &self.camera,
             gaze_px,
+            time_s: Some(time_s),
         };
         for pass in &mut self.passes {
             pass.run(&mut frame, &input);

@@ -10,7 +10,7 @@ use pipeline::effects::depth_of_field::{coc_px, level_for_coc, DepthOfField};
 use pipeline::effects::{Pass, PassInput};
 use pipeline::{BackendChoice, Method, Options, Renderer};
 use proptest::prelude::*;
-use raycast::scene::{DofFocus, Effect};
+use raycast::scene::{DofFocus, DofRefocus, Effect};
 use raycast::{Camera, Frame, Layer, Scene, SceneFile};
 
 const W: u32 = 640;
@@ -125,6 +125,7 @@ fn the_scene_file_parses_defaults_and_validates_naming_the_field() {
             focal_length_mm: 17.0,
             retina_distance_mm: 24.0,
             focus: DofFocus::Fixed { depth_mm: 800.0 },
+            refocus: DofRefocus::Instant,
         }]
     );
     assert!(build("DepthOfField(focus: Fixed(depth_mm: inf))").is_ok());
@@ -272,7 +273,7 @@ proptest! {
         prop_assert!(pass.needs_surface());
         let before = frame_with(&depths, 24);
         let mut frame = before.clone();
-        let input = PassInput { scene: &scene, camera: &cam, gaze_px: gaze };
+        let input = PassInput { scene: &scene, camera: &cam, gaze_px: gaze, time_s: None };
         pass.run(&mut frame, &input);
         pass.run(&mut frame.clone(), &input);
         prop_assert_eq!(frame.depth_mm.len(), before.depth_mm.len());
@@ -304,6 +305,7 @@ fn the_anisotropic_pyramid_reduces_leakage_into_the_background() {
         scene: &plain,
         camera: &cam,
         gaze_px: GAZE,
+        time_s: None,
     };
     let bg = plain.background_rgb8;
     let (w, h) = (W as usize, H as usize);
@@ -336,4 +338,364 @@ fn the_anisotropic_pyramid_reduces_leakage_into_the_background() {
     let (aniso, iso) = (leak(true), leak(false));
     eprintln!("leakage around the focused ball: anisotropic {aniso:.0}, isotropic {iso:.0}");
     assert!(aniso < 0.5 * iso, "anisotropic {aniso}, isotropic {iso}");
+}
+
+// ---- Refocusing dynamics (Lee §6.1) ----
+
+/// Near and far halves of the refocusing frames, mm.
+const NEAR_MM: f32 = 300.0;
+const FAR_MM: f32 = 2000.0;
+/// Gaze on the near half, the far half, the background strip, and nowhere.
+const ON_NEAR: [f64; 2] = [5.5, 8.5];
+const ON_FAR: [f64; 2] = [26.5, 8.5];
+const ON_BACKGROUND: [f64; 2] = [44.5, 8.5];
+const NOWHERE: [f64; 2] = [f64::NAN, f64::NAN];
+
+/// 48×16: columns 0–15 near, 16–31 far, 32–47 background.
+fn two_depth_frame() -> Frame {
+    let depths: Vec<f32> = (0..48 * 16)
+        .map(|i| match i % 48 {
+            0..=15 => NEAR_MM,
+            16..=31 => FAR_MM,
+            _ => f32::INFINITY,
+        })
+        .collect();
+    frame_with(&depths, 48)
+}
+
+fn diopters(mm: f64) -> f64 {
+    1000.0 / mm
+}
+
+/// A pass with `refocus`, and a closure running one frame at (`gaze`,
+/// `time`) that gives the focal depth it used.
+fn scripted(refocus: DofRefocus) -> impl FnMut([f64; 2], Option<f64>) -> f64 {
+    let scene = build("").expect("builds");
+    let cam = camera();
+    let mut pass = DepthOfField::new(EyeLens::default(), DofFocus::Gaze).with_refocus(refocus);
+    assert_eq!(pass.refocus(), refocus);
+    let base = two_depth_frame();
+    move |gaze, time_s| {
+        let mut f = base.clone();
+        let input = PassInput {
+            scene: &scene,
+            camera: &cam,
+            gaze_px: gaze,
+            time_s,
+        };
+        pass.run(&mut f, &input);
+        pass.focal_depth_mm().expect("a focus after a frame")
+    }
+}
+
+fn close(a: f64, b: f64, rel: f64) -> bool {
+    (a - b).abs() <= rel * a.abs().max(b.abs())
+}
+
+#[test]
+fn refocus_parses_defaults_and_validates_naming_the_field() {
+    let refocus = |text: &str| -> Option<DofRefocus> {
+        match build(text).ok()?.effects.first()? {
+            Effect::DepthOfField { refocus, .. } => Some(*refocus),
+            _ => None,
+        }
+    };
+    assert_eq!(refocus("DepthOfField()"), Some(DofRefocus::Instant));
+    assert_eq!(
+        refocus("DepthOfField(refocus: Instant)"),
+        Some(DofRefocus::Instant)
+    );
+    assert_eq!(
+        refocus("DepthOfField(refocus: Interpolate())"),
+        Some(DofRefocus::Interpolate { ms: 300.0 })
+    );
+    assert_eq!(
+        refocus("DepthOfField(refocus: Interpolate(ms: 250.0))"),
+        Some(DofRefocus::Interpolate { ms: 250.0 })
+    );
+    assert_eq!(
+        refocus("DepthOfField(refocus: LowPass(hz: 2.0))"),
+        Some(DofRefocus::LowPass { hz: 2.0 })
+    );
+    assert_eq!(
+        refocus("DepthOfField(refocus: LowPass())"),
+        Some(DofRefocus::LowPass { hz: 1.0 })
+    );
+    for (text, field) in [
+        ("Interpolate(ms: 0.0)", "effects[0].refocus.ms"),
+        ("Interpolate(ms: -300.0)", "effects[0].refocus.ms"),
+        ("Interpolate(ms: NaN)", "effects[0].refocus.ms"),
+        ("Interpolate(ms: inf)", "effects[0].refocus.ms"),
+        ("LowPass(hz: 0.0)", "effects[0].refocus.hz"),
+        ("LowPass(hz: NaN)", "effects[0].refocus.hz"),
+        ("LowPass(hz: inf)", "effects[0].refocus.hz"),
+        ("LowPass(hz: 1000.0)", "effects[0].refocus.hz"),
+    ] {
+        let text = format!("DepthOfField(refocus: {text})");
+        match build(&text) {
+            Err(raycast::SceneError::Field { field: f, .. }) => assert_eq!(f, field, "{text}"),
+            other => panic!("{text}: {other:?}"),
+        }
+    }
+    assert!(
+        ron::from_str::<SceneFile>(&scene_text("DepthOfField(refocus: Interpolate(hz: 2.0))"))
+            .is_err()
+    );
+}
+
+#[test]
+fn instant_refocus_switches_at_once() {
+    let mut frame = scripted(DofRefocus::Instant);
+    assert_eq!(frame(ON_NEAR, Some(0.0)), f64::from(NEAR_MM));
+    assert_eq!(frame(ON_FAR, Some(0.01)), f64::from(FAR_MM));
+    assert_eq!(frame(ON_NEAR, Some(0.02)), f64::from(NEAR_MM));
+    // No clock: at once too.
+    assert_eq!(frame(ON_FAR, None), f64::from(FAR_MM));
+}
+
+#[test]
+fn interpolated_refocus_is_halfway_in_diopters_at_150_ms_and_done_at_300() {
+    let mut frame = scripted(DofRefocus::Interpolate { ms: 300.0 });
+    let (near, far) = (diopters(f64::from(NEAR_MM)), diopters(f64::from(FAR_MM)));
+    let dt = 0.01;
+    for k in 0..10 {
+        assert_eq!(frame(ON_NEAR, Some(k as f64 * dt)), f64::from(NEAR_MM));
+    }
+    // The jump is seen at t = 0.1 s: the transition begins there.
+    let t0 = 0.1;
+    let mut seen = Vec::new();
+    for k in 0..=40 {
+        let t = t0 + k as f64 * dt;
+        let d = diopters(frame(ON_FAR, Some(t)));
+        seen.push((k, d));
+        let expect = if k >= 30 {
+            far
+        } else {
+            near + (far - near) * (k as f64 / 30.0)
+        };
+        assert!(
+            close(d, expect, 1e-9),
+            "{k}0 ms: {d} D, expected {expect} D"
+        );
+    }
+    let half = seen[15].1;
+    assert!(
+        close(half, 0.5 * (near + far), 1e-9),
+        "150 ms: {half} D, halfway {}",
+        0.5 * (near + far)
+    );
+    // Monotone, and never past the target.
+    assert!(seen.windows(2).all(|w| w[1].1 <= w[0].1 && w[1].1 >= far));
+    // Back to near: a new 300-ms transition.
+    let t1 = t0 + 0.5;
+    assert!(close(diopters(frame(ON_NEAR, Some(t1))), far, 1e-12));
+    let d = diopters(frame(ON_NEAR, Some(t1 + 0.15)));
+    assert!(close(d, 0.5 * (near + far), 1e-9), "{d}");
+    assert!(close(diopters(frame(ON_NEAR, Some(t1 + 0.3))), near, 1e-9));
+}
+
+#[test]
+fn interpolated_refocus_restarts_from_the_shown_focus_on_a_jump_mid_transition() {
+    let mut frame = scripted(DofRefocus::Interpolate { ms: 300.0 });
+    let (near, far) = (diopters(f64::from(NEAR_MM)), diopters(f64::from(FAR_MM)));
+    frame(ON_NEAR, Some(0.0));
+    frame(ON_FAR, Some(0.1));
+    let mid = diopters(frame(ON_FAR, Some(0.2))); // a third of the way
+    assert!(close(mid, near + (far - near) / 3.0, 1e-9), "{mid}");
+    // Back to near at 0.25 s: starts from what was shown, continuous.
+    let at_jump = diopters(frame(ON_NEAR, Some(0.25)));
+    let expect = near + (far - near) * (0.15 / 0.3);
+    assert!(close(at_jump, expect, 1e-9), "{at_jump} vs {expect}");
+    let d = diopters(frame(ON_NEAR, Some(0.40)));
+    assert!(close(d, 0.5 * (expect + near), 1e-9), "{d}");
+    assert!(close(diopters(frame(ON_NEAR, Some(0.55))), near, 1e-9));
+}
+
+#[test]
+fn low_pass_refocus_decays_as_exp_minus_two_pi_f_t() {
+    for hz in [0.5, 1.0, 2.0] {
+        for dt in [1.0 / 60.0, 1.0 / 144.0, 0.037] {
+            let mut frame = scripted(DofRefocus::LowPass { hz });
+            let (near, far) = (diopters(f64::from(NEAR_MM)), diopters(f64::from(FAR_MM)));
+            assert_eq!(frame(ON_NEAR, Some(0.0)), f64::from(NEAR_MM));
+            let t0 = 0.5;
+            let mut k = 0;
+            loop {
+                let t = t0 + k as f64 * dt;
+                if t > t0 + 2.0 {
+                    break;
+                }
+                let d = diopters(frame(ON_FAR, Some(t)));
+                let left = (d - far) / (near - far);
+                let expect = (-2.0 * std::f64::consts::PI * hz * (t - t0)).exp();
+                assert!(
+                    (left - expect).abs() <= 0.01 * expect,
+                    "{hz} Hz, dt {dt}, t − t0 = {}: left {left}, exp {expect}",
+                    t - t0
+                );
+                k += 1;
+            }
+        }
+    }
+}
+
+#[test]
+fn refocus_holds_through_background_infinity_and_invalid_gaze_without_nan() {
+    for refocus in [
+        DofRefocus::Instant,
+        DofRefocus::Interpolate { ms: 300.0 },
+        DofRefocus::LowPass { hz: 2.0 },
+    ] {
+        let mut frame = scripted(refocus);
+        // Gaze on the background first: relaxed eye, infinity (0 D).
+        assert_eq!(
+            frame(ON_BACKGROUND, Some(0.0)),
+            f64::INFINITY,
+            "{refocus:?}"
+        );
+        assert_eq!(frame(NOWHERE, Some(0.1)), f64::INFINITY, "{refocus:?}");
+        // To near from infinity: finite throughout, reaching near.
+        let mut last = f64::INFINITY;
+        for k in 0..=200 {
+            let d = frame(ON_NEAR, Some(0.2 + k as f64 * 0.01));
+            assert!(d >= f64::from(NEAR_MM) && d <= last, "{refocus:?} {k}: {d}");
+            last = d;
+        }
+        assert!(close(last, f64::from(NEAR_MM), 1e-6), "{refocus:?} {last}");
+        // Background, off-screen and NaN gaze hold the near focus.
+        for (k, g) in [
+            ON_BACKGROUND,
+            NOWHERE,
+            [-1e300, 1e300],
+            [f64::INFINITY, 3.0],
+        ]
+        .into_iter()
+        .enumerate()
+        {
+            let d = frame(g, Some(3.0 + k as f64));
+            assert!(close(d, f64::from(NEAR_MM), 1e-6), "{refocus:?} {g:?}: {d}");
+        }
+    }
+    // A fixed focus at infinity is 0 D throughout.
+    let scene = build("").expect("builds");
+    let cam = camera();
+    let mut pass = DepthOfField::new(
+        EyeLens::default(),
+        DofFocus::Fixed {
+            depth_mm: f64::INFINITY,
+        },
+    )
+    .with_refocus(DofRefocus::LowPass { hz: 1.0 });
+    for t in [0.0, 0.5, f64::NAN, 1.0] {
+        let mut f = two_depth_frame();
+        let input = PassInput {
+            scene: &scene,
+            camera: &cam,
+            gaze_px: ON_NEAR,
+            time_s: Some(t),
+        };
+        pass.run(&mut f, &input);
+        assert_eq!(pass.focal_depth_mm(), Some(f64::INFINITY));
+    }
+}
+
+/// Through the renderer: `render_at` times the pass, and the transition's
+/// end points are Instant's frames.
+#[test]
+fn render_at_times_the_refocus_of_a_rendered_scene() {
+    // The far ball's centre on the screen (px).
+    const FAR_GAZE: [f64; 2] = [395.7, 306.4];
+    let instant = build("DepthOfField(pupil_mm: 8.0)").expect("builds");
+    let lerp =
+        build("DepthOfField(pupil_mm: 8.0, refocus: Interpolate(ms: 300.0))").expect("builds");
+    let mut ri = renderer(&instant, false);
+    let mut rl = renderer(&lerp, false);
+    let (near_i, _) = ri.render_at(GAZE, 0.0).expect("renders");
+    let (far_i, _) = ri.render_at(FAR_GAZE, 0.1).expect("renders");
+    assert_ne!(near_i.rgb, far_i.rgb, "the far ball is in focus");
+    let (first, _) = rl.render_at(GAZE, 0.0).expect("renders");
+    assert_eq!(first.rgb, near_i.rgb);
+    let (jump, _) = rl.render_at(FAR_GAZE, 1.0).expect("renders");
+    assert_eq!(
+        jump.rgb, near_i.rgb,
+        "the transition starts at the old focus"
+    );
+    let (mid, _) = rl.render_at(FAR_GAZE, 1.15).expect("renders");
+    assert!(mid.rgb != near_i.rgb && mid.rgb != far_i.rgb);
+    let (end, _) = rl.render_at(FAR_GAZE, 1.3).expect("renders");
+    assert_eq!(end.rgb, far_i.rgb, "done after 300 ms");
+    // A refused time holds the frame's focus.
+    let (held, _) = rl.render_at(GAZE, f64::NAN).expect("renders");
+    assert_eq!(held.rgb, far_i.rgb);
+    // `render` (wall clock) still renders a scene without dynamics as before.
+    let (wall, _) = ri.render(GAZE).expect("renders");
+    assert_eq!(wall.rgb, near_i.rgb);
+}
+
+/// One scripted frame: where the gaze is and the time step to it.
+fn gaze_step() -> impl Strategy<Value = [f64; 2]> {
+    prop_oneof![
+        Just(ON_NEAR),
+        Just(ON_FAR),
+        Just(ON_BACKGROUND),
+        Just(NOWHERE),
+        ((-10.0f64..60.0), (-10.0f64..30.0)).prop_map(|(x, y)| [x, y]),
+    ]
+}
+
+fn time_step() -> impl Strategy<Value = f64> {
+    prop_oneof![
+        Just(0.0),
+        Just(1e-9),
+        Just(1e12),
+        Just(f64::MAX),
+        Just(f64::NAN),
+        Just(f64::INFINITY),
+        Just(f64::NEG_INFINITY),
+        Just(-0.5),
+        0.0f64..0.1,
+        0.1f64..5.0,
+    ]
+}
+
+fn refocus_mode() -> impl Strategy<Value = DofRefocus> {
+    prop_oneof![
+        Just(DofRefocus::Instant),
+        (1.0f64..2000.0).prop_map(|ms| DofRefocus::Interpolate { ms }),
+        (0.01f64..100.0).prop_map(|hz| DofRefocus::LowPass { hz }),
+    ]
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(128))]
+
+    /// Random jump sequences and time steps (0, huge, NaN, negative, …):
+    /// the focus is never NaN, stays between the targets seen (in
+    /// diopters, infinity = 0 D), and a refused (non-finite) time holds it.
+    #[test]
+    fn refocus_is_never_nan_and_stays_between_its_targets(
+        mode in refocus_mode(),
+        script in prop::collection::vec((gaze_step(), time_step()), 1..40),
+        start in prop_oneof![Just(0.0f64), -1e6f64..1e6],
+    ) {
+        let mut frame = scripted(mode);
+        let mut t = start;
+        let mut prev: Option<f64> = None;
+        let (lo, hi) = (0.0, diopters(f64::from(NEAR_MM)));
+        for (gaze, step) in script {
+            let time = t + step;
+            let d = frame(gaze, Some(time));
+            prop_assert!(!d.is_nan() && d > 0.0, "{mode:?}: {d}");
+            let dd = diopters(d);
+            prop_assert!(dd >= lo && dd <= hi * (1.0 + 1e-12), "{mode:?}: {dd} D");
+            if !time.is_finite() {
+                if let Some(p) = prev {
+                    prop_assert_eq!(d, p, "a refused time holds the focus");
+                }
+            } else {
+                t = time;
+            }
+            prev = Some(d);
+        }
+    }
 }

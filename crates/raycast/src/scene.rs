@@ -137,8 +137,9 @@ pub enum Effect {
     /// Depth of field by mipmap interpolation (Lee 2009, ch. 4): the eye as
     /// a thin lens of pupil diameter `pupil_mm` (0: no blur), focal length
     /// `focal_length_mm` and lens-to-retina distance `retina_distance_mm`,
-    /// focused at `focus`. `DepthOfField()` gives Lee's adult eye (4 mm
-    /// pupil, 16.7 mm, 24 mm) focused at the depth under the gaze.
+    /// focused at `focus`, refocusing on a change of focus as `refocus`
+    /// says. `DepthOfField()` gives Lee's adult eye (4 mm pupil, 16.7 mm,
+    /// 24 mm) focused at the depth under the gaze, refocusing at once.
     DepthOfField {
         #[serde(default = "default_dof_pupil_mm")]
         pupil_mm: f64,
@@ -148,6 +149,8 @@ pub enum Effect {
         retina_distance_mm: f64,
         #[serde(default)]
         focus: DofFocus,
+        #[serde(default)]
+        refocus: DofRefocus,
     },
 }
 
@@ -161,6 +164,42 @@ pub enum DofFocus {
     Gaze,
     /// At a fixed eye distance (mm): beyond the focal length, or `inf`.
     Fixed { depth_mm: f64 },
+}
+
+/// How [`Effect::DepthOfField`]'s focal depth follows a change of its focus
+/// target (Lee 2009 §6.1, the eye's refocusing latency). The filtered
+/// quantity is the accommodation in diopters (1/depth), not the depth.
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub enum DofRefocus {
+    /// The focal depth is the target's, frame by frame (no latency).
+    #[default]
+    Instant,
+    /// Eq. 6.1: a linear transition over `ms` milliseconds (Lee: 300 ms,
+    /// the 200–300 ms refocusing latency) from the focus shown when the
+    /// target jumped to the (tracked) new target.
+    Interpolate {
+        #[serde(default = "default_dof_refocus_ms")]
+        ms: f64,
+    },
+    /// A first-order low-pass filter of cut-off `hz` (Lee: below 2 Hz;
+    /// 1 Hz in his Fig. 6.1).
+    LowPass {
+        #[serde(default = "default_dof_refocus_hz")]
+        hz: f64,
+    },
+}
+
+/// Longest refocusing transition a scene may give, ms.
+pub const DOF_REFOCUS_MS_MAX: f64 = 10_000.0;
+/// Highest refocusing low-pass cut-off a scene may give, Hz.
+pub const DOF_REFOCUS_HZ_MAX: f64 = 100.0;
+
+fn default_dof_refocus_ms() -> f64 {
+    300.0
+}
+fn default_dof_refocus_hz() -> f64 {
+    1.0
 }
 
 /// Largest pupil (aperture) diameter a scene may give, mm: far beyond an
@@ -202,6 +241,7 @@ impl Effect {
         focal_length_mm: 16.7,
         retina_distance_mm: 24.0,
         focus: DofFocus::Gaze,
+        refocus: DofRefocus::Instant,
     };
 
     /// Whether `self` and `other` are the same effect, whatever their
@@ -224,6 +264,7 @@ impl Effect {
                 focal_length_mm,
                 retina_distance_mm,
                 focus,
+                refocus,
             } => {
                 let bad = |name: &str, msg: String| {
                     Err(SceneError::field(format!("{field}.{name}"), msg))
@@ -245,10 +286,26 @@ impl Effect {
                         );
                     }
                 }
-                match focus {
-                    DofFocus::Fixed { depth_mm } if depth_mm.is_nan() || depth_mm <= focal_length_mm => bad(
-                        "focus.depth_mm",
-                        format!("must be beyond the focal length ({focal_length_mm} mm) or inf, found {depth_mm}"),
+                if let DofFocus::Fixed { depth_mm } = focus {
+                    if depth_mm.is_nan() || depth_mm <= focal_length_mm {
+                        return bad(
+                            "focus.depth_mm",
+                            format!("must be beyond the focal length ({focal_length_mm} mm) or inf, found {depth_mm}"),
+                        );
+                    }
+                }
+                match refocus {
+                    DofRefocus::Interpolate { ms } if !(ms > 0.0 && ms <= DOF_REFOCUS_MS_MAX) => {
+                        bad(
+                            "refocus.ms",
+                            format!(
+                                "must be above 0 and at most {DOF_REFOCUS_MS_MAX} ms, found {ms}"
+                            ),
+                        )
+                    }
+                    DofRefocus::LowPass { hz } if !(hz > 0.0 && hz <= DOF_REFOCUS_HZ_MAX) => bad(
+                        "refocus.hz",
+                        format!("must be above 0 and at most {DOF_REFOCUS_HZ_MAX} Hz, found {hz}"),
                     ),
                     _ => Ok(()),
                 }

@@ -65,3 +65,28 @@ pub fn to_rgb8(c: Vec3) -> [u8; 3] {
     let g = |x: f32| t[(x.clamp(0.0, 1.0) * GAMMA_STEPS as f32 + 0.5) as usize];
     [g(c.x), g(c.y), g(c.z)]
 }
+
+/// Linear colour seen along the ray from `origin` in direction `dir`
+/// (world mm), shaded exactly as the CPU renderer shades a primary ray
+/// whose eye is `origin`: the scene's background on a miss, else [`shade`]
+/// at the closest hit (`t > 0`) with its interpolated normal, viewed from
+/// `origin`. For distributed (thin-lens) references.
+pub fn ray_colour(
+    scene: &Scene,
+    origin: [f32; 3],
+    dir: [f32; 3],
+    test: crate::ray::TriangleTest,
+) -> [f32; 3] {
+    let o = Vec3::from_array(origin);
+    let ray = crate::ray::Ray::new(o, Vec3::from_array(dir));
+    let c = match scene.intersect(&ray, 0.0, test) {
+        None => scene.background,
+        Some(h) => shade(scene, h.object, ray.at(h.t), h.normal, o),
+    };
+    c.to_array()
+}
+
+/// [`to_rgb8`] for a colour given as an array.
+pub fn to_rgb8_array(c: [f32; 3]) -> [u8; 3] {
+    to_rgb8(Vec3::from_array(c))
+}

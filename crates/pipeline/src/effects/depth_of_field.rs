@@ -7,7 +7,11 @@
 //!    of regard, ignoring the background (infinite depth). When the window
 //!    holds no surface (gaze on the background or off the screen) the
 //!    previous frame's focus is kept; before any, the eye is relaxed
-//!    (focused at infinity).
+//!    (focused at infinity). The focal depth then follows this target as
+//!    the scene's `refocus` says ([`super::refocus`], Lee §6.1): at once
+//!    (`Instant`, the default), by a 300-ms transition (`Interpolate`) or a
+//!    first-order low-pass (`LowPass`), in diopters, timed by the frame's
+//!    time ([`PassInput::time_s`]).
 //! 2. **Circle of confusion** per pixel by the thin lens (eq. 4.2–4.4,
 //!    `foveation::thin_lens`): `C = DPI·(d_s/d_r)·R` with the display's real
 //!    geometry: `DPI` the mean of the camera's pixels per mm in x and y,
@@ -60,15 +64,17 @@
 //! blur (eq. 4.10–4.11: a blurred foreground's silhouette stays sharp over
 //! an in-focus background; it would also blur in-focus pixels next to a
 //! blurred foreground, which the "sharp pixels are untouched" rule here
-//! forbids as stated); the GPU path; ch. 5 splatting; an accumulation-buffer
-//! reference; focus dynamics (accommodation latency) — the focus follows
-//! the gaze at once.
+//! forbids as stated); the GPU path; ch. 5 splatting. The ground truth it
+//! is measured against is [`super::dof_reference`] (thin-lens distributed
+//! ray casting, 64 rays per pixel).
 
 use foveation::thin_lens::{self, EyeLens};
 use raycast::scene::DofFocus;
 use raycast::Frame;
 
+use super::refocus::Refocus;
 use super::{Pass, PassInput};
+use raycast::scene::DofRefocus;
 
 /// Side of the square around the gaze whose depths' median is the focus
 /// for `focus: Gaze`, px.
@@ -88,6 +94,8 @@ pub struct DepthOfField {
     pub focus: DofFocus,
     /// The focus of the last frame whose gaze window held a surface.
     last_focus_mm: Option<f64>,
+    /// How the focal depth follows the focus target.
+    refocus: Refocus,
     /// Mipmap level per pixel of the current frame.
     level: Vec<f32>,
     /// Level 0 (linear light, full size) and levels 1… of the pyramid.
@@ -151,6 +159,7 @@ impl DepthOfField {
             lens,
             focus,
             last_focus_mm: None,
+            refocus: Refocus::default(),
             level: Vec::new(),
             pyramid: Vec::new(),
             sigma: Vec::new(),
@@ -158,13 +167,41 @@ impl DepthOfField {
         }
     }
 
+    /// The pass refocusing as `refocus` says (default `Instant`).
+    pub fn with_refocus(mut self, refocus: DofRefocus) -> Self {
+        self.refocus = Refocus::new(refocus);
+        self
+    }
+
+    /// How the focal depth follows its target.
+    pub fn refocus(&self) -> DofRefocus {
+        self.refocus.mode
+    }
+
+    /// The focal depth of the last frame the pass blurred (after the
+    /// refocusing dynamics), mm; `None` before any.
+    pub fn focal_depth_mm(&self) -> Option<f64> {
+        self.refocus.focus_mm()
+    }
+
     /// Number of pyramid levels (level 0 included) allocated so far.
     pub fn allocated_levels(&self) -> usize {
         self.pyramid.len()
     }
 
-    /// The focus distance for this frame, mm (may be infinite).
-    fn focus_mm(&mut self, frame: &Frame, gaze_px: [f64; 2]) -> f64 {
+    /// The focus distance for this frame at `time_s`, mm (may be infinite),
+    /// after the refocusing dynamics.
+    fn focus_mm(&mut self, frame: &Frame, gaze_px: [f64; 2], time_s: Option<f64>) -> f64 {
+        let target = self.focus_target_mm(frame, gaze_px);
+        if target > 0.0 {
+            self.refocus.update(target, time_s)
+        } else {
+            target // only an unvalidated fixed focus: `coc_px` clamps it
+        }
+    }
+
+    /// The focus target for this frame, mm (may be infinite).
+    fn focus_target_mm(&mut self, frame: &Frame, gaze_px: [f64; 2]) -> f64 {
         match self.focus {
             DofFocus::Fixed { depth_mm } => depth_mm,
             DofFocus::Gaze => {
@@ -274,7 +311,7 @@ impl Pass for DepthOfField {
         if self.lens.aperture_mm.is_nan() || self.lens.aperture_mm <= 0.0 {
             return; // pupil 0: a pinhole, everything sharp
         }
-        let focus = self.focus_mm(frame, input.gaze_px);
+        let focus = self.focus_mm(frame, input.gaze_px, input.time_s);
         let pitch = input.camera.pitch();
         let ppmm = 0.5 * (1.0 / f64::from(pitch[0]) + 1.0 / f64::from(pitch[1]));
         let ds = f64::from(input.camera.eye.z);

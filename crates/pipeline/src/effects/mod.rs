@@ -7,7 +7,9 @@
 //! [`Pass`], and one arm in [`pass_for`].
 
 pub mod depth_of_field;
+pub mod dof_reference;
 pub mod por_overlay;
+pub mod refocus;
 
 use raycast::scene::Effect;
 use raycast::{Camera, Frame, Scene};
@@ -19,6 +21,11 @@ pub struct PassInput<'a> {
     pub camera: &'a Camera,
     /// The point of regard the frame was rendered for (screen px).
     pub gaze_px: [f64; 2],
+    /// The frame's time, s (any fixed origin), for passes with dynamics
+    /// (depth of field's refocusing); `None`: no clock, such passes act at
+    /// once. `Renderer::render` gives the wall clock, `render_at` the
+    /// caller's time.
+    pub time_s: Option<f64>,
 }
 
 /// One pass over a rendered frame.
@@ -48,14 +55,18 @@ pub fn pass_for(effect: &Effect) -> Option<Box<dyn Pass>> {
             focal_length_mm,
             retina_distance_mm,
             focus,
-        } => Some(Box::new(depth_of_field::DepthOfField::new(
-            foveation::thin_lens::EyeLens {
-                focal_length_mm: *focal_length_mm,
-                aperture_mm: *pupil_mm,
-                retina_distance_mm: *retina_distance_mm,
-            },
-            *focus,
-        ))),
+            refocus,
+        } => Some(Box::new(
+            depth_of_field::DepthOfField::new(
+                foveation::thin_lens::EyeLens {
+                    focal_length_mm: *focal_length_mm,
+                    aperture_mm: *pupil_mm,
+                    retina_distance_mm: *retina_distance_mm,
+                },
+                *focus,
+            )
+            .with_refocus(*refocus),
+        )),
         Effect::FoveatedSampling
         | Effect::SilhouetteRefinement
         | Effect::CreaseRefinement

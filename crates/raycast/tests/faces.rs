@@ -207,21 +207,3 @@ fn bad_faces_in_a_scene_file_are_errors_naming_the_field() {
     let shipped = common::load("faces");
     assert_eq!(shipped.object_materials.len(), 4);
 }
-
-/// Renders `config/scenes/faces.ron` at full resolution on the Tobii
-/// display to a binary PPM (`GAZECAST_FACES_PPM`, default
-/// `$TMPDIR/faces.ppm`), to look at:
-/// `cargo test -p raycast --test faces -- --ignored --nocapture`.
-#[test]
-#[ignore = "writes a picture to look at"]
-fn picture_of_the_four_faces() {
-    let scene = common::load("faces");
-    let frame = render_full(&scene, &tobii());
-    let path = std::env::var_os("GAZECAST_FACES_PPM")
-        .map(std::path::PathBuf::from)
-        .unwrap_or_else(|| std::env::temp_dir().join("faces.ppm"));
-    let mut data = format!("P6\n{} {}\n255\n", frame.width_px, frame.height_px).into_bytes();
-    data.extend_from_slice(&frame.rgb);
-    std::fs::write(&path, data).expect("write the picture");
-    println!("wrote {}", path.display());
-}

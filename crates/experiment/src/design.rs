@@ -145,6 +145,9 @@ pub struct Stimulus {
     pub grid_deg: f64,
 }
 
+/// Most trials a participant's plan may hold (a day of 1-s trials).
+pub const MAX_TRIALS: usize = 100_000;
+
 fn default_contrast() -> f64 {
     1.0
 }
@@ -284,7 +287,7 @@ impl Design {
 
     /// Trials per participant.
     pub fn total_trials(&self) -> usize {
-        self.conditions.len() * self.runs as usize
+        self.conditions.len().saturating_mul(self.runs as usize)
     }
 
     /// Checks the rules serde cannot express; returns the first violation.
@@ -296,6 +299,18 @@ impl Design {
         self.validate_conditions()?;
         if self.runs == 0 {
             return Err(DesignError::invalid("runs", "must be at least 1"));
+        }
+        // The plan holds every trial: bound it before anything allocates.
+        if self.total_trials() > MAX_TRIALS {
+            return Err(DesignError::invalid(
+                "runs",
+                format!(
+                    "{} runs of {} conditions is {} trials; at most {MAX_TRIALS} per participant",
+                    self.runs,
+                    self.conditions.len(),
+                    self.total_trials()
+                ),
+            ));
         }
         let (rows, cols) = self.stimulus.grid;
         if rows == 0 || cols == 0 {

@@ -134,3 +134,15 @@ fn design_round_trips_through_ron() {
     let text = ron::ser::to_string(&d).expect("serialise");
     assert_eq!(Design::from_ron_str(&text).expect("reparse"), d);
 }
+
+/// A design's trial count is bounded before a plan allocates it.
+#[test]
+fn too_many_runs_names_the_field() {
+    let text = murphy_text().replace("runs: 4,", "runs: 4000000000,");
+    assert_eq!(field_of(&text), "runs");
+    let ok = murphy_text().replace("runs: 4,", "runs: 9000,");
+    assert!(
+        Design::from_ron_str(&ok).is_ok(),
+        "99 000 trials are allowed"
+    );
+}

@@ -149,8 +149,6 @@ struct Runner<'a> {
     cursor: [f64; 2],
     trial: Option<TrialState>,
     canvas: Vec<u8>,
-    /// What `canvas` shows now (the screen's text or target).
-    canvas_key: String,
     last_submit_us: Option<u64>,
     late_after_ms: f64,
     participant: Option<Participant>,
@@ -537,22 +535,12 @@ impl Runner<'_> {
             ],
             _ => Vec::new(),
         };
-        let key = format!("target {target:?} {lines:?}");
-        if self.canvas_key != key {
-            trial::target_screen(&mut self.canvas, size, target, &lines);
-            self.canvas_key = key;
-        }
+        trial::target_screen(&mut self.canvas, size, target, &lines);
     }
 
-    /// A text screen; drawn again only when its lines change (a static
-    /// screen costs a copy per frame, not a text rendering).
     fn text(&mut self, lines: &[String]) {
-        let key = format!("text {lines:?}");
-        if self.canvas_key != key {
-            let size = self.size();
-            trial::text_screen(&mut self.canvas, size, lines);
-            self.canvas_key = key;
-        }
+        let size = self.size();
+        trial::text_screen(&mut self.canvas, size, lines);
     }
 
     fn frame(&mut self, el: &ActiveEventLoop) -> Result<(), String> {
@@ -950,7 +938,6 @@ pub fn run(opts: &RunOptions, out: &mut dyn Write) -> Result<(), String> {
         cursor: setup.geometry.centre_px(),
         trial: None,
         canvas: Vec::new(),
-        canvas_key: String::new(),
         last_submit_us: None,
         late_after_ms: 1.5 * 1e3 / NOMINAL_REFRESH_HZ,
         participant,

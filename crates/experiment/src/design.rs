@@ -19,7 +19,7 @@ use std::path::Path;
 /// The rendering methods a condition may name: the names of
 /// `pipeline::Method` (`Method::name`). Kept as strings here so that this
 /// crate stays free of the renderer.
-pub const METHODS: &[&str] = &["full", "hybrid"];
+pub const METHODS: &[&str] = &["full", "hybrid", "image"];
 
 /// An experiment design, as read from `config/experiments/*.ron`.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -497,6 +497,22 @@ impl Design {
                         }
                     }
                 },
+                "image" => {
+                    if let Some(d) = c.inset_deg {
+                        if !(d.is_finite() && d > 0.0 && d <= 180.0) {
+                            return Err(DesignError::invalid(
+                                at("inset_deg"),
+                                format!("must be in (0, 180] degrees, got {d}"),
+                            ));
+                        }
+                    }
+                    if c.silhouette_edges {
+                        return Err(DesignError::invalid(
+                            at("silhouette_edges"),
+                            "the image method casts every pixel: its silhouettes are always exact",
+                        ));
+                    }
+                }
                 other => {
                     return Err(DesignError::invalid(
                         at("method"),

@@ -146,3 +146,23 @@ fn too_many_runs_names_the_field() {
         "99 000 trials are allowed"
     );
 }
+
+#[test]
+fn an_image_condition_takes_an_inset_but_no_edges() {
+    let image = murphy_text().replace(
+        r#"(name: "control", method: "full")"#,
+        r#"(name: "control", method: "image", inset_deg: Some(5.0))"#,
+    );
+    let d = Design::from_ron_str(&image).expect("an image condition with an inset is valid");
+    assert_eq!(d.conditions[0].method, "image");
+    let edges = murphy_text().replace(
+        r#"(name: "control", method: "full")"#,
+        r#"(name: "control", method: "image", silhouette_edges: true)"#,
+    );
+    assert_eq!(field_of(&edges), "conditions[0].silhouette_edges");
+    let bad = murphy_text().replace(
+        r#"(name: "control", method: "full")"#,
+        r#"(name: "control", method: "image", inset_deg: Some(-1.0))"#,
+    );
+    assert_eq!(field_of(&bad), "conditions[0].inset_deg");
+}

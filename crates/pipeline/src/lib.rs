@@ -4,7 +4,7 @@
 //! comes) goes through [`Renderer`]:
 //!
 //! ```text
-//! gaze ──► Renderer::render ──► method (Method::Full | Method::Hybrid) on a
+//! gaze ──► Renderer::render ──► method (Method::Full | Hybrid | Image) on a
 //!          backend (CPU | GPU) fills the G-buffer Frame
 //!          ──► the scene's effects run as passes over it ──► Frame
 //! ```
@@ -23,7 +23,9 @@
 //!   configure the hybrid method.
 
 pub mod backend;
+pub mod colour;
 pub mod effects;
+pub mod image_foveation;
 pub mod method;
 pub mod model;
 pub mod renderer;

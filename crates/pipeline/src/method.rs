@@ -13,15 +13,21 @@ pub enum Method {
     #[default]
     #[value(alias = "foveated")]
     Hybrid,
+    /// Image-based foveation (Geisler & Perry 1998): every pixel cast, then
+    /// blurred by a Gaussian pyramid to the level the CSF allows at its
+    /// eccentricity.
+    #[value(alias = "image-based")]
+    Image,
 }
 
 impl Method {
     /// The method that will run for `scene` when `self` is asked for: the
-    /// hybrid needs the scene to list `FoveatedSampling`; without it the
-    /// scene is rendered at full resolution, on every backend.
+    /// foveated methods (hybrid, image-based) need the scene to list
+    /// `FoveatedSampling`; without it the scene is rendered at full
+    /// resolution, on every backend.
     pub fn for_scene(self, scene: &Scene) -> Method {
         match self {
-            Method::Hybrid if !scene.has(Effect::FoveatedSampling) => Method::Full,
+            Method::Hybrid | Method::Image if !scene.has(Effect::FoveatedSampling) => Method::Full,
             m => m,
         }
     }
@@ -31,6 +37,7 @@ impl Method {
         match self {
             Method::Full => "full",
             Method::Hybrid => "foveated",
+            Method::Image => "image-based",
         }
     }
 }

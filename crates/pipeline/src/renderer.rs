@@ -9,6 +9,7 @@ use raycast::{Camera, Frame, Scene};
 use crate::backend::{Backend, BackendChoice};
 use crate::effects::por_overlay::PorOverlay;
 use crate::effects::{pass_for, passes_for, Pass, PassInput};
+use crate::image_foveation::ImageFoveation;
 use crate::method::Method;
 use raycast::scene::Effect;
 
@@ -79,6 +80,10 @@ pub struct Renderer<'s> {
     scratch: Scratch,
     /// The wall clock [`Renderer::render`] times frames by (its origin).
     clock: std::time::Instant,
+    /// The image-based method's pyramid; `None` for every other method.
+    image: Option<ImageFoveation>,
+    /// Wall time of the last frame's image-based blur, ms (0 otherwise).
+    image_ms: f64,
 }
 
 impl<'s> Renderer<'s> {
@@ -94,7 +99,7 @@ impl<'s> Renderer<'s> {
         let method = options.method.for_scene(scene);
         let settings = Settings {
             mode: match method {
-                Method::Full => Mode::Full,
+                Method::Full | Method::Image => Mode::Full,
                 Method::Hybrid => Mode::Foveated,
             },
             layout: options.layout,
@@ -117,6 +122,8 @@ impl<'s> Renderer<'s> {
             spare: None,
             scratch: Scratch::default(),
             clock: std::time::Instant::now(),
+            image: (method == Method::Image).then(ImageFoveation::default),
+            image_ms: 0.0,
         })
     }
 
@@ -151,8 +158,19 @@ impl<'s> Renderer<'s> {
         time_s: f64,
     ) -> Result<(Frame, Stats), RenderError> {
         let surface = self.wants_surface();
-        let (mut frame, stats) = match (self.method, &mut self.backend) {
-            (Method::Full | Method::Hybrid, Backend::Cpu) => {
+        if self.image.is_some() {
+            for (name, v) in [("gaze.x", gaze_px[0]), ("gaze.y", gaze_px[1])] {
+                if !v.is_finite() {
+                    return Err(RenderError::Gaze(foveation::ParamError::new(
+                        name,
+                        v,
+                        "the point of regard must be finite",
+                    )));
+                }
+            }
+        }
+        let (mut frame, mut stats) = match (self.method, &mut self.backend) {
+            (Method::Full | Method::Hybrid | Method::Image, Backend::Cpu) => {
                 let mut frame = self.spare.take().unwrap_or_default();
                 let stats = raycast::render::render_with(
                     self.scene,
@@ -166,7 +184,7 @@ impl<'s> Renderer<'s> {
                 )?;
                 (frame, stats)
             }
-            (Method::Full, Backend::Gpu(g)) => {
+            (Method::Full | Method::Image, Backend::Gpu(g)) => {
                 g.set_surface(surface);
                 g.render_full(&self.camera)?
             }
@@ -176,6 +194,13 @@ impl<'s> Renderer<'s> {
                 g.render_foveated(&self.camera, &mask, &self.settings.triggers)?
             }
         };
+        if let Some(image) = &mut self.image {
+            let started = std::time::Instant::now();
+            image.apply(&mut frame, &self.model, gaze_px);
+            self.image_ms = started.elapsed().as_secs_f64() * 1e3;
+            // The method is the cast and the blur: its time holds both.
+            stats.time_ms += self.image_ms;
+        }
         let input = PassInput {
             scene: self.scene,
             camera: &self.camera,
@@ -236,6 +261,18 @@ impl<'s> Renderer<'s> {
         self.scratch.stages()
     }
 
+    /// Wall time of the last frame's image-based blur (ms), after the full
+    /// frame the method casts first; 0 for other methods.
+    pub fn image_ms(&self) -> f64 {
+        self.image_ms
+    }
+
+    /// The image-based method's filter (its pyramid and level map), when
+    /// that method runs; `None` otherwise: no other method allocates it.
+    pub fn image_foveation(&self) -> Option<&ImageFoveation> {
+        self.image.as_ref()
+    }
+
     /// Whether the GPU backend holds the hybrid method's buffers (false on
     /// the CPU): a full-resolution scene must never allocate them.
     pub fn has_foveated_buffers(&self) -> bool {
@@ -290,6 +327,12 @@ impl<'s> Renderer<'s> {
             (Method::Full, _) => out.push(
                 "per frame: cast and shade every pixel (no mask, no foveated buffers)".into(),
             ),
+            (Method::Image, _) => out.push(format!(
+                "per frame: cast and shade every pixel, then image-based foveation (CPU): \
+                 level log2(ray spacing) per pixel (spacing ≤ {} px), Gaussian pyramid, \
+                 blend of adjacent levels",
+                self.model.max_spacing_px
+            )),
             (Method::Hybrid, backend) => {
                 let t = &self.settings.triggers;
                 let stages: Vec<&str> = match backend {

@@ -29,7 +29,7 @@ fn a_quick_accuracy_sweep_writes_csv_plot_and_report() {
         .arg(&out)
         .succeed();
     let stdout = String::from_utf8_lossy(&run.stdout);
-    assert!(stdout.contains("9 configurations x 2 gazes"), "{stdout}");
+    assert!(stdout.contains("11 configurations x 2 gazes"), "{stdout}");
 
     let csv = std::fs::read_to_string(out.join("results.csv")).expect("results.csv");
     let mut lines = csv.lines();
@@ -39,7 +39,7 @@ fn a_quick_accuracy_sweep_writes_csv_plot_and_report() {
         gazecast_viewer::bench::report::RESULTS_HEADER
     );
     let rows: Vec<Vec<&str>> = lines.map(|l| l.split(',').collect()).collect();
-    assert_eq!(rows.len(), 9 * 2, "one row per configuration and gaze");
+    assert_eq!(rows.len(), 11 * 2, "one row per configuration and gaze");
     let col = |name: &str| header.iter().position(|h| *h == name).expect(name);
     for r in &rows {
         assert_eq!(r.len(), header.len(), "{r:?}");
@@ -52,12 +52,25 @@ fn a_quick_accuracy_sweep_writes_csv_plot_and_report() {
         } else {
             let p: f64 = psnr.parse().expect("psnr");
             assert!(p > 10.0, "{r:?}");
+            if r[col("layout")] == "image-based" {
+                // Only colour is blurred: the geometry is the full frame's.
+                assert_eq!(r[col("silhouette_error")], "0.000000", "{r:?}");
+            }
             let e: f64 = r[col("silhouette_error")].parse().expect("error");
             assert!((0.0..=1.0).contains(&e));
         }
         let f: f64 = r[col("foveated_psnr_db")].parse().expect("foveated psnr");
         assert!(f >= 0.0);
     }
+    let image_rows = rows
+        .iter()
+        .filter(|r| r[col("layout")] == "image-based")
+        .count();
+    assert_eq!(
+        image_rows,
+        2 * 2,
+        "two image-based configurations at two gazes"
+    );
     let png = std::fs::read(out.join("pareto.png")).expect("pareto.png");
     assert!(png.starts_with(b"\x89PNG"));
     let report = std::fs::read_to_string(out.join("report.md")).expect("report.md");

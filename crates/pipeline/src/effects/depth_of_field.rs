@@ -24,7 +24,7 @@
 //!    built. A pixel with `m = 0` (every pixel with `C < 1.5 px`, so every
 //!    one under 0.5 px) is left **bit-exact**; pupil 0 is the identity.
 //! 4. **Gaussian pyramid** (eq. 4.1) of the colour in linear light (the
-//!    frame's sRGB bytes decoded): level `l` is level `l − 1` filtered by
+//!    frame's bytes decoded with the renderer's gamma 2.2, `crate::colour`): level `l` is level `l − 1` filtered by
 //!    a 3×3 Gaussian and halved in each axis, only up to the level the
 //!    frame's largest `m` needs ([`MAX_LEVELS`] at most). **Anisotropic**
 //!    (eq. 4.9, on by default): isotropic mips of depth Z and σ are built
@@ -74,6 +74,7 @@ use raycast::Frame;
 
 use super::refocus::Refocus;
 use super::{Pass, PassInput};
+use crate::colour;
 use raycast::scene::DofRefocus;
 
 /// Side of the square around the gaze whose depths' median is the focus
@@ -355,7 +356,7 @@ impl Pass for DepthOfField {
             let (x, y) = (i % w, i / w);
             let c = blend(&self.pyramid, x, y, f64::from(m));
             for (byte, v) in frame.rgb[3 * i..3 * i + 3].iter_mut().zip(c) {
-                *byte = srgb_encode(v);
+                *byte = colour::encode(v);
             }
         }
     }
@@ -387,7 +388,7 @@ fn build_pyramid(
     if pyramid.len() < levels + 1 {
         pyramid.resize_with(levels + 1, Image::default);
     }
-    let lut = srgb_decode_lut();
+    let lut = colour::decode_lut();
     let focus = focus_mm as f32;
     let base = &mut pyramid[0];
     base.reshape(w, h);
@@ -513,35 +514,6 @@ fn blend(pyramid: &[Image], x: usize, y: usize, m: f64) -> [f32; 3] {
     [0, 1, 2].map(|c| a[c] + (b[c] - a[c]) * beta)
 }
 
-/// sRGB byte → linear light.
-fn srgb_decode_lut() -> [f32; 256] {
-    let mut lut = [0.0f32; 256];
-    for (i, v) in lut.iter_mut().enumerate() {
-        let c = i as f64 / 255.0;
-        *v = if c <= 0.04045 {
-            c / 12.92
-        } else {
-            ((c + 0.055) / 1.055).powf(2.4)
-        } as f32;
-    }
-    lut
-}
-
-/// Linear light → sRGB byte (rounded; NaN and negatives to 0).
-fn srgb_encode(v: f32) -> u8 {
-    let v = if v.is_nan() {
-        0.0
-    } else {
-        f64::from(v).clamp(0.0, 1.0)
-    };
-    let c = if v <= 0.0031308 {
-        v * 12.92
-    } else {
-        1.055 * v.powf(1.0 / 2.4) - 0.055
-    };
-    (c * 255.0).round().clamp(0.0, 255.0) as u8
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -560,14 +532,6 @@ mod tests {
         assert!((at_inf - 9.07).abs() < 0.01, "{at_inf}");
         assert!((at_screen - 8.21).abs() < 0.01, "{at_screen}");
         assert!(at_inf <= 10.0 && at_screen <= 10.0);
-    }
-
-    #[test]
-    fn srgb_round_trips_every_byte() {
-        let lut = srgb_decode_lut();
-        for (i, v) in lut.iter().enumerate() {
-            assert_eq!(srgb_encode(*v), i as u8);
-        }
     }
 
     #[test]

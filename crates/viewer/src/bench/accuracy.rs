@@ -147,7 +147,7 @@ pub fn run(args: &AccuracyArgs, out: &mut dyn Write) -> Result<(), String> {
 
     let full = summaries
         .iter()
-        .find(|s| s.config.layout.is_none() && s.config.accel == AccelArg::Bvh);
+        .find(|s| s.config.method == pipeline::Method::Full && s.config.accel == AccelArg::Bvh);
     let default = summaries.iter().find(|s| s.config.is_default());
     if let (Some(f), Some(d)) = (full, default) {
         writeln!(

@@ -36,10 +36,14 @@ impl Refinement {
     }
 }
 
-/// One point of the sweep. `layout: None` is full-resolution ray casting
-/// (the reference; contrast, spacing and refinement do not apply).
+/// One point of the sweep. `method` `Full` is full-resolution ray casting
+/// (the reference; contrast, spacing and refinement do not apply); `Image`
+/// is image-based foveation (contrast and spacing apply; every pixel is
+/// cast, so layout and refinement do not); `Hybrid` takes every knob.
+/// `layout` is `Some` exactly for the hybrid method.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Config {
+    pub method: Method,
     pub layout: Option<Layout>,
     pub contrast: f64,
     pub max_spacing_px: f64,
@@ -51,6 +55,10 @@ impl Config {
     pub fn name(&self) -> String {
         let accel = self.accel.name();
         match self.layout {
+            None if self.method == Method::Image => format!(
+                "image C={} n={} {accel}",
+                self.contrast, self.max_spacing_px
+            ),
             None => format!("full {accel}"),
             Some(l) => format!(
                 "{} C={} n={} {} {accel}",
@@ -82,7 +90,9 @@ type Axes = (
 );
 
 /// The sweep: full resolution with each structure, then every combination
-/// of the foveated knobs: 2 + 144 configurations, or 1 + 8 in `--quick`.
+/// of the hybrid method's knobs, then image-based foveation at each
+/// contrast and spacing: 2 + 144 + 24 configurations, or 1 + 8 + 2 in
+/// `--quick`.
 pub fn configurations(quick: bool) -> Vec<Config> {
     let (layouts, contrasts, spacings, refinements, accels): Axes = if quick {
         (
@@ -108,6 +118,7 @@ pub fn configurations(quick: bool) -> Vec<Config> {
     let mut out: Vec<Config> = accels
         .iter()
         .map(|&accel| Config {
+            method: Method::Full,
             layout: None,
             contrast: 1.0,
             max_spacing_px: 1.0,
@@ -121,6 +132,7 @@ pub fn configurations(quick: bool) -> Vec<Config> {
                 for &max_spacing_px in spacings {
                     for &refinement in refinements {
                         out.push(Config {
+                            method: Method::Hybrid,
                             layout: Some(layout),
                             contrast,
                             max_spacing_px,
@@ -132,17 +144,27 @@ pub fn configurations(quick: bool) -> Vec<Config> {
             }
         }
     }
+    for &accel in accels {
+        for &contrast in contrasts {
+            for &max_spacing_px in spacings {
+                out.push(Config {
+                    method: Method::Image,
+                    layout: None,
+                    contrast,
+                    max_spacing_px,
+                    refinement: Refinement::None,
+                    accel,
+                });
+            }
+        }
+    }
     out
 }
 
 /// The pipeline options of one configuration (the CPU backend).
 pub fn options_for(config: &Config, scene: &Scene) -> Options {
     Options {
-        method: if config.layout.is_some() {
-            Method::Hybrid
-        } else {
-            Method::Full
-        },
+        method: config.method,
         backend: BackendChoice::Cpu,
         layout: config.layout.unwrap_or_default(),
         triggers: Some(config.refinement.triggers(scene)),
@@ -176,13 +198,17 @@ mod tests {
     #[test]
     fn the_sweep_has_every_combination_once() {
         let all = configurations(false);
-        assert_eq!(all.len(), 2 + 2 * 4 * 3 * 3 * 2);
+        assert_eq!(all.len(), 2 + 2 * 4 * 3 * 3 * 2 + 2 * 4 * 3);
         for (i, a) in all.iter().enumerate() {
             assert!(all[i + 1..].iter().all(|b| b != a), "{} twice", a.name());
         }
         assert_eq!(all.iter().filter(|c| c.is_default()).count(), 1);
         let quick = configurations(true);
-        assert_eq!(quick.len(), 9);
+        assert_eq!(quick.len(), 11);
+        assert_eq!(
+            quick.iter().filter(|c| c.method == Method::Image).count(),
+            2
+        );
         assert_eq!(quick.iter().filter(|c| c.is_default()).count(), 1);
     }
 

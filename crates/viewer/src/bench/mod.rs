@@ -35,8 +35,10 @@ pub struct BenchArgs {
 
 #[derive(Debug, Clone, clap::Subcommand)]
 pub enum BenchCommand {
-    /// Sweep layout, contrast, maximum spacing, refinement and acceleration;
-    /// time each configuration and measure its error against full resolution.
+    /// Sweep layout, contrast, maximum spacing, refinement and acceleration
+    /// of the hybrid method, and contrast and spacing of image-based
+    /// foveation; time each configuration and measure its error against
+    /// full resolution.
     Accuracy(AccuracyArgs),
     /// Frame time of full and foveated rendering against triangle count and
     /// resolution (log–log plots).
@@ -79,7 +81,7 @@ pub struct AccuracyArgs {
     /// The sweep runs on the CPU backend (`gpu` is refused; `auto` = CPU).
     #[arg(long, value_enum, default_value = "auto")]
     pub backend: BackendChoice,
-    /// Fewer configurations (9 of 146) and two gazes unless --gazes is given.
+    /// Fewer configurations (11 of 170) and two gazes unless --gazes is given.
     #[arg(long)]
     pub quick: bool,
 }

@@ -48,7 +48,7 @@ pub fn results_csv(rows: &[Row], scene: &str, g: &ScreenGeometry, threads: usize
             g.width_px,
             g.height_px,
             c.name(),
-            c.layout.map_or("full", |l| l.name()),
+            c.layout.map_or(c.method.name(), |l| l.name()),
             c.contrast,
             c.max_spacing_px,
             c.refinement.name(),
@@ -112,7 +112,10 @@ reference.
 the CSF cut-off (lower = sparser), maximum spacing n in pixels, refinement triggers (none; silhouette \
 = corners disagree on hit/miss or object, plus the one-cell margin; + crease = corner normals differ \
 by more than the scene's crease angle), acceleration structure (`bvh`; `grid`: the seed's uniform \
-grid, §6.1.1). `full` casts one ray per pixel (the reference).";
+grid, §6.1.1). `full` casts one ray per pixel (the reference). `image` is image-based foveation \
+(Geisler & Perry 1998): the full frame blurred by a Gaussian pyramid to level log2(ray spacing) at \
+each pixel, the spacing from the same C and n (its silhouettes are the full frame's by construction; \
+its time includes the full frame it blurs).";
 
 /// `report.md` of the accuracy sweep.
 pub fn accuracy_report(
@@ -157,7 +160,7 @@ pub fn accuracy_report(
     let _ = writeln!(s, "![quality against time](pareto.png)\n");
     let full = summaries
         .iter()
-        .find(|x| x.config.layout.is_none() && x.config.accel == AccelArg::Bvh)
+        .find(|x| x.config.method == pipeline::Method::Full && x.config.accel == AccelArg::Bvh)
         .map_or(f64::NAN, |x| x.time_ms);
     let _ = writeln!(s, "## Results, fastest first\n");
     let _ = writeln!(

@@ -93,10 +93,10 @@ impl TrialState {
             .map_err(|e| format!("conditions[{}].inset_deg: {e}", trial.condition))?;
         let scene = build(&stimulus::search_scene(design, trial, &setup.layout))?;
         let options = Options {
-            method: if condition.method == "hybrid" {
-                Method::Hybrid
-            } else {
-                Method::Full
+            method: match condition.method.as_str() {
+                "hybrid" => Method::Hybrid,
+                "image" => Method::Image,
+                _ => Method::Full,
             },
             backend: setup.backend,
             ..Options::default()

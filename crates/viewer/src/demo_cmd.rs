@@ -33,6 +33,9 @@ pub struct DemoArgs {
     /// Window mode: exit after this many frames.
     #[arg(long, value_name = "N")]
     pub frames: Option<u64>,
+    /// The rendering method (`foveated` is an alias of `hybrid`).
+    #[arg(long, value_enum, default_value = "hybrid")]
+    pub method: pipeline::Method,
 }
 
 const MOUSE: &str = "config/trackers/mouse.ron";
@@ -83,6 +86,7 @@ pub fn run(args: &DemoArgs, out: &mut dyn Write) -> Result<(), String> {
             frames: args.frames,
             por_overlay: true,
             backend: pipeline::BackendChoice::Auto,
+            method: args.method,
             ..LiveOptions::default()
         };
         match live::run(&session, out) {
@@ -127,6 +131,7 @@ pub fn run(args: &DemoArgs, out: &mut dyn Write) -> Result<(), String> {
         tracker_hal::sim::search_scanpath(&g, &objects, target, f64::from(args.fps), args.seed);
     let model = pipeline::sampling_model(g, 1.0).map_err(|e| e.to_string())?;
     let options = pipeline::Options {
+        method: args.method,
         por_overlay: true,
         ..pipeline::Options::default()
     };

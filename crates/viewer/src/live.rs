@@ -60,6 +60,8 @@ pub struct LiveOptions {
     /// Draw the POR box whatever the scene asks.
     pub por_overlay: bool,
     pub backend: BackendChoice,
+    /// The rendering method (the scene may still fall back to full).
+    pub method: pipeline::Method,
     /// Fullscreen on the current monitor.
     pub fullscreen: bool,
     /// Fullscreen on this monitor (0-based).
@@ -364,6 +366,7 @@ impl Loaded {
     fn renderer(&self, opts: &LiveOptions) -> Result<Renderer<'_>, String> {
         let model = pipeline::sampling_model(self.geometry, 1.0).map_err(|e| e.to_string())?;
         let options = Options {
+            method: opts.method,
             backend: opts.backend,
             por_overlay: opts.por_overlay,
             ..Options::default()

@@ -43,6 +43,9 @@ pub struct ViewArgs {
     pub overlay: Option<Overlay>,
     #[arg(long, value_enum, default_value = "auto")]
     pub backend: BackendChoice,
+    /// The rendering method (`foveated` is an alias of `hybrid`).
+    #[arg(long, value_enum, default_value = "hybrid")]
+    pub method: pipeline::Method,
     /// Fullscreen on the current monitor.
     #[arg(long)]
     pub fullscreen: bool,
@@ -68,6 +71,7 @@ impl ViewArgs {
             screenshot: self.screenshot.clone(),
             por_overlay: self.overlay == Some(Overlay::Por),
             backend: self.backend,
+            method: self.method,
             fullscreen: self.fullscreen,
             monitor: self.monitor,
         }

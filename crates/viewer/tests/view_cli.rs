@@ -112,6 +112,23 @@ fn explain_prints_the_passes_of_the_scene_effects() {
         "{text}"
     );
     assert!(text.contains("crease > 30°"), "{text}");
+    // --method image names its blur after the full cast.
+    let out = gazecast()
+        .args([
+            "view",
+            "--explain",
+            "--method",
+            "image",
+            "--scene",
+            "config/scenes/search-task.ron",
+            "--display",
+            "config/displays/tobii-et1750-17in.ron",
+        ])
+        .succeed();
+    let image = String::from_utf8_lossy(&out.stdout);
+    assert!(image.contains("method: image-based"), "{image}");
+    assert!(image.contains("then image-based foveation"), "{image}");
+    assert!(!image.contains("classify"), "{image}");
     // A scene without FoveatedSampling runs the full-resolution pass only.
     let dir = tempfile::tempdir().expect("tempdir");
     let plain = dir.path().join("plain.ron");

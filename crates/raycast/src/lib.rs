@@ -14,6 +14,7 @@
 //!   object id, normal, layer);
 //! - [`render`](mod@render): the CPU reference renderers, full resolution and foveated
 //!   (Murphy 2007 ch. 4–6);
+//! - [`raster`]: the CPU triangle rasteriser (a chosen subset of triangles, same G-buffer);
 //! - `gpu` (feature `gpu`, on by default): the GPU core (wgpu compute over the flat binary BVH): the
 //!   full-resolution frame and the foveated stages (mask vertices, cell
 //!   classification, silhouette margin, interpolation, compacted refined
@@ -28,6 +29,7 @@ pub mod frame;
 #[cfg(feature = "gpu")]
 pub mod gpu;
 pub mod mesh;
+pub mod raster;
 pub mod ray;
 pub mod render;
 pub mod scene;

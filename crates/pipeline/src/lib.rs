@@ -28,6 +28,7 @@ pub mod effects;
 pub mod image_foveation;
 pub mod method;
 pub mod model;
+pub mod model_based;
 pub mod renderer;
 
 pub use backend::BackendChoice;

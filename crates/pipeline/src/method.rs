@@ -18,16 +18,29 @@ pub enum Method {
     /// eccentricity.
     #[value(alias = "image-based")]
     Image,
+    /// Model-based: Luebke & Hallen 2001's perceptual simplification
+    /// (imperceptible mode: every fold the Geisler–Perry table judges
+    /// invisible at its eccentricity), rasterised on the CPU.
+    #[value(alias = "luebke-hallen")]
+    Simplify,
+    /// Model-based: Murphy & Duchowski 2001's gaze-contingent level of
+    /// detail (Table 1's levels by eccentricity), rasterised on the CPU.
+    #[value(alias = "murphy-duchowski")]
+    Lod,
 }
 
 impl Method {
     /// The method that will run for `scene` when `self` is asked for: the
-    /// foveated methods (hybrid, image-based) need the scene to list
+    /// foveated methods (hybrid, image-based, model-based) need the scene to list
     /// `FoveatedSampling`; without it the scene is rendered at full
     /// resolution, on every backend.
     pub fn for_scene(self, scene: &Scene) -> Method {
         match self {
-            Method::Hybrid | Method::Image if !scene.has(Effect::FoveatedSampling) => Method::Full,
+            Method::Hybrid | Method::Image | Method::Simplify | Method::Lod
+                if !scene.has(Effect::FoveatedSampling) =>
+            {
+                Method::Full
+            }
             m => m,
         }
     }
@@ -38,6 +51,13 @@ impl Method {
             Method::Full => "full",
             Method::Hybrid => "foveated",
             Method::Image => "image-based",
+            Method::Simplify => "simplify",
+            Method::Lod => "lod",
         }
+    }
+
+    /// Whether the method simplifies geometry and rasterises it.
+    pub fn is_model_based(self) -> bool {
+        matches!(self, Method::Simplify | Method::Lod)
     }
 }

@@ -11,6 +11,7 @@ use crate::effects::por_overlay::PorOverlay;
 use crate::effects::{pass_for, passes_for, Pass, PassInput};
 use crate::image_foveation::ImageFoveation;
 use crate::method::Method;
+use crate::model_based::ModelBased;
 use raycast::scene::Effect;
 
 /// Why a frame could not be rendered.
@@ -80,6 +81,8 @@ pub struct Renderer<'s> {
     scratch: Scratch,
     /// The wall clock [`Renderer::render`] times frames by (its origin).
     clock: std::time::Instant,
+    /// The model-based methods' trees and cuts; `None` for other methods.
+    model_based: Option<ModelBased>,
     /// The image-based method's pyramid; `None` for every other method.
     image: Option<ImageFoveation>,
     /// Wall time of the last frame's image-based blur, ms (0 otherwise).
@@ -95,11 +98,23 @@ impl<'s> Renderer<'s> {
         model: SamplingModel,
         options: &Options,
     ) -> Result<Self, RenderError> {
-        let (backend, note) = Backend::choose(options.backend, scene, options.test)?;
         let method = options.method.for_scene(scene);
+        let (backend, note) = if method.is_model_based() {
+            if options.backend == BackendChoice::Gpu {
+                return Err(RenderError::Unsupported(format!(
+                    "--method {}: the model-based methods rasterise on the CPU only so far; use --backend cpu",
+                    method.name()
+                )));
+            }
+            let note = (options.backend == BackendChoice::Auto)
+                .then(|| "the model-based methods rasterise on the CPU".to_string());
+            (Backend::Cpu, note)
+        } else {
+            Backend::choose(options.backend, scene, options.test)?
+        };
         let settings = Settings {
             mode: match method {
-                Method::Full | Method::Image => Mode::Full,
+                Method::Full | Method::Image | Method::Simplify | Method::Lod => Mode::Full,
                 Method::Hybrid => Mode::Foveated,
             },
             layout: options.layout,
@@ -109,7 +124,13 @@ impl<'s> Renderer<'s> {
             test: options.test,
             check_coverage: options.check_coverage,
         };
+        let model_based = if method.is_model_based() {
+            Some(ModelBased::new(scene, &camera, method).map_err(RenderError::Unsupported)?)
+        } else {
+            None
+        };
         Ok(Self {
+            model_based,
             scene,
             camera,
             model,
@@ -170,6 +191,17 @@ impl<'s> Renderer<'s> {
             }
         }
         let (mut frame, mut stats) = match (self.method, &mut self.backend) {
+            (Method::Simplify | Method::Lod, _) => {
+                let mut frame = self.spare.take().unwrap_or_default();
+                let m = self
+                    .model_based
+                    .as_mut()
+                    .ok_or_else(|| RenderError::Unsupported("no model-based state".into()))?;
+                let stats = m
+                    .render(self.scene, &self.camera, gaze_px, surface, &mut frame)
+                    .map_err(RenderError::Unsupported)?;
+                (frame, stats)
+            }
             (Method::Full | Method::Hybrid | Method::Image, Backend::Cpu) => {
                 let mut frame = self.spare.take().unwrap_or_default();
                 let stats = raycast::render::render_with(
@@ -261,6 +293,12 @@ impl<'s> Renderer<'s> {
         self.scratch.stages()
     }
 
+    /// The model-based method's state (trees, cuts, last frame's counts),
+    /// when a model-based method runs; `None` otherwise.
+    pub fn model_based(&self) -> Option<&ModelBased> {
+        self.model_based.as_ref()
+    }
+
     /// Wall time of the last frame's image-based blur (ms), after the full
     /// frame the method casts first; 0 for other methods.
     pub fn image_ms(&self) -> f64 {
@@ -327,6 +365,15 @@ impl<'s> Renderer<'s> {
             (Method::Full, _) => out.push(
                 "per frame: cast and shade every pixel (no mask, no foveated buffers)".into(),
             ),
+            (Method::Simplify | Method::Lod, _) => out.push(format!(
+                "per frame: select each object's vertex-tree cut incrementally ({}), \
+                 then rasterise the active triangles (CPU z-buffer, the ray caster's shading)",
+                if self.method == Method::Simplify {
+                    "Luebke–Hallen imperceptible mode, Geisler–Perry thresholds"
+                } else {
+                    "Murphy–Duchowski Table 1 levels"
+                }
+            )),
             (Method::Image, _) => out.push(format!(
                 "per frame: cast and shade every pixel, then image-based foveation (CPU): \
                  level log2(ray spacing) per pixel (spacing ≤ {} px), Gaussian pyramid, \

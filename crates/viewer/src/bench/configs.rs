@@ -55,6 +55,7 @@ impl Config {
     pub fn name(&self) -> String {
         let accel = self.accel.name();
         match self.layout {
+            None if self.method.is_model_based() => self.method.name().to_string(),
             None if self.method == Method::Image => format!(
                 "image C={} n={} {accel}",
                 self.contrast, self.max_spacing_px
@@ -91,8 +92,8 @@ type Axes = (
 
 /// The sweep: full resolution with each structure, then every combination
 /// of the hybrid method's knobs, then image-based foveation at each
-/// contrast and spacing: 2 + 144 + 24 configurations, or 1 + 8 + 2 in
-/// `--quick`.
+/// contrast and spacing, then the two model-based methods: 2 + 144 + 24 + 2
+/// configurations, or 1 + 8 + 2 + 2 in `--quick`.
 pub fn configurations(quick: bool) -> Vec<Config> {
     let (layouts, contrasts, spacings, refinements, accels): Axes = if quick {
         (
@@ -158,6 +159,17 @@ pub fn configurations(quick: bool) -> Vec<Config> {
             }
         }
     }
+    // The model-based methods (CPU raster; no knob of the sweep applies).
+    for method in [Method::Simplify, Method::Lod] {
+        out.push(Config {
+            method,
+            layout: None,
+            contrast: 1.0,
+            max_spacing_px: 1.0,
+            refinement: Refinement::None,
+            accel: AccelArg::Bvh,
+        });
+    }
     out
 }
 
@@ -198,13 +210,13 @@ mod tests {
     #[test]
     fn the_sweep_has_every_combination_once() {
         let all = configurations(false);
-        assert_eq!(all.len(), 2 + 2 * 4 * 3 * 3 * 2 + 2 * 4 * 3);
+        assert_eq!(all.len(), 2 + 2 * 4 * 3 * 3 * 2 + 2 * 4 * 3 + 2);
         for (i, a) in all.iter().enumerate() {
             assert!(all[i + 1..].iter().all(|b| b != a), "{} twice", a.name());
         }
         assert_eq!(all.iter().filter(|c| c.is_default()).count(), 1);
         let quick = configurations(true);
-        assert_eq!(quick.len(), 11);
+        assert_eq!(quick.len(), 13);
         assert_eq!(
             quick.iter().filter(|c| c.method == Method::Image).count(),
             2

@@ -36,8 +36,8 @@ pub struct BenchArgs {
 #[derive(Debug, Clone, clap::Subcommand)]
 pub enum BenchCommand {
     /// Sweep layout, contrast, maximum spacing, refinement and acceleration
-    /// of the hybrid method, and contrast and spacing of image-based
-    /// foveation; time each configuration and measure its error against
+    /// of the hybrid method, contrast and spacing of image-based foveation,
+    /// and the model-based methods; time each configuration and measure its error against
     /// full resolution.
     Accuracy(AccuracyArgs),
     /// Frame time of full and foveated rendering against triangle count and
@@ -81,7 +81,7 @@ pub struct AccuracyArgs {
     /// The sweep runs on the CPU backend (`gpu` is refused; `auto` = CPU).
     #[arg(long, value_enum, default_value = "auto")]
     pub backend: BackendChoice,
-    /// Fewer configurations (11 of 170) and two gazes unless --gazes is given.
+    /// Fewer configurations (13 of 172) and two gazes unless --gazes is given.
     #[arg(long)]
     pub quick: bool,
 }

@@ -115,7 +115,9 @@ by more than the scene's crease angle), acceleration structure (`bvh`; `grid`: t
 grid, §6.1.1). `full` casts one ray per pixel (the reference). `image` is image-based foveation \
 (Geisler & Perry 1998): the full frame blurred by a Gaussian pyramid to level log2(ray spacing) at \
 each pixel, the spacing from the same C and n (its silhouettes are the full frame's by construction; \
-its time includes the full frame it blurs).";
+its time includes the full frame it blurs). `simplify` (Luebke & Hallen, imperceptible mode) and \
+`lod` (Murphy & Duchowski, Table 1 levels) simplify each object's vertex tree for the gaze and \
+rasterise it on the CPU.";
 
 /// `report.md` of the accuracy sweep.
 pub fn accuracy_report(

@@ -81,6 +81,8 @@ pub struct ModelBased {
     mode: Mode,
     thresholds: ThresholdTable,
     scene_contrast: f64,
+    /// Triangles of the unsimplified scene (fixed at set-up).
+    triangles_full: usize,
     triangles: Vec<WorldTriangle>,
     positions: Vec<[Vec3; 3]>,
     normals: Vec<[Vec3; 3]>,
@@ -101,10 +103,10 @@ impl ModelBased {
         let lum = |c: Vec3| 0.2126 * c.x + 0.7152 * c.y + 0.0722 * c.z;
         let bg = lum(scene.background).max(0.0);
         let (mut lo, mut hi) = (bg, bg);
-        let n_objects = scene.object_materials.len();
         let mut objects = Vec::new();
-        for object in 0..n_objects as u32 {
-            let mesh = weld(scene, object);
+        let mut triangles_full = 0;
+        for (object, mesh) in weld(scene).into_iter().enumerate() {
+            let object = object as u32;
             if mesh.triangles.is_empty() {
                 continue;
             }
@@ -121,6 +123,7 @@ impl ModelBased {
             let tree =
                 VertexTree::build(&mesh.positions, &mesh.normals, &luminance, &mesh.triangles)
                     .map_err(|e| format!("object {object}: level of detail: {e}"))?;
+            triangles_full += tree.triangles().len();
             objects.push(ObjectLod {
                 object,
                 cells: TreeCut::new(tree, |t| Cut::new(t)),
@@ -136,6 +139,7 @@ impl ModelBased {
             mode,
             thresholds: ThresholdTable::from_model(&GeislerPerry::default()),
             scene_contrast,
+            triangles_full,
             triangles: Vec::new(),
             positions: Vec::new(),
             normals: Vec::new(),
@@ -184,7 +188,10 @@ impl ModelBased {
             thresholds: &self.thresholds,
             scene_contrast: self.scene_contrast,
         };
-        let mut stats = ModelStats::default();
+        let mut stats = ModelStats {
+            triangles_full: self.triangles_full,
+            ..ModelStats::default()
+        };
         self.triangles.clear();
         for o in &mut self.objects {
             let mode = self.mode;
@@ -195,7 +202,6 @@ impl ModelBased {
             stats.folds += report.folds;
             stats.unfolds += report.unfolds;
             stats.nodes_visited += report.nodes_visited;
-            stats.triangles_full += o.cells.borrow_owner().triangles().len();
             o.cells.with_dependent(|_, cut| {
                 cut.triangles_into(&mut self.positions);
                 cut.normals_into(&mut self.normals);
@@ -235,25 +241,33 @@ struct Welded {
     triangles: Vec<[u32; 3]>,
 }
 
-/// Welds `object`'s world triangles by exact corner position.
-fn weld(scene: &Scene, object: u32) -> Welded {
-    let mut index = std::collections::HashMap::new();
-    let mut out = Welded {
-        positions: Vec::new(),
-        normals: Vec::new(),
-        triangles: Vec::new(),
-    };
-    for t in scene.triangles.iter().filter(|t| t.object == object) {
+/// Every object's world triangles as an indexed mesh (index = object id),
+/// welded by exact corner position, in one pass over the scene.
+fn weld(scene: &Scene) -> Vec<Welded> {
+    let n = scene.object_materials.len();
+    let mut index: Vec<std::collections::HashMap<[u32; 3], u32>> = vec![Default::default(); n];
+    let mut out: Vec<Welded> = (0..n)
+        .map(|_| Welded {
+            positions: Vec::new(),
+            normals: Vec::new(),
+            triangles: Vec::new(),
+        })
+        .collect();
+    for t in &scene.triangles {
+        let o = t.object as usize;
+        let (Some(mesh), Some(index)) = (out.get_mut(o), index.get_mut(o)) else {
+            continue;
+        };
         let mut tri = [0u32; 3];
         for (slot, (&p, &n)) in tri.iter_mut().zip(t.p.iter().zip(&t.n)) {
             let key = p.to_array().map(f32::to_bits);
             *slot = *index.entry(key).or_insert_with(|| {
-                out.positions.push(p);
-                out.normals.push(n);
-                (out.positions.len() - 1) as u32
+                mesh.positions.push(p);
+                mesh.normals.push(n);
+                (mesh.positions.len() - 1) as u32
             });
         }
-        out.triangles.push(tri);
+        mesh.triangles.push(tri);
     }
     out
 }

@@ -87,6 +87,8 @@ pub struct Renderer<'s> {
     image: Option<ImageFoveation>,
     /// Wall time of the last frame's image-based blur, ms (0 otherwise).
     image_ms: f64,
+    /// The next frame's vergence depth ([`Renderer::set_vergence_mm`]).
+    vergence_mm: Option<f64>,
 }
 
 impl<'s> Renderer<'s> {
@@ -145,12 +147,22 @@ impl<'s> Renderer<'s> {
             clock: std::time::Instant::now(),
             image: (method == Method::Image).then(ImageFoveation::default),
             image_ms: 0.0,
+            vergence_mm: None,
         })
     }
 
     /// Whether this frame's method must fill the surface buffers.
     fn wants_surface(&self) -> bool {
         self.surface || self.passes.iter().any(|p| p.needs_surface())
+    }
+
+    /// The eye distance of the binocular 3-D gaze point (mm) for the next
+    /// frame, from the tracker sample it is rendered for (see
+    /// `tracker_hal::events::vergence_point`); depth of field's `focus:
+    /// Vergence` reads it. It holds for one frame: a frame rendered without
+    /// a new call has none (falls back to the gaze's depth).
+    pub fn set_vergence_mm(&mut self, depth_mm: Option<f64>) {
+        self.vergence_mm = depth_mm.filter(|d| d.is_finite() && *d > 0.0);
     }
 
     /// Gives a frame back for the next one to reuse its buffers: a loop
@@ -238,6 +250,7 @@ impl<'s> Renderer<'s> {
             camera: &self.camera,
             gaze_px,
             time_s: Some(time_s),
+            vergence_mm: self.vergence_mm.take(),
         };
         for pass in &mut self.passes {
             pass.run(&mut frame, &input);
@@ -343,6 +356,12 @@ impl<'s> Renderer<'s> {
     pub fn por_overlay(&self) -> bool {
         let name = PorOverlay::default().name();
         self.passes.iter().any(|p| p.name() == name)
+    }
+
+    /// The depth-of-field pass, when the scene lists it (its focus and the
+    /// last frame's CoC and mip-level maps).
+    pub fn depth_of_field(&self) -> Option<&crate::effects::depth_of_field::DepthOfField> {
+        self.passes.iter().find_map(|p| p.as_any().downcast_ref())
     }
 
     /// The effect passes that run after the method, in order.

@@ -169,7 +169,10 @@ fn near_and_far_objects_are_blurred_and_the_focused_one_is_not() {
     let dof = build("DepthOfField(pupil_mm: 8.0)").expect("builds");
     let mut r = renderer(&dof, false);
     assert_eq!(r.method(), Method::Full);
-    assert_eq!(r.pass_names(), ["depth of field (Lee ch. 4)"]);
+    assert_eq!(
+        r.pass_names(),
+        ["depth of field (Lee ch. 4, focus at the gaze's depth)"]
+    );
     let (blurred, _) = r.render(GAZE).expect("renders");
     assert!(
         blurred.has_surface(),
@@ -273,7 +276,7 @@ proptest! {
         prop_assert!(pass.needs_surface());
         let before = frame_with(&depths, 24);
         let mut frame = before.clone();
-        let input = PassInput { scene: &scene, camera: &cam, gaze_px: gaze, time_s: None };
+        let input = PassInput { scene: &scene, camera: &cam, gaze_px: gaze, time_s: None, vergence_mm: None };
         pass.run(&mut frame, &input);
         pass.run(&mut frame.clone(), &input);
         prop_assert_eq!(frame.depth_mm.len(), before.depth_mm.len());
@@ -306,6 +309,7 @@ fn the_anisotropic_pyramid_reduces_leakage_into_the_background() {
         camera: &cam,
         gaze_px: GAZE,
         time_s: None,
+        vergence_mm: None,
     };
     let bg = plain.background_rgb8;
     let (w, h) = (W as usize, H as usize);
@@ -382,6 +386,7 @@ fn scripted(refocus: DofRefocus) -> impl FnMut([f64; 2], Option<f64>) -> f64 {
             camera: &cam,
             gaze_px: gaze,
             time_s,
+            vergence_mm: None,
         };
         pass.run(&mut f, &input);
         pass.focal_depth_mm().expect("a focus after a frame")
@@ -593,6 +598,7 @@ fn refocus_holds_through_background_infinity_and_invalid_gaze_without_nan() {
             camera: &cam,
             gaze_px: ON_NEAR,
             time_s: Some(t),
+            vergence_mm: None,
         };
         pass.run(&mut f, &input);
         assert_eq!(pass.focal_depth_mm(), Some(f64::INFINITY));
@@ -698,4 +704,112 @@ proptest! {
             prev = Some(d);
         }
     }
+}
+
+/// `focus: Vergence` and `focus: Attention` parse.
+#[test]
+fn vergence_and_attention_focus_parse() {
+    for (text, focus) in [
+        ("DepthOfField(focus: Vergence)", DofFocus::Vergence),
+        ("DepthOfField(focus: Attention)", DofFocus::Attention),
+    ] {
+        let s = build(text).expect("builds");
+        assert!(
+            matches!(s.effects[0], Effect::DepthOfField { focus: f, .. } if f == focus),
+            "{text}: {:?}",
+            s.effects
+        );
+    }
+}
+
+fn input_with<'a>(scene: &'a Scene, cam: &'a Camera, vergence_mm: Option<f64>) -> PassInput<'a> {
+    PassInput {
+        scene,
+        camera: cam,
+        gaze_px: GAZE,
+        time_s: None,
+        vergence_mm,
+    }
+}
+
+/// The vergence depth is the focus where the frame has one; without one
+/// (or a NaN, zero or negative one) the gaze's depth is.
+#[test]
+fn vergence_focus_follows_the_binocular_depth_and_falls_back_to_the_gaze() {
+    let plain = build("").expect("builds");
+    let (frame, _) = renderer(&plain, true).render(GAZE).expect("renders");
+    let cam = camera();
+    let at_gaze = pipeline::effects::depth_of_field::gaze_depth_mm(&frame, GAZE).expect("depth");
+    let mut pass = DepthOfField::new(EyeLens::default(), DofFocus::Vergence);
+    assert!(!pass.has_attention_model());
+    for (vergence, want) in [
+        (Some(2100.0), 2100.0),
+        (None, at_gaze),
+        (Some(f64::NAN), at_gaze),
+        (Some(-5.0), at_gaze),
+        (Some(900.0), 900.0),
+        (Some(0.0), at_gaze),
+    ] {
+        let mut f = frame.clone();
+        pass.run(&mut f, &input_with(&plain, &cam, vergence));
+        let got = pass.focal_depth_mm().expect("a focus");
+        assert!((got - want).abs() < 1e-9, "{vergence:?}: {got} ≠ {want}");
+    }
+}
+
+/// Through the renderer: a vergence depth on the near ball (270 mm from the
+/// eye) blurs the ball at the screen that the gaze rests on; it holds for
+/// one frame only.
+#[test]
+fn the_renderer_passes_the_vergence_depth_for_one_frame() {
+    let s = build("DepthOfField(pupil_mm: 6.0, focus: Vergence)").expect("builds");
+    let mut r = renderer(&s, false);
+    let (gaze_focus, _) = r.render_at(GAZE, 0.0).expect("renders");
+    r.set_vergence_mm(Some(270.0));
+    let (far_focus, _) = r.render_at(GAZE, 0.1).expect("renders");
+    let (again, _) = r.render_at(GAZE, 0.2).expect("renders");
+    let ids = &far_focus.object;
+    let sharp = edge_energy(&gaze_focus, ids, 0);
+    let blurred = edge_energy(&far_focus, ids, 0);
+    assert!(blurred < 0.5 * sharp, "{blurred} vs {sharp}");
+    assert_eq!(again.rgb, gaze_focus.rgb, "the vergence depth held a second frame");
+}
+
+/// `focus: Attention` runs Lee's model on the frame: an object is attended
+/// and the focus is its mean eye distance; a frame of background only
+/// keeps the last focus; no other focus builds the model.
+#[test]
+fn attention_focus_focuses_at_the_attended_objects_depth() {
+    let plain = build("").expect("builds");
+    let (frame, _) = renderer(&plain, true).render(GAZE).expect("renders");
+    let cam = camera();
+    let mut pass = DepthOfField::new(EyeLens::default(), DofFocus::Attention);
+    assert!(pass.has_attention_model());
+    assert!(!DepthOfField::new(EyeLens::default(), DofFocus::Gaze).has_attention_model());
+    let mut f = frame.clone();
+    pass.run(&mut f, &input_with(&plain, &cam, None));
+    let id = pass.attended_object().expect("an object is attended");
+    let depths: Vec<f64> = frame
+        .object
+        .iter()
+        .zip(&frame.depth_mm)
+        .filter(|(o, d)| **o == id && d.is_finite())
+        .map(|(_, d)| f64::from(*d))
+        .collect();
+    assert!(!depths.is_empty());
+    let mean = depths.iter().sum::<f64>() / depths.len() as f64;
+    let got = pass.focal_depth_mm().expect("a focus");
+    assert!((got - mean).abs() < 1e-3 * mean, "focus {got} vs mean depth {mean}");
+    // Background only: nothing attended, the focus holds.
+    let mut empty = frame.clone();
+    empty.object.fill(raycast::NO_OBJECT);
+    empty.depth_mm.fill(f32::INFINITY);
+    empty.hit.fill(false);
+    let bg = plain.background_rgb8;
+    for px in empty.rgb.chunks_exact_mut(3) {
+        px.copy_from_slice(&bg);
+    }
+    pass.run(&mut empty, &input_with(&plain, &cam, None));
+    assert_eq!(pass.attended_object(), None);
+    assert_eq!(pass.focal_depth_mm(), Some(got));
 }

@@ -164,6 +164,16 @@ pub enum DofFocus {
     Gaze,
     /// At a fixed eye distance (mm): beyond the focal length, or `inf`.
     Fixed { depth_mm: f64 },
+    /// At the eye distance of the binocular 3-D gaze point (vergence,
+    /// Murphy & Duchowski 2001 eqs. 1–3) on frames whose tracker sample has
+    /// both eyes valid and converging; on other frames (one eye, a blink,
+    /// a mouse, parallel or diverging lines of sight) as `Gaze`.
+    Vergence,
+    /// At the depth of the object Lee's attention model (2009 ch. 3,
+    /// `crates/attention`) predicts the viewer attends, from the rendered
+    /// frame alone: no eye tracker needed. While no object is attended the
+    /// last focus is kept (before any, the eye is relaxed, at infinity).
+    Attention,
 }
 
 /// How [`Effect::DepthOfField`]'s focal depth follows a change of its focus

@@ -35,6 +35,10 @@ pub enum TrackerMsg {
         sample_us: u64,
         raw: Option<[f64; 2]>,
         gaze_px: Option<[f64; 2]>,
+        /// The left and right eyes' points of regard, screen pixels, when
+        /// the sample has both eyes valid and both map onto the screen's
+        /// neighbourhood (for vergence); `None` otherwise.
+        eyes_px: Option<[[f64; 2]; 2]>,
     },
     /// A status line (disconnect, reconnect, end of recording); empty when
     /// the tracker is streaming again.
@@ -231,6 +235,15 @@ fn tracker_thread(mut open: Opener, ctx: ThreadCtx) {
                     let raw = s.gaze().filter(|p| p[0].is_finite() && p[1].is_finite());
                     let mapped = raw.and_then(&map);
                     let gaze_px = mapped.filter(|&p| plausible(p, screen_px));
+                    let eye = |e: &tracker_hal::EyeSample| {
+                        e.position
+                            .and_then(&map)
+                            .filter(|&p| plausible(p, screen_px))
+                    };
+                    let eyes_px = match (eye(&s.left), eye(&s.right)) {
+                        (Some(l), Some(r)) if gaze_px.is_some() => Some([l, r]),
+                        _ => None,
+                    };
                     let far = {
                         let mut f = lock(&faults);
                         f.samples += 1;
@@ -247,6 +260,7 @@ fn tracker_thread(mut open: Opener, ctx: ThreadCtx) {
                         sample_us: s.host_time_us,
                         raw,
                         gaze_px,
+                        eyes_px,
                     });
                     let due = far_reported
                         .is_none_or(|(t, n)| n != far && t.elapsed() >= FAR_REPORT_EVERY);

@@ -146,6 +146,8 @@ struct Viewer<'a> {
     feed: GazeFeed,
     screen: Option<Screen>,
     gaze: [f64; 2],
+    /// Both eyes' points of the gaze in use, when its sample had both.
+    eyes_px: Option<[[f64; 2]; 2]>,
     /// Host arrival of the gaze in use, and whether a frame has shown it.
     gaze_host_us: Option<u64>,
     gaze_shown: bool,
@@ -164,20 +166,67 @@ struct Viewer<'a> {
     stop_us: Option<u64>,
 }
 
+/// Interocular distance for vergence, mm: the adult mean (Dodgson 2004);
+/// the trackers' eye positions are not used for it yet.
+pub const INTEROCULAR_MM: f64 = 63.0;
+
+/// Farthest vergence point accepted, in eye-to-screen distances: beyond
+/// it the lines of sight are treated as parallel (no depth).
+pub const VERGENCE_MAX_SCALE: f64 = 100.0;
+
+/// The eye distance (mm) of the 3-D gaze point where the two eyes' lines
+/// of sight through their points of regard (`eyes_px`: left, right; screen
+/// px) meet (Murphy & Duchowski eqs. 1–3, `tracker_hal::events::
+/// vergence_point`), the eyes [`INTEROCULAR_MM`] apart about the camera's
+/// eye; `None` when they are parallel, diverge or meet beyond
+/// [`VERGENCE_MAX_SCALE`] screen distances.
+pub fn vergence_mm(camera: &Camera, eyes_px: [[f64; 2]; 2]) -> Option<f64> {
+    let on_screen = |p: [f64; 2]| {
+        let w = camera.screen_point([p[0] as f32, p[1] as f32]);
+        [f64::from(w.x), f64::from(w.y)]
+    };
+    let eye = camera.eye.as_dvec3();
+    // Coordinates of eqs. 1–3: the eyes' plane at z = 0, the screen at z = d.
+    let g = tracker_hal::events::vergence_point(
+        on_screen(eyes_px[0]),
+        on_screen(eyes_px[1]),
+        INTEROCULAR_MM,
+        [eye.x, eye.y, 0.0],
+        eye.z,
+        VERGENCE_MAX_SCALE,
+    )?;
+    let d = (g[0] - eye.x).hypot(g[1] - eye.y).hypot(g[2]);
+    (d.is_finite() && d > 0.0).then_some(d)
+}
+
+/// The newest valid gaze of a drain.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Newest {
+    pub gaze_px: [f64; 2],
+    /// Host arrival, monotonic µs.
+    pub host_us: u64,
+    /// Both eyes' points (screen px) when that sample had both.
+    pub eyes_px: Option<[[f64; 2]; 2]>,
+}
+
 /// Drains `rx` to its newest valid gaze; returns it with its host arrival
 /// time, and applies status lines. Invalid samples keep the last valid gaze.
-pub fn drain_newest(
-    rx: &Receiver<TrackerMsg>,
-    mut on_status: impl FnMut(String),
-) -> Option<([f64; 2], u64)> {
+pub fn drain_newest(rx: &Receiver<TrackerMsg>, mut on_status: impl FnMut(String)) -> Option<Newest> {
     let mut newest = None;
     for m in rx.try_iter() {
         match m {
             TrackerMsg::Gaze {
-                host_us, gaze_px, ..
+                host_us,
+                gaze_px,
+                eyes_px,
+                ..
             } => {
                 if let Some(g) = gaze_px.filter(|g| g[0].is_finite() && g[1].is_finite()) {
-                    newest = Some((g, host_us));
+                    newest = Some(Newest {
+                        gaze_px: g,
+                        host_us,
+                        eyes_px,
+                    });
                 }
             }
             TrackerMsg::Status(s) => on_status(s),
@@ -194,14 +243,15 @@ impl Viewer<'_> {
 
     fn drain(&mut self) {
         let (out, log_error, status) = (&mut *self.out, &mut self.log_error, &mut self.status);
-        if let Some((g, t)) = drain_newest(&self.feed.rx, |s| {
+        if let Some(n) = drain_newest(&self.feed.rx, |s| {
             if !s.is_empty() {
                 emit(out, log_error, &s);
             }
             *status = s;
         }) {
-            self.gaze = g;
-            self.gaze_host_us = Some(t);
+            self.gaze = n.gaze_px;
+            self.eyes_px = n.eyes_px;
+            self.gaze_host_us = Some(n.host_us);
             self.gaze_shown = false;
         }
     }
@@ -214,6 +264,10 @@ impl Viewer<'_> {
         let latch_us = monotonic_us();
         let fresh = !self.gaze_shown && self.gaze_host_us.is_some();
         let gaze = self.gaze;
+        let vergence = self
+            .eyes_px
+            .and_then(|e| vergence_mm(self.renderer.camera(), e));
+        self.renderer.set_vergence_mm(vergence);
         let (mut frame, stats) = self.renderer.render(gaze).map_err(|e| e.to_string())?;
         if self.layers {
             frame.rgb = layers_rgb(&frame);
@@ -422,6 +476,7 @@ pub fn run(opts: &LiveOptions, out: &mut dyn Write) -> Result<(), LiveError> {
         feed,
         screen: None,
         gaze: geometry.centre_px(),
+        eyes_px: None,
         gaze_host_us: None,
         gaze_shown: false,
         status: String::new(),
@@ -497,6 +552,7 @@ mod tests {
                 sample_us: k,
                 raw: Some(g),
                 gaze_px: Some(g),
+                eyes_px: None,
             })
             .expect("send");
         }
@@ -507,15 +563,53 @@ mod tests {
                 sample_us: 5000,
                 raw: None,
                 gaze_px: bad,
+                eyes_px: None,
             })
             .expect("send");
         }
         let mut statuses = Vec::new();
         let newest = drain_newest(&rx, |s| statuses.push(s));
-        assert_eq!(newest, Some(([999.0, 1998.0], 999)));
+        assert_eq!(
+            newest,
+            Some(Newest {
+                gaze_px: [999.0, 1998.0],
+                host_us: 999,
+                eyes_px: None
+            })
+        );
         assert_eq!(statuses, vec!["lost".to_string()]);
         assert!(rx.is_empty());
         assert_eq!(drain_newest(&rx, |_| {}), None);
+    }
+
+    /// Eqs. 1–3 on the display: eyes converging on the screen give the
+    /// screen's distance, the disparity of a point at depth D gives D, and
+    /// parallel or diverging lines of sight give none.
+    #[test]
+    fn vergence_depth_from_the_two_eyes_points() {
+        let d = Display {
+            name: "17in".into(),
+            resolution_px: (1280, 1024),
+            size_mm: (337.9, 270.3),
+            eye_distance_mm: 540.0,
+            eye_point_px: None,
+        };
+        let cam = Camera::new(&d.geometry().expect("geometry"));
+        let pitch = f64::from(cam.pitch()[0]);
+        let centre = [640.0, 512.0];
+        let got = vergence_mm(&cam, [centre, centre]).expect("on the screen");
+        assert!((got - 540.0).abs() < 1e-6, "{got}");
+        for depth in [300.0, 1000.0, 5000.0] {
+            // Where each eye's line of sight to the point crosses the screen.
+            let half = 0.5 * INTEROCULAR_MM * (1.0 - 540.0 / depth) / pitch;
+            let eyes = [[640.0 - half, 512.0], [640.0 + half, 512.0]];
+            let got = vergence_mm(&cam, eyes).expect("converging");
+            assert!((got - depth).abs() < 1e-3 * depth, "{depth}: {got}");
+        }
+        let parallel = INTEROCULAR_MM / pitch;
+        assert_eq!(vergence_mm(&cam, [[600.0, 512.0], [600.0 + parallel, 512.0]]), None);
+        assert_eq!(vergence_mm(&cam, [[600.0, 512.0], [900.0, 512.0]]), None);
+        assert_eq!(vergence_mm(&cam, [[f64::NAN, 0.0], centre]), None);
     }
 
     #[test]

@@ -7,7 +7,14 @@
 //!    of regard, ignoring the background (infinite depth). When the window
 //!    holds no surface (gaze on the background or off the screen) the
 //!    previous frame's focus is kept; before any, the eye is relaxed
-//!    (focused at infinity). The focal depth then follows this target as
+//!    (focused at infinity). `Vergence`: the eye distance of the binocular
+//!    3-D gaze point ([`PassInput::vergence_mm`], Murphy & Duchowski eqs.
+//!    1–3) where the frame has one, else as `Gaze`. `Attention`: the mean
+//!    eye distance of the object Lee's attention model (ch. 3,
+//!    [`attention::AttentionTracker`] on this frame's colour, depth and
+//!    object ids; every object of importance 1) attends; while none is
+//!    attended the last focus is kept. The tracker exists only for this
+//!    focus. The focal depth then follows this target as
 //!    the scene's `refocus` says ([`super::refocus`], Lee §6.1): at once
 //!    (`Instant`, the default), by a 300-ms transition (`Interpolate`) or a
 //!    first-order low-pass (`LowPass`), in diopters, timed by the frame's
@@ -69,6 +76,7 @@
 //! ray casting, 64 rays per pixel).
 
 use foveation::thin_lens::{self, EyeLens};
+use rayon::prelude::*;
 use raycast::scene::DofFocus;
 use raycast::Frame;
 
@@ -88,7 +96,7 @@ pub const MAX_LEVELS: usize = 8;
 pub const GAUSS_SIGMA_TEXELS: f64 = 1.0;
 
 /// The depth-of-field pass.
-#[derive(Debug, Clone)]
+#[derive(Debug)]
 pub struct DepthOfField {
     /// The eye; `aperture_mm` is the pupil diameter (0: the identity).
     pub lens: EyeLens,
@@ -106,6 +114,87 @@ pub struct DepthOfField {
     /// Build the colour pyramid with eq. 4.9's H (on by default); off, with
     /// the isotropic G of eq. 4.1.
     pub anisotropic: bool,
+    /// Lee's attention model, for `focus: Attention` only.
+    attention: Option<Box<AttentionFocus>>,
+    /// Size of the frame `level` and `sigma` describe.
+    maps_size: (usize, usize),
+}
+
+/// One frame's per-pixel maps of the pass, row-major.
+#[derive(Debug, Clone, Copy)]
+pub struct DofMaps<'a> {
+    pub width: usize,
+    pub height: usize,
+    /// Degree of blur σ = CoC / 2 (eq. 4.5), px; capped at 10⁶.
+    pub sigma_px: &'a [f32],
+    /// The continuous mip level m (eq. 4.6); 0: the pixel is left as it is.
+    pub level: &'a [f32],
+}
+
+/// Saliency map side of the attention focus (Lee's smallest, 64²: the
+/// attended object, not a fine map, is what the focus needs).
+pub const ATTENTION_MAP_SIZE: u32 = 64;
+
+/// `focus: Attention`'s state: the tracker (its pyramids and per-object
+/// filters) and the previous frame's time.
+struct AttentionFocus {
+    tracker: attention::AttentionTracker,
+    objects: Vec<attention::ObjectInfo>,
+    last_time_s: Option<f64>,
+    attended: Option<u32>,
+}
+
+impl std::fmt::Debug for AttentionFocus {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("AttentionFocus")
+            .field("attended", &self.attended)
+            .finish_non_exhaustive()
+    }
+}
+
+impl AttentionFocus {
+    fn new() -> Option<Self> {
+        let config = attention::AttentionConfig::with_map_size(ATTENTION_MAP_SIZE);
+        Some(Self {
+            tracker: attention::AttentionTracker::new(config).ok()?,
+            objects: Vec::new(),
+            last_time_s: None,
+            attended: None,
+        })
+    }
+
+    /// The attended object's mean eye distance this frame, mm, or `None`
+    /// (no object attended, or the frame cannot be read).
+    fn depth_mm(&mut self, frame: &Frame, scene_objects: usize, time_s: Option<f64>) -> Option<f64> {
+        if self.objects.len() != scene_objects {
+            self.objects = (0..scene_objects.min(attention::frame::MAX_OBJECTS))
+                .map(|id| attention::ObjectInfo::still(id as u32, 1.0))
+                .collect();
+        }
+        // The filter's time step: from the frames' times, 0 without a clock.
+        let dt = match (self.last_time_s, time_s) {
+            (Some(a), Some(b)) if b.is_finite() && b >= a => b - a,
+            _ => 0.0,
+        };
+        if let Some(t) = time_s.filter(|t| t.is_finite()) {
+            self.last_time_s = Some(t);
+        }
+        let view = attention::FrameView {
+            width: frame.width_px,
+            height: frame.height_px,
+            rgb: &frame.rgb,
+            depth_mm: &frame.depth_mm,
+            object: &frame.object,
+        };
+        let result = self
+            .tracker
+            .update(&view, &self.objects, attention::CameraMotion::STATIC, dt)
+            .ok()?;
+        self.attended = result.attended;
+        let id = result.attended?;
+        let d = f64::from(result.get(id)?.distance_mm);
+        (d.is_finite() && d > 0.0).then_some(d)
+    }
 }
 
 /// One level, row-major: linear RGB, and the depth (Z) and degree of
@@ -165,7 +254,37 @@ impl DepthOfField {
             pyramid: Vec::new(),
             sigma: Vec::new(),
             anisotropic: true,
+            maps_size: (0, 0),
+            attention: if focus == DofFocus::Attention {
+                AttentionFocus::new().map(Box::new)
+            } else {
+                None
+            },
         }
+    }
+
+    /// The object the attention focus attended in the last frame (`focus:
+    /// Attention` only; `None` otherwise or when none was attended).
+    pub fn attended_object(&self) -> Option<u32> {
+        self.attention.as_ref().and_then(|a| a.attended)
+    }
+
+    /// The last blurred frame's maps (σ and mip level per pixel), for debug
+    /// pictures; `None` before any frame or when the last frame was not
+    /// blurred at all (pupil 0, an empty frame).
+    pub fn maps(&self) -> Option<DofMaps<'_>> {
+        let (w, h) = self.maps_size;
+        (w * h > 0 && self.level.len() == w * h && self.sigma.len() == w * h).then_some(DofMaps {
+            width: w,
+            height: h,
+            sigma_px: &self.sigma,
+            level: &self.level,
+        })
+    }
+
+    /// Whether the pass holds an attention model (only `focus: Attention`).
+    pub fn has_attention_model(&self) -> bool {
+        self.attention.is_some()
     }
 
     /// The pass refocusing as `refocus` says (default `Instant`).
@@ -192,26 +311,36 @@ impl DepthOfField {
 
     /// The focus distance for this frame at `time_s`, mm (may be infinite),
     /// after the refocusing dynamics.
-    fn focus_mm(&mut self, frame: &Frame, gaze_px: [f64; 2], time_s: Option<f64>) -> f64 {
-        let target = self.focus_target_mm(frame, gaze_px);
+    fn focus_mm(&mut self, frame: &Frame, input: &PassInput<'_>) -> f64 {
+        let target = self.focus_target_mm(frame, input);
         if target > 0.0 {
-            self.refocus.update(target, time_s)
+            self.refocus.update(target, input.time_s)
         } else {
             target // only an unvalidated fixed focus: `coc_px` clamps it
         }
     }
 
     /// The focus target for this frame, mm (may be infinite).
-    fn focus_target_mm(&mut self, frame: &Frame, gaze_px: [f64; 2]) -> f64 {
-        match self.focus {
-            DofFocus::Fixed { depth_mm } => depth_mm,
-            DofFocus::Gaze => {
-                if let Some(d) = gaze_depth_mm(frame, gaze_px) {
-                    self.last_focus_mm = Some(d);
+    fn focus_target_mm(&mut self, frame: &Frame, input: &PassInput<'_>) -> f64 {
+        let found = match self.focus {
+            DofFocus::Fixed { depth_mm } => return depth_mm,
+            DofFocus::Gaze => gaze_depth_mm(frame, input.gaze_px),
+            DofFocus::Vergence => input
+                .vergence_mm
+                .filter(|d| d.is_finite() && *d > 0.0)
+                .or_else(|| gaze_depth_mm(frame, input.gaze_px)),
+            DofFocus::Attention => {
+                let objects = input.scene.object_materials.len();
+                match &mut self.attention {
+                    Some(a) => a.depth_mm(frame, objects, input.time_s),
+                    None => None,
                 }
-                self.last_focus_mm.unwrap_or(f64::INFINITY)
             }
+        };
+        if let Some(d) = found {
+            self.last_focus_mm = Some(d);
         }
+        self.last_focus_mm.unwrap_or(f64::INFINITY)
     }
 }
 
@@ -297,7 +426,16 @@ pub fn level_for_coc(coc_px: f64, max_level: f64) -> f64 {
 
 impl Pass for DepthOfField {
     fn name(&self) -> &'static str {
-        "depth of field (Lee ch. 4)"
+        match self.focus {
+            DofFocus::Gaze => "depth of field (Lee ch. 4, focus at the gaze's depth)",
+            DofFocus::Fixed { .. } => "depth of field (Lee ch. 4, fixed focus)",
+            DofFocus::Vergence => "depth of field (Lee ch. 4, focus at the vergence depth, else the gaze's)",
+            DofFocus::Attention => "depth of field (Lee ch. 4, focus on the attended object: Lee ch. 3 saliency at 64²)",
+        }
+    }
+
+    fn as_any(&self) -> &dyn std::any::Any {
+        self
     }
 
     fn needs_surface(&self) -> bool {
@@ -309,10 +447,11 @@ impl Pass for DepthOfField {
         if w == 0 || h == 0 || !frame.has_surface() || frame.rgb.len() < 3 * w * h {
             return;
         }
+        self.maps_size = (0, 0);
         if self.lens.aperture_mm.is_nan() || self.lens.aperture_mm <= 0.0 {
             return; // pupil 0: a pinhole, everything sharp
         }
-        let focus = self.focus_mm(frame, input.gaze_px, input.time_s);
+        let focus = self.focus_mm(frame, input);
         let pitch = input.camera.pitch();
         let ppmm = 0.5 * (1.0 / f64::from(pitch[0]) + 1.0 / f64::from(pitch[1]));
         let ds = f64::from(input.camera.eye.z);
@@ -325,6 +464,7 @@ impl Pass for DepthOfField {
         self.level.reserve(w * h);
         self.sigma.clear();
         self.sigma.reserve(w * h);
+        self.maps_size = (w, h);
         let mut max_m = 0.0f64;
         for &d in &frame.depth_mm {
             let c = coc_px(&self.lens, f64::from(d), focus, ds, ppmm);
@@ -349,16 +489,23 @@ impl Pass for DepthOfField {
             focus,
             self.anisotropic,
         );
-        for (i, &m) in self.level.iter().enumerate() {
-            if m <= 0.0 {
-                continue;
-            }
-            let (x, y) = (i % w, i / w);
-            let c = blend(&self.pyramid, x, y, f64::from(m));
-            for (byte, v) in frame.rgb[3 * i..3 * i + 3].iter_mut().zip(c) {
-                *byte = colour::encode(v);
-            }
-        }
+        // Rows in parallel: each pixel reads the pyramid and writes itself.
+        let pyramid = &self.pyramid;
+        frame.rgb[..3 * w * h]
+            .par_chunks_mut(3 * w)
+            .zip(self.level.par_chunks(w))
+            .enumerate()
+            .for_each(|(y, (row, levels))| {
+                for (x, &m) in levels.iter().enumerate() {
+                    if m <= 0.0 {
+                        continue;
+                    }
+                    let c = blend(pyramid, x, y, f64::from(m));
+                    for (byte, v) in row[3 * x..3 * x + 3].iter_mut().zip(c) {
+                        *byte = colour::encode(v);
+                    }
+                }
+            });
     }
 }
 
@@ -409,7 +556,14 @@ fn build_pyramid(
         let (nw, nh) = (src.w.div_ceil(2), src.h.div_ceil(2));
         dst.reshape(nw, nh);
         let at = |x: usize, t: usize, n: usize| (2 * x + t).saturating_sub(1).min(n - 1);
-        for y in 0..nh {
+        // Rows of the destination in parallel.
+        let rows = dst
+            .px
+            .par_chunks_mut(nw)
+            .zip(dst.z.par_chunks_mut(nw))
+            .zip(dst.sigma.par_chunks_mut(nw))
+            .enumerate();
+        rows.for_each(|(y, ((px_row, z_row), sigma_row))| {
             for x in 0..nw {
                 // Isotropic depth and σ (Z and B mips).
                 let (mut z, mut sg) = (0.0f32, 0.0f32);
@@ -436,16 +590,15 @@ fn build_pyramid(
                         total += wy * wx;
                     }
                 }
-                let i = y * nw + x;
-                dst.z[i] = z;
-                dst.sigma[i] = sg;
-                dst.px[i] = if total > 0.0 {
+                z_row[x] = z;
+                sigma_row[x] = sg;
+                px_row[x] = if total > 0.0 {
                     acc.map(|a| a / total)
                 } else {
                     src.px[at(y, 1, src.h) * src.w + at(x, 1, src.w)]
                 };
             }
-        }
+        });
     }
 }
 

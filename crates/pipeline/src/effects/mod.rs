@@ -26,6 +26,11 @@ pub struct PassInput<'a> {
     /// once. `Renderer::render` gives the wall clock, `render_at` the
     /// caller's time.
     pub time_s: Option<f64>,
+    /// The eye distance of the binocular 3-D gaze point for this frame, mm
+    /// (Murphy & Duchowski eqs. 1–3), when the tracker's sample had both
+    /// eyes valid and converging; `None` otherwise. Read by depth of
+    /// field's `focus: Vergence`.
+    pub vergence_mm: Option<f64>,
 }
 
 /// One pass over a rendered frame.
@@ -34,6 +39,9 @@ pub trait Pass: Send {
     fn name(&self) -> &'static str;
     /// Reads and writes the frame in place.
     fn run(&mut self, frame: &mut Frame, input: &PassInput<'_>);
+
+    /// The pass itself, for callers that inspect a known pass (debug maps).
+    fn as_any(&self) -> &dyn std::any::Any;
 
     /// Whether the pass reads the frame's surface buffers (depth, object
     /// id, normal); the method fills them only when some pass does.

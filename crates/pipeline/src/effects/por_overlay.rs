@@ -22,6 +22,10 @@ impl Default for PorOverlay {
 }
 
 impl Pass for PorOverlay {
+    fn as_any(&self) -> &dyn std::any::Any {
+        self
+    }
+
     fn name(&self) -> &'static str {
         "POR box"
     }

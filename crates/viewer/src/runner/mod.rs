@@ -200,6 +200,7 @@ impl Runner<'_> {
                     sample_us,
                     raw,
                     gaze_px,
+                    ..
                 } => {
                     let mapped = match (&self.calibration, raw) {
                         (Some(c), Some(r)) => c.map(r),

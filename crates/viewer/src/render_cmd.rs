@@ -11,7 +11,7 @@ use serde::Serialize;
 
 use crate::args::{parse_point, AccelArg, Intersector, Overlay};
 use crate::config::{self, load_scene};
-use crate::picture::save_png;
+use crate::picture::{draw_text_lines, save_png};
 use crate::stats::median;
 
 #[derive(Debug, Clone, clap::Args)]
@@ -53,6 +53,16 @@ pub struct RenderArgs {
     /// Write the three-layer picture (fovea red, interpolated green, refined blue).
     #[arg(long, value_name = "FILE.png")]
     pub layers: Option<PathBuf>,
+    /// Write the depth-of-field pass's circle of confusion per pixel
+    /// (black 0 px, through red and yellow, to white at 64 px and beyond, on
+    /// a log scale); the scene must list `DepthOfField`.
+    #[arg(long, value_name = "FILE.png")]
+    pub coc: Option<PathBuf>,
+    /// Write the depth-of-field pass's mip level per pixel (level 0, left
+    /// as it is, black; levels 1–8 in a colour each, blended between); the
+    /// scene must list `DepthOfField`.
+    #[arg(long, value_name = "FILE.png")]
+    pub dof_level: Option<PathBuf>,
     /// Ray/triangle test.
     #[arg(long, value_enum, default_value = "watertight")]
     pub intersector: Intersector,
@@ -99,6 +109,8 @@ pub fn run(args: &RenderArgs, out: &mut dyn Write) -> Result<(), String> {
     let mut outputs = vec![("--out", args.out.as_path())];
     outputs.extend(args.layers.as_deref().map(|p| ("--layers", p)));
     outputs.extend(args.stats.as_deref().map(|p| ("--stats", p)));
+    outputs.extend(args.coc.as_deref().map(|p| ("--coc", p)));
+    outputs.extend(args.dof_level.as_deref().map(|p| ("--dof-level", p)));
     crate::output::refuse_inputs(
         &outputs,
         &[("--scene", &args.scene), ("--display", &args.display)],
@@ -122,6 +134,16 @@ pub fn run(args: &RenderArgs, out: &mut dyn Write) -> Result<(), String> {
     };
     let mut renderer = Renderer::new(&scene, Camera::new(&geometry), model, &options)
         .map_err(|e| e.to_string())?;
+    if renderer.depth_of_field().is_none() {
+        for (flag, path) in [("--coc", &args.coc), ("--dof-level", &args.dof_level)] {
+            if path.is_some() {
+                return Err(format!(
+                    "{flag}: scene {} lists no DepthOfField effect, so there is no map to write",
+                    args.scene.display()
+                ));
+            }
+        }
+    }
     let mut times = Vec::new();
     let mut last = None;
     for _ in 0..args.repeat.max(1) {
@@ -143,6 +165,7 @@ pub fn run(args: &RenderArgs, out: &mut dyn Write) -> Result<(), String> {
         save_png(path, (frame.width_px, frame.height_px), &layers_rgb(&frame))
             .map_err(|e| format!("{}: {e}", path.display()))?;
     }
+    write_dof_maps(&renderer, args, (frame.width_px, frame.height_px))?;
     let report = RenderReport {
         stats,
         backend: renderer.backend_name(),
@@ -198,4 +221,72 @@ pub fn run(args: &RenderArgs, out: &mut dyn Write) -> Result<(), String> {
         args.out.display()
     )
     .map_err(|e| e.to_string())
+}
+
+/// Largest CoC the `--coc` picture tells apart, px (white beyond).
+pub const COC_PICTURE_MAX_PX: f64 = 64.0;
+
+/// The `--coc` and `--dof-level` pictures of the last frame.
+fn write_dof_maps(renderer: &Renderer<'_>, args: &RenderArgs, size: (u32, u32)) -> Result<(), String> {
+    if args.coc.is_none() && args.dof_level.is_none() {
+        return Ok(());
+    }
+    let n = size.0 as usize * size.1 as usize;
+    let maps = renderer.depth_of_field().and_then(|d| d.maps());
+    // A pass that blurred nothing (pupil 0) has no maps: all zero.
+    let zeros = vec![0.0f32; n];
+    let (sigma, level) = match maps {
+        Some(m) if m.sigma_px.len() == n => (m.sigma_px, m.level),
+        _ => (zeros.as_slice(), zeros.as_slice()),
+    };
+    let write = |path: &PathBuf, mut rgb: Vec<u8>, legend: &str| -> Result<(), String> {
+        draw_text_lines(&mut rgb, size, &[legend]).map_err(|e| e.to_string())?;
+        save_png(path, size, &rgb).map_err(|e| format!("{}: {e}", path.display()))
+    };
+    if let Some(path) = &args.coc {
+        let rgb = sigma.iter().flat_map(|&s| coc_colour(2.0 * f64::from(s))).collect();
+        write(path, rgb, "circle of confusion: black 0 px, red 4, yellow 16, white >= 64 px (log)")?;
+    }
+    if let Some(path) = &args.dof_level {
+        let rgb = level.iter().flat_map(|&m| level_colour(f64::from(m))).collect();
+        write(
+            path,
+            rgb,
+            "mip level: black 0 (unchanged), blue 1, cyan 2, green 3, yellow 4, orange 5, red 6, magenta 7, white 8",
+        )?;
+    }
+    Ok(())
+}
+
+/// Linear blend of RGB stops at `t` in 0..=stops−1.
+fn ramp(stops: &[[f64; 3]], t: f64) -> [u8; 3] {
+    let last = (stops.len() - 1) as f64;
+    let t = if t.is_nan() { 0.0 } else { t.clamp(0.0, last) };
+    let i = (t.floor() as usize).min(stops.len() - 2);
+    let f = t - i as f64;
+    let (a, b) = (stops[i], stops[i + 1]);
+    [0, 1, 2].map(|k| (255.0 * (a[k] + (b[k] - a[k]) * f)).round() as u8)
+}
+
+/// CoC (px) to colour: log scale, black at 0, white at [`COC_PICTURE_MAX_PX`].
+pub fn coc_colour(coc_px: f64) -> [u8; 3] {
+    const STOPS: [[f64; 3]; 4] = [[0.0; 3], [0.85, 0.1, 0.05], [1.0, 0.9, 0.1], [1.0; 3]];
+    let t = (1.0 + coc_px.max(0.0)).ln() / (1.0 + COC_PICTURE_MAX_PX).ln();
+    ramp(&STOPS, 3.0 * t)
+}
+
+/// Mip level to colour: a colour per integer level 0–8, blended between.
+pub fn level_colour(level: f64) -> [u8; 3] {
+    const STOPS: [[f64; 3]; 9] = [
+        [0.0; 3],
+        [0.1, 0.2, 0.9],
+        [0.1, 0.8, 0.9],
+        [0.1, 0.8, 0.2],
+        [0.95, 0.9, 0.1],
+        [1.0, 0.55, 0.05],
+        [0.9, 0.1, 0.1],
+        [0.85, 0.2, 0.85],
+        [1.0; 3],
+    ];
+    ramp(&STOPS, level)
 }

@@ -306,3 +306,54 @@ fn a_bad_effect_parameter_names_file_line_and_field() {
     );
     assert!(!dir.path().join("x.png").exists());
 }
+
+/// `--coc` and `--dof-level` write the depth-of-field pass's maps: the
+/// stress scene's slivers before the eye are blurred (bright), its focus
+/// sharp (black); a scene without the effect is refused naming the flag.
+#[test]
+fn render_writes_the_dof_coc_and_level_maps_and_refuses_them_without_the_effect() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let d = small_display(dir.path());
+    let (png, coc, level) = (
+        dir.path().join("f.png"),
+        dir.path().join("coc.png"),
+        dir.path().join("level.png"),
+    );
+    gazecast()
+        .args(["render", "--scene", "config/scenes/stress-dof.ron", "--display"])
+        .arg(&d)
+        .arg("--out")
+        .arg(&png)
+        .arg("--coc")
+        .arg(&coc)
+        .arg("--dof-level")
+        .arg(&level)
+        .succeed();
+    for f in [&coc, &level] {
+        let file = std::fs::File::open(f).expect("written");
+        let mut reader = png::Decoder::new(std::io::BufReader::new(file))
+            .read_info()
+            .expect("a PNG");
+        let mut buf = vec![0; reader.output_buffer_size()];
+        let info = reader.next_frame(&mut buf).expect("a frame");
+        assert_eq!((info.width, info.height), (320, 256));
+        // Below the legend band: some pixels sharp (black), some blurred.
+        let body = &buf[3 * 320 * 30..3 * 320 * 256];
+        let black = body.chunks(3).filter(|p| *p == [0, 0, 0]).count();
+        let lit = body.len() / 3 - black;
+        assert!(black > 100 && lit > 100, "{}: {black} sharp, {lit} blurred", f.display());
+    }
+    let out = gazecast()
+        .args(["render", "--scene", "config/scenes/search-task.ron", "--display"])
+        .arg(&d)
+        .arg("--out")
+        .arg(dir.path().join("g.png"))
+        .arg("--coc")
+        .arg(dir.path().join("c2.png"))
+        .output()
+        .expect("runs");
+    let e = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success());
+    assert!(e.contains("--coc") && e.contains("DepthOfField"), "{e}");
+    assert!(!dir.path().join("g.png").exists(), "nothing written on a refused flag");
+}

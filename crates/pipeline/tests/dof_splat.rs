@@ -341,6 +341,53 @@ fn empty_scene(grey: f32) -> Scene {
     Scene::build(&file, Path::new(".")).expect("builds")
 }
 
+/// Eq. 5.5: a blurred bright patch spreads more light with highlights,
+/// and a sharp frame is untouched by them.
+#[test]
+fn defocused_highlights_brighten_a_blurred_bright_patch() {
+    let s = empty_scene(0.05);
+    let (w, h) = (40u32, 32u32);
+    let cam = Camera::new(&display(w, h).geometry().expect("geometry"));
+    let dark = raycast::shade::to_rgb8(glam::Vec3::splat(0.05));
+    let mut frame = Frame::blank(w, h, dark, Layer::Full, true);
+    for y in 14..18 {
+        for x in 18..22 {
+            let i = (y * w + x) as usize;
+            frame.rgb[3 * i..3 * i + 3].copy_from_slice(&[255; 3]);
+        }
+    }
+    frame.depth_mm.fill(300.0);
+    let focus = DofFocus::Fixed {
+        depth_mm: f64::INFINITY,
+    };
+    // Linear light above the dark background (a 60-mm pupil: a CoC of
+    // about 9 px at 300 mm).
+    let lut = pipeline::colour::decode_lut();
+    let energy = |f: &Frame| -> f64 {
+        f.rgb
+            .iter()
+            .map(|&b| f64::from(lut[b as usize] - lut[dark[0] as usize]))
+            .sum()
+    };
+    let mut plain = DepthOfFieldSplat::new(lens(60.0), focus);
+    let mut bright = DepthOfFieldSplat::new(lens(60.0), focus);
+    bright.highlights = Some(Default::default());
+    let a = run(&mut plain, &frame, &s, &cam, [0.0; 2]);
+    let b = run(&mut bright, &frame, &s, &cam, [0.0; 2]);
+    assert!(a.rgb != frame.rgb);
+    assert!(
+        energy(&b) > energy(&a) * 1.5,
+        "{} vs {}",
+        energy(&b),
+        energy(&a)
+    );
+    // Focused on the patch: nothing is blurred, nothing brightened.
+    let at = DofFocus::Fixed { depth_mm: 300.0 };
+    let mut sharp = DepthOfFieldSplat::new(lens(60.0), at);
+    sharp.highlights = Some(Default::default());
+    assert!(run(&mut sharp, &frame, &s, &cam, [0.0; 2]).rgb == frame.rgb);
+}
+
 fn depth_strategy() -> impl Strategy<Value = f32> {
     prop_oneof![
         Just(0.0f32),

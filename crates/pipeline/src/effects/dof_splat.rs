@@ -17,7 +17,8 @@
 //!    hidden fragment through: (a) the visible pixel is not behind the
 //!    focus (`Z_v ≤ Z_f`); (b) it is not completely hidden: eq. 5.1,
 //!    `𝓛(p) = Σ_{n∈Ω} (Z_v(n) − Z_v(p)) / N_Ω` over [`LAPLACIAN_SAMPLES`]
-//!    points within p's CoC, is at least [`LAPLACIAN_THRESHOLD`]; (c) the
+//!    points within p's CoC, is at least [`LAPLACIAN_THRESHOLD`] (and
+//!    positive, whatever threshold is set); (c) the
 //!    surface is the second-nearest *object*: the pixel's ray is cast for
 //!    its first [`HIDDEN_RAY_HITS`] surfaces ([`raycast::layers`]), and H
 //!    is the first whose object differs from the visible one, shaded like a
@@ -497,7 +498,10 @@ impl Pass for DepthOfFieldSplat {
                             }
                             // (b) not completely hidden (eq. 5.1).
                             let c = visible[i].b.abs();
-                            if laplacian(depth, (w, h), x, y, c) < threshold {
+                            // No deeper neighbour at all (𝓛 ≤ 0) rejects
+                            // whatever the threshold: sharp pixels stay exact.
+                            let l = laplacian(depth, (w, h), x, y, c);
+                            if l < threshold || l <= 0.0 {
                                 continue;
                             }
                             // (c) the first surface of another object.

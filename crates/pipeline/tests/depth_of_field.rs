@@ -10,7 +10,7 @@ use pipeline::effects::depth_of_field::{coc_px, level_for_coc, DepthOfField};
 use pipeline::effects::{Pass, PassInput};
 use pipeline::{BackendChoice, Method, Options, Renderer};
 use proptest::prelude::*;
-use raycast::scene::{DofFocus, DofRefocus, Effect};
+use raycast::scene::{DofFocus, DofMethod, DofRefocus, Effect};
 use raycast::{Camera, Frame, Layer, Scene, SceneFile};
 
 const W: u32 = 640;
@@ -126,6 +126,7 @@ fn the_scene_file_parses_defaults_and_validates_naming_the_field() {
             retina_distance_mm: 24.0,
             focus: DofFocus::Fixed { depth_mm: 800.0 },
             refocus: DofRefocus::Instant,
+            method: DofMethod::Mipmap,
         }]
     );
     assert!(build("DepthOfField(focus: Fixed(depth_mm: inf))").is_ok());

@@ -8,6 +8,8 @@
 //!   uniform grid ([`grid`]); `raycast::bvh`, `raycast::bvh4` and
 //!   `raycast::grid` are re-exports of `raycast::accel::*`;
 //! - [`ray`]: robust ray/box and ray/triangle tests;
+//! - [`layers`]: the first K surfaces along a primary ray (hidden-surface
+//!   layers, exact with rays);
 //! - [`camera`]: the eye-through-the-display camera;
 //! - [`shade`]: Blinn–Phong shading and the gamma table;
 //! - [`frame`]: the G-buffer a frame fills ([`Frame`]: colour, hit, depth,
@@ -28,6 +30,7 @@ pub mod error;
 pub mod frame;
 #[cfg(feature = "gpu")]
 pub mod gpu;
+pub mod layers;
 pub mod mesh;
 pub mod raster;
 pub mod ray;

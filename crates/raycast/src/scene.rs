@@ -134,12 +134,14 @@ pub enum Effect {
         #[serde(default = "default_por_half_px")]
         half_px: u32,
     },
-    /// Depth of field by mipmap interpolation (Lee 2009, ch. 4): the eye as
-    /// a thin lens of pupil diameter `pupil_mm` (0: no blur), focal length
+    /// Depth of field (Lee 2009, ch. 4 or 5): the eye as a thin lens of
+    /// pupil diameter `pupil_mm` (0: no blur), focal length
     /// `focal_length_mm` and lens-to-retina distance `retina_distance_mm`,
     /// focused at `focus`, refocusing on a change of focus as `refocus`
-    /// says. `DepthOfField()` gives Lee's adult eye (4 mm pupil, 16.7 mm,
-    /// 24 mm) focused at the depth under the gaze, refocusing at once.
+    /// says, blurring by `method` (ch. 4 mipmaps by default, or ch. 5
+    /// splatting). `DepthOfField()` gives Lee's adult eye (4 mm pupil,
+    /// 16.7 mm, 24 mm) focused at the depth under the gaze, refocusing at
+    /// once, by mipmaps.
     DepthOfField {
         #[serde(default = "default_dof_pupil_mm")]
         pupil_mm: f64,
@@ -151,7 +153,20 @@ pub enum Effect {
         focus: DofFocus,
         #[serde(default)]
         refocus: DofRefocus,
+        #[serde(default)]
+        method: DofMethod,
     },
+}
+
+/// How [`Effect::DepthOfField`] blurs (Lee 2009 offers two methods).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+pub enum DofMethod {
+    /// Ch. 4: nonlinear mipmap interpolation (the default).
+    #[default]
+    Mipmap,
+    /// Ch. 5: point splatting on per-pixel layers, the hidden surfaces
+    /// cast by rays (CPU; slower, better partial occlusion).
+    Splat,
 }
 
 /// Where [`Effect::DepthOfField`] focuses.
@@ -252,6 +267,7 @@ impl Effect {
         retina_distance_mm: 24.0,
         focus: DofFocus::Gaze,
         refocus: DofRefocus::Instant,
+        method: DofMethod::Mipmap,
     };
 
     /// Whether `self` and `other` are the same effect, whatever their
@@ -275,6 +291,9 @@ impl Effect {
                 retina_distance_mm,
                 focus,
                 refocus,
+                // Every method takes every lens; serde refuses an unknown
+                // method, naming the line.
+                method: _,
             } => {
                 let bad = |name: &str, msg: String| {
                     Err(SceneError::field(format!("{field}.{name}"), msg))

@@ -8,10 +8,11 @@
 
 pub mod depth_of_field;
 pub mod dof_reference;
+pub mod dof_splat;
 pub mod por_overlay;
 pub mod refocus;
 
-use raycast::scene::Effect;
+use raycast::scene::{DofMethod, Effect};
 use raycast::{Camera, Frame, Scene};
 
 /// What a pass may read besides the frame.
@@ -64,17 +65,22 @@ pub fn pass_for(effect: &Effect) -> Option<Box<dyn Pass>> {
             retina_distance_mm,
             focus,
             refocus,
-        } => Some(Box::new(
-            depth_of_field::DepthOfField::new(
-                foveation::thin_lens::EyeLens {
-                    focal_length_mm: *focal_length_mm,
-                    aperture_mm: *pupil_mm,
-                    retina_distance_mm: *retina_distance_mm,
-                },
-                *focus,
-            )
-            .with_refocus(*refocus),
-        )),
+            method,
+        } => {
+            let lens = foveation::thin_lens::EyeLens {
+                focal_length_mm: *focal_length_mm,
+                aperture_mm: *pupil_mm,
+                retina_distance_mm: *retina_distance_mm,
+            };
+            Some(match method {
+                DofMethod::Mipmap => {
+                    Box::new(depth_of_field::DepthOfField::new(lens, *focus).with_refocus(*refocus))
+                }
+                DofMethod::Splat => {
+                    Box::new(dof_splat::DepthOfFieldSplat::new(lens, *focus).with_refocus(*refocus))
+                }
+            })
+        }
         Effect::FoveatedSampling
         | Effect::SilhouetteRefinement
         | Effect::CreaseRefinement

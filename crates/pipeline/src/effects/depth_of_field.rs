@@ -64,7 +64,8 @@
 //! blur (eq. 4.10–4.11: a blurred foreground's silhouette stays sharp over
 //! an in-focus background; it would also blur in-focus pixels next to a
 //! blurred foreground, which the "sharp pixels are untouched" rule here
-//! forbids as stated); the GPU path; ch. 5 splatting. The ground truth it
+//! forbids as stated); ch. 5 splatting. The GPU path (the same pass in
+//! WGSL, before the frame's read-back) is `crate::gpu`. The ground truth it
 //! is measured against is [`super::dof_reference`] (thin-lens distributed
 //! ray casting, 64 rays per pixel).
 
@@ -190,6 +191,36 @@ impl DepthOfField {
         self.pyramid.len()
     }
 
+    /// The pass for a scene's `DepthOfField` effect; `None` for any other.
+    pub fn from_effect(effect: &raycast::scene::Effect) -> Option<Self> {
+        match effect {
+            raycast::scene::Effect::DepthOfField {
+                pupil_mm,
+                focal_length_mm,
+                retina_distance_mm,
+                focus,
+                refocus,
+            } => Some(
+                Self::new(
+                    EyeLens {
+                        focal_length_mm: *focal_length_mm,
+                        aperture_mm: *pupil_mm,
+                        retina_distance_mm: *retina_distance_mm,
+                    },
+                    *focus,
+                )
+                .with_refocus(*refocus),
+            ),
+            _ => None,
+        }
+    }
+
+    /// Whether the pupil is zero (or invalid): the pass is the identity and
+    /// does not even update its focus.
+    pub(crate) fn is_pinhole(&self) -> bool {
+        self.lens.aperture_mm.is_nan() || self.lens.aperture_mm <= 0.0
+    }
+
     /// The focus distance for this frame at `time_s`, mm (may be infinite),
     /// after the refocusing dynamics.
     fn focus_mm(&mut self, frame: &Frame, gaze_px: [f64; 2], time_s: Option<f64>) -> f64 {
@@ -213,6 +244,76 @@ impl DepthOfField {
             }
         }
     }
+
+    /// [`DepthOfField::focus_mm`] for a frame whose gaze window was
+    /// measured elsewhere (the GPU path reads it back): `gaze_depth_mm` is
+    /// the window's median depth ([`median_depth`]), read only for `focus:
+    /// Gaze`. The same target and refocusing as the CPU pass.
+    pub(crate) fn focus_with(&mut self, gaze_depth_mm: Option<f64>, time_s: Option<f64>) -> f64 {
+        let target = match self.focus {
+            DofFocus::Fixed { depth_mm } => depth_mm,
+            DofFocus::Gaze => {
+                if let Some(d) = gaze_depth_mm {
+                    self.last_focus_mm = Some(d);
+                }
+                self.last_focus_mm.unwrap_or(f64::INFINITY)
+            }
+        };
+        if target > 0.0 {
+            self.refocus.update(target, time_s)
+        } else {
+            target
+        }
+    }
+}
+
+/// The screen as the pass sees it: (`d_s`, the eye's distance to the
+/// screen in mm; the mean pixels per mm of x and y), as in `run`.
+pub(crate) fn screen_of(camera: &raycast::Camera) -> (f64, f64) {
+    let pitch = camera.pitch();
+    let ppmm = 0.5 * (1.0 / f64::from(pitch[0]) + 1.0 / f64::from(pitch[1]));
+    (f64::from(camera.eye.z), ppmm)
+}
+
+/// The top pyramid level a `w`×`h` frame allows (at most [`MAX_LEVELS`]),
+/// as in `run`.
+pub(crate) fn top_level(w: usize, h: usize) -> usize {
+    let mut top = 0usize;
+    while top < MAX_LEVELS && (w >> (top + 1)) >= 1 && (h >> (top + 1)) >= 1 {
+        top += 1;
+    }
+    top
+}
+
+/// The [`FOCUS_WINDOW_PX`] square around `gaze_px` clipped to a `w`×`h`
+/// frame, as [`gaze_depth_mm`] reads it: inclusive pixel bounds `(x0, y0, x1, y1)`, empty (x0 > x1 or
+/// y0 > y1) when it misses the frame; `None` for a non-finite gaze.
+pub(crate) fn focus_window(w: i64, h: i64, gaze_px: [f64; 2]) -> Option<(i64, i64, i64, i64)> {
+    if !gaze_px[0].is_finite() || !gaze_px[1].is_finite() {
+        return None;
+    }
+    let half = FOCUS_WINDOW_PX / 2;
+    // Clamp before converting so a far-off gaze cannot overflow.
+    let cx = gaze_px[0].floor().clamp(-1e9, 1e9) as i64;
+    let cy = gaze_px[1].floor().clamp(-1e9, 1e9) as i64;
+    Some((
+        (cx - half).max(0),
+        (cy - half).max(0),
+        (cx + half).min(w - 1),
+        (cy + half).min(h - 1),
+    ))
+}
+
+/// The median of the finite positive depths of a window (the focus of
+/// `focus: Gaze`, as [`gaze_depth_mm`] takes it), or `None` when it holds
+/// none.
+pub(crate) fn median_depth(mut depths: Vec<f32>) -> Option<f64> {
+    depths.retain(|d| d.is_finite() && *d > 0.0);
+    if depths.is_empty() {
+        return None;
+    }
+    depths.sort_by(f32::total_cmp);
+    Some(f64::from(depths[depths.len() / 2]))
 }
 
 /// The median of the finite positive depths in the [`FOCUS_WINDOW_PX`]
@@ -367,7 +468,7 @@ impl Pass for DepthOfField {
 pub const ANISO_DELTA_PX: f32 = 0.75;
 
 /// Largest σ the pyramid's blur buffer holds (px): keeps sums finite.
-const SIGMA_CAP_PX: f32 = 1e6;
+pub(crate) const SIGMA_CAP_PX: f32 = 1e6;
 
 /// Decodes level 0 (colour, depth, σ) and builds levels 1..=`levels`
 /// (eq. 4.1; with `anisotropic`, eq. 4.9's H instead of G for the colour),
@@ -399,9 +500,7 @@ fn build_pyramid(
         *z = if d.is_nan() { focus } else { d };
     }
     base.sigma.copy_from_slice(&sigma[..w * h]);
-    let g = (-1.0 / (2.0 * GAUSS_SIGMA_TEXELS * GAUSS_SIGMA_TEXELS)).exp() as f32;
-    let norm = 2.0 * (1.0 + 2.0 * g);
-    let taps = [g / norm, (1.0 + g) / norm, (1.0 + g) / norm, g / norm];
+    let taps = pyramid_taps();
     for l in 1..=levels {
         let (lo, hi) = pyramid.split_at_mut(l);
         let src = &lo[l - 1];
@@ -449,6 +548,27 @@ fn build_pyramid(
     }
 }
 
+/// The 3×3 Gaussian's weight of a neighbour against the centre's 1,
+/// `e^{−1/(2σ²)}` with σ = [`GAUSS_SIGMA_TEXELS`].
+fn gauss_neighbour() -> f32 {
+    (-1.0 / (2.0 * GAUSS_SIGMA_TEXELS * GAUSS_SIGMA_TEXELS)).exp() as f32
+}
+
+/// The 4 taps (per axis) of a pyramid texel: the 3×3 Gaussian centred
+/// between 2×2 source texels, sampled bilinearly (eq. 4.1).
+pub(crate) fn pyramid_taps() -> [f32; 4] {
+    let g = gauss_neighbour();
+    let norm = 2.0 * (1.0 + 2.0 * g);
+    [g / norm, (1.0 + g) / norm, (1.0 + g) / norm, g / norm]
+}
+
+/// The circular filter's neighbour weight and its normalisation
+/// `1/(1 + 8g)` (eq. 4.8).
+pub(crate) fn circular_weights() -> (f32, f32) {
+    let g = gauss_neighbour();
+    (g, 1.0 / (1.0 + 8.0 * g))
+}
+
 /// `acc += w·v`.
 #[inline]
 fn add_scaled(acc: &mut [f32; 3], w: f32, v: [f32; 3]) {
@@ -458,7 +578,7 @@ fn add_scaled(acc: &mut [f32; 3], w: f32, v: [f32; 3]) {
 }
 
 /// The 8 circular neighbours (unit circle) of eq. 4.8.
-const CIRCLE: [(f32, f32); 8] = [
+pub(crate) const CIRCLE: [(f32, f32); 8] = [
     (1.0, 0.0),
     (-1.0, 0.0),
     (0.0, 1.0),
@@ -488,13 +608,12 @@ fn circular(img: &Image, k: usize, x: usize, y: usize) -> [f32; 3] {
     // Level-0 pixel centre in level-k texel coordinates (centres at ints).
     let u = (x as f32 + 0.5) / scale - 0.5;
     let v = (y as f32 + 0.5) / scale - 0.5;
-    let g = (-1.0 / (2.0 * GAUSS_SIGMA_TEXELS * GAUSS_SIGMA_TEXELS)).exp() as f32;
+    let (g, norm) = circular_weights();
     let mut acc = img.bilinear(u, v);
     for (dx, dy) in CIRCLE {
         let s = img.bilinear(u + dx, v + dy);
         add_scaled(&mut acc, g, s);
     }
-    let norm = 1.0 / (1.0 + 8.0 * g);
     acc.map(|a| a * norm)
 }
 

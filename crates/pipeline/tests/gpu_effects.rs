@@ -361,3 +361,54 @@ fn odd_and_tiny_frames_match_too() {
         }
     }
 }
+
+/// The focus state (gaze window, refocusing dynamics) is the CPU pass's
+/// over a sequence of frames: the gaze jumps from the near-screen ball to
+/// the far one and the focus follows by a 300-ms transition.
+#[test]
+fn refocusing_over_frames_follows_the_cpu_pass() {
+    let s = scene("DepthOfField(pupil_mm: 8.0, refocus: Interpolate(ms: 300.0))");
+    let cam = camera();
+    let mut reference = gpu(&s);
+    reference.set_surface(true);
+    let (cast, _) = reference.render_full(&cam).expect("cast");
+    let far: Vec<usize> = (0..cast.object.len())
+        .filter(|&i| cast.object[i] == 2)
+        .collect();
+    let i = far[far.len() / 2];
+    let far_gaze = [(i % W as usize) as f64 + 0.5, (i / W as usize) as f64 + 0.5];
+    let mut cpu =
+        DepthOfField::from_effect(s.effect(Effect::DEPTH_OF_FIELD).expect("listed")).expect("dof");
+    let mut r = renderer(&s, Method::Full, BackendChoice::Gpu);
+    let mut focus = Vec::new();
+    for (gaze, t) in [
+        (GAZE, 0.0),
+        (far_gaze, 0.1),
+        (far_gaze, 0.25),
+        (far_gaze, 0.5),
+    ] {
+        let mut expected = cast.clone();
+        cpu.run(
+            &mut expected,
+            &PassInput {
+                scene: &s,
+                camera: &cam,
+                gaze_px: gaze,
+                time_s: Some(t),
+            },
+        );
+        let (got, _) = r.render_at(gaze, t).expect("renders");
+        assert_eq!(r.gpu_focal_depth_mm(), cpu.focal_depth_mm(), "t = {t}");
+        let (worst, n) = max_diff(&got, &expected);
+        eprintln!(
+            "refocus at t = {t} s: focus {:?} mm, max channel difference {worst} ({n} differ)",
+            cpu.focal_depth_mm()
+        );
+        assert!(worst <= 1, "t = {t}: {worst}");
+        focus.push(cpu.focal_depth_mm().expect("focused"));
+    }
+    // The focus moves towards the far ball over the transition, through
+    // depths no pixel has.
+    assert!(focus.windows(2).all(|f| f[0] <= f[1]), "{focus:?}");
+    assert!(focus[0] < focus[2] && focus[2] < focus[3], "{focus:?}");
+}

@@ -540,7 +540,14 @@ impl<'s> Renderer<'s> {
                 d.pass.name()
             ));
         }
-        let passes = self.pass_names();
+        let gpu_dof = self
+            .gpu_dof
+            .as_ref()
+            .map(|d| format!("{} (GPU)", d.pass.name()));
+        let passes: Vec<String> = gpu_dof
+            .into_iter()
+            .chain(self.passes.iter().map(|p| p.name().to_string()))
+            .collect();
         out.push(format!(
             "effect passes: {}",
             if passes.is_empty() {

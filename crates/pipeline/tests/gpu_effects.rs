@@ -306,6 +306,7 @@ fn passes_are_paid_per_use_on_both_backends() {
     assert!(r.has_dof_buffers() && r.has_image_pyramid_buffers());
     assert_eq!(r.image_foveation().expect("image").allocated_levels(), 0);
     let text = r.explain().join("\n");
+    eprintln!("{text}");
     assert!(
         text.contains("GPU pass before the read-back: depth of field"),
         "{text}"

@@ -382,12 +382,16 @@ fn refocusing_over_frames_follows_the_cpu_pass() {
         DepthOfField::from_effect(s.effect(Effect::DEPTH_OF_FIELD).expect("listed")).expect("dof");
     let mut r = renderer(&s, Method::Full, BackendChoice::Gpu);
     let mut focus = Vec::new();
-    for (gaze, t) in [
+    // The last frame's gaze is off the screen: its window holds nothing and
+    // the focus is kept.
+    let frames = [
         (GAZE, 0.0),
         (far_gaze, 0.1),
         (far_gaze, 0.25),
         (far_gaze, 0.5),
-    ] {
+        ([-40.0, 300.0], 0.6),
+    ];
+    for (gaze, t) in frames {
         let mut expected = cast.clone();
         cpu.run(
             &mut expected,
@@ -412,4 +416,5 @@ fn refocusing_over_frames_follows_the_cpu_pass() {
     // depths no pixel has.
     assert!(focus.windows(2).all(|f| f[0] <= f[1]), "{focus:?}");
     assert!(focus[0] < focus[2] && focus[2] < focus[3], "{focus:?}");
+    assert_eq!(focus[4], focus[3]);
 }

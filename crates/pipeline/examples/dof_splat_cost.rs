@@ -116,6 +116,7 @@ fn time(pass: &mut dyn Pass, sharp: &Frame, scene: &Scene, cam: &Camera, runs: u
                     camera: cam,
                     gaze_px: [0.0, 0.0],
                     time_s: None,
+                    vergence_mm: None,
                 },
             );
             t.elapsed().as_secs_f64() * 1e3

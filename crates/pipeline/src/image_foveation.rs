@@ -134,20 +134,9 @@ impl ImageFoveation {
         if !(gaze_px[0].is_finite() && gaze_px[1].is_finite()) {
             return;
         }
-        let sampler = model.from_por(gaze_px);
-        let inset_half = 0.5 * model.inset_deg;
-        let max_level = model.max_spacing_px.max(1.0).log2().min(MAX_LEVEL as f64);
-        self.level_map(&sampler, (w, h), inset_half, max_level);
-        let max_m = self.level.iter().fold(0.0f32, |a, &m| a.max(m));
-        if max_m <= 0.0 {
+        let Some(needed) = self.levels_for(model, gaze_px, (w, h)) else {
             return;
-        }
-        // Levels 0..=⌈max m⌉, as far as the frame's size allows.
-        let mut top = 0usize;
-        while top < MAX_LEVEL && (w >> (top + 1)) >= 1 && (h >> (top + 1)) >= 1 {
-            top += 1;
-        }
-        let needed = (max_m.ceil() as usize).min(top);
+        };
         self.build(&frame.rgb, (w, h), needed);
         let pyramid = &self.pyramid[..=needed];
         let levels = &self.level;
@@ -165,6 +154,33 @@ impl ImageFoveation {
                     row[3 * x..3 * x + 3].copy_from_slice(&colour::encode3(c));
                 }
             });
+    }
+
+    /// Fills the level map ([`ImageFoveation::levels`]) of a `w`×`h` frame
+    /// for the gaze and returns the deepest pyramid level it needs
+    /// (⌈max m⌉ as far as the frame's size allows; `None`: every level is
+    /// 0, nothing to blur). It depends on the gaze only: the GPU path
+    /// uploads it.
+    pub(crate) fn levels_for(
+        &mut self,
+        model: &SamplingModel,
+        gaze_px: [f64; 2],
+        (w, h): (usize, usize),
+    ) -> Option<usize> {
+        let sampler = model.from_por(gaze_px);
+        let inset_half = 0.5 * model.inset_deg;
+        let max_level = model.max_spacing_px.max(1.0).log2().min(MAX_LEVEL as f64);
+        self.level_map(&sampler, (w, h), inset_half, max_level);
+        let max_m = self.level.iter().fold(0.0f32, |a, &m| a.max(m));
+        if max_m <= 0.0 {
+            return None;
+        }
+        // Levels 0..=⌈max m⌉, as far as the frame's size allows.
+        let mut top = 0usize;
+        while top < MAX_LEVEL && (w >> (top + 1)) >= 1 && (h >> (top + 1)) >= 1 {
+            top += 1;
+        }
+        Some((max_m.ceil() as usize).min(top))
     }
 
     /// The level per pixel. The spacing is smooth away from the fovea, so it

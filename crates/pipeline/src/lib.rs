@@ -21,10 +21,14 @@
 //!   allocates nothing and runs no pass. The refinement effects
 //!   (`FoveatedSampling`, `SilhouetteRefinement`, …) are not passes: they
 //!   configure the hybrid method.
+//! - On the **GPU backend** depth of field and image-based foveation run on
+//!   the GPU frame's buffers before the read-back (`gpu`, WGSL twins of the
+//!   CPU passes, which stay the reference).
 
 pub mod backend;
 pub mod colour;
 pub mod effects;
+mod gpu;
 pub mod image_foveation;
 pub mod method;
 pub mod model;

@@ -7,8 +7,10 @@ use raycast::render::{Mode, Scratch, Settings, StageTimes, Stats, Triggers};
 use raycast::{Camera, Frame, Scene};
 
 use crate::backend::{Backend, BackendChoice};
+use crate::effects::depth_of_field::{DepthOfField, FOCUS_WINDOW_PX};
 use crate::effects::por_overlay::PorOverlay;
 use crate::effects::{pass_for, passes_for, Pass, PassInput};
+use crate::gpu::{FramePost, GpuDof, GpuImage};
 use crate::image_foveation::ImageFoveation;
 use crate::method::Method;
 use crate::model_based::ModelBased;
@@ -89,6 +91,13 @@ pub struct Renderer<'s> {
     image_ms: f64,
     /// The next frame's vergence depth ([`Renderer::set_vergence_mm`]).
     vergence_mm: Option<f64>,
+    /// Depth of field on the GPU, before the read-back: on the GPU backend
+    /// when the scene lists `DepthOfField` and no CPU pass precedes it
+    /// (then it is not among `passes`); `None` otherwise.
+    gpu_dof: Option<GpuDof>,
+    /// Image-based foveation on the GPU (the level map stays `image`'s):
+    /// on the GPU backend for `Method::Image` only.
+    gpu_image: Option<GpuImage>,
 }
 
 impl<'s> Renderer<'s> {
@@ -126,6 +135,22 @@ impl<'s> Renderer<'s> {
             test: options.test,
             check_coverage: options.check_coverage,
         };
+        let mut passes = passes_for(scene, options.por_overlay);
+        let on_gpu = matches!(backend, Backend::Gpu(_));
+        // Depth of field moves to the GPU when it is the first pass (what
+        // runs before it would have to run on the GPU too).
+        let gpu_dof = match scene.effect(Effect::DEPTH_OF_FIELD) {
+            Some(e) if on_gpu => DepthOfField::from_effect(e)
+                .filter(|d| passes.first().is_some_and(|p| p.name() == d.name()))
+                // The attention model reads the frame's colour and ids: CPU.
+                .filter(|d| d.focus != raycast::scene::DofFocus::Attention)
+                .map(|d| {
+                    passes.remove(0);
+                    GpuDof::new(d)
+                }),
+            _ => None,
+        };
+        let gpu_image = (on_gpu && method == Method::Image).then(GpuImage::default);
         let model_based = if method.is_model_based() {
             Some(ModelBased::new(scene, &camera, method).map_err(RenderError::Unsupported)?)
         } else {
@@ -139,7 +164,7 @@ impl<'s> Renderer<'s> {
             settings,
             method,
             backend,
-            passes: passes_for(scene, options.por_overlay),
+            passes,
             note,
             surface: options.surface,
             spare: None,
@@ -148,6 +173,8 @@ impl<'s> Renderer<'s> {
             image: (method == Method::Image).then(ImageFoveation::default),
             image_ms: 0.0,
             vergence_mm: None,
+            gpu_dof,
+            gpu_image,
         })
     }
 
@@ -191,6 +218,8 @@ impl<'s> Renderer<'s> {
         time_s: f64,
     ) -> Result<(Frame, Stats), RenderError> {
         let surface = self.wants_surface();
+        // The vergence depth holds for this frame only.
+        let vergence_mm = self.vergence_mm.take();
         if self.image.is_some() {
             for (name, v) in [("gaze.x", gaze_px[0]), ("gaze.y", gaze_px[1])] {
                 if !v.is_finite() {
@@ -228,21 +257,53 @@ impl<'s> Renderer<'s> {
                 )?;
                 (frame, stats)
             }
-            (Method::Full | Method::Image, Backend::Gpu(g)) => {
+            (Method::Full | Method::Image | Method::Hybrid, Backend::Gpu(g)) => {
                 g.set_surface(surface);
-                g.render_full(&self.camera)?
-            }
-            (Method::Hybrid, Backend::Gpu(g)) => {
-                g.set_surface(surface);
-                let mask = foveation::mask::build(&self.model, self.settings.layout, gaze_px)?;
-                g.render_foveated(&self.camera, &mask, &self.settings.triggers)?
+                // The GPU passes, encoded between the cast and the read-back.
+                let image = match (&mut self.image, &mut self.gpu_image) {
+                    (Some(cpu), Some(state)) => {
+                        let started = std::time::Instant::now();
+                        let size = (
+                            self.camera.width_px as usize,
+                            self.camera.height_px as usize,
+                        );
+                        let needed = cpu.levels_for(&self.model, gaze_px, size);
+                        self.image_ms = started.elapsed().as_secs_f64() * 1e3;
+                        Some(crate::gpu::ImageFrame {
+                            state,
+                            levels: cpu.levels(),
+                            needed,
+                            gaze_px,
+                        })
+                    }
+                    _ => None,
+                };
+                let dof = self.gpu_dof.as_mut().map(|state| crate::gpu::DofFrame {
+                    state,
+                    camera: &self.camera,
+                    gaze_px,
+                    time_s: Some(time_s),
+                    vergence_mm,
+                });
+                let mut post = FramePost { image, dof };
+                let post = (post.image.is_some() || post.dof.is_some())
+                    .then_some(&mut post as &mut dyn raycast::gpu::GpuPost);
+                if self.method == Method::Hybrid {
+                    let mask = foveation::mask::build(&self.model, self.settings.layout, gaze_px)?;
+                    g.render_foveated_with(&self.camera, &mask, &self.settings.triggers, post)?
+                } else {
+                    g.render_full_with(&self.camera, post)?
+                }
             }
         };
         if let Some(image) = &mut self.image {
-            let started = std::time::Instant::now();
-            image.apply(&mut frame, &self.model, gaze_px);
-            self.image_ms = started.elapsed().as_secs_f64() * 1e3;
-            // The method is the cast and the blur: its time holds both.
+            if matches!(self.backend, Backend::Cpu) {
+                let started = std::time::Instant::now();
+                image.apply(&mut frame, &self.model, gaze_px);
+                self.image_ms = started.elapsed().as_secs_f64() * 1e3;
+            }
+            // The method is the cast and the blur: its time holds both (on
+            // the GPU the blur is in the frame's time, the level map here).
             stats.time_ms += self.image_ms;
         }
         let input = PassInput {
@@ -250,7 +311,7 @@ impl<'s> Renderer<'s> {
             camera: &self.camera,
             gaze_px,
             time_s: Some(time_s),
-            vergence_mm: self.vergence_mm.take(),
+            vergence_mm,
         };
         for pass in &mut self.passes {
             pass.run(&mut frame, &input);
@@ -313,7 +374,8 @@ impl<'s> Renderer<'s> {
     }
 
     /// Wall time of the last frame's image-based blur (ms), after the full
-    /// frame the method casts first; 0 for other methods.
+    /// frame the method casts first (on the GPU backend: the CPU's level
+    /// map only, the blur runs in the frame); 0 for other methods.
     pub fn image_ms(&self) -> f64 {
         self.image_ms
     }
@@ -322,6 +384,39 @@ impl<'s> Renderer<'s> {
     /// that method runs; `None` otherwise: no other method allocates it.
     pub fn image_foveation(&self) -> Option<&ImageFoveation> {
         self.image.as_ref()
+    }
+
+    /// Whether the GPU backend holds depth of field's buffers (the colour
+    /// pyramid and its depth and blur mips; false on the CPU backend): only
+    /// a scene that lists `DepthOfField` makes them, with its first frame.
+    pub fn has_dof_buffers(&self) -> bool {
+        self.gpu_dof.as_ref().is_some_and(|d| d.has_buffers())
+    }
+
+    /// Whether the GPU backend holds image-based foveation's pyramid and
+    /// level-map buffers (false on the CPU backend, whose pyramid is
+    /// [`Renderer::image_foveation`]'s): only `Method::Image` makes them.
+    pub fn has_image_pyramid_buffers(&self) -> bool {
+        self.gpu_image.as_ref().is_some_and(|i| i.has_buffers())
+    }
+
+    /// The passes that run on the GPU between the cast and the read-back,
+    /// in order (empty on the CPU backend).
+    pub fn gpu_pass_names(&self) -> Vec<&'static str> {
+        let mut out = Vec::new();
+        if self.gpu_image.is_some() {
+            out.push("image-based foveation");
+        }
+        if let Some(d) = &self.gpu_dof {
+            out.push(d.pass.name());
+        }
+        out
+    }
+
+    /// The focal depth of the last frame depth of field blurred (mm, after
+    /// the refocusing dynamics), when it runs on the GPU; `None` otherwise.
+    pub fn gpu_focal_depth_mm(&self) -> Option<f64> {
+        self.gpu_dof.as_ref().and_then(|d| d.pass.focal_depth_mm())
     }
 
     /// Whether the GPU backend holds the hybrid method's buffers (false on
@@ -364,9 +459,14 @@ impl<'s> Renderer<'s> {
         self.passes.iter().find_map(|p| p.as_any().downcast_ref())
     }
 
-    /// The effect passes that run after the method, in order.
+    /// The effect passes that run after the method, in order: on the GPU
+    /// backend depth of field, first, runs on the GPU before the read-back
+    /// ([`Renderer::gpu_pass_names`]), the others on the CPU after it.
     pub fn pass_names(&self) -> Vec<&'static str> {
-        self.passes.iter().map(|p| p.name()).collect()
+        let gpu = self.gpu_dof.as_ref().map(|d| d.pass.name());
+        gpu.into_iter()
+            .chain(self.passes.iter().map(|p| p.name()))
+            .collect()
     }
 
     /// What runs for one frame, as `view --explain` prints it.
@@ -392,6 +492,13 @@ impl<'s> Renderer<'s> {
                 } else {
                     "Murphy–Duchowski Table 1 levels"
                 }
+            )),
+            (Method::Image, Backend::Gpu(_)) => out.push(format!(
+                "per frame: cast and shade every pixel, then image-based foveation on the GPU \
+                 before the read-back: level log2(ray spacing) per pixel (spacing ≤ {} px) \
+                 from the CPU, uploaded when the gaze moves; decode → Gaussian pyramid \
+                 (REDUCE, rows then columns) → blend of adjacent levels",
+                self.model.max_spacing_px
             )),
             (Method::Image, _) => out.push(format!(
                 "per frame: cast and shade every pixel, then image-based foveation (CPU): \
@@ -443,7 +550,33 @@ impl<'s> Renderer<'s> {
                 ));
             }
         }
-        let passes = self.pass_names();
+        if let Some(d) = &self.gpu_dof {
+            let focus = match d.pass.focus {
+                raycast::scene::DofFocus::Gaze => format!(
+                    "median depth of the {FOCUS_WINDOW_PX}×{FOCUS_WINDOW_PX} window at the gaze, \
+                     read back after the cast (one wait), refocus on the CPU"
+                ),
+                raycast::scene::DofFocus::Fixed { depth_mm } => format!("fixed at {depth_mm} mm"),
+                raycast::scene::DofFocus::Vergence => format!(
+                    "the vergence depth, else the median depth of the                      {FOCUS_WINDOW_PX}×{FOCUS_WINDOW_PX} window at the gaze read back after the cast;                      refocus on the CPU"
+                ),
+                // Never moved to the GPU (see `new`).
+                raycast::scene::DofFocus::Attention => "the attended object (CPU)".to_string(),
+            };
+            out.push(format!(
+                "GPU pass before the read-back: {} — focus {focus}; level 0 (colour, depth, σ) \
+                 → anisotropic Gaussian pyramid → 9-point circular blend of two levels",
+                d.pass.name()
+            ));
+        }
+        let gpu_dof = self
+            .gpu_dof
+            .as_ref()
+            .map(|d| format!("{} (GPU)", d.pass.name()));
+        let passes: Vec<String> = gpu_dof
+            .into_iter()
+            .chain(self.passes.iter().map(|p| p.name().to_string()))
+            .collect();
         out.push(format!(
             "effect passes: {}",
             if passes.is_empty() {

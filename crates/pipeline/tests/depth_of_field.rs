@@ -773,7 +773,10 @@ fn the_renderer_passes_the_vergence_depth_for_one_frame() {
     let sharp = edge_energy(&gaze_focus, ids, 0);
     let blurred = edge_energy(&far_focus, ids, 0);
     assert!(blurred < 0.5 * sharp, "{blurred} vs {sharp}");
-    assert_eq!(again.rgb, gaze_focus.rgb, "the vergence depth held a second frame");
+    assert_eq!(
+        again.rgb, gaze_focus.rgb,
+        "the vergence depth held a second frame"
+    );
 }
 
 /// `focus: Attention` runs Lee's model on the frame: an object is attended
@@ -800,7 +803,10 @@ fn attention_focus_focuses_at_the_attended_objects_depth() {
     assert!(!depths.is_empty());
     let mean = depths.iter().sum::<f64>() / depths.len() as f64;
     let got = pass.focal_depth_mm().expect("a focus");
-    assert!((got - mean).abs() < 1e-3 * mean, "focus {got} vs mean depth {mean}");
+    assert!(
+        (got - mean).abs() < 1e-3 * mean,
+        "focus {got} vs mean depth {mean}"
+    );
     // Background only: nothing attended, the focus holds.
     let mut empty = frame.clone();
     empty.object.fill(raycast::NO_OBJECT);

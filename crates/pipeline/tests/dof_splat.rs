@@ -126,6 +126,7 @@ fn run(pass: &mut dyn Pass, sharp: &Frame, scene: &Scene, cam: &Camera, gaze: [f
             camera: cam,
             gaze_px: gaze,
             time_s: None,
+            vergence_mm: None,
         },
     );
     f

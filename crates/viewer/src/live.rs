@@ -211,7 +211,10 @@ pub struct Newest {
 
 /// Drains `rx` to its newest valid gaze; returns it with its host arrival
 /// time, and applies status lines. Invalid samples keep the last valid gaze.
-pub fn drain_newest(rx: &Receiver<TrackerMsg>, mut on_status: impl FnMut(String)) -> Option<Newest> {
+pub fn drain_newest(
+    rx: &Receiver<TrackerMsg>,
+    mut on_status: impl FnMut(String),
+) -> Option<Newest> {
     let mut newest = None;
     for m in rx.try_iter() {
         match m {
@@ -607,7 +610,10 @@ mod tests {
             assert!((got - depth).abs() < 1e-3 * depth, "{depth}: {got}");
         }
         let parallel = INTEROCULAR_MM / pitch;
-        assert_eq!(vergence_mm(&cam, [[600.0, 512.0], [600.0 + parallel, 512.0]]), None);
+        assert_eq!(
+            vergence_mm(&cam, [[600.0, 512.0], [600.0 + parallel, 512.0]]),
+            None
+        );
         assert_eq!(vergence_mm(&cam, [[600.0, 512.0], [900.0, 512.0]]), None);
         assert_eq!(vergence_mm(&cam, [[f64::NAN, 0.0], centre]), None);
     }

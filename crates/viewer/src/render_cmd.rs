@@ -227,7 +227,11 @@ pub fn run(args: &RenderArgs, out: &mut dyn Write) -> Result<(), String> {
 pub const COC_PICTURE_MAX_PX: f64 = 64.0;
 
 /// The `--coc` and `--dof-level` pictures of the last frame.
-fn write_dof_maps(renderer: &Renderer<'_>, args: &RenderArgs, size: (u32, u32)) -> Result<(), String> {
+fn write_dof_maps(
+    renderer: &Renderer<'_>,
+    args: &RenderArgs,
+    size: (u32, u32),
+) -> Result<(), String> {
     if args.coc.is_none() && args.dof_level.is_none() {
         return Ok(());
     }
@@ -244,11 +248,21 @@ fn write_dof_maps(renderer: &Renderer<'_>, args: &RenderArgs, size: (u32, u32)) 
         save_png(path, size, &rgb).map_err(|e| format!("{}: {e}", path.display()))
     };
     if let Some(path) = &args.coc {
-        let rgb = sigma.iter().flat_map(|&s| coc_colour(2.0 * f64::from(s))).collect();
-        write(path, rgb, "circle of confusion: black 0 px, red 4, yellow 16, white >= 64 px (log)")?;
+        let rgb = sigma
+            .iter()
+            .flat_map(|&s| coc_colour(2.0 * f64::from(s)))
+            .collect();
+        write(
+            path,
+            rgb,
+            "circle of confusion: black 0 px, red 4, yellow 16, white >= 64 px (log)",
+        )?;
     }
     if let Some(path) = &args.dof_level {
-        let rgb = level.iter().flat_map(|&m| level_colour(f64::from(m))).collect();
+        let rgb = level
+            .iter()
+            .flat_map(|&m| level_colour(f64::from(m)))
+            .collect();
         write(
             path,
             rgb,

@@ -320,7 +320,12 @@ fn render_writes_the_dof_coc_and_level_maps_and_refuses_them_without_the_effect(
         dir.path().join("level.png"),
     );
     gazecast()
-        .args(["render", "--scene", "config/scenes/stress-dof.ron", "--display"])
+        .args([
+            "render",
+            "--scene",
+            "config/scenes/stress-dof.ron",
+            "--display",
+        ])
         .arg(&d)
         .arg("--out")
         .arg(&png)
@@ -341,10 +346,19 @@ fn render_writes_the_dof_coc_and_level_maps_and_refuses_them_without_the_effect(
         let body = &buf[3 * 320 * 30..3 * 320 * 256];
         let black = body.chunks(3).filter(|p| *p == [0, 0, 0]).count();
         let lit = body.len() / 3 - black;
-        assert!(black > 100 && lit > 100, "{}: {black} sharp, {lit} blurred", f.display());
+        assert!(
+            black > 100 && lit > 100,
+            "{}: {black} sharp, {lit} blurred",
+            f.display()
+        );
     }
     let out = gazecast()
-        .args(["render", "--scene", "config/scenes/search-task.ron", "--display"])
+        .args([
+            "render",
+            "--scene",
+            "config/scenes/search-task.ron",
+            "--display",
+        ])
         .arg(&d)
         .arg("--out")
         .arg(dir.path().join("g.png"))
@@ -355,5 +369,8 @@ fn render_writes_the_dof_coc_and_level_maps_and_refuses_them_without_the_effect(
     let e = String::from_utf8_lossy(&out.stderr);
     assert!(!out.status.success());
     assert!(e.contains("--coc") && e.contains("DepthOfField"), "{e}");
-    assert!(!dir.path().join("g.png").exists(), "nothing written on a refused flag");
+    assert!(
+        !dir.path().join("g.png").exists(),
+        "nothing written on a refused flag"
+    );
 }

@@ -71,14 +71,15 @@
 //! blur (eq. 4.10–4.11: a blurred foreground's silhouette stays sharp over
 //! an in-focus background; it would also blur in-focus pixels next to a
 //! blurred foreground, which the "sharp pixels are untouched" rule here
-//! forbids as stated); the GPU path; ch. 5 splatting. The ground truth it
+//! forbids as stated); ch. 5 splatting. The GPU path (the same pass in
+//! WGSL, before the frame's read-back) is `crate::gpu`. The ground truth it
 //! is measured against is [`super::dof_reference`] (thin-lens distributed
 //! ray casting, 64 rays per pixel).
 
 use foveation::thin_lens::{self, EyeLens};
-use rayon::prelude::*;
 use raycast::scene::DofFocus;
 use raycast::Frame;
+use rayon::prelude::*;
 
 use super::refocus::Refocus;
 use super::{Pass, PassInput};
@@ -101,10 +102,8 @@ pub struct DepthOfField {
     /// The eye; `aperture_mm` is the pupil diameter (0: the identity).
     pub lens: EyeLens,
     pub focus: DofFocus,
-    /// The focus of the last frame whose gaze window held a surface.
-    last_focus_mm: Option<f64>,
-    /// How the focal depth follows the focus target.
-    refocus: Refocus,
+    /// The focus search's state (last focus, refocusing, attention model).
+    focuser: Focuser,
     /// Mipmap level per pixel of the current frame.
     level: Vec<f32>,
     /// Level 0 (linear light, full size) and levels 1… of the pyramid.
@@ -114,8 +113,6 @@ pub struct DepthOfField {
     /// Build the colour pyramid with eq. 4.9's H (on by default); off, with
     /// the isotropic G of eq. 4.1.
     pub anisotropic: bool,
-    /// Lee's attention model, for `focus: Attention` only.
-    attention: Option<Box<AttentionFocus>>,
     /// Size of the frame `level` and `sigma` describe.
     maps_size: (usize, usize),
 }
@@ -165,7 +162,12 @@ impl AttentionFocus {
 
     /// The attended object's mean eye distance this frame, mm, or `None`
     /// (no object attended, or the frame cannot be read).
-    fn depth_mm(&mut self, frame: &Frame, scene_objects: usize, time_s: Option<f64>) -> Option<f64> {
+    fn depth_mm(
+        &mut self,
+        frame: &Frame,
+        scene_objects: usize,
+        time_s: Option<f64>,
+    ) -> Option<f64> {
         if self.objects.len() != scene_objects {
             self.objects = (0..scene_objects.min(attention::frame::MAX_OBJECTS))
                 .map(|id| attention::ObjectInfo::still(id as u32, 1.0))
@@ -248,25 +250,19 @@ impl DepthOfField {
         Self {
             lens,
             focus,
-            last_focus_mm: None,
-            refocus: Refocus::default(),
+            focuser: Focuser::new(focus),
             level: Vec::new(),
             pyramid: Vec::new(),
             sigma: Vec::new(),
             anisotropic: true,
             maps_size: (0, 0),
-            attention: if focus == DofFocus::Attention {
-                AttentionFocus::new().map(Box::new)
-            } else {
-                None
-            },
         }
     }
 
     /// The object the attention focus attended in the last frame (`focus:
     /// Attention` only; `None` otherwise or when none was attended).
     pub fn attended_object(&self) -> Option<u32> {
-        self.attention.as_ref().and_then(|a| a.attended)
+        self.focuser.attended_object()
     }
 
     /// The last blurred frame's maps (σ and mip level per pixel), for debug
@@ -284,24 +280,24 @@ impl DepthOfField {
 
     /// Whether the pass holds an attention model (only `focus: Attention`).
     pub fn has_attention_model(&self) -> bool {
-        self.attention.is_some()
+        self.focuser.has_attention_model()
     }
 
     /// The pass refocusing as `refocus` says (default `Instant`).
     pub fn with_refocus(mut self, refocus: DofRefocus) -> Self {
-        self.refocus = Refocus::new(refocus);
+        self.focuser.refocus = Refocus::new(refocus);
         self
     }
 
     /// How the focal depth follows its target.
     pub fn refocus(&self) -> DofRefocus {
-        self.refocus.mode
+        self.focuser.refocus.mode
     }
 
     /// The focal depth of the last frame the pass blurred (after the
     /// refocusing dynamics), mm; `None` before any.
     pub fn focal_depth_mm(&self) -> Option<f64> {
-        self.refocus.focus_mm()
+        self.focuser.refocus.focus_mm()
     }
 
     /// Number of pyramid levels (level 0 included) allocated so far.
@@ -309,26 +305,95 @@ impl DepthOfField {
         self.pyramid.len()
     }
 
-    /// The focus distance for this frame at `time_s`, mm (may be infinite),
-    /// after the refocusing dynamics.
-    fn focus_mm(&mut self, frame: &Frame, input: &PassInput<'_>) -> f64 {
-        let target = self.focus_target_mm(frame, input);
-        if target > 0.0 {
-            self.refocus.update(target, input.time_s)
-        } else {
-            target // only an unvalidated fixed focus: `coc_px` clamps it
+    /// The pass for a scene's `DepthOfField` effect of the mipmap method;
+    /// `None` for any other (the splatting method is another pass).
+    pub fn from_effect(effect: &raycast::scene::Effect) -> Option<Self> {
+        match effect {
+            raycast::scene::Effect::DepthOfField {
+                pupil_mm,
+                focal_length_mm,
+                retina_distance_mm,
+                focus,
+                refocus,
+                method: raycast::scene::DofMethod::Mipmap,
+            } => Some(
+                Self::new(
+                    EyeLens {
+                        focal_length_mm: *focal_length_mm,
+                        aperture_mm: *pupil_mm,
+                        retina_distance_mm: *retina_distance_mm,
+                    },
+                    *focus,
+                )
+                .with_refocus(*refocus),
+            ),
+            _ => None,
         }
     }
 
-    /// The focus target for this frame, mm (may be infinite).
-    fn focus_target_mm(&mut self, frame: &Frame, input: &PassInput<'_>) -> f64 {
-        let found = match self.focus {
-            DofFocus::Fixed { depth_mm } => return depth_mm,
+    /// Whether the pupil is zero (or invalid): the pass is the identity and
+    /// does not even update its focus.
+    pub(crate) fn is_pinhole(&self) -> bool {
+        self.lens.aperture_mm.is_nan() || self.lens.aperture_mm <= 0.0
+    }
+
+    /// [`Focuser::settle`] for a frame whose focus search ran elsewhere
+    /// (the GPU path reads the gaze window back): `found_mm` is what it
+    /// found. The same target and refocusing as the CPU pass.
+    pub(crate) fn focus_with(&mut self, found_mm: Option<f64>, time_s: Option<f64>) -> f64 {
+        self.focuser.settle(self.focus, found_mm, time_s)
+    }
+}
+
+/// Where a depth-of-field pass focuses, frame after frame: the search for
+/// the focus target its [`DofFocus`] names, the last focus found (held
+/// while a frame finds none), the refocusing dynamics and, for `focus:
+/// Attention` only, Lee's attention model. Shared by the ch. 4 and ch. 5
+/// passes.
+#[derive(Debug, Default)]
+pub(crate) struct Focuser {
+    /// The focus of the last frame whose search found one.
+    last_focus_mm: Option<f64>,
+    /// How the focal depth follows the focus target.
+    pub(crate) refocus: Refocus,
+    /// Lee's attention model, for `focus: Attention` only.
+    attention: Option<Box<AttentionFocus>>,
+}
+
+impl Focuser {
+    pub(crate) fn new(focus: DofFocus) -> Self {
+        Self {
+            attention: if focus == DofFocus::Attention {
+                AttentionFocus::new().map(Box::new)
+            } else {
+                None
+            },
+            ..Self::default()
+        }
+    }
+
+    pub(crate) fn attended_object(&self) -> Option<u32> {
+        self.attention.as_ref().and_then(|a| a.attended)
+    }
+
+    pub(crate) fn has_attention_model(&self) -> bool {
+        self.attention.is_some()
+    }
+
+    /// The focus distance for `frame`, mm (may be infinite), after the
+    /// refocusing dynamics.
+    pub(crate) fn focus_mm(
+        &mut self,
+        focus: DofFocus,
+        frame: &Frame,
+        input: &PassInput<'_>,
+    ) -> f64 {
+        let found = match focus {
+            DofFocus::Fixed { .. } => None,
             DofFocus::Gaze => gaze_depth_mm(frame, input.gaze_px),
-            DofFocus::Vergence => input
-                .vergence_mm
-                .filter(|d| d.is_finite() && *d > 0.0)
-                .or_else(|| gaze_depth_mm(frame, input.gaze_px)),
+            DofFocus::Vergence => {
+                vergence_or(input.vergence_mm, || gaze_depth_mm(frame, input.gaze_px))
+            }
             DofFocus::Attention => {
                 let objects = input.scene.object_materials.len();
                 match &mut self.attention {
@@ -337,11 +402,93 @@ impl DepthOfField {
                 }
             }
         };
-        if let Some(d) = found {
-            self.last_focus_mm = Some(d);
-        }
-        self.last_focus_mm.unwrap_or(f64::INFINITY)
+        self.settle(focus, found, input.time_s)
     }
+
+    /// The focal depth for a frame whose search `found` a depth (or none:
+    /// the last one holds; before any, infinity), after the refocusing
+    /// dynamics. A fixed focus is fixed.
+    pub(crate) fn settle(
+        &mut self,
+        focus: DofFocus,
+        found: Option<f64>,
+        time_s: Option<f64>,
+    ) -> f64 {
+        let target = match focus {
+            DofFocus::Fixed { depth_mm } => depth_mm,
+            _ => {
+                if let Some(d) = found {
+                    self.last_focus_mm = Some(d);
+                }
+                self.last_focus_mm.unwrap_or(f64::INFINITY)
+            }
+        };
+        if target > 0.0 {
+            self.refocus.update(target, time_s)
+        } else {
+            target // only an unvalidated fixed focus: `coc_px` clamps it
+        }
+    }
+}
+
+/// The screen as the pass sees it: (`d_s`, the eye's distance to the
+/// screen in mm; the mean pixels per mm of x and y), as in `run`.
+pub(crate) fn screen_of(camera: &raycast::Camera) -> (f64, f64) {
+    let pitch = camera.pitch();
+    let ppmm = 0.5 * (1.0 / f64::from(pitch[0]) + 1.0 / f64::from(pitch[1]));
+    (f64::from(camera.eye.z), ppmm)
+}
+
+/// The top pyramid level a `w`×`h` frame allows (at most [`MAX_LEVELS`]),
+/// as in `run`.
+pub(crate) fn top_level(w: usize, h: usize) -> usize {
+    let mut top = 0usize;
+    while top < MAX_LEVELS && (w >> (top + 1)) >= 1 && (h >> (top + 1)) >= 1 {
+        top += 1;
+    }
+    top
+}
+
+/// The [`FOCUS_WINDOW_PX`] square around `gaze_px` clipped to a `w`×`h`
+/// frame, as [`gaze_depth_mm`] reads it: inclusive pixel bounds `(x0, y0, x1, y1)`, empty (x0 > x1 or
+/// y0 > y1) when it misses the frame; `None` for a non-finite gaze.
+pub(crate) fn focus_window(w: i64, h: i64, gaze_px: [f64; 2]) -> Option<(i64, i64, i64, i64)> {
+    if !gaze_px[0].is_finite() || !gaze_px[1].is_finite() {
+        return None;
+    }
+    let half = FOCUS_WINDOW_PX / 2;
+    // Clamp before converting so a far-off gaze cannot overflow.
+    let cx = gaze_px[0].floor().clamp(-1e9, 1e9) as i64;
+    let cy = gaze_px[1].floor().clamp(-1e9, 1e9) as i64;
+    Some((
+        (cx - half).max(0),
+        (cy - half).max(0),
+        (cx + half).min(w - 1),
+        (cy + half).min(h - 1),
+    ))
+}
+
+/// The median of the finite positive depths of a window (the focus of
+/// `focus: Gaze`, as [`gaze_depth_mm`] takes it), or `None` when it holds
+/// none.
+pub(crate) fn median_depth(mut depths: Vec<f32>) -> Option<f64> {
+    depths.retain(|d| d.is_finite() && *d > 0.0);
+    if depths.is_empty() {
+        return None;
+    }
+    depths.sort_by(f32::total_cmp);
+    Some(f64::from(depths[depths.len() / 2]))
+}
+
+/// `focus: Vergence`'s depth: the vergence depth when valid (finite,
+/// positive), else the gaze's (`gaze`, evaluated only then).
+pub(crate) fn vergence_or(
+    vergence_mm: Option<f64>,
+    gaze: impl FnOnce() -> Option<f64>,
+) -> Option<f64> {
+    vergence_mm
+        .filter(|d| d.is_finite() && *d > 0.0)
+        .or_else(gaze)
 }
 
 /// The median of the finite positive depths in the [`FOCUS_WINDOW_PX`]
@@ -451,7 +598,7 @@ impl Pass for DepthOfField {
         if self.lens.aperture_mm.is_nan() || self.lens.aperture_mm <= 0.0 {
             return; // pupil 0: a pinhole, everything sharp
         }
-        let focus = self.focus_mm(frame, input);
+        let focus = self.focuser.focus_mm(self.focus, frame, input);
         let pitch = input.camera.pitch();
         let ppmm = 0.5 * (1.0 / f64::from(pitch[0]) + 1.0 / f64::from(pitch[1]));
         let ds = f64::from(input.camera.eye.z);
@@ -514,7 +661,7 @@ impl Pass for DepthOfField {
 pub const ANISO_DELTA_PX: f32 = 0.75;
 
 /// Largest σ the pyramid's blur buffer holds (px): keeps sums finite.
-const SIGMA_CAP_PX: f32 = 1e6;
+pub(crate) const SIGMA_CAP_PX: f32 = 1e6;
 
 /// Decodes level 0 (colour, depth, σ) and builds levels 1..=`levels`
 /// (eq. 4.1; with `anisotropic`, eq. 4.9's H instead of G for the colour),
@@ -546,9 +693,7 @@ fn build_pyramid(
         *z = if d.is_nan() { focus } else { d };
     }
     base.sigma.copy_from_slice(&sigma[..w * h]);
-    let g = (-1.0 / (2.0 * GAUSS_SIGMA_TEXELS * GAUSS_SIGMA_TEXELS)).exp() as f32;
-    let norm = 2.0 * (1.0 + 2.0 * g);
-    let taps = [g / norm, (1.0 + g) / norm, (1.0 + g) / norm, g / norm];
+    let taps = pyramid_taps();
     for l in 1..=levels {
         let (lo, hi) = pyramid.split_at_mut(l);
         let src = &lo[l - 1];
@@ -602,6 +747,27 @@ fn build_pyramid(
     }
 }
 
+/// The 3×3 Gaussian's weight of a neighbour against the centre's 1,
+/// `e^{−1/(2σ²)}` with σ = [`GAUSS_SIGMA_TEXELS`].
+fn gauss_neighbour() -> f32 {
+    (-1.0 / (2.0 * GAUSS_SIGMA_TEXELS * GAUSS_SIGMA_TEXELS)).exp() as f32
+}
+
+/// The 4 taps (per axis) of a pyramid texel: the 3×3 Gaussian centred
+/// between 2×2 source texels, sampled bilinearly (eq. 4.1).
+pub(crate) fn pyramid_taps() -> [f32; 4] {
+    let g = gauss_neighbour();
+    let norm = 2.0 * (1.0 + 2.0 * g);
+    [g / norm, (1.0 + g) / norm, (1.0 + g) / norm, g / norm]
+}
+
+/// The circular filter's neighbour weight and its normalisation
+/// `1/(1 + 8g)` (eq. 4.8).
+pub(crate) fn circular_weights() -> (f32, f32) {
+    let g = gauss_neighbour();
+    (g, 1.0 / (1.0 + 8.0 * g))
+}
+
 /// `acc += w·v`.
 #[inline]
 fn add_scaled(acc: &mut [f32; 3], w: f32, v: [f32; 3]) {
@@ -611,7 +777,7 @@ fn add_scaled(acc: &mut [f32; 3], w: f32, v: [f32; 3]) {
 }
 
 /// The 8 circular neighbours (unit circle) of eq. 4.8.
-const CIRCLE: [(f32, f32); 8] = [
+pub(crate) const CIRCLE: [(f32, f32); 8] = [
     (1.0, 0.0),
     (-1.0, 0.0),
     (0.0, 1.0),
@@ -641,13 +807,12 @@ fn circular(img: &Image, k: usize, x: usize, y: usize) -> [f32; 3] {
     // Level-0 pixel centre in level-k texel coordinates (centres at ints).
     let u = (x as f32 + 0.5) / scale - 0.5;
     let v = (y as f32 + 0.5) / scale - 0.5;
-    let g = (-1.0 / (2.0 * GAUSS_SIGMA_TEXELS * GAUSS_SIGMA_TEXELS)).exp() as f32;
+    let (g, norm) = circular_weights();
     let mut acc = img.bilinear(u, v);
     for (dx, dy) in CIRCLE {
         let s = img.bilinear(u + dx, v + dy);
         add_scaled(&mut acc, g, s);
     }
-    let norm = 1.0 / (1.0 + 8.0 * g);
     acc.map(|a| a * norm)
 }
 

@@ -98,7 +98,7 @@ use raycast::scene::{DofFocus, DofRefocus};
 use raycast::{Frame, NO_OBJECT};
 use rayon::prelude::*;
 
-use super::depth_of_field::{coc_px, gaze_depth_mm};
+use super::depth_of_field::{coc_px, Focuser};
 use super::refocus::Refocus;
 use super::{Pass, PassInput};
 use crate::colour;
@@ -193,7 +193,7 @@ impl Sample {
 type Acc = [[f32; 4]; 3];
 
 /// The ch. 5 depth-of-field pass.
-#[derive(Debug, Clone)]
+#[derive(Debug)]
 pub struct DepthOfFieldSplat {
     /// The eye; `aperture_mm` is the pupil diameter (0: the identity).
     pub lens: EyeLens,
@@ -209,8 +209,8 @@ pub struct DepthOfFieldSplat {
     pub highlights: Option<Highlights>,
     /// The ray/triangle test for the hidden rays (the renderer's default).
     pub test: TriangleTest,
-    last_focus_mm: Option<f64>,
-    refocus: Refocus,
+    /// Where the pass focuses (shared with the ch. 4 pass).
+    focuser: Focuser,
     /// V samples, per pixel.
     visible: Vec<Sample>,
     /// H samples, per pixel.
@@ -235,8 +235,7 @@ impl DepthOfFieldSplat {
             laplacian_threshold: LAPLACIAN_THRESHOLD,
             highlights: None,
             test: TriangleTest::default(),
-            last_focus_mm: None,
-            refocus: Refocus::default(),
+            focuser: Focuser::new(focus),
             visible: Vec::new(),
             hidden_samples: Vec::new(),
             dest: Vec::new(),
@@ -248,41 +247,23 @@ impl DepthOfFieldSplat {
 
     /// The pass refocusing as `refocus` says (default `Instant`).
     pub fn with_refocus(mut self, refocus: DofRefocus) -> Self {
-        self.refocus = Refocus::new(refocus);
+        self.focuser.refocus = Refocus::new(refocus);
         self
     }
 
     /// How the focal depth follows its target.
     pub fn refocus(&self) -> DofRefocus {
-        self.refocus.mode
+        self.focuser.refocus.mode
     }
 
     /// The focal depth of the last frame blurred, mm; `None` before any.
     pub fn focal_depth_mm(&self) -> Option<f64> {
-        self.refocus.focus_mm()
+        self.focuser.refocus.focus_mm()
     }
 
     /// Hidden-image samples splatted in the last frame.
     pub fn hidden_samples(&self) -> usize {
         self.hidden_count
-    }
-
-    /// The focus for this frame (as the ch. 4 pass: target, then refocus).
-    fn focus_mm(&mut self, frame: &Frame, gaze_px: [f64; 2], time_s: Option<f64>) -> f64 {
-        let target = match self.focus {
-            DofFocus::Fixed { depth_mm } => depth_mm,
-            DofFocus::Gaze => {
-                if let Some(d) = gaze_depth_mm(frame, gaze_px) {
-                    self.last_focus_mm = Some(d);
-                }
-                self.last_focus_mm.unwrap_or(f64::INFINITY)
-            }
-        };
-        if target > 0.0 {
-            self.refocus.update(target, time_s)
-        } else {
-            target // only an unvalidated fixed focus: `coc_px` clamps it
-        }
     }
 }
 
@@ -413,6 +394,10 @@ impl Pass for DepthOfFieldSplat {
         "depth of field (Lee ch. 5, splatting)"
     }
 
+    fn as_any(&self) -> &dyn std::any::Any {
+        self
+    }
+
     fn needs_surface(&self) -> bool {
         true
     }
@@ -427,7 +412,7 @@ impl Pass for DepthOfFieldSplat {
         if self.lens.aperture_mm.is_nan() || self.lens.aperture_mm <= 0.0 {
             return; // pupil 0: a pinhole, everything sharp
         }
-        let focus = self.focus_mm(frame, input.gaze_px, input.time_s);
+        let focus = self.focuser.focus_mm(self.focus, frame, input);
         let pitch = input.camera.pitch();
         let ppmm = 0.5 * (1.0 / f64::from(pitch[0]) + 1.0 / f64::from(pitch[1]));
         let ds = f64::from(input.camera.eye.z);

@@ -123,7 +123,7 @@ impl Layouts {
 }
 
 /// Creates a storage buffer of `size` bytes, refused above `max_binding`.
-fn storage(
+pub(super) fn storage(
     device: &wgpu::Device,
     what: &'static str,
     size: u64,

@@ -9,7 +9,7 @@ use foveation::mask::{RayMask, NO_VERTEX};
 use super::buffers::{FovParams, FoveatedTarget};
 use super::readback::{copy_out, read_back, read_frame};
 use super::timer::begin_pass;
-use super::{GpuError, GpuRenderer};
+use super::{GpuError, GpuFrame, GpuPost, GpuRenderer};
 use crate::camera::Camera;
 use crate::frame::Frame;
 use crate::render::{Stats, Triggers};
@@ -138,6 +138,18 @@ impl GpuRenderer {
         mask: &RayMask,
         triggers: &Triggers,
     ) -> Result<(Frame, Stats), GpuError> {
+        self.render_foveated_with(cam, mask, triggers, None)
+    }
+
+    /// [`GpuRenderer::render_foveated`] with `post`'s passes encoded on the
+    /// frame's buffers between the last stage and the read-back.
+    pub fn render_foveated_with(
+        &mut self,
+        cam: &Camera,
+        mask: &RayMask,
+        triggers: &Triggers,
+        post: Option<&mut dyn GpuPost>,
+    ) -> Result<(Frame, Stats), GpuError> {
         let start = Instant::now();
         let (w, h) = (cam.width_px, cam.height_px);
         let pixels = self.write_params(cam)?;
@@ -218,6 +230,18 @@ impl GpuRenderer {
                 }
                 Stage::CastListed => pass.dispatch_workgroups_indirect(&ft.dispatch, 0),
             }
+        }
+        if let Some(post) = post {
+            let frame = GpuFrame {
+                device: &device,
+                queue: &queue,
+                pixels: &target.out.pixels,
+                depth: &target.out.depth,
+                width: w,
+                height: h,
+                max_binding: self.max_binding,
+            };
+            encoder = post.encode(&frame, encoder)?;
         }
         copy_out(&mut encoder, &target.out, &target.readback, pixels);
         if let Some(t) = &timer {

@@ -7,7 +7,7 @@ use std::time::Instant;
 use super::buffers::{FrameTarget, Params};
 use super::readback::{copy_out, read_frame};
 use super::timer::begin_pass;
-use super::{GpuError, GpuRenderer};
+use super::{GpuError, GpuFrame, GpuPost, GpuRenderer};
 use crate::camera::Camera;
 use crate::frame::Frame;
 use crate::render::Stats;
@@ -70,6 +70,16 @@ impl GpuRenderer {
 
     /// Renders one full-resolution frame (one ray per pixel) and reads it back.
     pub fn render_full(&mut self, cam: &Camera) -> Result<(Frame, Stats), GpuError> {
+        self.render_full_with(cam, None)
+    }
+
+    /// [`GpuRenderer::render_full`] with `post`'s passes encoded on the
+    /// frame's buffers between the cast and the read-back.
+    pub fn render_full_with(
+        &mut self,
+        cam: &Camera,
+        post: Option<&mut dyn GpuPost>,
+    ) -> Result<(Frame, Stats), GpuError> {
         let start = Instant::now();
         let (w, h) = (cam.width_px, cam.height_px);
         let pixels = self.write_params(cam)?;
@@ -78,6 +88,7 @@ impl GpuRenderer {
         let timer = self.timer.clone();
         let pipeline = self.pipelines.full.clone();
         let surface = self.surface;
+        let max_binding = self.max_binding;
         let target = self.frame_target(pixels)?;
         let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
             label: Some("frame"),
@@ -87,6 +98,18 @@ impl GpuRenderer {
             pass.set_pipeline(&pipeline);
             pass.set_bind_group(0, &target.bind_group, &[]);
             pass.dispatch_workgroups(w.div_ceil(8), h.div_ceil(8), 1);
+        }
+        if let Some(post) = post {
+            let frame = GpuFrame {
+                device: &device,
+                queue: &queue,
+                pixels: &target.out.pixels,
+                depth: &target.out.depth,
+                width: w,
+                height: h,
+                max_binding,
+            };
+            encoder = post.encode(&frame, encoder)?;
         }
         copy_out(&mut encoder, &target.out, &target.readback, pixels);
         if let Some(t) = &timer {

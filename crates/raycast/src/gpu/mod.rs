@@ -14,6 +14,10 @@
 //!   casts that list with an indirect dispatch — stage for stage the CPU's
 //!   `render::foveated` ([`Stage`], [`foveated_stages`]). Building the mask
 //!   and the ownership on the GPU is not done.
+//! - A caller may encode its own compute passes on the frame's colour and
+//!   depth buffers between the cast and the read-back ([`GpuPost`],
+//!   `render_full_with`, `render_foveated_with`): the pipeline's depth of
+//!   field and image-based foveation run there.
 //! - Where the adapter has timestamp queries, every pass is timed
 //!   ([`GpuRenderer::stage_ms`]).
 //!
@@ -26,19 +30,24 @@
 //! (uniform layouts, bind group layouts and the named per-frame buffers),
 //! `pipelines` (the shader and its compute pipelines), `full` (the
 //! full-resolution frame), `foveated` (the foveated frame and its stages),
-//! `readback` (mapping and unpacking the frame).
+//! `readback` (mapping and unpacking the frame), `post` (the caller's
+//! passes before the read-back).
 
 mod buffers;
 mod device;
 mod foveated;
 mod full;
 mod pipelines;
+mod post;
 mod readback;
 mod timer;
 mod upload;
 
 pub use device::probe;
 pub use foveated::{foveated_stages, Stage};
+pub use post::{GpuFrame, GpuPost};
+/// The `wgpu` this backend is built on, for callers of [`GpuPost`].
+pub use wgpu;
 
 use crate::scene::Scene;
 

@@ -1,0 +1,343 @@
+//! Depth of field on the GPU (`dof.wgsl`): level 0 with depth and σ, the
+//! anisotropic pyramid, the circular blend, on the frame's pixel words and
+//! depth. The focus and what needs f64 come from the CPU (see the module
+//! notes of [`super`]).
+
+use foveation::thin_lens::K_SIGMA;
+use raycast::gpu::wgpu;
+use raycast::gpu::{GpuError, GpuFrame};
+use raycast::scene::DofFocus;
+use raycast::Camera;
+
+use super::{dispatch, level_layout, Kernels, Words, SLOT};
+use crate::effects::depth_of_field::{
+    circular_weights, coc_px, focus_window, level_for_coc, median_depth, pyramid_taps, screen_of,
+    top_level, DepthOfField, ANISO_DELTA_PX, CIRCLE, MAX_LEVELS, SIGMA_CAP_PX,
+};
+
+/// Bytes of `Params` in `dof.wgsl`.
+const PARAMS_BYTES: u64 = 112 + 16 * (MAX_LEVELS as u64 + 1);
+
+/// Entry points, in the order of `Kernels::pipelines`.
+const BASE: usize = 0;
+const REDUCE: usize = 1;
+const BLEND: usize = 2;
+
+/// The buffers for one frame target.
+struct Buffers {
+    size: (u32, u32),
+    /// The frame's buffers the bind group was made for.
+    frame: (wgpu::Buffer, wgpu::Buffer),
+    params: wgpu::Buffer,
+    group: wgpu::BindGroup,
+    /// The colour, depth and σ pyramids (the bind group holds them).
+    _pyramid: [wgpu::Buffer; 3],
+}
+
+/// The GPU state of depth of field: the CPU pass (its lens, focus and
+/// refocusing state; its own buffers stay empty), the shader and, after the
+/// first frame, the pyramid buffers.
+pub(crate) struct GpuDof {
+    pub pass: DepthOfField,
+    kernels: Option<Kernels>,
+    buffers: Option<Buffers>,
+}
+
+/// One frame's depth of field.
+pub(crate) struct DofFrame<'a> {
+    pub state: &'a mut GpuDof,
+    pub camera: &'a Camera,
+    pub gaze_px: [f64; 2],
+    pub time_s: Option<f64>,
+    /// The frame's vergence depth, mm (`focus: Vergence`).
+    pub vergence_mm: Option<f64>,
+}
+
+impl GpuDof {
+    pub fn new(pass: DepthOfField) -> Self {
+        Self {
+            pass,
+            kernels: None,
+            buffers: None,
+        }
+    }
+
+    /// Whether the pyramid buffers exist (made by the first frame).
+    pub fn has_buffers(&self) -> bool {
+        self.buffers.is_some()
+    }
+}
+
+/// The f32 depths whose level is 0 under the CPU's f64 arithmetic: an
+/// interval `[lo, hi]` (empty as `(f32::MAX, 0)`), found by bisection on
+/// the bits of positive floats; the CoC is monotone on each side of the
+/// focus.
+fn sharp_interval(sharp: impl Fn(f32) -> bool, focus_mm: f64) -> (f32, f32) {
+    const EMPTY: (f32, f32) = (f32::MAX, 0.0);
+    let max = f32::MAX.to_bits();
+    let seed = if focus_mm.is_finite() && focus_mm > 0.0 {
+        (focus_mm as f32).min(f32::MAX).to_bits()
+    } else {
+        max
+    };
+    if !sharp(f32::from_bits(seed)) {
+        return EMPTY;
+    }
+    // First sharp depth in [0, seed].
+    let (mut a, mut b) = (0u32, seed);
+    while a < b {
+        let mid = a + (b - a) / 2;
+        if sharp(f32::from_bits(mid)) {
+            b = mid;
+        } else {
+            a = mid + 1;
+        }
+    }
+    let lo = f32::from_bits(a);
+    // Last sharp depth in [seed, max].
+    let (mut a, mut b) = (seed, max);
+    while a < b {
+        let mid = a + (b - a).div_ceil(2);
+        if sharp(f32::from_bits(mid)) {
+            a = mid;
+        } else {
+            b = mid - 1;
+        }
+    }
+    (lo, f32::from_bits(a))
+}
+
+/// The smallest f32 `t` with `f64(t) > v` (v finite).
+fn f32_above(v: f64) -> f32 {
+    let t = v as f32;
+    if f64::from(t) > v {
+        return t;
+    }
+    if t == 0.0 {
+        return f32::from_bits(1);
+    }
+    if t > 0.0 {
+        f32::from_bits(t.to_bits() + 1)
+    } else {
+        f32::from_bits(t.to_bits() - 1)
+    }
+}
+
+impl DofFrame<'_> {
+    pub fn encode(
+        &mut self,
+        frame: &GpuFrame<'_>,
+        mut encoder: wgpu::CommandEncoder,
+    ) -> Result<wgpu::CommandEncoder, GpuError> {
+        let (w, h) = (frame.width(), frame.height());
+        if w == 0 || h == 0 || self.state.pass.is_pinhole() {
+            return Ok(encoder);
+        }
+        // The focus: the gaze window read back (focus: Gaze), the CPU pass's
+        // median and dynamics.
+        let vergence = self.vergence_mm.filter(|d| d.is_finite() && *d > 0.0);
+        let gaze_depth = match self.state.pass.focus {
+            // Attention focus stays on the CPU (the renderer never moves it
+            // here): its model reads the whole frame.
+            DofFocus::Fixed { .. } | DofFocus::Attention => None,
+            DofFocus::Vergence if vergence.is_some() => None,
+            DofFocus::Gaze | DofFocus::Vergence => {
+                match focus_window(i64::from(w), i64::from(h), self.gaze_px) {
+                    Some((x0, y0, x1, y1)) if x0 <= x1 && y0 <= y1 => {
+                        let n = (x1 - x0 + 1) as u64;
+                        let mut reads = Vec::new();
+                        for y in y0..=y1 {
+                            let first = y as u64 * u64::from(w) + x0 as u64;
+                            reads.push((frame.depth(), first, n));
+                            reads.push((frame.pixels(), first, n));
+                        }
+                        let (words, next) = frame.read_words(encoder, &reads)?;
+                        encoder = next;
+                        let mut depths = Vec::with_capacity(81);
+                        for pair in words.chunks_exact(2) {
+                            for (&d, &p) in pair[0].iter().zip(&pair[1]) {
+                                // The background is infinitely far.
+                                let hit = (p >> 24) & 1 == 1;
+                                depths.push(if hit {
+                                    f32::from_bits(d)
+                                } else {
+                                    f32::INFINITY
+                                });
+                            }
+                        }
+                        median_depth(depths)
+                    }
+                    _ => None,
+                }
+            }
+        };
+        let found = match self.state.pass.focus {
+            DofFocus::Vergence => vergence.or(gaze_depth),
+            _ => gaze_depth,
+        };
+        let focus = self.state.pass.focus_with(found, self.time_s);
+        let top = top_level(w as usize, h as usize);
+        if top == 0 {
+            return Ok(encoder); // every level is 0: nothing to blur
+        }
+        let lens = self.state.pass.lens;
+        let (ds, ppmm) = screen_of(self.camera);
+        let sharp =
+            |d: f32| level_for_coc(coc_px(&lens, f64::from(d), focus, ds, ppmm), top as f64) <= 0.0;
+        let (sharp_lo, sharp_hi) = sharp_interval(sharp, focus);
+        // `coc_px`'s clamps, for the per-pixel CoC in f32.
+        let nearest = lens.focal_length_mm * (1.0 + 1e-9);
+        let focus_c = if focus.is_nan() {
+            f64::INFINITY
+        } else {
+            focus.max(nearest)
+        };
+        let finite = focus_c.is_finite();
+        let k = if finite {
+            // C(∞) = DPI·(d_s/d_r)·E·F/(d_f − F): C(d) = C(∞)·|d − d_f|/d.
+            coc_px(&lens, f64::INFINITY, focus, ds, ppmm)
+        } else {
+            // Focus at infinity: C(d) = DPI·(d_s/d_r)·E·F/d.
+            ppmm * (ds / lens.retina_distance_mm) * (lens.aperture_mm * lens.focal_length_mm)
+        };
+        let focus_hi = if finite { focus_c as f32 } else { 0.0 };
+        let focus_lo = if finite {
+            (focus_c - f64::from(focus_hi)) as f32
+        } else {
+            0.0
+        };
+        let z_behind = if focus.is_finite() {
+            f32_above(focus)
+        } else {
+            f32::MAX
+        };
+        let coc_background = coc_px(&lens, f64::INFINITY, focus, ds, ppmm) as f32;
+        let taps = pyramid_taps();
+        let (g, norm) = circular_weights();
+
+        let device = frame.device();
+        let st = &mut *self.state;
+        let kernels = st.kernels.get_or_insert_with(|| {
+            Kernels::new(
+                device,
+                "dof.wgsl",
+                include_str!("dof.wgsl"),
+                &["dof_base", "dof_reduce", "dof_blend"],
+                &[true, false, false, false],
+                PARAMS_BYTES,
+            )
+        });
+        let (layout, texels) = level_layout(w, h, top + 1);
+        let stale = st.buffers.as_ref().is_none_or(|b| {
+            b.size != (w, h) || b.frame.0 != *frame.pixels() || b.frame.1 != *frame.depth()
+        });
+        if stale {
+            st.buffers = None;
+            let px = frame.storage_buffer(
+                "the depth-of-field pyramid",
+                16 * texels,
+                wgpu::BufferUsages::empty(),
+            )?;
+            let z = frame.storage_buffer(
+                "the depth-of-field depth mip",
+                4 * texels,
+                wgpu::BufferUsages::empty(),
+            )?;
+            let sg = frame.storage_buffer(
+                "the depth-of-field blur mip",
+                4 * texels,
+                wgpu::BufferUsages::empty(),
+            )?;
+            let params = device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("depth-of-field params"),
+                size: SLOT * (MAX_LEVELS as u64 + 1),
+                usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            });
+            let group = kernels.bind(
+                device,
+                &params,
+                PARAMS_BYTES,
+                frame.pixels(),
+                &[frame.depth(), &px, &z, &sg],
+            );
+            st.buffers = Some(Buffers {
+                size: (w, h),
+                frame: (frame.pixels().clone(), frame.depth().clone()),
+                params,
+                group,
+                _pyramid: [px, z, sg],
+            });
+        }
+        let Some(b) = st.buffers.as_ref() else {
+            return Ok(encoder);
+        };
+        let mut all = Vec::with_capacity(SLOT as usize * (MAX_LEVELS + 1));
+        for src in 0..=MAX_LEVELS {
+            let mut words = Words::default();
+            words.u(w).u(h).u(top as u32 + 1).u(src as u32);
+            words
+                .f(k as f32)
+                .f(focus_hi)
+                .f(focus_lo)
+                .u(u32::from(finite));
+            words
+                .f(coc_background)
+                .f(sharp_lo)
+                .f(sharp_hi)
+                .u(u32::from(sharp(f32::INFINITY)));
+            words
+                .f(z_behind)
+                .f(K_SIGMA as f32)
+                .f(top as f32)
+                .u(u32::from(st.pass.anisotropic));
+            for t in taps {
+                words.f(t);
+            }
+            words.f(g).f(norm).f(CIRCLE[4].0).f(ANISO_DELTA_PX);
+            words.f(nearest as f32).f(SIGMA_CAP_PX).u(0).u(0);
+            for l in 0..=MAX_LEVELS {
+                let [off, lw, lh] = layout.get(l).copied().unwrap_or([0, 1, 1]);
+                words.u(off).u(lw).u(lh).u(0);
+            }
+            words.pad_to(SLOT as usize);
+            all.extend(words.0);
+        }
+        frame.queue().write_buffer(&b.params, 0, &all);
+        let p = &kernels.pipelines;
+        dispatch(&mut encoder, &p[BASE], &b.group, 0, (w, h));
+        for src in 0..top {
+            let [_, tw, th] = layout[src + 1];
+            dispatch(&mut encoder, &p[REDUCE], &b.group, src as u32, (tw, th));
+        }
+        dispatch(&mut encoder, &p[BLEND], &b.group, 0, (w, h));
+        Ok(encoder)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_sharp_interval_is_the_cpus_set() {
+        let lens = foveation::thin_lens::EyeLens {
+            focal_length_mm: 17.0,
+            aperture_mm: 8.0,
+            retina_distance_mm: 24.0,
+        };
+        for focus in [540.0, 812.3, f64::INFINITY] {
+            let sharp =
+                |d: f32| level_for_coc(coc_px(&lens, f64::from(d), focus, 540.0, 1.9), 6.0) <= 0.0;
+            let (lo, hi) = sharp_interval(sharp, focus);
+            assert!(lo <= hi, "{focus}");
+            assert!(sharp(lo) && sharp(hi));
+            assert!(!sharp(f32::from_bits(lo.to_bits() - 1)));
+            if hi < f32::MAX {
+                assert!(!sharp(f32::from_bits(hi.to_bits() + 1)));
+            }
+        }
+        assert_eq!(f32_above(1.0), f32::from_bits(1.0f32.to_bits() + 1));
+        assert!(f64::from(f32_above(0.1)) > 0.1);
+    }
+}

@@ -1,0 +1,299 @@
+//! The GPU paths of the two image passes, depth of field
+//! ([`crate::effects::depth_of_field`]) and image-based foveation
+//! ([`crate::image_foveation`]): the same filters in WGSL (`dof.wgsl`,
+//! `image_foveation.wgsl`, sharing `colour.wgsl`), encoded on a GPU frame's
+//! colour and depth buffers between its cast and its read-back through
+//! [`raycast::gpu::GpuPost`], so the image makes no CPU round trip. The CPU
+//! code is the reference; the GPU output equals it within 1/255 per
+//! channel (`tests/gpu_effects.rs`).
+//!
+//! What stays on the CPU, per frame:
+//! - image-based foveation's level map (it depends on the gaze only, not on
+//!   the image): computed by [`ImageFoveation`](crate::image_foveation::ImageFoveation)
+//!   exactly as the CPU path does and uploaded (4 bytes a pixel, like the
+//!   hybrid method's pixel ownership), only when the gaze or the size
+//!   changed;
+//! - depth of field's focus: for `focus: Gaze` the 9×9 window of depth and
+//!   hit flags around the gaze is read back (at most 2 × 81 words, one wait
+//!   on the GPU after the cast), its median and the refocusing dynamics
+//!   run on the CPU (`DepthOfField::focus_with`, the CPU pass's own code);
+//!   what needs f64 is turned into a few f32 uniforms there: the CoC
+//!   constant, the exact depth interval whose level is 0 (so the sharp
+//!   pixels are the CPU's, bit for bit) and the f32 threshold of "behind
+//!   the focus" (eq. 4.9).
+//!
+//! Pay per use: a renderer makes a pass's GPU state only when the scene
+//! lists `DepthOfField` or the method is `Image`, and its buffers with its
+//! first frame.
+
+mod dof;
+mod image;
+
+pub(crate) use dof::{DofFrame, GpuDof};
+pub(crate) use image::{GpuImage, ImageFrame};
+
+use raycast::gpu::wgpu;
+use raycast::gpu::{GpuError, GpuFrame, GpuPost};
+
+use crate::colour;
+
+/// Bytes of one uniform slot (one dispatch's params, a dynamic offset).
+const SLOT: u64 = 256;
+
+/// The 255 f32 values where [`colour::encode`] moves from byte b to b + 1,
+/// found from `encode` itself (the smallest f32 it maps above b), so that
+/// the GPU's encoding is the CPU's by construction.
+fn encode_thresholds() -> [f32; 255] {
+    let mut t = [0.0f32; 255];
+    for (b, v) in t.iter_mut().enumerate() {
+        // Bisect on the bits of positive floats (ordered like the floats).
+        let (mut lo, mut hi) = (0u32, 2.0f32.to_bits());
+        while lo < hi {
+            let mid = lo + (hi - lo) / 2;
+            if usize::from(colour::encode(f32::from_bits(mid))) > b {
+                hi = mid;
+            } else {
+                lo = mid + 1;
+            }
+        }
+        *v = f32::from_bits(lo);
+    }
+    t
+}
+
+/// What a pass's shader binds: group 0 of `colour.wgsl` and its own
+/// storage buffers at bindings 4….
+pub(super) struct Kernels {
+    pub layout: wgpu::BindGroupLayout,
+    pub pipelines: Vec<wgpu::ComputePipeline>,
+    pub lut: wgpu::Buffer,
+    pub thresholds: wgpu::Buffer,
+}
+
+impl Kernels {
+    /// The shader `colour.wgsl` + `source`, its entry points, and the
+    /// colour tables. `extra` lists bindings 4… as read-only or not.
+    pub fn new(
+        device: &wgpu::Device,
+        label: &str,
+        source: &str,
+        entries: &[&str],
+        extra: &[bool],
+        params_bytes: u64,
+    ) -> Self {
+        let storage = |binding, read_only| wgpu::BindGroupLayoutEntry {
+            binding,
+            visibility: wgpu::ShaderStages::COMPUTE,
+            ty: wgpu::BindingType::Buffer {
+                ty: wgpu::BufferBindingType::Storage { read_only },
+                has_dynamic_offset: false,
+                min_binding_size: None,
+            },
+            count: None,
+        };
+        let mut layout_entries = vec![
+            wgpu::BindGroupLayoutEntry {
+                binding: 0,
+                visibility: wgpu::ShaderStages::COMPUTE,
+                ty: wgpu::BindingType::Buffer {
+                    ty: wgpu::BufferBindingType::Uniform,
+                    has_dynamic_offset: true,
+                    min_binding_size: wgpu::BufferSize::new(params_bytes),
+                },
+                count: None,
+            },
+            storage(1, true),
+            storage(2, true),
+            storage(3, false),
+        ];
+        for (k, &read_only) in extra.iter().enumerate() {
+            layout_entries.push(storage(4 + k as u32, read_only));
+        }
+        let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some(label),
+            entries: &layout_entries,
+        });
+        let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+            label: Some(label),
+            source: wgpu::ShaderSource::Wgsl(
+                format!("{}\n{}", include_str!("colour.wgsl"), source).into(),
+            ),
+        });
+        let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some(label),
+            bind_group_layouts: &[Some(&layout)],
+            immediate_size: 0,
+        });
+        let pipelines = entries
+            .iter()
+            .map(|entry| {
+                device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+                    label: Some(entry),
+                    layout: Some(&pipeline_layout),
+                    module: &module,
+                    entry_point: Some(entry),
+                    compilation_options: Default::default(),
+                    cache: None,
+                })
+            })
+            .collect();
+        let table = |what, words: &[f32]| {
+            wgpu::util::DeviceExt::create_buffer_init(
+                device,
+                &wgpu::util::BufferInitDescriptor {
+                    label: Some(what),
+                    contents: &f32_bytes(words),
+                    usage: wgpu::BufferUsages::STORAGE,
+                },
+            )
+        };
+        Self {
+            layout,
+            pipelines,
+            lut: table("decode table", colour::decode_lut()),
+            thresholds: table("encode thresholds", &encode_thresholds()),
+        }
+    }
+
+    /// The bind group over `params` (one [`SLOT`] bound), the tables, the
+    /// frame's pixels and `extra` at bindings 4….
+    pub fn bind(
+        &self,
+        device: &wgpu::Device,
+        params: &wgpu::Buffer,
+        params_bytes: u64,
+        pixels: &wgpu::Buffer,
+        extra: &[&wgpu::Buffer],
+    ) -> wgpu::BindGroup {
+        let mut entries = vec![
+            wgpu::BindGroupEntry {
+                binding: 0,
+                resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
+                    buffer: params,
+                    offset: 0,
+                    size: wgpu::BufferSize::new(params_bytes),
+                }),
+            },
+            wgpu::BindGroupEntry {
+                binding: 1,
+                resource: self.lut.as_entire_binding(),
+            },
+            wgpu::BindGroupEntry {
+                binding: 2,
+                resource: self.thresholds.as_entire_binding(),
+            },
+            wgpu::BindGroupEntry {
+                binding: 3,
+                resource: pixels.as_entire_binding(),
+            },
+        ];
+        for (k, b) in extra.iter().enumerate() {
+            entries.push(wgpu::BindGroupEntry {
+                binding: 4 + k as u32,
+                resource: b.as_entire_binding(),
+            });
+        }
+        device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("post"),
+            layout: &self.layout,
+            entries: &entries,
+        })
+    }
+}
+
+/// One compute pass: `pipeline` over `groups` workgroups of 8×8 with the
+/// uniform slot `slot`.
+pub(super) fn dispatch(
+    encoder: &mut wgpu::CommandEncoder,
+    pipeline: &wgpu::ComputePipeline,
+    group: &wgpu::BindGroup,
+    slot: u32,
+    (w, h): (u32, u32),
+) {
+    let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+        label: Some("post pass"),
+        timestamp_writes: None,
+    });
+    pass.set_pipeline(pipeline);
+    pass.set_bind_group(0, group, &[slot * SLOT as u32]);
+    pass.dispatch_workgroups(w.div_ceil(8), h.div_ceil(8), 1);
+}
+
+/// Little-endian bytes of f32 words.
+fn f32_bytes(words: &[f32]) -> Vec<u8> {
+    words.iter().flat_map(|w| w.to_le_bytes()).collect()
+}
+
+/// A uniform block written word by word (u32 or f32, 4 bytes each).
+#[derive(Default)]
+pub(super) struct Words(pub Vec<u8>);
+
+impl Words {
+    pub fn u(&mut self, v: u32) -> &mut Self {
+        self.0.extend(v.to_le_bytes());
+        self
+    }
+    pub fn f(&mut self, v: f32) -> &mut Self {
+        self.0.extend(v.to_le_bytes());
+        self
+    }
+    /// Pads to `bytes` (the struct's size in WGSL).
+    pub fn pad_to(&mut self, bytes: usize) -> &mut Self {
+        self.0.resize(bytes.max(self.0.len()), 0);
+        self
+    }
+}
+
+/// Level sizes of a pyramid over a `w`×`h` frame, levels 0..`n`: each
+/// `div_ceil(2)` of the one before; with each level's first texel in one
+/// array of them all, and the total.
+pub(super) fn level_layout(w: u32, h: u32, n: usize) -> (Vec<[u32; 3]>, u64) {
+    let (mut lw, mut lh, mut off) = (w, h, 0u64);
+    let mut out = Vec::with_capacity(n);
+    for _ in 0..n {
+        out.push([off as u32, lw, lh]);
+        off += u64::from(lw) * u64::from(lh);
+        lw = lw.div_ceil(2);
+        lh = lh.div_ceil(2);
+    }
+    (out, off)
+}
+
+/// Both passes of one frame, as the hook between the cast and the
+/// read-back: image-based foveation first, then depth of field (the CPU
+/// order).
+pub(crate) struct FramePost<'a> {
+    pub image: Option<image::ImageFrame<'a>>,
+    pub dof: Option<dof::DofFrame<'a>>,
+}
+
+impl GpuPost for FramePost<'_> {
+    fn encode(
+        &mut self,
+        frame: &GpuFrame<'_>,
+        mut encoder: wgpu::CommandEncoder,
+    ) -> Result<wgpu::CommandEncoder, GpuError> {
+        if let Some(i) = &mut self.image {
+            encoder = i.encode(frame, encoder)?;
+        }
+        if let Some(d) = &mut self.dof {
+            encoder = d.encode(frame, encoder)?;
+        }
+        Ok(encoder)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_thresholds_are_where_encode_steps() {
+        let t = encode_thresholds();
+        for (b, &v) in t.iter().enumerate() {
+            assert_eq!(usize::from(colour::encode(v)), b + 1);
+            let below = f32::from_bits(v.to_bits() - 1);
+            assert_eq!(usize::from(colour::encode(below)), b);
+        }
+    }
+}

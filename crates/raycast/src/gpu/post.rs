@@ -1,0 +1,138 @@
+//! The post-pass hook: a caller's compute passes on a frame's buffers,
+//! encoded between the cast and the read-back ([`GpuPost`]), so that an
+//! image pass (depth of field, image-based foveation) runs on the GPU
+//! without a CPU round trip of the image.
+//!
+//! The frame's buffers as [`GpuFrame`] shows them:
+//! - `pixels`: one `u32` per pixel (row-major), `pack` in cast.wgsl: red in
+//!   bits 0–7, green 8–15, blue 16–23 (gamma-encoded bytes, what the
+//!   read-back turns into `Frame::rgb`), the hit flag in bit 24, the layer
+//!   in bits 25–26. A pass that changes the colour must keep bits 24–31.
+//! - `depth`: one `f32` per pixel, the eye distance (mm) where the hit flag
+//!   is set, `3.4028235e38` (f32::MAX) where it is not.
+//!
+//! Both are bound as storage (`pixels` read-write). A pass may submit the
+//! encoder it is given and go on in a new one (to read a few words back,
+//! [`GpuFrame::read_words`]); the read-back is appended to the encoder it
+//! returns. Post passes are not timed in `stage_ms`: the frame's `Stats`
+//! time (wall clock) includes them.
+
+use super::buffers::storage;
+use super::readback::read_back;
+use super::GpuError;
+
+/// A frame on the GPU after its cast, before its read-back.
+pub struct GpuFrame<'a> {
+    pub(super) device: &'a wgpu::Device,
+    pub(super) queue: &'a wgpu::Queue,
+    pub(super) pixels: &'a wgpu::Buffer,
+    pub(super) depth: &'a wgpu::Buffer,
+    pub(super) width: u32,
+    pub(super) height: u32,
+    pub(super) max_binding: u64,
+}
+
+impl<'a> GpuFrame<'a> {
+    pub fn device(&self) -> &'a wgpu::Device {
+        self.device
+    }
+
+    pub fn queue(&self) -> &'a wgpu::Queue {
+        self.queue
+    }
+
+    /// The packed colour words (see the module's notes), `width·height` of them.
+    pub fn pixels(&self) -> &'a wgpu::Buffer {
+        self.pixels
+    }
+
+    /// The eye distance per pixel (f32, mm; f32::MAX where nothing is hit).
+    pub fn depth(&self) -> &'a wgpu::Buffer {
+        self.depth
+    }
+
+    pub fn width(&self) -> u32 {
+        self.width
+    }
+
+    pub fn height(&self) -> u32 {
+        self.height
+    }
+
+    /// The device's `max_storage_buffer_binding_size` (bytes).
+    pub fn max_binding_bytes(&self) -> u64 {
+        self.max_binding
+    }
+
+    /// A storage buffer of `bytes` bytes (with `extra` usages), refused with
+    /// [`GpuError::TooLarge`] above the storage-binding limit.
+    pub fn storage_buffer(
+        &self,
+        what: &'static str,
+        bytes: u64,
+        extra: wgpu::BufferUsages,
+    ) -> Result<wgpu::Buffer, GpuError> {
+        storage(self.device, what, bytes.max(4), extra, self.max_binding)
+    }
+
+    /// Submits `encoder` with copies of the word ranges `reads` (buffer,
+    /// first word, number of words) into one small mappable buffer, waits,
+    /// and returns the words of each range, with a fresh encoder for the
+    /// rest of the frame. For small reads (a focus window): every word
+    /// costs a wait on the GPU.
+    pub fn read_words(
+        &self,
+        mut encoder: wgpu::CommandEncoder,
+        reads: &[(&wgpu::Buffer, u64, u64)],
+    ) -> Result<(Vec<Vec<u32>>, wgpu::CommandEncoder), GpuError> {
+        let total: u64 = reads.iter().map(|r| r.2).sum();
+        let fresh = |d: &wgpu::Device| {
+            d.create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                label: Some("frame, after a read"),
+            })
+        };
+        if total == 0 {
+            return Ok((reads.iter().map(|_| Vec::new()).collect(), encoder));
+        }
+        let staging = self.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("post read"),
+            size: 4 * total,
+            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let mut at = 0u64;
+        for &(buffer, first, n) in reads {
+            if n > 0 {
+                encoder.copy_buffer_to_buffer(buffer, 4 * first, &staging, 4 * at, 4 * n);
+            }
+            at += n;
+        }
+        self.queue.submit(Some(encoder.finish()));
+        let words = read_back(self.device, &staging, 4 * total)?;
+        let mut out = Vec::with_capacity(reads.len());
+        let mut at = 0usize;
+        for &(_, _, n) in reads {
+            let n = n as usize;
+            let part = words
+                .get(at..at + n)
+                .ok_or_else(|| GpuError::Readback("short post read".into()))?;
+            out.push(part.to_vec());
+            at += n;
+        }
+        Ok((out, fresh(self.device)))
+    }
+}
+
+/// Compute passes a caller encodes on a frame's buffers between the cast
+/// and the read-back ([`GpuRenderer::render_full_with`](super::GpuRenderer::render_full_with),
+/// [`GpuRenderer::render_foveated_with`](super::GpuRenderer::render_foveated_with)).
+pub trait GpuPost {
+    /// Encodes the passes on `frame` into `encoder` (which it may submit,
+    /// going on in a new one) and returns the encoder the read-back is
+    /// appended to.
+    fn encode(
+        &mut self,
+        frame: &GpuFrame<'_>,
+        encoder: wgpu::CommandEncoder,
+    ) -> Result<wgpu::CommandEncoder, GpuError>;
+}

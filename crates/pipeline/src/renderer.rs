@@ -144,6 +144,8 @@ impl<'s> Renderer<'s> {
                 .filter(|d| passes.first().is_some_and(|p| p.name() == d.name()))
                 // The attention model reads the frame's colour and ids: CPU.
                 .filter(|d| d.focus != raycast::scene::DofFocus::Attention)
+                // Foreground smoothing has no GPU path: CPU.
+                .filter(|d| !d.smooth_foreground)
                 .map(|d| {
                     passes.remove(0);
                     GpuDof::new(d)

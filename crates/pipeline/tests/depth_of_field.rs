@@ -127,6 +127,7 @@ fn the_scene_file_parses_defaults_and_validates_naming_the_field() {
             focus: DofFocus::Fixed { depth_mm: 800.0 },
             refocus: DofRefocus::Instant,
             method: DofMethod::Mipmap,
+            smooth_foreground: false,
         }]
     );
     assert!(build("DepthOfField(focus: Fixed(depth_mm: inf))").is_ok());

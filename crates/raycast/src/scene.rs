@@ -155,6 +155,14 @@ pub enum Effect {
         refocus: DofRefocus,
         #[serde(default)]
         method: DofMethod,
+        /// Lee §4.3's foreground smoothing (eqs. 4.10–4.11, mipmap method
+        /// only): the degree of blur is read from a coarser level around
+        /// blurred foreground objects, so their blurred edges spread over
+        /// the sharp surface behind them instead of ending at the
+        /// silhouette. Off by default: it blurs in-focus pixels next to a
+        /// blurred foreground.
+        #[serde(default)]
+        smooth_foreground: bool,
     },
 }
 
@@ -268,6 +276,7 @@ impl Effect {
         focus: DofFocus::Gaze,
         refocus: DofRefocus::Instant,
         method: DofMethod::Mipmap,
+        smooth_foreground: false,
     };
 
     /// Whether `self` and `other` are the same effect, whatever their
@@ -294,6 +303,7 @@ impl Effect {
                 // Every method takes every lens; serde refuses an unknown
                 // method, naming the line.
                 method: _,
+                smooth_foreground: _,
             } => {
                 let bad = |name: &str, msg: String| {
                     Err(SceneError::field(format!("{field}.{name}"), msg))

@@ -67,12 +67,16 @@
 //!   (the texels the filter reads); background depth is infinite, so any
 //!   background in a texel's footprint makes it "behind the focus".
 //!
-//! **Not done in this step:** the foreground smoothing of the degree of
-//! blur (eq. 4.10–4.11: a blurred foreground's silhouette stays sharp over
-//! an in-focus background; it would also blur in-focus pixels next to a
-//! blurred foreground, which the "sharp pixels are untouched" rule here
-//! forbids as stated); ch. 5 splatting. The GPU path (the same pass in
-//! WGSL, before the frame's read-back) is `crate::gpu`. The ground truth it
+//! **Foreground smoothing** (§4.3, eqs. 4.10–4.11) is an option
+//! (`smooth_foreground: true` in the scene; off by default): the DoN mip ρ
+//! and the smoothed σ(n) replace σ(0) around blurred foreground objects
+//! ([`smooth_foreground`]). Off by default because it blurs in-focus pixels
+//! beside a blurred foreground, which the rule "a pixel with CoC < 0.5 px
+//! is unchanged" forbids; with it on, that rule holds only away from
+//! blurred foreground objects, and the pass stays on the CPU on the GPU
+//! backend. Ch. 5 splatting, which handles partial occlusion with the
+//! hidden surface itself, is [`super::dof_splat`]. The GPU path (the same
+//! pass in WGSL, before the frame's read-back) is `crate::gpu`. The ground truth it
 //! is measured against is [`super::dof_reference`] (thin-lens distributed
 //! ray casting, 64 rays per pixel).
 
@@ -113,6 +117,8 @@ pub struct DepthOfField {
     /// Build the colour pyramid with eq. 4.9's H (on by default); off, with
     /// the isotropic G of eq. 4.1.
     pub anisotropic: bool,
+    /// Lee §4.3's foreground smoothing (eqs. 4.10–4.11); off by default.
+    pub smooth_foreground: bool,
     /// Size of the frame `level` and `sigma` describe.
     maps_size: (usize, usize),
 }
@@ -208,6 +214,9 @@ struct Image {
     px: Vec<[f32; 3]>,
     z: Vec<f32>,
     sigma: Vec<f32>,
+    /// The DoN mip ρ (eq. 4.10): only with foreground smoothing, only on
+    /// levels 1…; empty otherwise.
+    rho: Vec<f32>,
 }
 
 impl Image {
@@ -255,6 +264,7 @@ impl DepthOfField {
             pyramid: Vec::new(),
             sigma: Vec::new(),
             anisotropic: true,
+            smooth_foreground: false,
             maps_size: (0, 0),
         }
     }
@@ -316,8 +326,9 @@ impl DepthOfField {
                 focus,
                 refocus,
                 method: raycast::scene::DofMethod::Mipmap,
-            } => Some(
-                Self::new(
+                smooth_foreground,
+            } => {
+                let mut pass = Self::new(
                     EyeLens {
                         focal_length_mm: *focal_length_mm,
                         aperture_mm: *pupil_mm,
@@ -325,8 +336,10 @@ impl DepthOfField {
                     },
                     *focus,
                 )
-                .with_refocus(*refocus),
-            ),
+                .with_refocus(*refocus);
+                pass.smooth_foreground = *smooth_foreground;
+                Some(pass)
+            }
             _ => None,
         }
     }
@@ -636,6 +649,9 @@ impl Pass for DepthOfField {
             focus,
             self.anisotropic,
         );
+        if self.smooth_foreground && needed >= 1 {
+            smooth_foreground(&mut self.pyramid, &mut self.level, (w, h), needed, focus);
+        }
         // Rows in parallel: each pixel reads the pyramid and writes itself.
         let pyramid = &self.pyramid;
         frame.rgb[..3 * w * h]
@@ -766,6 +782,114 @@ pub(crate) fn pyramid_taps() -> [f32; 4] {
 pub(crate) fn circular_weights() -> (f32, f32) {
     let g = gauss_neighbour();
     (g, 1.0 / (1.0 + 8.0 * g))
+}
+
+/// Lee §4.3, foreground smoothing, after the pyramid is built to level
+/// `top` (≥ 1): the DoN mip ρ (eq. 4.10) on levels 1..=`top`, then for
+/// every pixel ρ(M) at the top level M = `top` by the 9-point circular
+/// filter, n by eq. 4.11 (eq. 4.6 applied to ρ), and where n > 0 the
+/// smoothed σ(n) — the B mip at level n, blended linearly between levels
+/// and sampled bilinearly, level 0 being the pixel's own σ — replaces
+/// σ(0) in the pixel's mip level. Ω' of eq. 4.10 is the 4×4 taps of the
+/// level's Gaussian that are in front of the focus and of the texel.
+fn smooth_foreground(
+    pyramid: &mut [Image],
+    level: &mut [f32],
+    (w, h): (usize, usize),
+    top: usize,
+    focus_mm: f64,
+) {
+    let focus = focus_mm as f32;
+    for l in 1..=top {
+        let (lo, hi) = pyramid.split_at_mut(l);
+        let src = &lo[l - 1];
+        let dst = &mut hi[0];
+        let (nw, nh) = (dst.w, dst.h);
+        let at = |x: usize, t: usize, n: usize| (2 * x + t).saturating_sub(1).min(n - 1);
+        let mut rho = std::mem::take(&mut dst.rho);
+        rho.clear();
+        rho.resize(nw * nh, 0.0);
+        rho.par_chunks_mut(nw).enumerate().for_each(|(y, row)| {
+            for (x, r) in row.iter_mut().enumerate() {
+                let zp = dst.z[y * nw + x];
+                let mut best = 0.0f32;
+                for ty in 0..4 {
+                    let line = at(y, ty, src.h) * src.w;
+                    for tx in 0..4 {
+                        let q = line + at(x, tx, src.w);
+                        if src.z[q] < focus && src.z[q] < zp {
+                            best = best.max(src.sigma[q]);
+                        }
+                    }
+                }
+                *r = best;
+            }
+        });
+        dst.rho = rho;
+    }
+    let top_level = &pyramid[top];
+    let max_level = top as f64;
+    level.par_chunks_mut(w).enumerate().for_each(|(y, row)| {
+        for (x, m) in row.iter_mut().enumerate() {
+            let rho_m = circular_scalar(top_level, &top_level.rho, top, x, y);
+            let n = thin_lens::mipmap_level(f64::from(rho_m));
+            if n.is_nan() || n <= 0.0 {
+                continue;
+            }
+            let n = n.min(max_level);
+            let sigma = sigma_at_level(pyramid, x, y, n);
+            let smoothed = thin_lens::mipmap_level(f64::from(sigma));
+            *m = if smoothed.is_nan() {
+                0.0
+            } else {
+                smoothed.clamp(0.0, max_level) as f32
+            };
+        }
+    });
+    debug_assert!(level.len() == w * h);
+}
+
+/// A scalar channel of `img` (level `k`) bilinearly at the centre of
+/// level-0 pixel (`x`, `y`) offset by (`dx`, `dy`) level-`k` texels.
+fn scalar_at(img: &Image, data: &[f32], k: usize, x: usize, y: usize, (dx, dy): (f32, f32)) -> f32 {
+    let scale = (1u32 << k) as f32;
+    let u = ((x as f32 + 0.5) / scale - 0.5 + dx).clamp(0.0, (img.w - 1) as f32);
+    let v = ((y as f32 + 0.5) / scale - 0.5 + dy).clamp(0.0, (img.h - 1) as f32);
+    let (x0, y0) = (u.floor(), v.floor());
+    let (fx, fy) = (u - x0, v - y0);
+    let (x0, y0) = (x0 as usize, y0 as usize);
+    let x1 = (x0 + 1).min(img.w - 1);
+    let y1 = (y0 + 1).min(img.h - 1);
+    let p = |x: usize, y: usize| data[y * img.w + x];
+    let top = p(x0, y0) + (p(x1, y0) - p(x0, y0)) * fx;
+    let bot = p(x0, y1) + (p(x1, y1) - p(x0, y1)) * fx;
+    top + (bot - top) * fy
+}
+
+/// The 9-point circular filter of eq. 4.8 over a scalar channel.
+fn circular_scalar(img: &Image, data: &[f32], k: usize, x: usize, y: usize) -> f32 {
+    let g = (-1.0 / (2.0 * GAUSS_SIGMA_TEXELS * GAUSS_SIGMA_TEXELS)).exp() as f32;
+    let mut acc = scalar_at(img, data, k, x, y, (0.0, 0.0));
+    for d in CIRCLE {
+        acc += g * scalar_at(img, data, k, x, y, d);
+    }
+    acc / (1.0 + 8.0 * g)
+}
+
+/// The B mip (σ) at continuous level `n` for pixel (`x`, `y`): linear
+/// between levels, bilinear within one; level 0 is the pixel's σ.
+fn sigma_at_level(pyramid: &[Image], x: usize, y: usize, n: f64) -> f32 {
+    let l = (n.floor() as usize).min(pyramid.len() - 1);
+    let f = (n - l as f64) as f32;
+    let at = |k: usize| {
+        let img = &pyramid[k];
+        scalar_at(img, &img.sigma, k, x, y, (0.0, 0.0))
+    };
+    let a = at(l);
+    if f <= 0.0 || l + 1 >= pyramid.len() {
+        return a;
+    }
+    a + (at(l + 1) - a) * f
 }
 
 /// `acc += w·v`.

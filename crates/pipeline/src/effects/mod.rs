@@ -66,6 +66,7 @@ pub fn pass_for(effect: &Effect) -> Option<Box<dyn Pass>> {
             focus,
             refocus,
             method,
+            smooth_foreground,
         } => {
             let lens = foveation::thin_lens::EyeLens {
                 focal_length_mm: *focal_length_mm,
@@ -74,7 +75,10 @@ pub fn pass_for(effect: &Effect) -> Option<Box<dyn Pass>> {
             };
             Some(match method {
                 DofMethod::Mipmap => {
-                    Box::new(depth_of_field::DepthOfField::new(lens, *focus).with_refocus(*refocus))
+                    let mut pass =
+                        depth_of_field::DepthOfField::new(lens, *focus).with_refocus(*refocus);
+                    pass.smooth_foreground = *smooth_foreground;
+                    Box::new(pass)
                 }
                 DofMethod::Splat => {
                     Box::new(dof_splat::DepthOfFieldSplat::new(lens, *focus).with_refocus(*refocus))

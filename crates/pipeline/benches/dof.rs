@@ -1,5 +1,6 @@
-//! Cost of the depth-of-field pass (Lee 2009 ch. 4) against the mean
-//! circle of confusion, the layout of Lee's Table 5.1: 8, 16 and 32 px.
+//! Cost of the two depth-of-field passes (Lee 2009 ch. 4 mipmaps, ch. 5
+//! splatting) against the mean circle of confusion, the layout of Lee's
+//! Table 5.1: 8, 16 and 32 px.
 //!
 //! The scene: a wall of 30 bumpy balls 1.5 m behind the 17" screen, a ball
 //! at the screen in focus, 640×512 px. The pupil is scaled so the mean
@@ -13,6 +14,7 @@ use criterion::{criterion_group, criterion_main, BatchSize, Criterion};
 use foveation::thin_lens::EyeLens;
 use foveation::Display;
 use pipeline::effects::depth_of_field::{coc_px, DepthOfField};
+use pipeline::effects::dof_splat::DepthOfFieldSplat;
 use pipeline::effects::{Pass, PassInput};
 use pipeline::{BackendChoice, Options, Renderer};
 use raycast::scene::DofFocus;
@@ -105,8 +107,8 @@ fn bench(c: &mut Criterion) {
         time_s: None,
         vergence_mm: None,
     };
-    let mut group = c.benchmark_group("dof_mipmap_640x512");
-    group.sample_size(20);
+    let mut group = c.benchmark_group("dof_640x512");
+    group.sample_size(10);
     for target in [8.0, 16.0, 32.0] {
         // The blurred set grows with the pupil: a few fixed-point steps
         // bring the measured mean to the target.
@@ -122,14 +124,19 @@ fn bench(c: &mut Criterion) {
             lens.aperture_mm,
             mean_coc(&frame, &cam, &lens)
         );
-        let mut pass = DepthOfField::new(lens, DofFocus::Fixed { depth_mm: FOCUS_MM });
-        group.bench_function(format!("coc_{target}px"), |b| {
-            b.iter_batched_ref(
-                || frame.clone(),
-                |f| pass.run(f, &input),
-                BatchSize::LargeInput,
-            )
-        });
+        let focus = DofFocus::Fixed { depth_mm: FOCUS_MM };
+        let mut mipmap = DepthOfField::new(lens, focus);
+        let mut splat = DepthOfFieldSplat::new(lens, focus);
+        let passes: [(&str, &mut dyn Pass); 2] = [("mipmap", &mut mipmap), ("splat", &mut splat)];
+        for (name, pass) in passes {
+            group.bench_function(format!("{name}/coc_{target}px"), |b| {
+                b.iter_batched_ref(
+                    || frame.clone(),
+                    |f| pass.run(f, &input),
+                    BatchSize::LargeInput,
+                )
+            });
+        }
     }
     group.finish();
 }

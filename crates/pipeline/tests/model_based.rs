@@ -170,3 +170,82 @@ fn other_methods_build_no_trees_and_bad_input_is_refused() {
     let e = gpu.err().expect("the GPU path is refused");
     assert!(e.to_string().contains("--backend cpu"), "{e}");
 }
+
+/// Pixels of `frame` that show the background although the full frame
+/// covers them and every pixel within `r` px of them with one object:
+/// holes inside a silhouette (cracks between levels), not a silhouette
+/// that moved.
+fn cracks(full: &Frame, frame: &Frame, r: usize) -> usize {
+    let (w, h) = (W as usize, H as usize);
+    let mut n = 0;
+    for y in r..h - r {
+        for x in r..w - r {
+            let i = y * w + x;
+            if frame.hit[i] || !full.hit[i] {
+                continue;
+            }
+            n += usize::from(interior(full, x, y, r));
+        }
+    }
+    n
+}
+
+/// Whether every pixel within `r` of (`x`, `y`) is covered by the object
+/// at (`x`, `y`) in `full`.
+fn interior(full: &Frame, x: usize, y: usize, r: usize) -> bool {
+    let (w, h) = (W as usize, H as usize);
+    if x < r || y < r || x + r >= w || y + r >= h {
+        return false;
+    }
+    let o = full.object[y * w + x];
+    (y - r..=y + r)
+        .all(|yy| (x - r..=x + r).all(|xx| full.hit[yy * w + xx] && full.object[yy * w + xx] == o))
+}
+
+/// Cracks must not show (issue 16): at gazes the tests above do not use,
+/// neither method leaves a background pixel inside a silhouette of the
+/// full mesh, however coarse the periphery.
+#[test]
+fn no_cracks_inside_silhouettes_at_any_gaze() {
+    let s = scene("bunny");
+    let g = display().geometry().expect("geometry");
+    let model = pipeline::sampling_model(g, 1.0).expect("model");
+    let mut full = Renderer::new(
+        &s,
+        Camera::new(&g),
+        model,
+        &Options {
+            method: Method::Full,
+            backend: BackendChoice::Cpu,
+            surface: true,
+            ..Options::default()
+        },
+    )
+    .expect("renderer");
+    let (reference, _) = full.render([0.0, 0.0]).expect("full");
+    // The count sees a hole: one interior pixel turned background.
+    let mut holed = reference.clone();
+    let inside = (0..holed.hit.len())
+        .find(|&i| interior(&reference, i % W as usize, i / W as usize, 2))
+        .expect("the bunny has an interior");
+    holed.hit[inside] = false;
+    assert_eq!(cracks(&reference, &holed, 2), 1);
+    for method in [Method::Simplify, Method::Lod] {
+        let mut r = renderer(&s, method);
+        for gaze in [[317.0, 3.0], [40.0, 230.0], [230.0, 60.0], [-400.0, 900.0]] {
+            let (frame, _) = r.render(gaze).expect("frame");
+            let n = cracks(&reference, &frame, 2);
+            let drawn = r.model_based().expect("state").last().triangles_drawn;
+            eprintln!(
+                "{} gaze {gaze:?}: {drawn} triangles, {n} crack pixels",
+                method.name()
+            );
+            assert_eq!(
+                n,
+                0,
+                "{} at {gaze:?}: {n} background pixels inside silhouettes",
+                method.name()
+            );
+        }
+    }
+}

@@ -28,6 +28,7 @@
 pub mod backend;
 pub mod colour;
 pub mod effects;
+pub mod frame_attention;
 mod gpu;
 pub mod image_foveation;
 pub mod method;

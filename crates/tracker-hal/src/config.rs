@@ -15,6 +15,71 @@ pub enum Driver {
     Mouse(MouseConfig),
     /// A tracker on the HID eye-tracker usage page (Tobii and others).
     TobiiHid(HidConfig),
+    /// No eye tracker: the viewer predicts the attended object from each
+    /// rendered frame (Lee 2009 ch. 3) and reports its saliency peak as
+    /// the point of regard, through the mouse emulator's stream (so its
+    /// samples are timestamped, recorded and replayed like any others).
+    Attention(AttentionSourceConfig),
+}
+
+/// Smallest and largest saliency map side of the attention source (Lee's
+/// 64² to 512²).
+pub const ATTENTION_MAP_SIZES: std::ops::RangeInclusive<u32> = 64..=512;
+
+/// The attention source's settings.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct AttentionSourceConfig {
+    /// Samples per second of the stream (the prediction changes once per
+    /// rendered frame; the stream repeats it in between).
+    #[serde(default = "default_attention_rate")]
+    pub rate_hz: f64,
+    /// Saliency map side, px (64 to 512).
+    #[serde(default = "default_attention_map")]
+    pub map_size: u32,
+}
+
+fn default_attention_rate() -> f64 {
+    120.0
+}
+fn default_attention_map() -> u32 {
+    64
+}
+
+impl Default for AttentionSourceConfig {
+    fn default() -> Self {
+        Self {
+            rate_hz: default_attention_rate(),
+            map_size: default_attention_map(),
+        }
+    }
+}
+
+impl AttentionSourceConfig {
+    /// Checks every value; the error names the field.
+    pub fn validate(&self) -> Result<(), (&'static str, String)> {
+        if !ATTENTION_MAP_SIZES.contains(&self.map_size) {
+            return Err((
+                "map_size",
+                format!(
+                    "{} must be {} to {} pixels",
+                    self.map_size,
+                    ATTENTION_MAP_SIZES.start(),
+                    ATTENTION_MAP_SIZES.end()
+                ),
+            ));
+        }
+        self.stream().validate()
+    }
+
+    /// The mouse emulator that carries the predictions: no jitter, no
+    /// saccades, no added latency.
+    pub fn stream(&self) -> MouseConfig {
+        MouseConfig {
+            rate_hz: self.rate_hz,
+            ..MouseConfig::default()
+        }
+    }
 }
 
 /// A tracker: its driver and how its coordinates map to the screen.
@@ -34,6 +99,7 @@ impl TrackerConfig {
             Driver::Iscan(c) => c.validate().map_err(|e| scoped("driver", e))?,
             Driver::Mouse(c) => c.validate().map_err(|e| scoped("driver", e))?,
             Driver::TobiiHid(c) => c.validate().map_err(|e| scoped("driver", e))?,
+            Driver::Attention(c) => c.validate().map_err(|e| scoped("driver", e))?,
         }
         self.mapping
             .check_range(self.range())
@@ -49,7 +115,7 @@ impl TrackerConfig {
     pub fn range(&self) -> Option<(f64, f64)> {
         match &self.driver {
             Driver::Iscan(c) => Some(c.frame),
-            Driver::Mouse(_) => None,
+            Driver::Mouse(_) | Driver::Attention(_) => None,
             Driver::TobiiHid(c) => Some(c.screen_um),
         }
     }
@@ -58,7 +124,7 @@ impl TrackerConfig {
     pub fn decoder(&self) -> Box<dyn Decoder> {
         match &self.driver {
             Driver::Iscan(c) => Box::new(IscanDecoder::new(c.clone())),
-            Driver::Mouse(_) => Box::new(MouseDecoder::new()),
+            Driver::Mouse(_) | Driver::Attention(_) => Box::new(MouseDecoder::new()),
             Driver::TobiiHid(_) => Box::new(HidLogDecoder::new()),
         }
     }
@@ -68,7 +134,7 @@ impl TrackerConfig {
     pub fn frame(&self) -> (f64, f64) {
         match &self.driver {
             Driver::Iscan(c) => c.frame,
-            Driver::Mouse(_) => (f64::INFINITY, f64::INFINITY),
+            Driver::Mouse(_) | Driver::Attention(_) => (f64::INFINITY, f64::INFINITY),
             Driver::TobiiHid(c) => c.screen_um,
         }
     }
@@ -79,6 +145,7 @@ impl TrackerConfig {
             Driver::Iscan(_) => "iscan",
             Driver::Mouse(_) => "mouse",
             Driver::TobiiHid(_) => "tobii-hid",
+            Driver::Attention(_) => "attention",
         }
     }
 }

@@ -94,7 +94,7 @@ pub mod source;
 mod test_support;
 
 pub use clock::{Clock, MonotonicClock, SharedClock};
-pub use config::{Driver, TrackerConfig};
+pub use config::{AttentionSourceConfig, Driver, TrackerConfig};
 pub use error::{Error, ErrorKind, Result};
 pub use mapping::Mapping;
 pub use recording::{Recorder, RecorderSummary, Recording, RecordingHeader, Tap};

@@ -14,7 +14,7 @@ use std::time::{Duration, Instant};
 use crossbeam_channel::{Receiver, Sender};
 use tracker_hal::calibration::Calibration;
 use tracker_hal::clock::monotonic_us;
-use tracker_hal::mouse::{spawn_device, CursorEvent};
+use tracker_hal::mouse::{spawn_device, CursorEvent, MouseConfig};
 use tracker_hal::{
     DecodeStats, Driver, ErrorKind, GazeSource, MonotonicClock, Pacing, Recorder, Recording,
     RecordingHeader, ReplayTransport, StreamDriver, Tap, TrackerConfig,
@@ -347,6 +347,10 @@ pub struct GazeFeed {
     faults: Arc<Mutex<Faults>>,
     /// How the last [`GazeFeed::finish`] ended the thread, for the log.
     stopped: Option<String>,
+    /// The attention source's settings when the gaze is the attention
+    /// model's (not in a replay): the viewer then runs the model on every
+    /// frame and feeds its point in ([`GazeFeed::attention_gaze`]).
+    pub attention: Option<tracker_hal::AttentionSourceConfig>,
 }
 
 impl GazeSetup {
@@ -427,6 +431,10 @@ impl GazeSetup {
             None => Box::new(move |p| Some(mapping.to_screen(p, frame))),
         };
         let ends = self.replay.is_some();
+        let attention = match &self.tracker.driver {
+            Driver::Attention(a) if !ends => Some(a.clone()),
+            _ => None,
+        };
         let stop = Arc::new(AtomicBool::new(false));
         let open = opener(self.tracker, self.replay, tap, cursor_rx, stop.clone());
         let (tx, rx) = crossbeam_channel::unbounded();
@@ -451,8 +459,28 @@ impl GazeSetup {
             recorder,
             faults,
             stopped: None,
+            attention,
         })
     }
+}
+
+/// Opens the mouse emulator on the cursor events (once: it keeps running).
+fn mouse_opener(c: MouseConfig, cursor_rx: Receiver<CursorEvent>, tap: Option<Tap>) -> Opener {
+    let mut cursor = Some(cursor_rx);
+    Box::new(move || {
+        let rx = cursor.take().ok_or("the mouse device has stopped")?;
+        let link = spawn_device(c.clone(), rx).map_err(|e| e.to_string())?;
+        let d = StreamDriver::new(
+            link,
+            tracker_hal::mouse::MouseDecoder::new(),
+            Box::new(MonotonicClock),
+        )
+        .with_max_wait(MAX_WAIT);
+        Ok(match &tap {
+            Some(t) => Box::new(d.with_tap(t.clone())) as Source,
+            None => Box::new(d) as Source,
+        })
+    })
 }
 
 /// How to (re)open the source.
@@ -488,21 +516,9 @@ fn opener(
         });
     }
     match tracker.driver.clone() {
-        Driver::Mouse(c) => {
-            let mut cursor = Some(cursor_rx);
-            Box::new(move || {
-                let rx = cursor.take().ok_or("the mouse device has stopped")?;
-                let link = spawn_device(c.clone(), rx).map_err(|e| e.to_string())?;
-                Ok(Box::new(tapped(
-                    StreamDriver::new(
-                        link,
-                        tracker_hal::mouse::MouseDecoder::new(),
-                        Box::new(MonotonicClock),
-                    ),
-                    &tap,
-                )) as Source)
-            })
-        }
+        Driver::Mouse(c) => mouse_opener(c, cursor_rx, tap),
+        // The viewer feeds the attention model's point in as the cursor.
+        Driver::Attention(a) => mouse_opener(a.stream(), cursor_rx, tap),
         Driver::Iscan(c) => Box::new(move || {
             let name = c
                 .port
@@ -529,9 +545,26 @@ fn opener(
 }
 
 impl GazeFeed {
+    /// The attention model's point of regard for the frame just rendered
+    /// (screen pixels), or `None` (no object attended: an invalid sample,
+    /// as a blink). Only with the attention source; ignored otherwise.
+    pub fn attention_gaze(&self, gaze_px: Option<[f64; 2]>) {
+        if let (Some(tx), Some(_)) = (&self.cursor_tx, &self.attention) {
+            let _ = tx.send(CursorEvent {
+                t_us: monotonic_us(),
+                position_px: gaze_px.unwrap_or([0.0, 0.0]),
+                blink: gaze_px.is_none(),
+            });
+        }
+    }
+
     /// The window's cursor moved (window pixels): input for the mouse
-    /// device; ignored with other trackers.
+    /// device; ignored with other trackers (and with the attention source,
+    /// whose point is the model's).
     pub fn cursor_moved(&self, x: f64, y: f64) {
+        if self.attention.is_some() {
+            return;
+        }
         if let Some(tx) = &self.cursor_tx {
             let _ = tx.send(CursorEvent {
                 t_us: monotonic_us(),

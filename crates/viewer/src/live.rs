@@ -146,6 +146,9 @@ struct Viewer<'a> {
     feed: GazeFeed,
     screen: Option<Screen>,
     gaze: [f64; 2],
+    /// Lee's attention model, when it is the gaze source: run on every
+    /// frame, its point fed to the tracker stream for the next frames.
+    attention: Option<pipeline::frame_attention::FrameAttention>,
     /// Both eyes' points of the gaze in use, when its sample had both.
     eyes_px: Option<[[f64; 2]; 2]>,
     /// Host arrival of the gaze in use, and whether a frame has shown it.
@@ -272,6 +275,12 @@ impl Viewer<'_> {
             .and_then(|e| vergence_mm(self.renderer.camera(), e));
         self.renderer.set_vergence_mm(vergence);
         let (mut frame, stats) = self.renderer.render(gaze).map_err(|e| e.to_string())?;
+        if let Some(a) = &mut self.attention {
+            let objects = self.renderer.scene().object_materials.len();
+            let t = self.started.elapsed().as_secs_f64();
+            self.feed
+                .attention_gaze(a.gaze_px(&frame, objects, Some(t)));
+        }
         if self.layers {
             frame.rgb = layers_rgb(&frame);
         }
@@ -420,12 +429,15 @@ impl Loaded {
     }
 
     /// The frame pipeline of the session: the scene's method and effects.
-    fn renderer(&self, opts: &LiveOptions) -> Result<Renderer<'_>, String> {
+    /// `surface`: fill the depth and object ids whatever the passes need
+    /// (the attention gaze source reads them).
+    fn renderer(&self, opts: &LiveOptions, surface: bool) -> Result<Renderer<'_>, String> {
         let model = pipeline::sampling_model(self.geometry, 1.0).map_err(|e| e.to_string())?;
         let options = Options {
             method: opts.method,
             backend: opts.backend,
             por_overlay: opts.por_overlay,
+            surface,
             ..Options::default()
         };
         Renderer::new(&self.scene, Camera::new(&self.geometry), model, &options)
@@ -437,7 +449,7 @@ impl Loaded {
 /// without opening a window.
 pub fn explain(opts: &LiveOptions, out: &mut dyn Write) -> Result<(), String> {
     let loaded = Loaded::new(opts)?;
-    for l in loaded.renderer(opts)?.explain() {
+    for l in loaded.renderer(opts, false)?.explain() {
         writeln!(out, "{l}").map_err(|e| e.to_string())?;
     }
     Ok(())
@@ -446,13 +458,20 @@ pub fn explain(opts: &LiveOptions, out: &mut dyn Write) -> Result<(), String> {
 /// Runs a live session to its end, writing the session log to `out`.
 pub fn run(opts: &LiveOptions, out: &mut dyn Write) -> Result<(), LiveError> {
     let loaded = Loaded::new(opts)?;
-    let renderer = loaded.renderer(opts)?;
+    let setup = GazeSetup::resolve(opts.tracker.as_deref(), opts.replay.as_deref())?;
+    // The attention source reads every frame's depth and object ids.
+    let attention = match &setup.tracker.driver {
+        tracker_hal::Driver::Attention(a) if !setup.is_replay() => {
+            Some(pipeline::frame_attention::FrameAttention::new(a.map_size)?)
+        }
+        _ => None,
+    };
+    let renderer = loaded.renderer(opts, attention.is_some())?;
     let (scene, display, geometry) = (&loaded.scene, &loaded.display, &loaded.geometry);
     let calibration = match &opts.calibration {
         Some(p) => Some(config::load_calibration(p).map_err(|e| e.to_string())?),
         None => None,
     };
-    let setup = GazeSetup::resolve(opts.tracker.as_deref(), opts.replay.as_deref())?;
     let event_loop =
         EventLoop::new().map_err(|e| LiveError::NoWindow(crate::screen::plain_error(&e)))?;
     crate::gaze_feed::catch_interrupts();
@@ -479,6 +498,7 @@ pub fn run(opts: &LiveOptions, out: &mut dyn Write) -> Result<(), LiveError> {
         feed,
         screen: None,
         gaze: geometry.centre_px(),
+        attention,
         eyes_px: None,
         gaze_host_us: None,
         gaze_shown: false,

@@ -727,6 +727,7 @@ pub fn simulated(
     let rate = args.rate.unwrap_or(match &tracker.driver {
         Driver::Iscan(_) => 60.0,
         Driver::Mouse(c) => c.rate_hz,
+        Driver::Attention(c) => c.rate_hz,
         // The seed's Tobii ET-1750 ran at 50 Hz (Murphy 2007 §7.1).
         Driver::TobiiHid(_) => 50.0,
     });
@@ -743,6 +744,12 @@ pub fn simulated(
         Driver::Mouse(c) => {
             let truth = script(rate, (1280.0, 1024.0), c.pixels_per_degree)?;
             simulate_mouse(c, &truth, 1.0, args.seed)
+        }
+        // The attention source's stream is the mouse emulator's.
+        Driver::Attention(a) => {
+            let c = a.stream();
+            let truth = script(rate, (1280.0, 1024.0), c.pixels_per_degree)?;
+            simulate_mouse(&c, &truth, 1.0, args.seed)
         }
         Driver::TobiiHid(c) => {
             // 1° at 60 cm is 10.47 mm on the screen.

@@ -413,3 +413,69 @@ fn the_demo_opens_the_window_in_mouse_mode_when_there_is_a_display() {
         "{text}"
     );
 }
+
+/// The attention gaze source (`config/trackers/attention.ron`): no eye
+/// tracker, the point of regard is the attended object's saliency peak,
+/// predicted from each rendered frame. The gaze leaves the screen centre
+/// for an object, and the recording holds its samples as a mouse stream
+/// that decodes to valid on-screen points.
+#[test]
+fn the_attention_source_moves_the_gaze_to_an_object_and_records_it() {
+    let x = Xvfb::start();
+    let dir = tempfile::tempdir().expect("tempdir");
+    let record = dir.path().join("attention.gzrec");
+    let out = small_view(&x, dir.path())
+        .args([
+            "--tracker",
+            "config/trackers/attention.ron",
+            "--frames",
+            "25",
+            "--record",
+        ])
+        .arg(&record)
+        .succeed();
+    let text = String::from_utf8_lossy(&out.stdout);
+    let gazes: Vec<[f64; 2]> = text
+        .lines()
+        .filter(|l| l.starts_with("frame "))
+        .map(|l| {
+            let inner = &l[l.find('(').expect("(") + 1..l.find(')').expect(")")];
+            let v: Vec<f64> = inner
+                .split(',')
+                .map(|v| v.trim().parse().expect("number"))
+                .collect();
+            [v[0], v[1]]
+        })
+        .collect();
+    assert_eq!(gazes.len(), 25, "{text}");
+    assert_eq!(
+        gazes[0],
+        [320.0, 256.0],
+        "the first frame has no prediction yet"
+    );
+    let last = gazes[24];
+    assert!(last != gazes[0], "the gaze never left the centre: {text}");
+    assert!(
+        (0.0..640.0).contains(&last[0]) && (0.0..512.0).contains(&last[1]),
+        "{last:?}"
+    );
+    let rec = tracker_hal::Recording::read(&record).expect("the recording reads");
+    assert!(rec.closed);
+    assert!(matches!(
+        rec.header.tracker.driver,
+        tracker_hal::Driver::Attention(_)
+    ));
+    let mut decoder = rec.header.tracker.decoder();
+    let mut samples = std::collections::VecDeque::new();
+    for c in rec.device_chunks() {
+        tracker_hal::Decoder::push(&mut decoder, &c.payload, 0, &mut samples);
+    }
+    let valid: Vec<[f64; 2]> = samples.iter().filter_map(|s| s.gaze()).collect();
+    assert!(!valid.is_empty(), "no valid sample recorded");
+    assert!(
+        valid
+            .iter()
+            .any(|p| (p[0] - last[0]).abs() < 1.0 && (p[1] - last[1]).abs() < 1.0),
+        "the shown gaze {last:?} is not among the recorded samples"
+    );
+}

@@ -138,72 +138,8 @@ pub struct DofMaps<'a> {
 /// attended object, not a fine map, is what the focus needs).
 pub const ATTENTION_MAP_SIZE: u32 = 64;
 
-/// `focus: Attention`'s state: the tracker (its pyramids and per-object
-/// filters) and the previous frame's time.
-struct AttentionFocus {
-    tracker: attention::AttentionTracker,
-    objects: Vec<attention::ObjectInfo>,
-    last_time_s: Option<f64>,
-    attended: Option<u32>,
-}
-
-impl std::fmt::Debug for AttentionFocus {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.debug_struct("AttentionFocus")
-            .field("attended", &self.attended)
-            .finish_non_exhaustive()
-    }
-}
-
-impl AttentionFocus {
-    fn new() -> Option<Self> {
-        let config = attention::AttentionConfig::with_map_size(ATTENTION_MAP_SIZE);
-        Some(Self {
-            tracker: attention::AttentionTracker::new(config).ok()?,
-            objects: Vec::new(),
-            last_time_s: None,
-            attended: None,
-        })
-    }
-
-    /// The attended object's mean eye distance this frame, mm, or `None`
-    /// (no object attended, or the frame cannot be read).
-    fn depth_mm(
-        &mut self,
-        frame: &Frame,
-        scene_objects: usize,
-        time_s: Option<f64>,
-    ) -> Option<f64> {
-        if self.objects.len() != scene_objects {
-            self.objects = (0..scene_objects.min(attention::frame::MAX_OBJECTS))
-                .map(|id| attention::ObjectInfo::still(id as u32, 1.0))
-                .collect();
-        }
-        // The filter's time step: from the frames' times, 0 without a clock.
-        let dt = match (self.last_time_s, time_s) {
-            (Some(a), Some(b)) if b.is_finite() && b >= a => b - a,
-            _ => 0.0,
-        };
-        if let Some(t) = time_s.filter(|t| t.is_finite()) {
-            self.last_time_s = Some(t);
-        }
-        let view = attention::FrameView {
-            width: frame.width_px,
-            height: frame.height_px,
-            rgb: &frame.rgb,
-            depth_mm: &frame.depth_mm,
-            object: &frame.object,
-        };
-        let result = self
-            .tracker
-            .update(&view, &self.objects, attention::CameraMotion::STATIC, dt)
-            .ok()?;
-        self.attended = result.attended;
-        let id = result.attended?;
-        let d = f64::from(result.get(id)?.distance_mm);
-        (d.is_finite() && d > 0.0).then_some(d)
-    }
-}
+/// `focus: Attention`'s model.
+type AttentionFocus = crate::frame_attention::FrameAttention;
 
 /// One level, row-major: linear RGB, and the depth (Z) and degree of
 /// blur (B, σ in px) mips of eq. 4.9.
@@ -377,7 +313,7 @@ impl Focuser {
     pub(crate) fn new(focus: DofFocus) -> Self {
         Self {
             attention: if focus == DofFocus::Attention {
-                AttentionFocus::new().map(Box::new)
+                AttentionFocus::new(ATTENTION_MAP_SIZE).ok().map(Box::new)
             } else {
                 None
             },
@@ -386,7 +322,7 @@ impl Focuser {
     }
 
     pub(crate) fn attended_object(&self) -> Option<u32> {
-        self.attention.as_ref().and_then(|a| a.attended)
+        self.attention.as_ref().and_then(|a| a.attended())
     }
 
     pub(crate) fn has_attention_model(&self) -> bool {

@@ -1,0 +1,113 @@
+//! Lee's attention model (2009 ch. 3, `crates/attention`) run on rendered
+//! frames: which object the viewer attends, frame after frame, from the
+//! G-buffer's colour, eye distance and object ids alone. Depth of field's
+//! `focus: Attention` focuses on it; the viewer's attention gaze source
+//! reports its saliency peak as the point of regard.
+//!
+//! Decisions where the seed is silent or the scene says nothing: every
+//! object of the scene has task importance 1 (the scene format has no
+//! per-object importance yet) and does not move (static scenes), the
+//! camera is static, and the Kalman filter's time step is the frames'
+//! time difference (0 without a clock). The tracker's own constants and
+//! threshold are `attention::AttentionConfig`'s defaults.
+
+use raycast::Frame;
+
+/// The model and what it needs between frames.
+pub struct FrameAttention {
+    tracker: attention::AttentionTracker,
+    objects: Vec<attention::ObjectInfo>,
+    last_time_s: Option<f64>,
+    attended: Option<u32>,
+}
+
+impl std::fmt::Debug for FrameAttention {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("FrameAttention")
+            .field("map_size", &self.tracker.map_size())
+            .field("attended", &self.attended)
+            .finish_non_exhaustive()
+    }
+}
+
+impl FrameAttention {
+    /// A model with saliency maps of `map_size`² (64 to 512).
+    pub fn new(map_size: u32) -> Result<Self, String> {
+        let config = attention::AttentionConfig::with_map_size(map_size);
+        Ok(Self {
+            tracker: attention::AttentionTracker::new(config).map_err(|e| e.to_string())?,
+            objects: Vec::new(),
+            last_time_s: None,
+            attended: None,
+        })
+    }
+
+    /// The object attended in the last frame, if any.
+    pub fn attended(&self) -> Option<u32> {
+        self.attended
+    }
+
+    /// Runs the model on `frame` (whose surface buffers must be filled)
+    /// of a scene with `scene_objects` objects at `time_s`. `None` when
+    /// the frame cannot be read (no surface buffers, a size the model
+    /// refuses); the result's `attended` is `None` when no object reaches
+    /// the threshold.
+    pub fn update(
+        &mut self,
+        frame: &Frame,
+        scene_objects: usize,
+        time_s: Option<f64>,
+    ) -> Option<attention::Attention> {
+        if self.objects.len() != scene_objects {
+            self.objects = (0..scene_objects.min(attention::frame::MAX_OBJECTS))
+                .map(|id| attention::ObjectInfo::still(id as u32, 1.0))
+                .collect();
+        }
+        let dt = match (self.last_time_s, time_s) {
+            (Some(a), Some(b)) if b.is_finite() && b >= a => b - a,
+            _ => 0.0,
+        };
+        if let Some(t) = time_s.filter(|t| t.is_finite()) {
+            self.last_time_s = Some(t);
+        }
+        let view = attention::FrameView {
+            width: frame.width_px,
+            height: frame.height_px,
+            rgb: &frame.rgb,
+            depth_mm: &frame.depth_mm,
+            object: &frame.object,
+        };
+        let result = self
+            .tracker
+            .update(&view, &self.objects, attention::CameraMotion::STATIC, dt)
+            .ok();
+        self.attended = result.as_ref().and_then(|r| r.attended);
+        result
+    }
+
+    /// The attended object's mean eye distance in `frame`, mm, or `None`.
+    pub fn depth_mm(
+        &mut self,
+        frame: &Frame,
+        scene_objects: usize,
+        time_s: Option<f64>,
+    ) -> Option<f64> {
+        let result = self.update(frame, scene_objects, time_s)?;
+        let d = f64::from(result.get(result.attended?)?.distance_mm);
+        (d.is_finite() && d > 0.0).then_some(d)
+    }
+
+    /// The attended object's saliency peak in `frame` (screen px): a point
+    /// of regard; `None` when nothing is attended.
+    pub fn gaze_px(
+        &mut self,
+        frame: &Frame,
+        scene_objects: usize,
+        time_s: Option<f64>,
+    ) -> Option<[f64; 2]> {
+        let result = self.update(frame, scene_objects, time_s)?;
+        let p = result.gaze_px?;
+        let p = [f64::from(p[0]), f64::from(p[1])];
+        (p[0].is_finite() && p[1].is_finite()).then_some(p)
+    }
+}

@@ -36,6 +36,10 @@ pub struct DemoArgs {
     /// The rendering method (`foveated` is an alias of `hybrid`).
     #[arg(long, value_enum, default_value = "hybrid")]
     pub method: pipeline::Method,
+    /// Window mode: the gaze source (`config/trackers/attention.ron`:
+    /// Lee's attention model predicts it from each frame, no tracker).
+    #[arg(long, value_name = "FILE.ron", default_value = MOUSE)]
+    pub tracker: PathBuf,
 }
 
 const MOUSE: &str = "config/trackers/mouse.ron";
@@ -73,18 +77,21 @@ pub fn run(args: &DemoArgs, out: &mut dyn Write) -> Result<(), String> {
         line(
             out,
             format!(
-                "gazecast demo: the search task in a window; the mouse is the gaze ({MOUSE}). \
+                "gazecast demo: the search task in a window; the gaze from {}. \
                  Keys: P POR box, L layers, H HUD, S screenshot, Esc quit. \
                  (--headless renders the built-in scanpath to {} instead.)",
+                args.tracker.display(),
                 args.out.display()
             ),
         )?;
         let session = LiveOptions {
             scene: SCENE.into(),
             display: DISPLAY.into(),
-            tracker: Some(MOUSE.into()),
+            tracker: Some(args.tracker.clone()),
             frames: args.frames,
-            por_overlay: true,
+            // The box is drawn into the frame; an attention model reading
+            // the frame would see it, so it is off unless the mouse leads.
+            por_overlay: args.tracker == std::path::Path::new(MOUSE),
             backend: pipeline::BackendChoice::Auto,
             method: args.method,
             ..LiveOptions::default()

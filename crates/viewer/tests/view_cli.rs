@@ -412,6 +412,21 @@ fn the_demo_opens_the_window_in_mouse_mode_when_there_is_a_display() {
         2,
         "{text}"
     );
+    // The attention model can lead the demo instead.
+    let out = windowed(&x)
+        .args([
+            "demo",
+            "--frames",
+            "2",
+            "--tracker",
+            "config/trackers/attention.ron",
+        ])
+        .succeed();
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        text.contains("attention (config/trackers/attention.ron)"),
+        "{text}"
+    );
 }
 
 /// The attention gaze source (`config/trackers/attention.ron`): no eye

@@ -37,6 +37,7 @@ mod buffers;
 mod device;
 mod foveated;
 mod full;
+mod hidden;
 mod pipelines;
 mod post;
 mod readback;
@@ -45,6 +46,7 @@ mod upload;
 
 pub use device::probe;
 pub use foveated::{foveated_stages, Stage};
+pub use hidden::HIDDEN_HITS;
 pub use post::{GpuFrame, GpuPost};
 /// The `wgpu` this backend is built on, for callers of [`GpuPost`].
 pub use wgpu;
@@ -98,6 +100,8 @@ pub struct GpuRenderer {
     stage_ms: Vec<(&'static str, f64)>,
     /// Read the surface buffers (depth, object id, normal) back.
     surface: bool,
+    /// The hidden-image cast's pipeline, made by the first frame that asks.
+    hidden: std::sync::OnceLock<hidden::HiddenCast>,
 }
 
 impl GpuRenderer {
@@ -151,6 +155,7 @@ impl GpuRenderer {
             timer,
             stage_ms: Vec::new(),
             surface: true,
+            hidden: std::sync::OnceLock::new(),
             device,
         })
     }
@@ -159,6 +164,12 @@ impl GpuRenderer {
     /// foveated frame; a full-resolution scene never allocates them).
     pub fn has_foveated_buffers(&self) -> bool {
         self.fov_target.is_some()
+    }
+
+    /// Whether the hidden-image cast's pipeline exists (made by the first
+    /// frame whose post pass casts hidden rays, [`GpuFrame::cast_hidden`]).
+    pub fn has_hidden_pipeline(&self) -> bool {
+        self.hidden.get().is_some()
     }
 
     /// The largest storage buffer one binding may hold on this device (bytes).

@@ -1,0 +1,209 @@
+//! The GPU path of depth of field by splatting (Lee 2009 ch. 5) against the
+//! CPU pass on the GPU's own cast: the same frame read back without post
+//! passes and filtered by `DepthOfFieldSplat` (its hidden rays cast on the
+//! CPU) must equal the GPU-filtered frame (hidden rays cast on the GPU)
+//! within 1/255 on every channel. Plus pupil 0, pay per use, and the names
+//! `gpu_pass_names` and `explain` give. Small frames (Mesa's lavapipe when
+//! there is no GPU).
+
+use std::path::Path;
+
+use foveation::{Display, SamplingModel};
+use pipeline::effects::dof_splat::DepthOfFieldSplat;
+use pipeline::effects::{Pass, PassInput};
+use pipeline::{BackendChoice, Method, Options, Renderer};
+use raycast::gpu::GpuRenderer;
+use raycast::scene::Effect;
+use raycast::{Camera, Frame, Scene, SceneFile};
+
+const W: u32 = 160;
+const H: u32 = 128;
+
+const SPLAT: &str = "depth of field (Lee ch. 5, splatting)";
+
+fn display() -> Display {
+    Display {
+        name: "17in".into(),
+        resolution_px: (W, H),
+        size_mm: (337.9, 270.3),
+        eye_distance_mm: 540.0,
+        eye_point_px: None,
+    }
+}
+
+fn model() -> SamplingModel {
+    pipeline::sampling_model(display().geometry().expect("geometry"), 1.0).expect("model")
+}
+
+fn camera() -> Camera {
+    Camera::new(&display().geometry().expect("geometry"))
+}
+
+/// The depth-of-field tests' three bumpy balls: at the screen (object 0),
+/// halfway to the eye (1), 1.5 m behind the screen (2).
+fn scene(effects: &str) -> Scene {
+    let text = format!(
+        r#"Scene(
+    name: "dof",
+    meshes: {{ "ball": Bumpy(triangles: 1500, amplitude: 0.12, seed: 3) }},
+    objects: [
+        (mesh: "ball", translate_mm: (-80.0, 0.0, 0.0), scale_mm: 35.0),
+        (mesh: "ball", translate_mm: (30.0, 40.0, 270.0), scale_mm: 12.0),
+        (mesh: "ball", translate_mm: (150.0, -100.0, -1500.0), scale_mm: 100.0),
+    ],
+    effects: [{effects}],
+)"#
+    );
+    let file: SceneFile = ron::from_str(&text).expect("parses");
+    Scene::build(&file, Path::new(".")).expect("builds")
+}
+
+fn gpu(scene: &Scene) -> GpuRenderer {
+    GpuRenderer::new(scene).unwrap_or_else(|e| {
+        panic!("{e} — install Mesa's software Vulkan (Debian: mesa-vulkan-drivers; scripts/system-deps.sh does)")
+    })
+}
+
+fn renderer(scene: &Scene, backend: BackendChoice) -> Renderer<'_> {
+    Renderer::new(
+        scene,
+        camera(),
+        model(),
+        &Options {
+            method: Method::Full,
+            backend,
+            ..Options::default()
+        },
+    )
+    .expect("renderer")
+}
+
+/// The in-focus ball's centre on the screen (px).
+const GAZE: [f64; 2] = [80.0 - 80.0 * 160.0 / 337.9, 64.0];
+
+/// The largest difference of any channel, and how many channels differ.
+fn max_diff(a: &Frame, b: &Frame) -> (u8, usize) {
+    assert_eq!(a.hit, b.hit, "the hit mask is the cast's");
+    let d: Vec<u8> = a
+        .rgb
+        .iter()
+        .zip(&b.rgb)
+        .map(|(x, y)| x.abs_diff(*y))
+        .collect();
+    (
+        d.iter().copied().max().unwrap_or(0),
+        d.iter().filter(|&&v| v > 0).count(),
+    )
+}
+
+fn changed(a: &Frame, b: &Frame) -> usize {
+    a.rgb.iter().zip(&b.rgb).filter(|(x, y)| x != y).count()
+}
+
+#[test]
+fn the_splat_pass_on_the_gpu_is_the_cpu_pass() {
+    let plain = scene("");
+    let mut reference = gpu(&plain);
+    reference.set_surface(true);
+    let cam = camera();
+    let (cast, _) = reference.render_full(&cam).expect("cast");
+    let cases = [
+        (
+            "background blur, gaze focus",
+            "DepthOfField(pupil_mm: 8.0, method: Splat)",
+            false,
+        ),
+        (
+            "foreground blur, fixed focus (hidden samples)",
+            "DepthOfField(pupil_mm: 8.0, focus: Fixed(depth_mm: 2100.0), method: Splat)",
+            true,
+        ),
+    ];
+    for (what, effect, needs_hidden) in cases {
+        let s = scene(effect);
+        let e = s.effect(Effect::DEPTH_OF_FIELD).expect("listed");
+        let mut cpu = DepthOfFieldSplat::from_effect(e).expect("splat");
+        let mut expected = cast.clone();
+        let started = std::time::Instant::now();
+        cpu.run(
+            &mut expected,
+            &PassInput {
+                scene: &s,
+                camera: &cam,
+                gaze_px: GAZE,
+                time_s: Some(0.0),
+                vergence_mm: None,
+            },
+        );
+        let cpu_ms = started.elapsed().as_secs_f64() * 1e3;
+        let mut r = renderer(&s, BackendChoice::Gpu);
+        assert_eq!(r.gpu_pass_names(), [SPLAT], "{what}");
+        assert!(!r.has_splat_buffers(), "buffers come with the first frame");
+        let started = std::time::Instant::now();
+        let (got, _) = r.render_at(GAZE, 0.0).expect("renders");
+        let gpu_ms = started.elapsed().as_secs_f64() * 1e3;
+        assert!(r.has_splat_buffers() && !r.has_dof_buffers(), "{what}");
+        assert_eq!(r.gpu_focal_depth_mm(), cpu.focal_depth_mm(), "{what}");
+        let (worst, n) = max_diff(&got, &expected);
+        let blurred = changed(&cast, &expected);
+        eprintln!(
+            "{what}: max channel difference GPU vs CPU {worst} ({n} channels differ); \
+             the pass changed {blurred} channels, {} hidden samples, focus {:?} mm \
+             (CPU pass {cpu_ms:.0} ms, GPU frame {gpu_ms:.0} ms)",
+            cpu.hidden_samples(),
+            cpu.focal_depth_mm()
+        );
+        assert!(blurred > 1000, "{what}: the set-up must blur ({blurred})");
+        if needs_hidden {
+            assert!(
+                cpu.hidden_samples() > 100,
+                "{what}: {}",
+                cpu.hidden_samples()
+            );
+        }
+        assert!(worst <= 1, "{what}: {worst}");
+    }
+}
+
+#[test]
+fn pupil_zero_is_the_identity_and_makes_no_buffers() {
+    let plain = scene("");
+    let (cast, _) = gpu(&plain).render_full(&camera()).expect("cast");
+    let s = scene("DepthOfField(pupil_mm: 0.0, method: Splat)");
+    let mut r = renderer(&s, BackendChoice::Gpu);
+    assert_eq!(r.gpu_pass_names(), [SPLAT]);
+    let (got, _) = r.render_at(GAZE, 0.0).expect("renders");
+    assert_eq!(got.rgb, cast.rgb);
+    assert!(!r.has_splat_buffers());
+}
+
+#[test]
+fn the_splat_pass_is_paid_per_use_and_named() {
+    // The ch. 4 pass: no splat buffers.
+    let mip = scene("DepthOfField(pupil_mm: 8.0)");
+    let mut r = renderer(&mip, BackendChoice::Gpu);
+    r.render_at(GAZE, 0.0).expect("renders");
+    assert!(r.has_dof_buffers() && !r.has_splat_buffers());
+    assert!(!r.explain().join("\n").contains("ch. 5"));
+    // The CPU backend: the CPU pass, no GPU state.
+    let s = scene("DepthOfField(pupil_mm: 8.0, method: Splat)");
+    let mut r = renderer(&s, BackendChoice::Cpu);
+    r.render_at(GAZE, 0.0).expect("renders");
+    assert!(r.gpu_pass_names().is_empty() && !r.has_splat_buffers());
+    assert_eq!(r.pass_names(), [SPLAT]);
+    // The GPU backend names it.
+    let r = renderer(&s, BackendChoice::Gpu);
+    assert_eq!(r.pass_names(), [SPLAT]);
+    let text = r.explain().join("\n");
+    assert!(
+        text.contains(&format!("GPU pass before the read-back: {SPLAT}"))
+            && text.contains(&format!("{SPLAT} (GPU)"))
+            && text.contains("hidden image cast on the GPU"),
+        "{text}"
+    );
+    // Attention focus reads the whole frame: it stays on the CPU.
+    let att = scene("DepthOfField(pupil_mm: 8.0, focus: Attention, method: Splat)");
+    let r = renderer(&att, BackendChoice::Gpu);
+    assert!(r.gpu_pass_names().is_empty());
+    assert_eq!(r.pass_names(), [SPLAT]);
+}

@@ -307,10 +307,7 @@ fn passes_are_paid_per_use_on_both_backends() {
     let mut r = renderer_on(&d, &dof, Method::Image, BackendChoice::Gpu);
     assert!(!r.has_dof_buffers(), "buffers come with the first frame");
     r.render_at(GAZE, 0.0).expect("renders");
-    assert_eq!(
-        r.gpu_pass_names(),
-        ["image-based foveation", GAZE_DOF]
-    );
+    assert_eq!(r.gpu_pass_names(), ["image-based foveation", GAZE_DOF]);
     assert_eq!(r.pass_names(), [GAZE_DOF]);
     assert!(r.has_dof_buffers() && r.has_image_pyramid_buffers());
     assert_eq!(r.image_foveation().expect("image").allocated_levels(), 0);
@@ -443,7 +440,11 @@ fn vergence_focus_on_the_gpu_is_the_cpu_pass() {
     let mut cpu =
         DepthOfField::from_effect(s.effect(Effect::DEPTH_OF_FIELD).expect("listed")).expect("dof");
     let mut r = renderer(&s, Method::Full, BackendChoice::Gpu);
-    assert_eq!(r.gpu_pass_names().len(), 1, "vergence focus runs on the GPU");
+    assert_eq!(
+        r.gpu_pass_names().len(),
+        1,
+        "vergence focus runs on the GPU"
+    );
     for (t, vergence) in [(0.0, Some(2100.0)), (0.1, None), (0.2, Some(300.0))] {
         let mut expected = cast.clone();
         cpu.run(
@@ -460,7 +461,10 @@ fn vergence_focus_on_the_gpu_is_the_cpu_pass() {
         let (got, _) = r.render_at(GAZE, t).expect("renders");
         assert_eq!(r.gpu_focal_depth_mm(), cpu.focal_depth_mm(), "{vergence:?}");
         let (worst, _) = max_diff(&got, &expected);
-        assert!(changed(&cast, &expected) > 500, "{vergence:?}: the set-up must blur");
+        assert!(
+            changed(&cast, &expected) > 500,
+            "{vergence:?}: the set-up must blur"
+        );
         assert!(worst <= 1, "{vergence:?}: {worst}");
     }
     // Attention focus reads the whole frame: it stays on the CPU.

@@ -13,6 +13,7 @@ use pipeline::effects::dof_splat::DepthOfFieldSplat;
 use pipeline::effects::{Pass, PassInput};
 use pipeline::{BackendChoice, Method, Options, Renderer};
 use raycast::gpu::GpuRenderer;
+use raycast::render::Triggers;
 use raycast::scene::Effect;
 use raycast::{Camera, Frame, Scene, SceneFile};
 
@@ -160,9 +161,77 @@ fn the_splat_pass_on_the_gpu_is_the_cpu_pass() {
                 "{what}: {}",
                 cpu.hidden_samples()
             );
+            // The hidden image matters here: without it the frame differs.
+            let mut without = DepthOfFieldSplat::from_effect(e).expect("splat");
+            without.hidden = false;
+            let mut v_only = cast.clone();
+            without.run(
+                &mut v_only,
+                &PassInput {
+                    scene: &s,
+                    camera: &cam,
+                    gaze_px: GAZE,
+                    time_s: Some(0.0),
+                    vergence_mm: None,
+                },
+            );
+            let (h_worst, h_n) = max_diff(&v_only, &expected);
+            eprintln!("{what}: without H the CPU pass differs by up to {h_worst} ({h_n} channels)");
+            assert!(h_worst > 8 && h_n > 100, "{what}: {h_worst} {h_n}");
         }
         assert!(worst <= 1, "{what}: {worst}");
     }
+}
+
+#[test]
+fn the_splat_pass_after_the_foveated_gpu_frame_is_the_cpu_pass() {
+    let s = scene(
+        "FoveatedSampling, SilhouetteRefinement, \
+         DepthOfField(pupil_mm: 8.0, focus: Fixed(depth_mm: 2100.0), method: Splat)",
+    );
+    let cam = camera();
+    let gaze = [100.0, 70.0];
+    let mut reference = gpu(&s);
+    reference.set_surface(true);
+    let mask = foveation::mask::build(&model(), foveation::Layout::Nyquist, gaze).expect("mask");
+    let (cast, _) = reference
+        .render_foveated(&cam, &mask, &Triggers::from_scene(&s))
+        .expect("cast");
+    let e = s.effect(Effect::DEPTH_OF_FIELD).expect("listed");
+    let mut cpu = DepthOfFieldSplat::from_effect(e).expect("splat");
+    let mut expected = cast.clone();
+    cpu.run(
+        &mut expected,
+        &PassInput {
+            scene: &s,
+            camera: &cam,
+            gaze_px: gaze,
+            time_s: Some(0.0),
+            vergence_mm: None,
+        },
+    );
+    let mut r = Renderer::new(
+        &s,
+        cam,
+        model(),
+        &Options {
+            method: Method::Hybrid,
+            backend: BackendChoice::Gpu,
+            ..Options::default()
+        },
+    )
+    .expect("renderer");
+    assert_eq!(r.gpu_pass_names(), [SPLAT]);
+    let (got, _) = r.render_at(gaze, 0.0).expect("renders");
+    let (worst, n) = max_diff(&got, &expected);
+    eprintln!(
+        "hybrid + splat, foreground blur: max channel difference {worst} ({n} differ); \
+         the pass changed {}, {} hidden samples",
+        changed(&cast, &expected),
+        cpu.hidden_samples()
+    );
+    assert!(changed(&cast, &expected) > 1000);
+    assert!(worst <= 1, "{worst}");
 }
 
 #[test]

@@ -30,8 +30,10 @@
 //!    touched pixels, encoded with `colour.wgsl`; the others (and the
 //!    whole frame when no sprite is wider than 1 px) keep their bytes.
 //!
-//! Pay per use: the buffers (152 bytes a pixel: samples 32, flags 4, hidden image 16, layers 100) are made by the first
-//! frame of a scene that lists the splat method on the GPU backend.
+//! Pay per use: the buffers (152 bytes a pixel: samples 32, flags 4,
+//! hidden image 16, layers 100) are made by the first frame of a scene that
+//! lists the splat method on the GPU backend; the hidden cast's pipeline by
+//! the first frame that casts hidden rays.
 
 use raycast::gpu::wgpu;
 use raycast::gpu::{GpuError, GpuFrame};

@@ -12,10 +12,12 @@ use foveation::{Display, SamplingModel};
 use pipeline::effects::dof_splat::DepthOfFieldSplat;
 use pipeline::effects::{Pass, PassInput};
 use pipeline::{BackendChoice, Method, Options, Renderer};
-use raycast::gpu::GpuRenderer;
+use raycast::gpu::{wgpu, GpuError, GpuFrame, GpuPost, GpuRenderer, HIDDEN_HITS};
+use raycast::layers::pixel_layers;
+use raycast::ray::TriangleTest;
 use raycast::render::Triggers;
 use raycast::scene::Effect;
-use raycast::{Camera, Frame, Scene, SceneFile};
+use raycast::{Camera, Frame, Scene, SceneFile, NO_OBJECT};
 
 const W: u32 = 160;
 const H: u32 = 128;
@@ -51,6 +53,45 @@ fn scene(effects: &str) -> Scene {
         (mesh: "ball", translate_mm: (-80.0, 0.0, 0.0), scale_mm: 35.0),
         (mesh: "ball", translate_mm: (30.0, 40.0, 270.0), scale_mm: 12.0),
         (mesh: "ball", translate_mm: (150.0, -100.0, -1500.0), scale_mm: 100.0),
+    ],
+    effects: [{effects}],
+)"#
+    );
+    let file: SceneFile = ron::from_str(&text).expect("parses");
+    Scene::build(&file, Path::new(".")).expect("builds")
+}
+
+/// `tests/dof_splat.rs`'s wall of 6 × 5 coloured bumpy balls 1.5 m behind
+/// the screen, the background between them, and a ball 270 mm from the
+/// eye in front of it: hidden surfaces of other objects behind its rim.
+fn wall_scene(effects: &str) -> Scene {
+    let mut objects = String::new();
+    for j in 0..5 {
+        for i in 0..6 {
+            let x = -550.0 + 220.0 * i as f64;
+            let y = -440.0 + 220.0 * j as f64;
+            let m = (i + 2 * j) % 5;
+            objects.push_str(&format!(
+                "(mesh: \"ball\", material: Some(\"m{m}\"), translate_mm: ({x}, {y}, -1500.0), scale_mm: 85.0),\n"
+            ));
+        }
+    }
+    let text = format!(
+        r#"Scene(
+    name: "dof-splat",
+    background: (0.02, 0.03, 0.05),
+    meshes: {{ "ball": Bumpy(triangles: 1500, amplitude: 0.15, seed: 7) }},
+    materials: {{
+        "m0": (diffuse: (0.9, 0.2, 0.1)),
+        "m1": (diffuse: (0.1, 0.8, 0.2)),
+        "m2": (diffuse: (0.2, 0.3, 0.9)),
+        "m3": (diffuse: (0.9, 0.9, 0.2)),
+        "m4": (diffuse: (0.8, 0.8, 0.8)),
+        "front": (diffuse: (0.9, 0.5, 0.7)),
+    }},
+    objects: [
+        {objects}
+        (mesh: "ball", material: Some("front"), translate_mm: (10.0, -5.0, 270.0), scale_mm: 30.0),
     ],
     effects: [{effects}],
 )"#
@@ -103,25 +144,34 @@ fn changed(a: &Frame, b: &Frame) -> usize {
 
 #[test]
 fn the_splat_pass_on_the_gpu_is_the_cpu_pass() {
-    let plain = scene("");
-    let mut reference = gpu(&plain);
-    reference.set_surface(true);
     let cam = camera();
-    let (cast, _) = reference.render_full(&cam).expect("cast");
     let cases = [
         (
             "background blur, gaze focus",
+            false,
             "DepthOfField(pupil_mm: 8.0, method: Splat)",
             false,
         ),
         (
             "foreground blur, fixed focus (hidden samples)",
+            false,
             "DepthOfField(pupil_mm: 8.0, focus: Fixed(depth_mm: 2100.0), method: Splat)",
             true,
         ),
+        (
+            "foreground blur over the wall (hidden surfaces)",
+            true,
+            "DepthOfField(pupil_mm: 8.0, focus: Fixed(depth_mm: 1950.0), method: Splat)",
+            true,
+        ),
     ];
-    for (what, effect, needs_hidden) in cases {
-        let s = scene(effect);
+    for (what, wall, effect, needs_hidden) in cases {
+        let build = |e: &str| if wall { wall_scene(e) } else { scene(e) };
+        let plain = build("");
+        let mut reference = gpu(&plain);
+        reference.set_surface(true);
+        let (cast, _) = reference.render_full(&cam).expect("cast");
+        let s = build(effect);
         let e = s.effect(Effect::DEPTH_OF_FIELD).expect("listed");
         let mut cpu = DepthOfFieldSplat::from_effect(e).expect("splat");
         let mut expected = cast.clone();
@@ -232,6 +282,106 @@ fn the_splat_pass_after_the_foveated_gpu_frame_is_the_cpu_pass() {
     );
     assert!(changed(&cast, &expected) > 1000);
     assert!(worst <= 1, "{worst}");
+}
+
+/// A post pass that asks for every pixel's hidden surface and reads the
+/// hidden image back.
+struct HiddenProbe {
+    out: Vec<u32>,
+}
+
+impl GpuPost for HiddenProbe {
+    fn encode(
+        &mut self,
+        frame: &GpuFrame<'_>,
+        mut encoder: wgpu::CommandEncoder,
+    ) -> Result<wgpu::CommandEncoder, GpuError> {
+        let n = u64::from(frame.width()) * u64::from(frame.height());
+        let want = frame.storage_buffer("want", 4 * n, wgpu::BufferUsages::COPY_DST)?;
+        frame
+            .queue()
+            .write_buffer(&want, 0, &vec![1u8; 4 * n as usize]);
+        let out = frame.storage_buffer("hidden", 16 * n, wgpu::BufferUsages::COPY_SRC)?;
+        frame.cast_hidden(&mut encoder, &want, &out)?;
+        let (words, next) = frame.read_words(encoder, &[(&out, 0, 4 * n)])?;
+        self.out = words.into_iter().next().unwrap_or_default();
+        Ok(next)
+    }
+}
+
+#[test]
+fn the_hidden_image_on_the_gpu_is_the_cpu_rule() {
+    let s = wall_scene("");
+    let cam = camera();
+    let mut g = gpu(&s);
+    g.set_surface(true);
+    let (plain, _) = g.render_full(&cam).expect("cast");
+    assert!(
+        !g.has_hidden_pipeline(),
+        "made by the first frame that asks"
+    );
+    let mut probe = HiddenProbe { out: Vec::new() };
+    let (cast, _) = g.render_full_with(&cam, Some(&mut probe)).expect("cast");
+    assert!(g.has_hidden_pipeline());
+    assert_eq!(
+        cast.rgb, plain.rgb,
+        "the hidden cast leaves the frame alone"
+    );
+    assert_eq!(probe.out.len(), 4 * (W * H) as usize);
+    let (mut surfaces, mut backgrounds, mut mismatches) = (0, 0, 0);
+    let (mut d_depth, mut d_rgb) = (0.0f32, 0.0f32);
+    for y in 0..H {
+        for x in 0..W {
+            let i = (y * W + x) as usize;
+            if !cast.hit[i] {
+                continue;
+            }
+            let g = &probe.out[4 * i..4 * i + 4];
+            let g = [0, 1, 2, 3].map(|k| f32::from_bits(g[k]));
+            let layers =
+                pixel_layers(&s, &cam, x, y, HIDDEN_HITS, TriangleTest::default()).expect("layers");
+            let other = layers.as_slice().iter().skip(1).find(|l| {
+                l.hit.object != cast.object[i]
+                    && l.hit.object != NO_OBJECT
+                    && l.depth_mm > cast.depth_mm[i]
+            });
+            match other {
+                Some(l) => {
+                    surfaces += 1;
+                    let c = l.colour.to_array().map(|v| v.clamp(0.0, 1.0));
+                    if g[3] < 0.0 {
+                        mismatches += 1;
+                        continue;
+                    }
+                    d_depth = d_depth.max((g[3] - l.depth_mm).abs() / l.depth_mm);
+                    for k in 0..3 {
+                        d_rgb = d_rgb.max((g[k] - c[k]).abs());
+                    }
+                }
+                None if layers.exhausted() => {
+                    backgrounds += 1;
+                    if g[3] != -2.0 {
+                        mismatches += 1;
+                    }
+                }
+                None => {
+                    if g[3] != -1.0 {
+                        mismatches += 1;
+                    }
+                }
+            }
+        }
+    }
+    eprintln!(
+        "hidden image: {surfaces} surfaces, {backgrounds} background, {mismatches} pixels \
+         disagree; largest relative depth difference {d_depth:e}, colour {d_rgb:e}"
+    );
+    assert!(
+        surfaces > 100 && backgrounds > 100,
+        "{surfaces} {backgrounds}"
+    );
+    assert_eq!(mismatches, 0);
+    assert!(d_depth < 1e-5 && d_rgb < 1e-4, "{d_depth} {d_rgb}");
 }
 
 #[test]

@@ -87,6 +87,11 @@
 //!   from 2 px): a sharp pixel is never brightened. The reference the
 //!   tests compare against clamps every ray to the display's [0, 1], as
 //!   an LDR frame does, so highlights are off by default.
+//! - **On the GPU** (`gpu::splat`, `splat.wgsl`) the same steps run
+//!   between the cast and the read-back, the hidden image cast there too
+//!   (`raycast::gpu::GpuFrame::cast_hidden`), the sums in exact fixed
+//!   point (2⁻²⁴, 64-bit); this CPU pass is its reference
+//!   (`tests/gpu_splat.rs`, within 1/255 per channel).
 //! - Not done: the §5.3 acceleration (quarter-resolution point array away
 //!   from focus and partial occlusion) and bokeh textures (the IDF is the
 //!   uniform disc); at most one hidden image (Lee's).

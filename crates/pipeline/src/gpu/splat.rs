@@ -249,6 +249,14 @@ impl SplatFrame<'_> {
         let lap_threshold = pass.laplacian_threshold;
 
         let device = frame.device();
+        // colour.wgsl's three tables and pixels, and six of the pass's own.
+        let needed = 9;
+        let limit = device.limits().max_storage_buffers_per_shader_stage;
+        if limit < needed {
+            return Err(GpuError::Device(format!(
+                "depth of field by splatting binds {needed} storage buffers; this device allows {limit} per shader stage"
+            )));
+        }
         let st = &mut *self.state;
         let (kernels, kn) = st.kernels.get_or_insert_with(|| {
             let kernels = Kernels::new(

@@ -17,7 +17,10 @@
 //! - A caller may encode its own compute passes on the frame's colour and
 //!   depth buffers between the cast and the read-back ([`GpuPost`],
 //!   `render_full_with`, `render_foveated_with`): the pipeline's depth of
-//!   field and image-based foveation run there.
+//!   field and image-based foveation run there. Such a pass may also cast
+//!   the hidden image of Lee's ch. 5 ([`GpuFrame::cast_hidden`], `hidden`:
+//!   the first surface of another object along each pixel's ray, the GPU
+//!   twin of [`crate::layers`]); its pipeline is made on first use.
 //! - Where the adapter has timestamp queries, every pass is timed
 //!   ([`GpuRenderer::stage_ms`]).
 //!

@@ -8,9 +8,10 @@ use raycast::{Camera, Frame, Scene};
 
 use crate::backend::{Backend, BackendChoice};
 use crate::effects::depth_of_field::{DepthOfField, FOCUS_WINDOW_PX};
+use crate::effects::dof_splat::DepthOfFieldSplat;
 use crate::effects::por_overlay::PorOverlay;
 use crate::effects::{pass_for, passes_for, Pass, PassInput};
-use crate::gpu::{FramePost, GpuDof, GpuImage};
+use crate::gpu::{FramePost, GpuDof, GpuImage, GpuSplat};
 use crate::image_foveation::ImageFoveation;
 use crate::method::Method;
 use crate::model_based::ModelBased;
@@ -95,6 +96,11 @@ pub struct Renderer<'s> {
     /// when the scene lists `DepthOfField` and no CPU pass precedes it
     /// (then it is not among `passes`); `None` otherwise.
     gpu_dof: Option<GpuDof>,
+    /// Depth of field by splatting (Lee ch. 5) on the GPU, its hidden image
+    /// cast there too: on the GPU backend when the scene lists
+    /// `DepthOfField(method: Splat)` as its first pass, except `focus:
+    /// Attention`; `None` otherwise.
+    gpu_splat: Option<GpuSplat>,
     /// Image-based foveation on the GPU (the level map stays `image`'s):
     /// on the GPU backend for `Method::Image` only.
     gpu_image: Option<GpuImage>,
@@ -152,6 +158,16 @@ impl<'s> Renderer<'s> {
                 }),
             _ => None,
         };
+        let gpu_splat = match scene.effect(Effect::DEPTH_OF_FIELD) {
+            Some(e) if on_gpu => DepthOfFieldSplat::from_effect(e)
+                .filter(|d| passes.first().is_some_and(|p| p.name() == d.name()))
+                .filter(|d| d.focus != raycast::scene::DofFocus::Attention)
+                .map(|d| {
+                    passes.remove(0);
+                    GpuSplat::new(d)
+                }),
+            _ => None,
+        };
         let gpu_image = (on_gpu && method == Method::Image).then(GpuImage::default);
         let model_based = if method.is_model_based() {
             Some(ModelBased::new(scene, &camera, method).map_err(RenderError::Unsupported)?)
@@ -176,6 +192,7 @@ impl<'s> Renderer<'s> {
             image_ms: 0.0,
             vergence_mm: None,
             gpu_dof,
+            gpu_splat,
             gpu_image,
         })
     }
@@ -287,8 +304,17 @@ impl<'s> Renderer<'s> {
                     time_s: Some(time_s),
                     vergence_mm,
                 });
-                let mut post = FramePost { image, dof };
-                let post = (post.image.is_some() || post.dof.is_some())
+                let background = self.scene.background.to_array();
+                let splat = self.gpu_splat.as_mut().map(|state| crate::gpu::SplatFrame {
+                    state,
+                    camera: &self.camera,
+                    background,
+                    gaze_px,
+                    time_s: Some(time_s),
+                    vergence_mm,
+                });
+                let mut post = FramePost { image, dof, splat };
+                let post = (post.image.is_some() || post.dof.is_some() || post.splat.is_some())
                     .then_some(&mut post as &mut dyn raycast::gpu::GpuPost);
                 if self.method == Method::Hybrid {
                     let mask = foveation::mask::build(&self.model, self.settings.layout, gaze_px)?;
@@ -395,6 +421,14 @@ impl<'s> Renderer<'s> {
         self.gpu_dof.as_ref().is_some_and(|d| d.has_buffers())
     }
 
+    /// Whether the GPU backend holds the splat pass's buffers (V and H
+    /// samples, the hidden image, the fixed-point layers; false on the CPU
+    /// backend): only a scene that lists `DepthOfField(method: Splat)` makes
+    /// them, with its first frame.
+    pub fn has_splat_buffers(&self) -> bool {
+        self.gpu_splat.as_ref().is_some_and(|d| d.has_buffers())
+    }
+
     /// Whether the GPU backend holds image-based foveation's pyramid and
     /// level-map buffers (false on the CPU backend, whose pyramid is
     /// [`Renderer::image_foveation`]'s): only `Method::Image` makes them.
@@ -412,13 +446,20 @@ impl<'s> Renderer<'s> {
         if let Some(d) = &self.gpu_dof {
             out.push(d.pass.name());
         }
+        if let Some(d) = &self.gpu_splat {
+            out.push(d.pass.name());
+        }
         out
     }
 
     /// The focal depth of the last frame depth of field blurred (mm, after
     /// the refocusing dynamics), when it runs on the GPU; `None` otherwise.
     pub fn gpu_focal_depth_mm(&self) -> Option<f64> {
-        self.gpu_dof.as_ref().and_then(|d| d.pass.focal_depth_mm())
+        match (&self.gpu_dof, &self.gpu_splat) {
+            (Some(d), _) => d.pass.focal_depth_mm(),
+            (None, Some(d)) => d.pass.focal_depth_mm(),
+            (None, None) => None,
+        }
     }
 
     /// Whether the GPU backend holds the hybrid method's buffers (false on
@@ -466,7 +507,9 @@ impl<'s> Renderer<'s> {
     /// ([`Renderer::gpu_pass_names`]), the others on the CPU after it.
     pub fn pass_names(&self) -> Vec<&'static str> {
         let gpu = self.gpu_dof.as_ref().map(|d| d.pass.name());
+        let splat = self.gpu_splat.as_ref().map(|d| d.pass.name());
         gpu.into_iter()
+            .chain(splat)
             .chain(self.passes.iter().map(|p| p.name()))
             .collect()
     }
@@ -571,12 +614,34 @@ impl<'s> Renderer<'s> {
                 d.pass.name()
             ));
         }
+        if let Some(d) = &self.gpu_splat {
+            let focus = match d.pass.focus {
+                raycast::scene::DofFocus::Gaze | raycast::scene::DofFocus::Vergence => format!(
+                    "the median depth of the {FOCUS_WINDOW_PX}×{FOCUS_WINDOW_PX} window at the gaze \
+                     (or the vergence depth) read back after the cast, refocus on the CPU"
+                ),
+                raycast::scene::DofFocus::Fixed { depth_mm } => format!("fixed at {depth_mm} mm"),
+                raycast::scene::DofFocus::Attention => "the attended object (CPU)".to_string(),
+            };
+            out.push(format!(
+                "GPU pass before the read-back: {} — focus {focus}; V with signed CoC and \
+                 eq. 5.1 → hidden image cast on the GPU (first other object along the ray) → \
+                 scatter into three layers (fixed-point atomics, 2^-24) → composition \
+                 and normalisation",
+                d.pass.name()
+            ));
+        }
         let gpu_dof = self
             .gpu_dof
             .as_ref()
             .map(|d| format!("{} (GPU)", d.pass.name()));
+        let gpu_splat = self
+            .gpu_splat
+            .as_ref()
+            .map(|d| format!("{} (GPU)", d.pass.name()));
         let passes: Vec<String> = gpu_dof
             .into_iter()
+            .chain(gpu_splat)
             .chain(self.passes.iter().map(|p| p.name().to_string()))
             .collect();
         out.push(format!(

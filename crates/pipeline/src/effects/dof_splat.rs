@@ -87,6 +87,11 @@
 //!   from 2 px): a sharp pixel is never brightened. The reference the
 //!   tests compare against clamps every ray to the display's [0, 1], as
 //!   an LDR frame does, so highlights are off by default.
+//! - **On the GPU** (`gpu::splat`, `splat.wgsl`) the same steps run
+//!   between the cast and the read-back, the hidden image cast there too
+//!   (`raycast::gpu::GpuFrame::cast_hidden`), the sums in exact fixed
+//!   point (2⁻²⁴, 64-bit); this CPU pass is its reference
+//!   (`tests/gpu_splat.rs`, within 1/255 per channel).
 //! - Not done: the §5.3 acceleration (quarter-resolution point array away
 //!   from focus and partial occlusion) and bokeh textures (the IDF is the
 //!   uniform disc); at most one hidden image (Lee's).
@@ -261,6 +266,44 @@ impl DepthOfFieldSplat {
         self.focuser.refocus.focus_mm()
     }
 
+    /// The pass a scene's `DepthOfField(…, method: Splat)` asks for.
+    pub fn from_effect(effect: &raycast::scene::Effect) -> Option<Self> {
+        match effect {
+            raycast::scene::Effect::DepthOfField {
+                pupil_mm,
+                focal_length_mm,
+                retina_distance_mm,
+                focus,
+                refocus,
+                method: raycast::scene::DofMethod::Splat,
+            } => Some(
+                Self::new(
+                    EyeLens {
+                        focal_length_mm: *focal_length_mm,
+                        aperture_mm: *pupil_mm,
+                        retina_distance_mm: *retina_distance_mm,
+                    },
+                    *focus,
+                )
+                .with_refocus(*refocus),
+            ),
+            _ => None,
+        }
+    }
+
+    /// Whether the pupil is zero (or invalid): the pass is the identity and
+    /// does not even update its focus.
+    pub(crate) fn is_pinhole(&self) -> bool {
+        self.lens.aperture_mm.is_nan() || self.lens.aperture_mm <= 0.0
+    }
+
+    /// The focal depth for a frame whose focus search ran elsewhere (the
+    /// GPU path reads the gaze window back): [`Focuser::settle`], as `run`
+    /// does after its own search.
+    pub(crate) fn focus_with(&mut self, found_mm: Option<f64>, time_s: Option<f64>) -> f64 {
+        self.focuser.settle(self.focus, found_mm, time_s)
+    }
+
     /// Hidden-image samples splatted in the last frame.
     pub fn hidden_samples(&self) -> usize {
         self.hidden_count
@@ -304,7 +347,7 @@ pub fn signed_coc_px(
 }
 
 /// `k_n(C)` (eq. 5.2) for every quantised diameter: 1 / Σ_q cov(q).
-fn kn_table() -> &'static [f32] {
+pub(crate) fn kn_table() -> &'static [f32] {
     static TABLE: std::sync::OnceLock<Vec<f32>> = std::sync::OnceLock::new();
     TABLE.get_or_init(|| {
         let n = (MAX_COC_PX * COC_STEPS_PER_PX) as usize;
@@ -352,7 +395,7 @@ fn layer(b: f32, dest: (f32, f32)) -> usize {
 }
 
 /// The 12-point golden-angle spiral of eq. 5.1 on the unit disc.
-fn spiral() -> &'static [[f32; 2]; LAPLACIAN_SAMPLES] {
+pub(crate) fn spiral() -> &'static [[f32; 2]; LAPLACIAN_SAMPLES] {
     static S: std::sync::OnceLock<[[f32; 2]; LAPLACIAN_SAMPLES]> = std::sync::OnceLock::new();
     S.get_or_init(|| {
         let golden = std::f64::consts::PI * (3.0 - 5.0f64.sqrt());

@@ -22,15 +22,20 @@
 //!   pixels are the CPU's, bit for bit) and the f32 threshold of "behind
 //!   the focus" (eq. 4.9).
 //!
+//! Depth of field by splatting (Lee ch. 5, `splat.wgsl`) runs here too,
+//! its hidden image cast on the GPU (see [`splat`]'s notes).
+//!
 //! Pay per use: a renderer makes a pass's GPU state only when the scene
 //! lists `DepthOfField` or the method is `Image`, and its buffers with its
 //! first frame.
 
 mod dof;
 mod image;
+mod splat;
 
 pub(crate) use dof::{DofFrame, GpuDof};
 pub(crate) use image::{GpuImage, ImageFrame};
+pub(crate) use splat::{GpuSplat, SplatFrame};
 
 use raycast::gpu::wgpu;
 use raycast::gpu::{GpuError, GpuFrame, GpuPost};
@@ -265,6 +270,8 @@ pub(super) fn level_layout(w: u32, h: u32, n: usize) -> (Vec<[u32; 3]>, u64) {
 pub(crate) struct FramePost<'a> {
     pub image: Option<image::ImageFrame<'a>>,
     pub dof: Option<dof::DofFrame<'a>>,
+    /// Depth of field by splatting (Lee ch. 5), where the scene asks for it.
+    pub splat: Option<splat::SplatFrame<'a>>,
 }
 
 impl GpuPost for FramePost<'_> {
@@ -278,6 +285,9 @@ impl GpuPost for FramePost<'_> {
         }
         if let Some(d) = &mut self.dof {
             encoder = d.encode(frame, encoder)?;
+        }
+        if let Some(s) = &mut self.splat {
+            encoder = s.encode(frame, encoder)?;
         }
         Ok(encoder)
     }

@@ -240,6 +240,11 @@ impl GpuRenderer {
                 width: w,
                 height: h,
                 max_binding: self.max_binding,
+                hidden: super::hidden::HiddenHook {
+                    layouts: &self.layouts,
+                    cast_group: &target.bind_group,
+                    cast: &self.hidden,
+                },
             };
             encoder = post.encode(&frame, encoder)?;
         }

@@ -89,7 +89,11 @@ impl GpuRenderer {
         let pipeline = self.pipelines.full.clone();
         let surface = self.surface;
         let max_binding = self.max_binding;
-        let target = self.frame_target(pixels)?;
+        self.frame_target(pixels)?;
+        let target = self
+            .target
+            .as_ref()
+            .ok_or_else(|| GpuError::Readback("no frame buffers".into()))?;
         let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
             label: Some("frame"),
         });
@@ -108,6 +112,11 @@ impl GpuRenderer {
                 width: w,
                 height: h,
                 max_binding,
+                hidden: super::hidden::HiddenHook {
+                    layouts: &self.layouts,
+                    cast_group: &target.bind_group,
+                    cast: &self.hidden,
+                },
             };
             encoder = post.encode(&frame, encoder)?;
         }

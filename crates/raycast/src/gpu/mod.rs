@@ -17,7 +17,10 @@
 //! - A caller may encode its own compute passes on the frame's colour and
 //!   depth buffers between the cast and the read-back ([`GpuPost`],
 //!   `render_full_with`, `render_foveated_with`): the pipeline's depth of
-//!   field and image-based foveation run there.
+//!   field and image-based foveation run there. Such a pass may also cast
+//!   the hidden image of Lee's ch. 5 ([`GpuFrame::cast_hidden`], `hidden`:
+//!   the first surface of another object along each pixel's ray, the GPU
+//!   twin of [`crate::layers`]); its pipeline is made on first use.
 //! - Where the adapter has timestamp queries, every pass is timed
 //!   ([`GpuRenderer::stage_ms`]).
 //!
@@ -37,6 +40,7 @@ mod buffers;
 mod device;
 mod foveated;
 mod full;
+mod hidden;
 mod pipelines;
 mod post;
 mod readback;
@@ -45,6 +49,7 @@ mod upload;
 
 pub use device::probe;
 pub use foveated::{foveated_stages, Stage};
+pub use hidden::HIDDEN_HITS;
 pub use post::{GpuFrame, GpuPost};
 /// The `wgpu` this backend is built on, for callers of [`GpuPost`].
 pub use wgpu;
@@ -98,6 +103,8 @@ pub struct GpuRenderer {
     stage_ms: Vec<(&'static str, f64)>,
     /// Read the surface buffers (depth, object id, normal) back.
     surface: bool,
+    /// The hidden-image cast's pipeline, made by the first frame that asks.
+    hidden: std::sync::OnceLock<hidden::HiddenCast>,
 }
 
 impl GpuRenderer {
@@ -151,6 +158,7 @@ impl GpuRenderer {
             timer,
             stage_ms: Vec::new(),
             surface: true,
+            hidden: std::sync::OnceLock::new(),
             device,
         })
     }
@@ -159,6 +167,12 @@ impl GpuRenderer {
     /// foveated frame; a full-resolution scene never allocates them).
     pub fn has_foveated_buffers(&self) -> bool {
         self.fov_target.is_some()
+    }
+
+    /// Whether the hidden-image cast's pipeline exists (made by the first
+    /// frame whose post pass casts hidden rays, [`GpuFrame::cast_hidden`]).
+    pub fn has_hidden_pipeline(&self) -> bool {
+        self.hidden.get().is_some()
     }
 
     /// The largest storage buffer one binding may hold on this device (bytes).

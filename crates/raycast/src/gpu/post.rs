@@ -18,6 +18,7 @@
 //! time (wall clock) includes them.
 
 use super::buffers::storage;
+use super::hidden::HiddenHook;
 use super::readback::read_back;
 use super::GpuError;
 
@@ -30,6 +31,8 @@ pub struct GpuFrame<'a> {
     pub(super) width: u32,
     pub(super) height: u32,
     pub(super) max_binding: u64,
+    /// The frame's cast bind group and the hidden-image pipeline.
+    pub(super) hidden: HiddenHook<'a>,
 }
 
 impl<'a> GpuFrame<'a> {

@@ -133,6 +133,10 @@ fn the_scene_file_parses_defaults_and_validates_naming_the_field() {
     assert!(build("DepthOfField(focus: Fixed(depth_mm: inf))").is_ok());
     assert!(build("DepthOfField(pupil_mm: 0.0)").is_ok());
     for (text, field) in [
+        (
+            "DepthOfField(method: Splat, smooth_foreground: true)",
+            "effects[0].smooth_foreground",
+        ),
         ("DepthOfField(pupil_mm: -1.0)", "effects[0].pupil_mm"),
         ("DepthOfField(pupil_mm: NaN)", "effects[0].pupil_mm"),
         ("DepthOfField(pupil_mm: 1000.0)", "effects[0].pupil_mm"),

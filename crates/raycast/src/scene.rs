@@ -302,12 +302,18 @@ impl Effect {
                 refocus,
                 // Every method takes every lens; serde refuses an unknown
                 // method, naming the line.
-                method: _,
-                smooth_foreground: _,
+                method,
+                smooth_foreground,
             } => {
                 let bad = |name: &str, msg: String| {
                     Err(SceneError::field(format!("{field}.{name}"), msg))
                 };
+                if smooth_foreground && method == DofMethod::Splat {
+                    return bad(
+                        "smooth_foreground",
+                        "applies to method Mipmap only: Splat renders partial occlusion with the hidden surface".into(),
+                    );
+                }
                 if !(0.0..=DOF_PUPIL_MM_MAX).contains(&pupil_mm) {
                     return bad(
                         "pupil_mm",

@@ -276,6 +276,9 @@ impl DepthOfFieldSplat {
                 focus,
                 refocus,
                 method: raycast::scene::DofMethod::Splat,
+                // The scene refuses it with Splat (partial occlusion is
+                // what the hidden image does).
+                smooth_foreground: _,
             } => Some(
                 Self::new(
                     EyeLens {

@@ -13,7 +13,6 @@
 //! a few frames (median); the sharp frame is rendered once. `--quick` does
 //! 160×128 only.
 
-use std::path::Path;
 use std::time::Instant;
 
 use foveation::thin_lens::EyeLens;
@@ -23,7 +22,7 @@ use pipeline::effects::dof_splat::{signed_coc_px, DepthOfFieldSplat};
 use pipeline::effects::{Pass, PassInput};
 use pipeline::{BackendChoice, Options, Renderer};
 use raycast::scene::DofFocus;
-use raycast::{Camera, Frame, Scene, SceneFile};
+use raycast::{Camera, Frame, Scene};
 
 /// The in-focus ball's eye distance, mm.
 const FOCUS_MM: f64 = 480.0;
@@ -38,48 +37,12 @@ fn display(w: u32, h: u32) -> Display {
     }
 }
 
-/// The ball at the screen (in focus at [`FOCUS_MM`]).
-const SCREEN_BALL: &str =
-    r#"(mesh: "ball", material: Some("front"), translate_mm: (-30.0, 10.0, 0.0), scale_mm: 60.0),"#;
-/// A ball 270 mm from the eye, blurred in front of the wall (in focus at
-/// [`WALL_FOCUS_MM`]): the foreground-blur scene, with hidden samples.
-const NEAR_BALL: &str = r#"(mesh: "ball", material: Some("front"), translate_mm: (10.0, -5.0, 270.0), scale_mm: 30.0),"#;
-/// The wall's eye distance, mm (the foreground-blur scene's focus).
-const WALL_FOCUS_MM: f64 = 1950.0;
+#[path = "../tests/common/dof_wall.rs"]
+mod dof_wall;
+use dof_wall::{NEAR_BALL, SCREEN_BALL, WALL_FOCUS_MM};
 
 fn scene(front: &str) -> Result<Scene, Box<dyn std::error::Error>> {
-    let mut objects = String::new();
-    for j in 0..5 {
-        for i in 0..6 {
-            let x = -550.0 + 220.0 * i as f64;
-            let y = -440.0 + 220.0 * j as f64;
-            let m = (i + 2 * j) % 5;
-            objects.push_str(&format!(
-                "(mesh: \"ball\", material: Some(\"m{m}\"), translate_mm: ({x}, {y}, -1500.0), scale_mm: 85.0),\n"
-            ));
-        }
-    }
-    let text = format!(
-        r#"Scene(
-    name: "dof-splat-cost",
-    background: (0.02, 0.03, 0.05),
-    meshes: {{ "ball": Bumpy(triangles: 1500, amplitude: 0.15, seed: 7) }},
-    materials: {{
-        "m0": (diffuse: (0.9, 0.2, 0.1)),
-        "m1": (diffuse: (0.1, 0.8, 0.2)),
-        "m2": (diffuse: (0.2, 0.3, 0.9)),
-        "m3": (diffuse: (0.9, 0.9, 0.2)),
-        "m4": (diffuse: (0.8, 0.8, 0.8)),
-        "front": (diffuse: (0.9, 0.5, 0.7)),
-    }},
-    objects: [
-        {objects}
-        {front}
-    ],
-)"#
-    );
-    let file: SceneFile = ron::from_str(&text)?;
-    Ok(Scene::build(&file, Path::new("."))?)
+    Ok(dof_wall::wall(front, "")?)
 }
 
 fn lens(pupil_mm: f64) -> EyeLens {

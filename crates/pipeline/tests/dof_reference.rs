@@ -3,15 +3,13 @@
 //! and a foreground-blur scene. The PSNRs print with
 //! `cargo test -p pipeline --test dof_reference -- --nocapture`.
 
-use std::path::Path;
-
 use foveation::thin_lens::EyeLens;
 use foveation::Display;
 use pipeline::effects::dof_reference::{
     concentric_disc, equivalent_pupil_mm, psnr, pupil_samples, render_reference, REFERENCE_SIDE,
 };
 use pipeline::{BackendChoice, Options, Renderer};
-use raycast::{Camera, Scene, SceneFile};
+use raycast::{Camera, Scene};
 
 const W: u32 = 160;
 const H: u32 = 128;
@@ -27,50 +25,13 @@ fn display() -> Display {
     }
 }
 
-/// A wall of 6 × 5 coloured bumpy balls 1.5 m behind the screen, with the
-/// background showing between them, and `front`'s objects.
-fn scene(front: &str, effects: &str) -> Scene {
-    let mut objects = String::new();
-    for j in 0..5 {
-        for i in 0..6 {
-            let x = -550.0 + 220.0 * i as f64;
-            let y = -440.0 + 220.0 * j as f64;
-            let m = (i + 2 * j) % 5;
-            objects.push_str(&format!(
-                "(mesh: \"ball\", material: Some(\"m{m}\"), translate_mm: ({x}, {y}, -1500.0), scale_mm: 85.0),\n"
-            ));
-        }
-    }
-    let text = format!(
-        r#"Scene(
-    name: "dof-reference",
-    background: (0.02, 0.03, 0.05),
-    meshes: {{ "ball": Bumpy(triangles: 1500, amplitude: 0.15, seed: 7) }},
-    materials: {{
-        "m0": (diffuse: (0.9, 0.2, 0.1)),
-        "m1": (diffuse: (0.1, 0.8, 0.2)),
-        "m2": (diffuse: (0.2, 0.3, 0.9)),
-        "m3": (diffuse: (0.9, 0.9, 0.2)),
-        "m4": (diffuse: (0.8, 0.8, 0.8)),
-        "front": (diffuse: (0.9, 0.5, 0.7)),
-    }},
-    objects: [
-        {objects}
-        {front}
-    ],
-    effects: [{effects}],
-)"#
-    );
-    let file: SceneFile = ron::from_str(&text).expect("parses");
-    Scene::build(&file, Path::new(".")).expect("builds")
-}
+#[path = "common/dof_wall.rs"]
+mod dof_wall;
+use dof_wall::{NEAR_BALL, SCREEN_BALL};
 
-/// A ball at the screen (its front 480 mm from the eye): in focus for the
-/// background-blur scene.
-const SCREEN_BALL: &str =
-    r#"(mesh: "ball", material: Some("front"), translate_mm: (-30.0, 10.0, 0.0), scale_mm: 60.0),"#;
-/// A ball 270 mm from the eye: blurred in front of the focused wall.
-const NEAR_BALL: &str = r#"(mesh: "ball", material: Some("front"), translate_mm: (10.0, -5.0, 270.0), scale_mm: 30.0),"#;
+fn scene(front: &str, effects: &str) -> Scene {
+    dof_wall::wall(front, effects).expect("the wall builds")
+}
 
 fn render(scene: &Scene) -> Vec<u8> {
     let g = display().geometry().expect("geometry");

@@ -61,43 +61,13 @@ fn scene(effects: &str) -> Scene {
     Scene::build(&file, Path::new(".")).expect("builds")
 }
 
-/// `tests/dof_splat.rs`'s wall of 6 × 5 coloured bumpy balls 1.5 m behind
-/// the screen, the background between them, and a ball 270 mm from the
-/// eye in front of it: hidden surfaces of other objects behind its rim.
+#[path = "common/dof_wall.rs"]
+mod dof_wall;
+
+/// The wall with a ball 270 mm from the eye in front of it: hidden
+/// surfaces of other objects behind its rim.
 fn wall_scene(effects: &str) -> Scene {
-    let mut objects = String::new();
-    for j in 0..5 {
-        for i in 0..6 {
-            let x = -550.0 + 220.0 * i as f64;
-            let y = -440.0 + 220.0 * j as f64;
-            let m = (i + 2 * j) % 5;
-            objects.push_str(&format!(
-                "(mesh: \"ball\", material: Some(\"m{m}\"), translate_mm: ({x}, {y}, -1500.0), scale_mm: 85.0),\n"
-            ));
-        }
-    }
-    let text = format!(
-        r#"Scene(
-    name: "dof-splat",
-    background: (0.02, 0.03, 0.05),
-    meshes: {{ "ball": Bumpy(triangles: 1500, amplitude: 0.15, seed: 7) }},
-    materials: {{
-        "m0": (diffuse: (0.9, 0.2, 0.1)),
-        "m1": (diffuse: (0.1, 0.8, 0.2)),
-        "m2": (diffuse: (0.2, 0.3, 0.9)),
-        "m3": (diffuse: (0.9, 0.9, 0.2)),
-        "m4": (diffuse: (0.8, 0.8, 0.8)),
-        "front": (diffuse: (0.9, 0.5, 0.7)),
-    }},
-    objects: [
-        {objects}
-        (mesh: "ball", material: Some("front"), translate_mm: (10.0, -5.0, 270.0), scale_mm: 30.0),
-    ],
-    effects: [{effects}],
-)"#
-    );
-    let file: SceneFile = ron::from_str(&text).expect("parses");
-    Scene::build(&file, Path::new(".")).expect("builds")
+    dof_wall::wall(dof_wall::NEAR_BALL, effects).expect("the wall builds")
 }
 
 fn gpu(scene: &Scene) -> GpuRenderer {

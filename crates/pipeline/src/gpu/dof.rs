@@ -6,13 +6,12 @@
 use foveation::thin_lens::K_SIGMA;
 use raycast::gpu::wgpu;
 use raycast::gpu::{GpuError, GpuFrame};
-use raycast::scene::DofFocus;
 use raycast::Camera;
 
 use super::{dispatch, level_layout, Kernels, Words, SLOT};
 use crate::effects::depth_of_field::{
-    circular_weights, coc_px, focus_window, level_for_coc, median_depth, pyramid_taps, screen_of,
-    top_level, DepthOfField, ANISO_DELTA_PX, CIRCLE, MAX_LEVELS, SIGMA_CAP_PX,
+    circular_weights, coc_px, level_for_coc, pyramid_taps, screen_of, top_level, DepthOfField,
+    ANISO_DELTA_PX, CIRCLE, MAX_LEVELS, SIGMA_CAP_PX,
 };
 
 /// Bytes of `Params` in `dof.wgsl`.
@@ -133,48 +132,16 @@ impl DofFrame<'_> {
         if w == 0 || h == 0 || self.state.pass.is_pinhole() {
             return Ok(encoder);
         }
-        // The focus: the gaze window read back (focus: Gaze), the CPU pass's
-        // median and dynamics.
-        let vergence = self.vergence_mm.filter(|d| d.is_finite() && *d > 0.0);
-        let gaze_depth = match self.state.pass.focus {
-            // Attention focus stays on the CPU (the renderer never moves it
-            // here): its model reads the whole frame.
-            DofFocus::Fixed { .. } | DofFocus::Attention => None,
-            DofFocus::Vergence if vergence.is_some() => None,
-            DofFocus::Gaze | DofFocus::Vergence => {
-                match focus_window(i64::from(w), i64::from(h), self.gaze_px) {
-                    Some((x0, y0, x1, y1)) if x0 <= x1 && y0 <= y1 => {
-                        let n = (x1 - x0 + 1) as u64;
-                        let mut reads = Vec::new();
-                        for y in y0..=y1 {
-                            let first = y as u64 * u64::from(w) + x0 as u64;
-                            reads.push((frame.depth(), first, n));
-                            reads.push((frame.pixels(), first, n));
-                        }
-                        let (words, next) = frame.read_words(encoder, &reads)?;
-                        encoder = next;
-                        let mut depths = Vec::with_capacity(81);
-                        for pair in words.chunks_exact(2) {
-                            for (&d, &p) in pair[0].iter().zip(&pair[1]) {
-                                // The background is infinitely far.
-                                let hit = (p >> 24) & 1 == 1;
-                                depths.push(if hit {
-                                    f32::from_bits(d)
-                                } else {
-                                    f32::INFINITY
-                                });
-                            }
-                        }
-                        median_depth(depths)
-                    }
-                    _ => None,
-                }
-            }
-        };
-        let found = match self.state.pass.focus {
-            DofFocus::Vergence => vergence.or(gaze_depth),
-            _ => gaze_depth,
-        };
+        // The focus: the gaze window read back where the focus needs it,
+        // the CPU pass's median and dynamics.
+        let (found, next) = super::found_focus(
+            self.state.pass.focus,
+            self.vergence_mm,
+            frame,
+            encoder,
+            self.gaze_px,
+        )?;
+        encoder = next;
         let focus = self.state.pass.focus_with(found, self.time_s);
         let top = top_level(w as usize, h as usize);
         if top == 0 {

@@ -41,6 +41,7 @@ use raycast::gpu::wgpu;
 use raycast::gpu::{GpuError, GpuFrame, GpuPost};
 
 use crate::colour;
+use crate::effects::depth_of_field::{focus_window, median_depth};
 
 /// Bytes of one uniform slot (one dispatch's params, a dynamic offset).
 const SLOT: u64 = 256;
@@ -290,6 +291,62 @@ impl GpuPost for FramePost<'_> {
             encoder = s.encode(frame, encoder)?;
         }
         Ok(encoder)
+    }
+}
+
+/// The focus found in the gaze window read back (the median of its hit
+/// depths), for both depth-of-field passes.
+pub(crate) fn gaze_window_depth(
+    frame: &GpuFrame<'_>,
+    encoder: wgpu::CommandEncoder,
+    gaze_px: [f64; 2],
+) -> Result<(Option<f64>, wgpu::CommandEncoder), GpuError> {
+    let (w, h) = (frame.width(), frame.height());
+    match focus_window(i64::from(w), i64::from(h), gaze_px) {
+        Some((x0, y0, x1, y1)) if x0 <= x1 && y0 <= y1 => {
+            let n = (x1 - x0 + 1) as u64;
+            let mut reads = Vec::new();
+            for y in y0..=y1 {
+                let first = y as u64 * u64::from(w) + x0 as u64;
+                reads.push((frame.depth(), first, n));
+                reads.push((frame.pixels(), first, n));
+            }
+            let (words, next) = frame.read_words(encoder, &reads)?;
+            let mut depths = Vec::with_capacity(81);
+            for pair in words.chunks_exact(2) {
+                for (&d, &p) in pair[0].iter().zip(&pair[1]) {
+                    let hit = (p >> 24) & 1 == 1;
+                    depths.push(if hit {
+                        f32::from_bits(d)
+                    } else {
+                        f32::INFINITY
+                    });
+                }
+            }
+            Ok((median_depth(depths), next))
+        }
+        _ => Ok((None, encoder)),
+    }
+}
+
+/// What a GPU depth-of-field pass's focus search finds this frame, as the
+/// CPU's `Focuser` would (then settled by the pass's `focus_with`): the
+/// vergence depth, or the gaze window's median read back (one wait) where
+/// the focus needs it; nothing for a fixed focus. `Attention` never runs
+/// on the GPU (the renderer keeps it on the CPU).
+pub(crate) fn found_focus(
+    focus: raycast::scene::DofFocus,
+    vergence_mm: Option<f64>,
+    frame: &GpuFrame<'_>,
+    encoder: wgpu::CommandEncoder,
+    gaze_px: [f64; 2],
+) -> Result<(Option<f64>, wgpu::CommandEncoder), GpuError> {
+    use raycast::scene::DofFocus;
+    let vergence = vergence_mm.filter(|d| d.is_finite() && *d > 0.0);
+    match focus {
+        DofFocus::Fixed { .. } | DofFocus::Attention => Ok((None, encoder)),
+        DofFocus::Vergence if vergence.is_some() => Ok((vergence, encoder)),
+        DofFocus::Gaze | DofFocus::Vergence => gaze_window_depth(frame, encoder, gaze_px),
     }
 }
 

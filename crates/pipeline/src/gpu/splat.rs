@@ -37,11 +37,10 @@
 
 use raycast::gpu::wgpu;
 use raycast::gpu::{GpuError, GpuFrame};
-use raycast::scene::DofFocus;
 use raycast::Camera;
 
 use super::{dispatch, f32_bytes, Kernels, Words};
-use crate::effects::depth_of_field::{coc_px, focus_window, median_depth, screen_of};
+use crate::effects::depth_of_field::{coc_px, screen_of};
 use crate::effects::dof_splat::{
     kn_table, signed_coc_px, spiral, DepthOfFieldSplat, COC_STEPS_PER_PX, DELTA, MAX_COC_PX,
 };
@@ -139,41 +138,6 @@ fn f32_from(v: f64, or_equal: bool) -> f32 {
     t
 }
 
-/// The focus found in the gaze window read back (the median of its hit
-/// depths), as `gpu::dof` reads it.
-fn gaze_window_depth(
-    frame: &GpuFrame<'_>,
-    encoder: wgpu::CommandEncoder,
-    gaze_px: [f64; 2],
-) -> Result<(Option<f64>, wgpu::CommandEncoder), GpuError> {
-    let (w, h) = (frame.width(), frame.height());
-    match focus_window(i64::from(w), i64::from(h), gaze_px) {
-        Some((x0, y0, x1, y1)) if x0 <= x1 && y0 <= y1 => {
-            let n = (x1 - x0 + 1) as u64;
-            let mut reads = Vec::new();
-            for y in y0..=y1 {
-                let first = y as u64 * u64::from(w) + x0 as u64;
-                reads.push((frame.depth(), first, n));
-                reads.push((frame.pixels(), first, n));
-            }
-            let (words, next) = frame.read_words(encoder, &reads)?;
-            let mut depths = Vec::with_capacity(81);
-            for pair in words.chunks_exact(2) {
-                for (&d, &p) in pair[0].iter().zip(&pair[1]) {
-                    let hit = (p >> 24) & 1 == 1;
-                    depths.push(if hit {
-                        f32::from_bits(d)
-                    } else {
-                        f32::INFINITY
-                    });
-                }
-            }
-            Ok((median_depth(depths), next))
-        }
-        _ => Ok((None, encoder)),
-    }
-}
-
 impl SplatFrame<'_> {
     pub fn encode(
         &mut self,
@@ -184,20 +148,14 @@ impl SplatFrame<'_> {
         if w == 0 || h == 0 || self.state.pass.is_pinhole() {
             return Ok(encoder);
         }
-        let vergence = self.vergence_mm.filter(|d| d.is_finite() && *d > 0.0);
-        let gaze_depth = match self.state.pass.focus {
-            DofFocus::Fixed { .. } | DofFocus::Attention => None,
-            DofFocus::Vergence if vergence.is_some() => None,
-            DofFocus::Gaze | DofFocus::Vergence => {
-                let (d, next) = gaze_window_depth(frame, encoder, self.gaze_px)?;
-                encoder = next;
-                d
-            }
-        };
-        let found = match self.state.pass.focus {
-            DofFocus::Vergence => vergence.or(gaze_depth),
-            _ => gaze_depth,
-        };
+        let (found, next) = super::found_focus(
+            self.state.pass.focus,
+            self.vergence_mm,
+            frame,
+            encoder,
+            self.gaze_px,
+        )?;
+        encoder = next;
         let focus = self.state.pass.focus_with(found, self.time_s);
 
         let pass = &self.state.pass;

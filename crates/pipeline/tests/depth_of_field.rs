@@ -128,6 +128,7 @@ fn the_scene_file_parses_defaults_and_validates_naming_the_field() {
             refocus: DofRefocus::Instant,
             method: DofMethod::Mipmap,
             smooth_foreground: false,
+            highlights: false,
         }]
     );
     assert!(build("DepthOfField(focus: Fixed(depth_mm: inf))").is_ok());
@@ -137,6 +138,7 @@ fn the_scene_file_parses_defaults_and_validates_naming_the_field() {
             "DepthOfField(method: Splat, smooth_foreground: true)",
             "effects[0].smooth_foreground",
         ),
+        ("DepthOfField(highlights: true)", "effects[0].highlights"),
         ("DepthOfField(pupil_mm: -1.0)", "effects[0].pupil_mm"),
         ("DepthOfField(pupil_mm: NaN)", "effects[0].pupil_mm"),
         ("DepthOfField(pupil_mm: 1000.0)", "effects[0].pupil_mm"),

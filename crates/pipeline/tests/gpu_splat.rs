@@ -396,3 +396,49 @@ fn the_splat_pass_is_paid_per_use_and_named() {
     assert!(r.gpu_pass_names().is_empty());
     assert_eq!(r.pass_names(), [SPLAT]);
 }
+
+/// `highlights: true` (eq. 5.5): the scene turns them on, they brighten
+/// blurred bright samples on the CPU, and the GPU pass equals the CPU's.
+#[test]
+fn defocused_highlights_on_the_gpu_are_the_cpu_pass() {
+    let cam = camera();
+    let plain = scene("");
+    let mut reference = gpu(&plain);
+    reference.set_surface(true);
+    let (cast, _) = reference.render_full(&cam).expect("cast");
+    let s = scene("DepthOfField(pupil_mm: 8.0, focus: Fixed(depth_mm: 2100.0), method: Splat, highlights: true)");
+    let e = s.effect(Effect::DEPTH_OF_FIELD).expect("listed");
+    let mut cpu = DepthOfFieldSplat::from_effect(e).expect("splat");
+    assert!(cpu.highlights.is_some(), "the scene turns them on");
+    let mut off = DepthOfFieldSplat::from_effect(e).expect("splat");
+    off.highlights = None;
+    let input = PassInput {
+        scene: &s,
+        camera: &cam,
+        gaze_px: GAZE,
+        time_s: Some(0.0),
+        vergence_mm: None,
+    };
+    let (mut expected, mut plain_splat) = (cast.clone(), cast.clone());
+    cpu.run(&mut expected, &input);
+    off.run(&mut plain_splat, &input);
+    let brighter = expected
+        .rgb
+        .iter()
+        .zip(&plain_splat.rgb)
+        .filter(|(a, b)| a > b)
+        .count();
+    let darker = expected
+        .rgb
+        .iter()
+        .zip(&plain_splat.rgb)
+        .filter(|(a, b)| a < b)
+        .count();
+    eprintln!("highlights: {brighter} channels brighter, {darker} darker than without");
+    assert!(brighter > 20, "the highlights changed nothing ({brighter})");
+    let mut r = renderer(&s, BackendChoice::Gpu);
+    let (got, _) = r.render_at(GAZE, 0.0).expect("renders");
+    let (worst, n) = max_diff(&got, &expected);
+    eprintln!("highlights: max channel difference GPU vs CPU {worst} ({n} channels differ)");
+    assert!(worst <= 1, "{worst}");
+}

@@ -163,6 +163,12 @@ pub enum Effect {
         /// blurred foreground.
         #[serde(default)]
         smooth_foreground: bool,
+        /// Lee §5.2's defocused highlights (eq. 5.5, splatting method
+        /// only): a blurred bright colour is extrapolated beyond the 8-bit
+        /// frame's white (λ₀ 0.8, β 3, γ 2), so a defocused highlight
+        /// stays bright. Off by default.
+        #[serde(default)]
+        highlights: bool,
     },
 }
 
@@ -277,6 +283,7 @@ impl Effect {
         refocus: DofRefocus::Instant,
         method: DofMethod::Mipmap,
         smooth_foreground: false,
+        highlights: false,
     };
 
     /// Whether `self` and `other` are the same effect, whatever their
@@ -304,10 +311,17 @@ impl Effect {
                 // method, naming the line.
                 method,
                 smooth_foreground,
+                highlights,
             } => {
                 let bad = |name: &str, msg: String| {
                     Err(SceneError::field(format!("{field}.{name}"), msg))
                 };
+                if highlights && method == DofMethod::Mipmap {
+                    return bad(
+                        "highlights",
+                        "applies to method Splat only (the mipmap method has no per-sample colours to extrapolate)".into(),
+                    );
+                }
                 if smooth_foreground && method == DofMethod::Splat {
                     return bad(
                         "smooth_foreground",

@@ -263,6 +263,8 @@ impl DepthOfField {
                 refocus,
                 method: raycast::scene::DofMethod::Mipmap,
                 smooth_foreground,
+                // The scene refuses highlights with the mipmap method.
+                highlights: _,
             } => {
                 let mut pass = Self::new(
                     EyeLens {

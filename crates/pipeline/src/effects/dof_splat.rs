@@ -279,8 +279,9 @@ impl DepthOfFieldSplat {
                 // The scene refuses it with Splat (partial occlusion is
                 // what the hidden image does).
                 smooth_foreground: _,
-            } => Some(
-                Self::new(
+                highlights,
+            } => {
+                let mut pass = Self::new(
                     EyeLens {
                         focal_length_mm: *focal_length_mm,
                         aperture_mm: *pupil_mm,
@@ -288,8 +289,10 @@ impl DepthOfFieldSplat {
                     },
                     *focus,
                 )
-                .with_refocus(*refocus),
-            ),
+                .with_refocus(*refocus);
+                pass.highlights = highlights.then(Highlights::default);
+                Some(pass)
+            }
             _ => None,
         }
     }

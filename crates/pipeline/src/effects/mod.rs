@@ -59,32 +59,12 @@ pub fn pass_for(effect: &Effect) -> Option<Box<dyn Pass>> {
         Effect::PorOverlay { half_px } => Some(Box::new(por_overlay::PorOverlay {
             half_px: i64::from(*half_px),
         })),
-        Effect::DepthOfField {
-            pupil_mm,
-            focal_length_mm,
-            retina_distance_mm,
-            focus,
-            refocus,
-            method,
-            smooth_foreground,
-        } => {
-            let lens = foveation::thin_lens::EyeLens {
-                focal_length_mm: *focal_length_mm,
-                aperture_mm: *pupil_mm,
-                retina_distance_mm: *retina_distance_mm,
-            };
-            Some(match method {
-                DofMethod::Mipmap => {
-                    let mut pass =
-                        depth_of_field::DepthOfField::new(lens, *focus).with_refocus(*refocus);
-                    pass.smooth_foreground = *smooth_foreground;
-                    Box::new(pass)
-                }
-                DofMethod::Splat => {
-                    Box::new(dof_splat::DepthOfFieldSplat::new(lens, *focus).with_refocus(*refocus))
-                }
-            })
-        }
+        Effect::DepthOfField { method, .. } => match method {
+            DofMethod::Mipmap => depth_of_field::DepthOfField::from_effect(effect)
+                .map(|p| Box::new(p) as Box<dyn Pass>),
+            DofMethod::Splat => dof_splat::DepthOfFieldSplat::from_effect(effect)
+                .map(|p| Box::new(p) as Box<dyn Pass>),
+        },
         Effect::FoveatedSampling
         | Effect::SilhouetteRefinement
         | Effect::CreaseRefinement

@@ -4,8 +4,9 @@
 //! `focus: Attention` focuses on it; the viewer's attention gaze source
 //! reports its saliency peak as the point of regard.
 //!
-//! Decisions where the seed is silent or the scene says nothing: every
-//! object of the scene has task importance 1 (the scene format has no
+//! Decisions where the seed is silent or the scene says nothing: the first
+//! `attention::frame::MAX_OBJECTS` objects are listed (later ids count as
+//! background), every listed object has task importance 1 (the scene format has no
 //! per-object importance yet) and does not move (static scenes), the
 //! camera is static, and the Kalman filter's time step is the frames'
 //! time difference (0 without a clock). The tracker's own constants and
@@ -58,8 +59,9 @@ impl FrameAttention {
         scene_objects: usize,
         time_s: Option<f64>,
     ) -> Option<attention::Attention> {
-        if self.objects.len() != scene_objects {
-            self.objects = (0..scene_objects.min(attention::frame::MAX_OBJECTS))
+        let listed = scene_objects.min(attention::frame::MAX_OBJECTS);
+        if self.objects.len() != listed {
+            self.objects = (0..listed)
                 .map(|id| attention::ObjectInfo::still(id as u32, 1.0))
                 .collect();
         }

@@ -603,7 +603,9 @@ impl<'s> Renderer<'s> {
                 ),
                 raycast::scene::DofFocus::Fixed { depth_mm } => format!("fixed at {depth_mm} mm"),
                 raycast::scene::DofFocus::Vergence => format!(
-                    "the vergence depth, else the median depth of the                      {FOCUS_WINDOW_PX}×{FOCUS_WINDOW_PX} window at the gaze read back after the cast;                      refocus on the CPU"
+                    "the vergence depth, else the median depth of the \
+                     {FOCUS_WINDOW_PX}×{FOCUS_WINDOW_PX} window at the gaze read back after the cast; \
+                     refocus on the CPU"
                 ),
                 // Never moved to the GPU (see `new`).
                 raycast::scene::DofFocus::Attention => "the attended object (CPU)".to_string(),

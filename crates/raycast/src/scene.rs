@@ -179,7 +179,7 @@ pub enum DofMethod {
     #[default]
     Mipmap,
     /// Ch. 5: point splatting on per-pixel layers, the hidden surfaces
-    /// cast by rays (CPU; slower, better partial occlusion).
+    /// cast by rays (CPU and GPU; slower, better partial occlusion).
     Splat,
 }
 

@@ -90,8 +90,10 @@ pub fn run(args: &DemoArgs, out: &mut dyn Write) -> Result<(), String> {
             tracker: Some(args.tracker.clone()),
             frames: args.frames,
             // The box is drawn into the frame; an attention model reading
-            // the frame would see it, so it is off unless the mouse leads.
-            por_overlay: args.tracker == std::path::Path::new(MOUSE),
+            // the frame would see it, so it is off when the model leads.
+            por_overlay: crate::config::load_tracker(&args.tracker).map_or(true, |t| {
+                !matches!(t.driver, tracker_hal::Driver::Attention(_))
+            }),
             backend: pipeline::BackendChoice::Auto,
             method: args.method,
             ..LiveOptions::default()

@@ -36,8 +36,9 @@ pub enum TrackerMsg {
         raw: Option<[f64; 2]>,
         gaze_px: Option<[f64; 2]>,
         /// The left and right eyes' points of regard, screen pixels, when
-        /// the sample has both eyes valid and both map onto the screen's
-        /// neighbourhood (for vergence); `None` otherwise.
+        /// the device measures two eyes (not the mouse or the attention
+        /// source), the sample has both valid and both map onto the
+        /// screen's neighbourhood (for vergence); `None` otherwise.
         eyes_px: Option<[[f64; 2]; 2]>,
     },
     /// A status line (disconnect, reconnect, end of recording); empty when
@@ -148,6 +149,10 @@ struct ThreadCtx {
     stop: Arc<AtomicBool>,
     ends: bool,
     faults: Arc<Mutex<Faults>>,
+    /// The device measures two eyes (not the mouse or the attention
+    /// source, whose decoder copies one point into both): only then are
+    /// both eyes' points passed on for vergence.
+    binocular: bool,
 }
 
 /// Runs a tracker until `stop`: samples to `tx`, reopening with backoff
@@ -162,6 +167,7 @@ fn tracker_thread(mut open: Opener, ctx: ThreadCtx) {
         tx,
         stop,
         ends,
+        binocular,
         faults,
     } = ctx;
     let mut backoff = Duration::from_millis(250);
@@ -241,7 +247,7 @@ fn tracker_thread(mut open: Opener, ctx: ThreadCtx) {
                             .filter(|&p| plausible(p, screen_px))
                     };
                     let eyes_px = match (eye(&s.left), eye(&s.right)) {
-                        (Some(l), Some(r)) if gaze_px.is_some() => Some([l, r]),
+                        (Some(l), Some(r)) if binocular && gaze_px.is_some() => Some([l, r]),
                         _ => None,
                     };
                     let far = {
@@ -436,6 +442,7 @@ impl GazeSetup {
             _ => None,
         };
         let stop = Arc::new(AtomicBool::new(false));
+        let binocular = !matches!(self.tracker.driver, Driver::Mouse(_) | Driver::Attention(_));
         let open = opener(self.tracker, self.replay, tap, cursor_rx, stop.clone());
         let (tx, rx) = crossbeam_channel::unbounded();
         let faults = Arc::new(Mutex::new(Faults::default()));
@@ -446,6 +453,7 @@ impl GazeSetup {
             stop: stop.clone(),
             ends,
             faults: faults.clone(),
+            binocular,
         };
         let thread = std::thread::Builder::new()
             .name("tracker".into())

@@ -124,9 +124,21 @@ pub fn run(args: &RenderArgs, out: &mut dyn Write) -> Result<(), String> {
     let model = pipeline::sampling_model(geometry, args.contrast)
         .map_err(|e| format!("--{}: {e}", e.field.replace('_', "-")))?;
     let gaze = args.gaze.unwrap_or_else(|| geometry.centre_px());
+    let maps = args.coc.is_some() || args.dof_level.is_some();
+    // The maps are the CPU pass's: with them, `auto` renders on the CPU.
+    let backend = match args.backend {
+        BackendChoice::Auto if maps => BackendChoice::Cpu,
+        BackendChoice::Gpu if maps => {
+            return Err(
+                "--coc and --dof-level come from the CPU depth-of-field pass; use --backend cpu (or auto)"
+                    .into(),
+            )
+        }
+        b => b,
+    };
     let options = Options {
         method: args.mode,
-        backend: args.backend,
+        backend,
         layout: args.layout,
         test: args.intersector.into(),
         por_overlay: args.overlay == Some(Overlay::Por),
@@ -135,12 +147,13 @@ pub fn run(args: &RenderArgs, out: &mut dyn Write) -> Result<(), String> {
     let mut renderer = Renderer::new(&scene, Camera::new(&geometry), model, &options)
         .map_err(|e| e.to_string())?;
     if renderer.depth_of_field().is_none() {
+        let why = match scene.effect(raycast::scene::Effect::DEPTH_OF_FIELD) {
+            Some(_) => "its DepthOfField uses method Splat, which has no mip levels (the maps are the mipmap method's)",
+            None => "it lists no DepthOfField effect, so there is no map to write",
+        };
         for (flag, path) in [("--coc", &args.coc), ("--dof-level", &args.dof_level)] {
             if path.is_some() {
-                return Err(format!(
-                    "{flag}: scene {} lists no DepthOfField effect, so there is no map to write",
-                    args.scene.display()
-                ));
+                return Err(format!("{flag}: scene {}: {why}", args.scene.display()));
             }
         }
     }
@@ -255,7 +268,7 @@ fn write_dof_maps(
         write(
             path,
             rgb,
-            "circle of confusion: black 0 px, red 4, yellow 16, white >= 64 px (log)",
+            "circle of confusion: black 0 px, red 3, yellow 15, white >= 64 px (log)",
         )?;
     }
     if let Some(path) = &args.dof_level {

@@ -150,8 +150,8 @@ struct Image {
     px: Vec<[f32; 3]>,
     z: Vec<f32>,
     sigma: Vec<f32>,
-    /// The DoN mip ρ (eq. 4.10): only with foreground smoothing, only on
-    /// levels 1…; empty otherwise.
+    /// The DoN mip ρ (eq. 4.10): only with foreground smoothing, only at
+    /// the top level built (the one eq. 4.11 reads); empty otherwise.
     rho: Vec<f32>,
 }
 
@@ -212,7 +212,8 @@ impl DepthOfField {
     }
 
     /// The last blurred frame's maps (σ and mip level per pixel), for debug
-    /// pictures; `None` before any frame or when the last frame was not
+    /// pictures. With foreground smoothing the level is the smoothed one
+    /// (from σ(n)), σ the pixel's own; `None` before any frame or when the last frame was not
     /// blurred at all (pupil 0, an empty frame).
     pub fn maps(&self) -> Option<DofMaps<'_>> {
         let (w, h) = self.maps_size;
@@ -541,11 +542,11 @@ impl Pass for DepthOfField {
     }
 
     fn run(&mut self, frame: &mut Frame, input: &PassInput<'_>) {
+        self.maps_size = (0, 0);
         let (w, h) = (frame.width_px as usize, frame.height_px as usize);
         if w == 0 || h == 0 || !frame.has_surface() || frame.rgb.len() < 3 * w * h {
             return;
         }
-        self.maps_size = (0, 0);
         if self.lens.aperture_mm.is_nan() || self.lens.aperture_mm <= 0.0 {
             return; // pupil 0: a pinhole, everything sharp
         }
@@ -723,13 +724,17 @@ pub(crate) fn circular_weights() -> (f32, f32) {
 }
 
 /// Lee §4.3, foreground smoothing, after the pyramid is built to level
-/// `top` (≥ 1): the DoN mip ρ (eq. 4.10) on levels 1..=`top`, then for
+/// `top` (≥ 1): the DoN mip ρ (eq. 4.10) at level `top`, then for
 /// every pixel ρ(M) at the top level M = `top` by the 9-point circular
 /// filter, n by eq. 4.11 (eq. 4.6 applied to ρ), and where n > 0 the
 /// smoothed σ(n) — the B mip at level n, blended linearly between levels
 /// and sampled bilinearly, level 0 being the pixel's own σ — replaces
 /// σ(0) in the pixel's mip level. Ω' of eq. 4.10 is the 4×4 taps of the
 /// level's Gaussian that are in front of the focus and of the texel.
+/// Depth mips average the background's infinite depth, so a level-(M−1)
+/// texel that mixes a foreground object with empty background counts as
+/// background: against an empty background the smoothing is weaker at
+/// the silhouette than against a surface behind it.
 fn smooth_foreground(
     pyramid: &mut [Image],
     level: &mut [f32],
@@ -738,7 +743,8 @@ fn smooth_foreground(
     focus_mm: f64,
 ) {
     let focus = focus_mm as f32;
-    for l in 1..=top {
+    // Only ρ(M) is read (eq. 4.11), and ρ(M) needs only σ(M − 1).
+    for l in top..=top {
         let (lo, hi) = pyramid.split_at_mut(l);
         let src = &lo[l - 1];
         let dst = &mut hi[0];

@@ -446,28 +446,18 @@ pub(crate) fn vergence_or(
 /// The median of the finite positive depths in the [`FOCUS_WINDOW_PX`]
 /// square around `gaze_px`, or `None` when it holds none.
 pub fn gaze_depth_mm(frame: &Frame, gaze_px: [f64; 2]) -> Option<f64> {
-    if !frame.has_surface() || !gaze_px[0].is_finite() || !gaze_px[1].is_finite() {
+    if !frame.has_surface() {
         return None;
     }
-    let (w, h) = (i64::from(frame.width_px), i64::from(frame.height_px));
-    let half = FOCUS_WINDOW_PX / 2;
-    // Clamp before converting so a far-off gaze cannot overflow.
-    let cx = gaze_px[0].floor().clamp(-1e9, 1e9) as i64;
-    let cy = gaze_px[1].floor().clamp(-1e9, 1e9) as i64;
-    let mut depths: Vec<f32> = Vec::with_capacity((FOCUS_WINDOW_PX * FOCUS_WINDOW_PX) as usize);
-    for y in (cy - half).max(0)..=(cy + half).min(h - 1) {
-        for x in (cx - half).max(0)..=(cx + half).min(w - 1) {
-            let d = frame.depth_mm[(y * w + x) as usize];
-            if d.is_finite() && d > 0.0 {
-                depths.push(d);
-            }
+    let w = i64::from(frame.width_px);
+    let (x0, y0, x1, y1) = focus_window(w, i64::from(frame.height_px), gaze_px)?;
+    let mut depths = Vec::with_capacity((FOCUS_WINDOW_PX * FOCUS_WINDOW_PX) as usize);
+    for y in y0..=y1 {
+        for x in x0..=x1 {
+            depths.push(frame.depth_mm[(y * w + x) as usize]);
         }
     }
-    if depths.is_empty() {
-        return None;
-    }
-    depths.sort_by(f32::total_cmp);
-    Some(f64::from(depths[depths.len() / 2]))
+    median_depth(depths)
 }
 
 /// Circle of confusion on the screen, px, for `depth_mm` while the eye
@@ -547,18 +537,12 @@ impl Pass for DepthOfField {
         if w == 0 || h == 0 || !frame.has_surface() || frame.rgb.len() < 3 * w * h {
             return;
         }
-        if self.lens.aperture_mm.is_nan() || self.lens.aperture_mm <= 0.0 {
+        if self.is_pinhole() {
             return; // pupil 0: a pinhole, everything sharp
         }
         let focus = self.focuser.focus_mm(self.focus, frame, input);
-        let pitch = input.camera.pitch();
-        let ppmm = 0.5 * (1.0 / f64::from(pitch[0]) + 1.0 / f64::from(pitch[1]));
-        let ds = f64::from(input.camera.eye.z);
-        // The top level the frame's size allows.
-        let mut top = 0usize;
-        while top < MAX_LEVELS && (w >> (top + 1)) >= 1 && (h >> (top + 1)) >= 1 {
-            top += 1;
-        }
+        let (ds, ppmm) = screen_of(input.camera);
+        let top = top_level(w, h);
         self.level.clear();
         self.level.reserve(w * h);
         self.sigma.clear();

@@ -103,7 +103,7 @@ use raycast::scene::{DofFocus, DofRefocus};
 use raycast::{Frame, NO_OBJECT};
 use rayon::prelude::*;
 
-use super::depth_of_field::{coc_px, Focuser};
+use super::depth_of_field::{coc_px, screen_of, Focuser};
 use super::refocus::Refocus;
 use super::{Pass, PassInput};
 use crate::colour;
@@ -462,9 +462,7 @@ impl Pass for DepthOfFieldSplat {
             return; // pupil 0: a pinhole, everything sharp
         }
         let focus = self.focuser.focus_mm(self.focus, frame, input);
-        let pitch = input.camera.pitch();
-        let ppmm = 0.5 * (1.0 / f64::from(pitch[0]) + 1.0 / f64::from(pitch[1]));
-        let ds = f64::from(input.camera.eye.z);
+        let (ds, ppmm) = screen_of(input.camera);
         let lens = self.lens;
         let delta = if self.delta.is_finite() {
             self.delta.max(0.0)

@@ -39,7 +39,21 @@ impl AccuracyAccumulator {
 
     /// Records one frame; returns whether it counted (ranking non-empty).
     pub fn record(&mut self, ranking: &[u32], looked_at: Option<u32>) -> bool {
-        if ranking.is_empty() {
+        self.record_frame(!ranking.is_empty(), ranking, looked_at)
+    }
+
+    /// Records one frame whose foreground is known from the frame itself
+    /// (whether any object worth attending is visible) rather than from
+    /// the ranking: a predictor that may rank nothing on a frame with
+    /// objects (Lee's random-pixel baseline hitting the background) counts
+    /// a miss there. Returns whether the frame counted.
+    pub fn record_frame(
+        &mut self,
+        has_foreground: bool,
+        ranking: &[u32],
+        looked_at: Option<u32>,
+    ) -> bool {
+        if !has_foreground {
             self.skipped += 1;
             return false;
         }
@@ -127,5 +141,12 @@ mod tests {
         total.merge(&acc);
         assert_eq!(total.frames(), 8);
         assert_eq!(total.hits(3), Some(6));
+        let mut base = AccuracyAccumulator::new();
+        assert!(base.record_frame(true, &[], Some(1)));
+        assert!(!base.record_frame(false, &[1], Some(1)));
+        assert_eq!(
+            (base.frames(), base.skipped_frames(), base.hits(1)),
+            (1, 1, Some(0))
+        );
     }
 }

@@ -6,8 +6,8 @@
 //!
 //! Decisions where the seed is silent or the scene says nothing: the first
 //! `attention::frame::MAX_OBJECTS` objects are listed (later ids count as
-//! background), every listed object has task importance 1 (the scene format has no
-//! per-object importance yet) and does not move (static scenes), the
+//! background), each object's task importance is the scene file's
+//! `importance` (default 1), objects do not move (static scenes), the
 //! camera is static, and the Kalman filter's time step is the frames'
 //! time difference (0 without a clock). The tracker's own constants and
 //! threshold are `attention::AttentionConfig`'s defaults.
@@ -18,6 +18,7 @@ use raycast::Frame;
 pub struct FrameAttention {
     tracker: attention::AttentionTracker,
     objects: Vec<attention::ObjectInfo>,
+    features: attention::Features,
     last_time_s: Option<f64>,
     attended: Option<u32>,
 }
@@ -34,10 +35,18 @@ impl std::fmt::Debug for FrameAttention {
 impl FrameAttention {
     /// A model with saliency maps of `map_size`² (64 to 512).
     pub fn new(map_size: u32) -> Result<Self, String> {
-        let config = attention::AttentionConfig::with_map_size(map_size);
+        Self::with_features(map_size, attention::Features::ALL)
+    }
+
+    /// A model with only `features` switched on (Lee's Table 3.2 groups:
+    /// [`attention::Features::lee_groups`]).
+    pub fn with_features(map_size: u32, features: attention::Features) -> Result<Self, String> {
+        let mut config = attention::AttentionConfig::with_map_size(map_size);
+        config.features = features;
         Ok(Self {
             tracker: attention::AttentionTracker::new(config).map_err(|e| e.to_string())?,
             objects: Vec::new(),
+            features,
             last_time_s: None,
             attended: None,
         })
@@ -48,21 +57,35 @@ impl FrameAttention {
         self.attended
     }
 
+    /// The features this model runs.
+    pub fn features(&self) -> attention::Features {
+        self.features
+    }
+
     /// Runs the model on `frame` (whose surface buffers must be filled)
-    /// of a scene with `scene_objects` objects at `time_s`. `None` when
+    /// of a scene whose objects have the task importances
+    /// `importance` (`Scene::object_importance`), at `time_s`. `None` when
     /// the frame cannot be read (no surface buffers, a size the model
     /// refuses); the result's `attended` is `None` when no object reaches
     /// the threshold.
     pub fn update(
         &mut self,
         frame: &Frame,
-        scene_objects: usize,
+        importance: &[f32],
         time_s: Option<f64>,
     ) -> Option<attention::Attention> {
-        let listed = scene_objects.min(attention::frame::MAX_OBJECTS);
-        if self.objects.len() != listed {
-            self.objects = (0..listed)
-                .map(|id| attention::ObjectInfo::still(id as u32, 1.0))
+        let listed = &importance[..importance.len().min(attention::frame::MAX_OBJECTS)];
+        let same = self.objects.len() == listed.len()
+            && self
+                .objects
+                .iter()
+                .zip(listed)
+                .all(|(o, &i)| o.importance.to_bits() == i.to_bits());
+        if !same {
+            self.objects = listed
+                .iter()
+                .enumerate()
+                .map(|(id, &i)| attention::ObjectInfo::still(id as u32, i))
                 .collect();
         }
         let dt = match (self.last_time_s, time_s) {
@@ -91,10 +114,10 @@ impl FrameAttention {
     pub fn depth_mm(
         &mut self,
         frame: &Frame,
-        scene_objects: usize,
+        importance: &[f32],
         time_s: Option<f64>,
     ) -> Option<f64> {
-        let result = self.update(frame, scene_objects, time_s)?;
+        let result = self.update(frame, importance, time_s)?;
         let d = f64::from(result.get(result.attended?)?.distance_mm);
         (d.is_finite() && d > 0.0).then_some(d)
     }
@@ -104,10 +127,10 @@ impl FrameAttention {
     pub fn gaze_px(
         &mut self,
         frame: &Frame,
-        scene_objects: usize,
+        importance: &[f32],
         time_s: Option<f64>,
     ) -> Option<[f64; 2]> {
-        let result = self.update(frame, scene_objects, time_s)?;
+        let result = self.update(frame, importance, time_s)?;
         let p = result.gaze_px?;
         let p = [f64::from(p[0]), f64::from(p[1])];
         (p[0].is_finite() && p[1].is_finite()).then_some(p)

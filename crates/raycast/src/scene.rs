@@ -93,6 +93,16 @@ pub struct Object {
     pub rotate_deg: (f32, f32, f32),
     /// Uniform scale: mesh units to mm.
     pub scale_mm: f32,
+    /// Task importance `T_i` of Lee's attention model (eq. 3.7), 0 to 1:
+    /// how much the task makes this object worth looking at. 0 marks
+    /// scenery (floor, walls) that the model never attends; the default 1
+    /// treats every object alike.
+    #[serde(default = "default_importance")]
+    pub importance: f32,
+}
+
+fn default_importance() -> f32 {
+    1.0
 }
 
 /// A light.
@@ -470,6 +480,9 @@ pub struct Scene {
     /// `WorldTriangle::object`): the scene file's named materials resolved
     /// per object.
     pub object_materials: Vec<Material>,
+    /// Each object's task importance (`Object::importance`), indexed by
+    /// object id like `object_materials`.
+    pub object_importance: Vec<f32>,
     pub lights: Vec<Light>,
     pub effects: Vec<Effect>,
     pub crease_deg: f32,
@@ -673,6 +686,7 @@ impl Scene {
             ));
         }
         let mut object_material = Vec::new();
+        let mut object_importance = Vec::new();
         let mut triangles = Vec::new();
         for (k, o) in file.objects.iter().enumerate() {
             let field = |f: &str| format!("objects[{k}].{f}");
@@ -700,7 +714,14 @@ impl Scene {
                     "must be a positive number",
                 ));
             }
+            if !(o.importance.is_finite() && (0.0..=1.0).contains(&o.importance)) {
+                return Err(SceneError::field(
+                    field("importance"),
+                    format!("{} must be from 0 to 1", o.importance),
+                ));
+            }
             object_material.push(material);
+            object_importance.push(o.importance);
             let r = o.rotate_deg;
             let rot = Mat3::from_euler(
                 EulerRot::ZYX,
@@ -802,6 +823,7 @@ impl Scene {
             background: Vec3::new(c.0, c.1, c.2),
             background_rgb8: crate::shade::to_rgb8(Vec3::new(c.0, c.1, c.2)),
             object_materials,
+            object_importance,
             lights: file.lights.clone(),
             effects: file.effects.clone(),
             crease_deg: file.crease_deg,

@@ -71,6 +71,7 @@ fn face_scene(expression: u32, subdivisions: u32, x: f32, y: f32, turn: (f32, f3
             translate_mm: (x, y, DEPTH_MM),
             rotate_deg: (turn.0, turn.1, 0.0),
             scale_mm: SCALE_MM,
+            importance: 1.0,
         }],
         lights: vec![Light::Headlight { intensity: 1.0 }],
         effects: vec![Effect::FoveatedSampling, Effect::SilhouetteRefinement],

@@ -178,6 +178,7 @@ fn sphere_scene(radius_mm: f32) -> Scene {
             translate_mm: (0.0, 0.0, -100.0),
             rotate_deg: (0.0, 0.0, 0.0),
             scale_mm: radius_mm,
+            importance: 1.0,
         }],
         lights: vec![
             Light::Headlight { intensity: 0.7 },
@@ -419,6 +420,7 @@ fn noise_scene() -> Scene {
             translate_mm: (0.0, 0.0, -200.0),
             rotate_deg: (0.0, 0.0, 0.0),
             scale_mm: 400.0,
+            importance: 1.0,
         }],
         lights: vec![Light::Headlight { intensity: 1.0 }],
         effects: vec![

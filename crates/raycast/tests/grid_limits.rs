@@ -42,6 +42,7 @@ fn scene_of(tris: &[Tri]) -> Scene {
             translate_mm: (0.0, 0.0, 0.0),
             rotate_deg: (0.0, 0.0, 0.0),
             scale_mm: 1.0,
+            importance: 1.0,
         })
         .collect();
     let file: SceneFile =

@@ -37,6 +37,7 @@ fn scene_of(
             translate_mm: at,
             rotate_deg,
             scale_mm: scale,
+            importance: 1.0,
         }],
         lights: vec![],
         effects: vec![],

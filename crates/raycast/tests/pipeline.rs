@@ -99,6 +99,7 @@ fn big_spheres() -> Scene {
             translate_mm: (x, y, z),
             rotate_deg: (0.0, 0.0, 0.0),
             scale_mm: s,
+            importance: 1.0,
         })
         .collect(),
         lights: vec![Light::Headlight { intensity: 1.0 }],

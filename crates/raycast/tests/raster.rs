@@ -207,6 +207,7 @@ fn triangle_scene(p: [Vec3; 3]) -> Scene {
             translate_mm: (0.0, 0.0, 0.0),
             rotate_deg: (0.0, 0.0, 0.0),
             scale_mm: 1.0,
+            importance: 1.0,
         }],
         lights: vec![Light::Headlight { intensity: 1.0 }],
         effects: vec![Effect::FoveatedSampling],

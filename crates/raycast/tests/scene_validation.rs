@@ -73,6 +73,7 @@ fn scene_file(
             translate_mm,
             rotate_deg,
             scale_mm,
+            importance: 1.0,
         }],
         lights: vec![],
         effects: vec![],
@@ -172,4 +173,22 @@ fn a_torus_near_f32_max_is_refused_naming_the_radius() {
         matches!(&moved, Err(SceneError::Field { field, .. }) if field == "objects[0].translate_mm"),
         "{moved:?}"
     );
+}
+
+#[test]
+fn task_importance_is_kept_per_object_and_checked() {
+    let ball = MeshSource::Icosphere { subdivisions: 1 };
+    let mut file = scene_file(ball, 10.0, (0.0, 0.0, -20.0), (0.0, 0.0, 0.0));
+    file.objects.push(file.objects[0].clone());
+    file.objects[1].importance = 0.25;
+    let scene = Scene::build(&file, Path::new(".")).expect("builds");
+    assert_eq!(scene.object_importance, vec![1.0, 0.25]);
+    for bad in [-0.1, 1.5, f32::NAN, f32::INFINITY] {
+        file.objects[1].importance = bad;
+        let r = Scene::build(&file, Path::new("."));
+        assert!(
+            matches!(&r, Err(SceneError::Field { field, .. }) if field == "objects[1].importance"),
+            "{bad}: {r:?}"
+        );
+    }
 }

@@ -347,9 +347,9 @@ impl Focuser {
                 vergence_or(input.vergence_mm, || gaze_depth_mm(frame, input.gaze_px))
             }
             DofFocus::Attention => {
-                let objects = input.scene.object_materials.len();
+                let importance = &input.scene.object_importance;
                 match &mut self.attention {
-                    Some(a) => a.depth_mm(frame, objects, input.time_s),
+                    Some(a) => a.depth_mm(frame, importance, input.time_s),
                     None => None,
                 }
             }

@@ -5,6 +5,8 @@
 //!   for every configuration and gaze measures the frame time and the error
 //!   against the full-resolution frame of the same gaze
 //!   ([`foveation::quality`]). Writes `results.csv`, `pareto.png`, `report.md`.
+//! - `attention`: Lee's attention model against recorded gaze (A1–A3 and
+//!   the feature-group ablations of Lee's Table 3.2).
 //! - `scaling`: frame time of full and foveated rendering against triangle
 //!   count and against resolution (log–log), to show whether the cost
 //!   follows the eye's ray budget. Writes `scaling.csv`,
@@ -15,6 +17,7 @@
 //! [`accuracy`] and [`scaling`] (the two sweeps), [`report`] (the files).
 
 pub mod accuracy;
+pub mod attention;
 pub mod configs;
 pub mod measure;
 pub mod report;
@@ -45,6 +48,9 @@ pub enum BenchCommand {
     Scaling(ScalingArgs),
     /// Per-stage time of a foveated CPU frame next to a full frame.
     Stages(stages::StagesArgs),
+    /// Lee's attention model against recorded gaze: A1/A2/A3 in the eight
+    /// feature-group combinations of Lee's Table 3.2.
+    Attention(attention::AttentionArgs),
 }
 
 /// Most gaze positions `bench accuracy` takes: every gaze costs a
@@ -110,6 +116,7 @@ pub fn run(args: &BenchArgs, out: &mut dyn Write) -> Result<(), String> {
         BenchCommand::Accuracy(a) => a.backend,
         BenchCommand::Scaling(a) => a.backend,
         BenchCommand::Stages(_) => BackendChoice::Cpu,
+        BenchCommand::Attention(_) => BackendChoice::Cpu,
     };
     if backend == BackendChoice::Gpu {
         return Err(
@@ -123,6 +130,7 @@ pub fn run(args: &BenchArgs, out: &mut dyn Write) -> Result<(), String> {
         BenchCommand::Accuracy(a) => accuracy::run(a, out),
         BenchCommand::Scaling(a) => scaling::run(a, out),
         BenchCommand::Stages(a) => stages::run(a, out),
+        BenchCommand::Attention(a) => attention::run(a, out),
     }
 }
 

@@ -42,6 +42,7 @@ pub fn scaling_scene(triangles: u64) -> Result<Scene, String> {
             translate_mm: (40.0, 0.0, -150.0),
             rotate_deg: (60.0, 20.0, 0.0),
             scale_mm: 150.0,
+            importance: 1.0,
         }],
         lights: vec![Light::Headlight { intensity: 1.0 }],
         effects: vec![

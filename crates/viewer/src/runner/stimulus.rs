@@ -201,6 +201,7 @@ fn object(mesh: u32, (x, y): (f64, f64), scale_mm: f64) -> Object {
         translate_mm: (x as f32, y as f32, -DEPTH_MM as f32),
         rotate_deg: (0.0, 0.0, 0.0),
         scale_mm: scale_mm as f32,
+        importance: 1.0,
     }
 }
 

@@ -630,6 +630,9 @@ fn finish(
         }
     }
     drop((old_children, old_proxy, order));
+    // Nodes were created in merge order (welds, quadric collapses, spatial
+    // merges), so an internal node's old id less n is its rank.
+    let merge_order: Vec<u32> = new_id[n..].to_vec();
     let leaf_of: Vec<u32> = new_id[..n].to_vec();
     drop(new_id);
     let root = 0u32;
@@ -839,6 +842,7 @@ fn finish(
         drawable_triangles: drawable,
         welded_groups,
         forest_roots,
+        merge_order,
     })
 }
 

@@ -247,6 +247,26 @@ impl<'t> Cut<'t> {
         Ok(())
     }
 
+    /// A level of detail by quadric simplification (Garland & Heckbert, as
+    /// Lee 2009 §7.3 builds its levels): from the original mesh, folds the
+    /// tree's merges in [`VertexTree::merge_order`] until at most
+    /// `triangles` remain (0 folds everything that can be). Returns the
+    /// folds made. The cut is reset to the original mesh first.
+    pub fn fold_to_triangles(&mut self, triangles: usize) -> usize {
+        self.unfold_all();
+        let mut folds = 0;
+        for &node in self.tree.merge_order() {
+            if self.active_triangle_count() <= triangles {
+                break;
+            }
+            // Children come first in the order, so both are active.
+            if self.fold(node).is_ok() {
+                folds += 1;
+            }
+        }
+        folds
+    }
+
     /// Back to the original mesh.
     pub fn unfold_all(&mut self) {
         *self = Cut::new(self.tree);

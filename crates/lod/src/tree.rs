@@ -60,9 +60,22 @@ pub struct VertexTree {
     pub(crate) drawable_triangles: u32,
     pub(crate) welded_groups: u32,
     pub(crate) forest_roots: u32,
+    /// Internal nodes in the order they were merged (welds, then quadric
+    /// edge collapses cheapest first, then spatial merges).
+    pub(crate) merge_order: Vec<NodeId>,
 }
 
 impl VertexTree {
+    /// The internal nodes in the order the build merged them: welds, then
+    /// Garland–Heckbert edge collapses cheapest first, then the spatial
+    /// merges of what was left. Every node comes after its children, so
+    /// folding a prefix of this list, in order, is always possible and
+    /// gives the mesh greedy quadric simplification reaches after that
+    /// many collapses ([`crate::Cut::fold_to_triangles`]).
+    pub fn merge_order(&self) -> &[NodeId] {
+        &self.merge_order
+    }
+
     /// Number of nodes: `2·leaf_count() − 1` (every merge is binary and the
     /// tree has one root).
     pub fn node_count(&self) -> usize {

@@ -35,6 +35,7 @@ pub mod method;
 pub mod model;
 pub mod model_based;
 pub mod renderer;
+pub mod ulod;
 
 pub use backend::BackendChoice;
 pub use method::Method;

@@ -235,15 +235,15 @@ impl ModelBased {
 }
 
 /// An object's triangles as an indexed mesh.
-struct Welded {
-    positions: Vec<Vec3>,
-    normals: Vec<Vec3>,
-    triangles: Vec<[u32; 3]>,
+pub(crate) struct Welded {
+    pub(crate) positions: Vec<Vec3>,
+    pub(crate) normals: Vec<Vec3>,
+    pub(crate) triangles: Vec<[u32; 3]>,
 }
 
 /// Every object's world triangles as an indexed mesh (index = object id),
 /// welded by exact corner position, in one pass over the scene.
-fn weld(scene: &Scene) -> Vec<Welded> {
+pub(crate) fn weld(scene: &Scene) -> Vec<Welded> {
     let n = scene.object_materials.len();
     let mut index: Vec<std::collections::HashMap<[u32; 3], u32>> = vec![Default::default(); n];
     let mut out: Vec<Welded> = (0..n)

@@ -250,6 +250,10 @@ fn quadric_levels_meet_their_counts_and_nest() {
             last = got;
         }
         cut.fold_to_triangles(usize::MAX);
-        assert_eq!(cut.active_triangle_count(), full, "a target above the mesh keeps it whole");
+        assert_eq!(
+            cut.active_triangle_count(),
+            full,
+            "a target above the mesh keeps it whole"
+        );
     }
 }

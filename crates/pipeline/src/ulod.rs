@@ -82,12 +82,7 @@ impl ObjectLevels {
 
     /// The same levels moved by `f` (positions) and `g` (normals), as
     /// object `object`: instances of one mesh share one simplification.
-    pub fn placed(
-        &self,
-        object: u32,
-        f: impl Fn(Vec3) -> Vec3,
-        g: impl Fn(Vec3) -> Vec3,
-    ) -> Self {
+    pub fn placed(&self, object: u32, f: impl Fn(Vec3) -> Vec3, g: impl Fn(Vec3) -> Vec3) -> Self {
         Self {
             object,
             levels: self
@@ -175,7 +170,11 @@ impl Ulod {
                 o.levels.len()
             ));
         }
-        let ids = objects.iter().map(|o| o.object as usize + 1).max().unwrap_or(0);
+        let ids = objects
+            .iter()
+            .map(|o| o.object as usize + 1)
+            .max()
+            .unwrap_or(0);
         Ok(Self {
             objects,
             levels,
@@ -253,7 +252,11 @@ impl Ulod {
         for o in &self.objects {
             stats.triangles_full += o.levels[0].len();
             let l = self.level.get(o.object as usize).copied().unwrap_or(0.0);
-            let l = if l.is_finite() { l.clamp(0.0, top as f64) } else { 0.0 };
+            let l = if l.is_finite() {
+                l.clamp(0.0, top as f64)
+            } else {
+                0.0
+            };
             level_sum += l;
             let fine = (l.floor() as usize).min(top);
             let a = (l - fine as f64) as f32;
@@ -306,14 +309,16 @@ fn blend(frame: &mut Frame, overlay: &Frame, alpha: &[f32]) {
         if a <= 0.0 {
             continue;
         }
-        let shows = !frame.hit[i]
-            || frame.object[i] == id
-            || overlay.depth_mm[i] < frame.depth_mm[i];
+        let shows =
+            !frame.hit[i] || frame.object[i] == id || overlay.depth_mm[i] < frame.depth_mm[i];
         if !shows {
             continue;
         }
         for c in 0..3 {
-            let (x, y) = (f32::from(frame.rgb[3 * i + c]), f32::from(overlay.rgb[3 * i + c]));
+            let (x, y) = (
+                f32::from(frame.rgb[3 * i + c]),
+                f32::from(overlay.rgb[3 * i + c]),
+            );
             frame.rgb[3 * i + c] = (x + (y - x) * a).round().clamp(0.0, 255.0) as u8;
         }
     }

@@ -48,7 +48,11 @@ fn levels_keep_a_quarter_each_and_attention_picks_them() {
         assert_eq!(full, 5120, "an icosphere of 4 subdivisions");
         for (l, level) in o.levels.iter().enumerate() {
             let target = (full as f64 / 4f64.powi(l as i32)).round() as usize;
-            assert!(level.len() <= target && level.len() + 8 >= target, "level {l}: {} for {target}", level.len());
+            assert!(
+                level.len() <= target && level.len() + 8 >= target,
+                "level {l}: {} for {target}",
+                level.len()
+            );
         }
     }
     let mut ulod = Ulod::new(objects, 4, 64).expect("ulod");
@@ -59,13 +63,26 @@ fn levels_keep_a_quarter_each_and_attention_picks_them() {
     assert_eq!(s.triangles_opaque, 3 * 5120);
     assert_eq!(s.triangles_blended, 0);
     let mut reference = Frame::default();
-    raster::rasterize(&scene, &camera, &scene.triangles, true, &mut reference, &mut RasterScratch::default());
+    raster::rasterize(
+        &scene,
+        &camera,
+        &scene.triangles,
+        true,
+        &mut reference,
+        &mut RasterScratch::default(),
+    );
     assert_eq!(first.rgb, reference.rgb);
     // Then the levels follow the attention on the last frame.
     let mut frame = first.clone();
     let mut previous = first;
     for k in 1..6 {
-        let s = ulod.render(&scene, &camera, Some(&previous), Some(k as f64 / 60.0), &mut frame);
+        let s = ulod.render(
+            &scene,
+            &camera,
+            Some(&previous),
+            Some(k as f64 / 60.0),
+            &mut frame,
+        );
         assert!(s.triangles_opaque + s.triangles_blended < 3 * 5120, "{s:?}");
         assert!(frame.rgb.iter().any(|&c| c != 0));
         std::mem::swap(&mut previous, &mut frame);
@@ -74,7 +91,11 @@ fn levels_keep_a_quarter_each_and_attention_picks_them() {
     // The scenery is never ranked: the coarsest level.
     assert_eq!(levels[2], 3.0, "{levels:?}");
     // The most attended object is at full detail; the other is coarser.
-    let (best, other) = if levels[0] < levels[1] { (0, 1) } else { (1, 0) };
+    let (best, other) = if levels[0] < levels[1] {
+        (0, 1)
+    } else {
+        (1, 0)
+    };
     assert_eq!(levels[best], 0.0, "{levels:?}");
     assert!(levels[other] > 0.0 && levels[other] <= 3.0, "{levels:?}");
     assert!(levels.iter().all(|l| l.is_finite()));
@@ -86,15 +107,27 @@ fn bad_level_counts_are_refused() {
     assert!(scene_levels(&scene, 0).is_err());
     assert!(scene_levels(&scene, 9).is_err());
     let two = scene_levels(&scene, 2).expect("levels");
-    assert!(Ulod::new(two.clone(), 3, 64).is_err(), "three levels asked of two");
+    assert!(
+        Ulod::new(two.clone(), 3, 64).is_err(),
+        "three levels asked of two"
+    );
     assert!(Ulod::new(two.clone(), 2, 32).is_err(), "map size below 64");
-    assert!(Ulod::new(Vec::new(), 2, 64).is_ok(), "an empty scene is fine");
+    assert!(
+        Ulod::new(Vec::new(), 2, 64).is_ok(),
+        "an empty scene is fine"
+    );
     let mut empty = Ulod::new(Vec::new(), 2, 64).expect("ulod");
     let g = display().geometry().expect("geometry");
     let mut f = Frame::default();
     let s = empty.render(&scene, &Camera::new(&g), None, None, &mut f);
     assert_eq!((s.triangles_opaque, s.mean_level), (0, 0.0));
     let prev = f.clone();
-    let s = empty.render(&scene, &Camera::new(&g), Some(&prev), Some(f64::NAN), &mut f);
+    let s = empty.render(
+        &scene,
+        &Camera::new(&g),
+        Some(&prev),
+        Some(f64::NAN),
+        &mut f,
+    );
     assert_eq!(s.triangles_opaque, 0);
 }

@@ -368,6 +368,9 @@ pub fn draw_log_log(
         RGBColor(200, 40, 40),
         RGBColor(30, 80, 200),
         RGBColor(30, 140, 60),
+        RGBColor(200, 130, 0),
+        RGBColor(130, 50, 170),
+        RGBColor(20, 20, 20),
     ];
     draw_png(path, (900, 600), |root| {
         let mut chart = ChartBuilder::on(root)

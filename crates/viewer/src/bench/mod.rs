@@ -24,6 +24,7 @@ pub mod report;
 pub mod scaling;
 pub mod stages;
 pub mod summary;
+pub mod ulod;
 
 use std::io::Write;
 use std::path::PathBuf;
@@ -51,6 +52,9 @@ pub enum BenchCommand {
     /// Lee's attention model against recorded gaze: A1/A2/A3 in the eight
     /// feature-group combinations of Lee's Table 3.2.
     Attention(attention::AttentionArgs),
+    /// Attention-guided level of detail (Lee ch. 7): frame time against
+    /// visible objects for no LOD and ULOD2–ULOD5, and the cost model.
+    Ulod(ulod::UlodArgs),
 }
 
 /// Most gaze positions `bench accuracy` takes: every gaze costs a
@@ -116,7 +120,7 @@ pub fn run(args: &BenchArgs, out: &mut dyn Write) -> Result<(), String> {
         BenchCommand::Accuracy(a) => a.backend,
         BenchCommand::Scaling(a) => a.backend,
         BenchCommand::Stages(_) => BackendChoice::Cpu,
-        BenchCommand::Attention(_) => BackendChoice::Cpu,
+        BenchCommand::Attention(_) | BenchCommand::Ulod(_) => BackendChoice::Cpu,
     };
     if backend == BackendChoice::Gpu {
         return Err(
@@ -131,6 +135,7 @@ pub fn run(args: &BenchArgs, out: &mut dyn Write) -> Result<(), String> {
         BenchCommand::Scaling(a) => scaling::run(a, out),
         BenchCommand::Stages(a) => stages::run(a, out),
         BenchCommand::Attention(a) => attention::run(a, out),
+        BenchCommand::Ulod(a) => ulod::run(a, out),
     }
 }
 

@@ -30,11 +30,15 @@ fn display() -> Display {
 }
 
 fn scene(name: &str) -> Scene {
+    scene_with(name, vec![Effect::FoveatedSampling])
+}
+
+fn scene_with(name: &str, effects: Vec<Effect>) -> Scene {
     let repo = Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../.."));
     let path = repo.join("config/scenes").join(format!("{name}.ron"));
     let text = std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
     let mut file: SceneFile = ron::from_str(&text).unwrap_or_else(|e| panic!("{name}: {e}"));
-    file.effects = vec![Effect::FoveatedSampling];
+    file.effects = effects;
     Scene::build(&file, path.parent().expect("dir")).unwrap_or_else(|e| panic!("{name}: {e}"))
 }
 
@@ -139,4 +143,20 @@ fn the_raster_pipeline_is_made_only_for_a_model_based_method_on_the_gpu() {
     if r.backend_name() == "cpu" {
         println!("auto: {:?}", r.note());
     }
+}
+
+/// The raster path has no GPU post-pass hook: with a model-based method on
+/// the GPU, depth of field runs on the CPU after the read-back.
+#[test]
+fn effect_passes_run_on_the_cpu_after_the_gpu_raster() {
+    let text = "[FoveatedSampling, DepthOfField(pupil_mm: 8.0)]";
+    let effects: Vec<Effect> = ron::from_str(text).expect("effects");
+    let s = scene_with("bunny", effects);
+    let mut r = renderer(&s, Method::Lod, BackendChoice::Gpu);
+    assert!(r.gpu_pass_names().is_empty());
+    assert_eq!(r.pass_names().len(), 1, "{:?}", r.pass_names());
+    r.render([160.0, 128.0]).expect("frame");
+    assert!(!r.has_dof_buffers());
+    assert!(r.has_raster_buffers());
+    assert!(r.depth_of_field().is_some(), "the CPU pass ran");
 }

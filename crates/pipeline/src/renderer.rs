@@ -537,7 +537,7 @@ impl<'s> Renderer<'s> {
             ),
             (Method::Simplify | Method::Lod, backend) => out.push(format!(
                 "per frame: select each object's vertex-tree cut incrementally ({}, CPU), \
-                 then rasterise the active triangles ({}, the ray caster's shading)",
+                 then rasterise the active triangles with the ray caster's shading ({})",
                 if self.method == Method::Simplify {
                     "Luebke–Hallen imperceptible mode, Geisler–Perry thresholds"
                 } else {

@@ -13,7 +13,8 @@ use crate::renderer::RenderError;
 pub enum BackendChoice {
     /// rayon on the CPU: every method, structure and intersector.
     Cpu,
-    /// wgpu compute: every method, with the BVH and the watertight test.
+    /// wgpu: every method, with the BVH and the watertight test (compute;
+    /// the model-based methods' raster in a render pipeline).
     Gpu,
     /// A real GPU where one can render the scene, else the CPU; says which.
     #[default]

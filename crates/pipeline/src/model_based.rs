@@ -21,19 +21,22 @@
 //! (`Method::Simplify`: Luebke–Hallen imperceptible mode with the
 //! Geisler–Perry threshold table; `Method::Lod`: Murphy–Duchowski Table 1
 //! levels); the active triangles (proxy positions and normals) are
-//! rasterised by [`raycast::raster`] into the same G-buffer with the same
-//! shading and gamma as the ray caster.
+//! rasterised into the same G-buffer with the same shading and gamma as the
+//! ray caster: by [`raycast::raster`] on the CPU backend, by
+//! `GpuRenderer::rasterize` (a `wgpu` render pipeline with a depth buffer)
+//! on the GPU backend ([`RasterOn`]).
 //!
-//! The control is `Method::Full` (every pixel cast), which the rasteriser
-//! reproduces exactly on the unsimplified mesh (`raycast/tests/raster.rs`).
-//! Only the CPU raster path exists; on the GPU backend these methods are
-//! refused with a clear error.
+//! The control is `Method::Full` (every pixel cast), which the CPU
+//! rasteriser reproduces exactly on the unsimplified mesh
+//! (`raycast/tests/raster.rs`); the GPU one matches the CPU one up to
+//! silhouette pixels and rounding (`raycast/tests/gpu_raster.rs`).
 
 use foveation::perceptibility::ThresholdTable;
 use foveation::GeislerPerry;
 use glam::Vec3;
 use lod::select::{Mode, SelectionReport, View};
 use lod::{Cut, VertexTree};
+use raycast::gpu::GpuRenderer;
 use raycast::raster::{self, RasterScratch, RasterStats};
 use raycast::ray::TriangleTest;
 use raycast::render::Stats;
@@ -73,6 +76,15 @@ pub struct ModelStats {
     pub raster_ms: f64,
     /// The raster's counts.
     pub raster: RasterStats,
+}
+
+/// Where [`ModelBased::render`] rasterises the active triangles.
+pub enum RasterOn<'a> {
+    /// [`raster::rasterize`], the CPU z-buffer.
+    Cpu,
+    /// `GpuRenderer::rasterize`, the GPU's render pipeline (the renderer
+    /// must hold this scene).
+    Gpu(&'a mut GpuRenderer),
 }
 
 /// The model-based method's state for one scene.
@@ -160,7 +172,7 @@ impl ModelBased {
     }
 
     /// Selects every object's cut for the gaze and rasterises the result
-    /// into `frame`.
+    /// into `frame`, on the CPU or the GPU (`on`).
     pub fn render(
         &mut self,
         scene: &Scene,
@@ -168,6 +180,7 @@ impl ModelBased {
         gaze_px: [f64; 2],
         surface: bool,
         frame: &mut Frame,
+        on: RasterOn<'_>,
     ) -> Result<Stats, String> {
         let started = std::time::Instant::now();
         if !(gaze_px[0].is_finite() && gaze_px[1].is_finite()) {
@@ -216,14 +229,19 @@ impl ModelBased {
         }
         stats.triangles_drawn = self.triangles.len();
         stats.select_ms = started.elapsed().as_secs_f64() * 1e3;
-        let r = raster::rasterize(
-            scene,
-            camera,
-            &self.triangles,
-            surface,
-            frame,
-            &mut self.scratch,
-        );
+        let r = match on {
+            RasterOn::Cpu => raster::rasterize(
+                scene,
+                camera,
+                &self.triangles,
+                surface,
+                frame,
+                &mut self.scratch,
+            ),
+            RasterOn::Gpu(g) => g
+                .rasterize(camera, &self.triangles, surface, frame)
+                .map_err(|e| format!("--backend gpu: {e}"))?,
+        };
         stats.raster_ms = r.time_ms;
         stats.raster = r;
         self.last = stats;

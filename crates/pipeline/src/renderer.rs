@@ -14,7 +14,7 @@ use crate::effects::{pass_for, passes_for, Pass, PassInput};
 use crate::gpu::{FramePost, GpuDof, GpuImage, GpuSplat};
 use crate::image_foveation::ImageFoveation;
 use crate::method::Method;
-use crate::model_based::ModelBased;
+use crate::model_based::{ModelBased, RasterOn};
 use raycast::scene::Effect;
 
 /// Why a frame could not be rendered.
@@ -116,19 +116,9 @@ impl<'s> Renderer<'s> {
         options: &Options,
     ) -> Result<Self, RenderError> {
         let method = options.method.for_scene(scene);
-        let (backend, note) = if method.is_model_based() {
-            if options.backend == BackendChoice::Gpu {
-                return Err(RenderError::Unsupported(format!(
-                    "--method {}: the model-based methods rasterise on the CPU only so far; use --backend cpu",
-                    method.name()
-                )));
-            }
-            let note = (options.backend == BackendChoice::Auto)
-                .then(|| "the model-based methods rasterise on the CPU".to_string());
-            (Backend::Cpu, note)
-        } else {
-            Backend::choose(options.backend, scene, options.test)?
-        };
+        // The model-based methods rasterise on the backend chosen the same
+        // way (on the GPU: its render pipeline, `GpuRenderer::rasterize`).
+        let (backend, note) = Backend::choose(options.backend, scene, options.test)?;
         let settings = Settings {
             mode: match method {
                 Method::Full | Method::Image | Method::Simplify | Method::Lod => Mode::Full,
@@ -142,7 +132,9 @@ impl<'s> Renderer<'s> {
             check_coverage: options.check_coverage,
         };
         let mut passes = passes_for(scene, options.por_overlay);
-        let on_gpu = matches!(backend, Backend::Gpu(_));
+        // The GPU raster path has no post-pass hook: with a model-based
+        // method every effect pass runs on the CPU after the read-back.
+        let on_gpu = matches!(backend, Backend::Gpu(_)) && !method.is_model_based();
         // Depth of field moves to the GPU when it is the first pass (what
         // runs before it would have to run on the GPU too).
         let gpu_dof = match scene.effect(Effect::DEPTH_OF_FIELD) {
@@ -251,14 +243,18 @@ impl<'s> Renderer<'s> {
             }
         }
         let (mut frame, mut stats) = match (self.method, &mut self.backend) {
-            (Method::Simplify | Method::Lod, _) => {
+            (Method::Simplify | Method::Lod, backend) => {
                 let mut frame = self.spare.take().unwrap_or_default();
                 let m = self
                     .model_based
                     .as_mut()
                     .ok_or_else(|| RenderError::Unsupported("no model-based state".into()))?;
+                let on = match backend {
+                    Backend::Cpu => RasterOn::Cpu,
+                    Backend::Gpu(g) => RasterOn::Gpu(g.as_mut()),
+                };
                 let stats = m
-                    .render(self.scene, &self.camera, gaze_px, surface, &mut frame)
+                    .render(self.scene, &self.camera, gaze_px, surface, &mut frame, on)
                     .map_err(RenderError::Unsupported)?;
                 (frame, stats)
             }
@@ -462,6 +458,16 @@ impl<'s> Renderer<'s> {
         }
     }
 
+    /// Whether the GPU backend holds the raster path's pipelines and
+    /// buffers (false on the CPU): only a model-based method on the GPU
+    /// makes them, with its first frame.
+    pub fn has_raster_buffers(&self) -> bool {
+        match &self.backend {
+            Backend::Cpu => false,
+            Backend::Gpu(g) => g.has_raster_buffers(),
+        }
+    }
+
     /// Whether the GPU backend holds the hybrid method's buffers (false on
     /// the CPU): a full-resolution scene must never allocate them.
     pub fn has_foveated_buffers(&self) -> bool {
@@ -529,13 +535,20 @@ impl<'s> Renderer<'s> {
             (Method::Full, _) => out.push(
                 "per frame: cast and shade every pixel (no mask, no foveated buffers)".into(),
             ),
-            (Method::Simplify | Method::Lod, _) => out.push(format!(
-                "per frame: select each object's vertex-tree cut incrementally ({}), \
-                 then rasterise the active triangles (CPU z-buffer, the ray caster's shading)",
+            (Method::Simplify | Method::Lod, backend) => out.push(format!(
+                "per frame: select each object's vertex-tree cut incrementally ({}, CPU), \
+                 then rasterise the active triangles with the ray caster's shading ({})",
                 if self.method == Method::Simplify {
                     "Luebke–Hallen imperceptible mode, Geisler–Perry thresholds"
                 } else {
                     "Murphy–Duchowski Table 1 levels"
+                },
+                match backend {
+                    Backend::Cpu => "CPU z-buffer",
+                    Backend::Gpu(_) => {
+                        "GPU render pipeline: triangles uploaded per frame, off-axis frustum, \
+                         depth buffer; effect passes on the CPU"
+                    }
                 }
             )),
             (Method::Image, Backend::Gpu(_)) => out.push(format!(

@@ -155,20 +155,7 @@ fn other_methods_build_no_trees_and_bad_input_is_refused() {
         let e = r.render(g).expect_err("refused");
         assert!(e.to_string().contains("finite"), "{e}");
     }
-    let g = display().geometry().expect("geometry");
-    let model = pipeline::sampling_model(g, 1.0).expect("model");
-    let gpu = Renderer::new(
-        &s,
-        Camera::new(&g),
-        model,
-        &Options {
-            method: Method::Lod,
-            backend: BackendChoice::Gpu,
-            ..Options::default()
-        },
-    );
-    let e = gpu.err().expect("the GPU path is refused");
-    assert!(e.to_string().contains("--backend cpu"), "{e}");
+    // The GPU raster path: tests/model_based_gpu.rs.
 }
 
 /// Pixels of `frame` that show the background although the full frame

@@ -21,7 +21,8 @@
 //!   full-resolution frame and the foveated stages (mask vertices, cell
 //!   classification, silhouette margin, interpolation, compacted refined
 //!   pixels cast by an indirect dispatch), timed with timestamp queries
-//!   where the adapter has them; it fills the same G-buffer as the CPU;
+//!   where the adapter has them, and the raster path of the model-based
+//!   methods (a render pipeline); it fills the same G-buffer as the CPU;
 //! - [`error`]: scene and mesh errors.
 
 pub mod accel;

@@ -60,6 +60,12 @@
 //! triangles, drawing another allocates nothing. The cost of a triangle is
 //! its bounding box clamped to the screen, so a huge one costs at most a
 //! screenful of pixels.
+//!
+//! Its GPU twin is `GpuRenderer::rasterize` (feature `gpu`): the same
+//! triangles, near plane, skipped triangles, shading and G-buffer, drawn by
+//! a wgpu render pipeline with a depth buffer; coverage there is the
+//! hardware's, so silhouette pixels may differ
+//! (`raycast/tests/gpu_raster.rs` measures it).
 
 use std::time::Instant;
 

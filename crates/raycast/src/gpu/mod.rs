@@ -21,6 +21,11 @@
 //!   the hidden image of Lee's ch. 5 ([`GpuFrame::cast_hidden`], `hidden`:
 //!   the first surface of another object along each pixel's ray, the GPU
 //!   twin of [`crate::layers`]); its pipeline is made on first use.
+//! - Raster (the model-based methods): a render pipeline draws a list of
+//!   triangles through the display's off-axis frustum with a depth buffer
+//!   and the caster's shading, and a compute pass resolves its targets into
+//!   the frame's buffers ([`GpuRenderer::rasterize`], the GPU twin of
+//!   [`crate::raster::rasterize`]); made on first use.
 //! - Where the adapter has timestamp queries, every pass is timed
 //!   ([`GpuRenderer::stage_ms`]).
 //!
@@ -34,7 +39,7 @@
 //! `pipelines` (the shader and its compute pipelines), `full` (the
 //! full-resolution frame), `foveated` (the foveated frame and its stages),
 //! `readback` (mapping and unpacking the frame), `post` (the caller's
-//! passes before the read-back).
+//! passes before the read-back), `raster` (the raster path).
 
 mod buffers;
 mod device;
@@ -43,6 +48,7 @@ mod full;
 mod hidden;
 mod pipelines;
 mod post;
+mod raster;
 mod readback;
 mod timer;
 mod upload;
@@ -51,6 +57,7 @@ pub use device::probe;
 pub use foveated::{foveated_stages, Stage};
 pub use hidden::HIDDEN_HITS;
 pub use post::{GpuFrame, GpuPost};
+pub use raster::off_axis_projection;
 /// The `wgpu` this backend is built on, for callers of [`GpuPost`].
 pub use wgpu;
 
@@ -74,6 +81,8 @@ pub enum GpuError {
         bytes: u64,
         limit: u64,
     },
+    #[error("the raster targets need {width}×{height} pixels; this adapter's textures hold at most {limit} a side (max_texture_dimension_2d)")]
+    TextureTooLarge { width: u32, height: u32, limit: u32 },
     #[error("reading the frame back failed: {0}")]
     Readback(String),
 }
@@ -105,6 +114,9 @@ pub struct GpuRenderer {
     surface: bool,
     /// The hidden-image cast's pipeline, made by the first frame that asks.
     hidden: std::sync::OnceLock<hidden::HiddenCast>,
+    /// The raster path's pipelines and buffers, made by the first
+    /// [`GpuRenderer::rasterize`].
+    raster: Option<raster::GpuRaster>,
 }
 
 impl GpuRenderer {
@@ -159,6 +171,7 @@ impl GpuRenderer {
             stage_ms: Vec::new(),
             surface: true,
             hidden: std::sync::OnceLock::new(),
+            raster: None,
             device,
         })
     }

@@ -46,6 +46,8 @@ pub(super) struct SceneBuffers {
     /// element each: storage buffers may not be empty).
     pub n_triangles: u32,
     pub n_lights: u32,
+    /// Objects with a material (`Scene::object_materials`).
+    pub n_materials: u32,
 }
 
 /// The gamma table of `shade::to_rgb8`, as u32 for the shader.
@@ -162,6 +164,7 @@ impl SceneBuffers {
             gamma: upload("the gamma table", bytemuck::cast_slice(&gamma_table()))?,
             n_triangles: scene.triangles.len() as u32,
             n_lights: scene.lights.len() as u32,
+            n_materials: scene.object_materials.len() as u32,
         })
     }
 }

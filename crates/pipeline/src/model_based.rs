@@ -19,8 +19,11 @@
 //! the screen point, when the gaze is on the background: the direction is
 //! the same); every object's cut is selected **incrementally** for the view
 //! (`Method::Simplify`: Luebke–Hallen imperceptible mode with the
-//! Geisler–Perry threshold table; `Method::Lod`: Murphy–Duchowski Table 1
-//! levels); the active triangles (proxy positions and normals) are
+//! Geisler–Perry threshold table, or their best-effort mode under a
+//! triangle budget, [`ModelOptions::budget`]; `Method::Lod`:
+//! Murphy–Duchowski Table 1 levels); with [`ModelOptions::ignore_gaze`] the
+//! view has no gaze (every node foveal: Luebke–Hallen "without gaze"); the
+//! active triangles (proxy positions and normals) are
 //! rasterised by [`raycast::raster`] into the same G-buffer with the same
 //! shading and gamma as the ray caster.
 //!
@@ -32,6 +35,7 @@
 use foveation::perceptibility::ThresholdTable;
 use foveation::GeislerPerry;
 use glam::Vec3;
+pub use lod::select::{BudgetOutcome, BudgetStop};
 use lod::select::{Mode, SelectionReport, View};
 use lod::{Cut, VertexTree};
 use raycast::raster::{self, RasterScratch, RasterStats};
@@ -56,6 +60,66 @@ self_cell::self_cell!(
     }
 );
 
+/// Most triangles a budget may ask for (`--budget`): 10⁹, far above any
+/// scene this renderer loads (a bound, so that a typo is an error rather
+/// than "no limit").
+pub const MAX_TRIANGLE_BUDGET: usize = 1_000_000_000;
+
+/// The model-based methods' options (what a command line chooses).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct ModelOptions {
+    /// Luebke & Hallen §5.3 best-effort mode (`Method::Simplify` only): at
+    /// most this many triangles a frame, most perceptible fold undone
+    /// first. `None`: imperceptible mode. 1 to [`MAX_TRIANGLE_BUDGET`].
+    ///
+    /// *Decision*: a scene of several objects shares the budget in
+    /// proportion to each object's full triangle count (rounded down, so
+    /// the sum never exceeds it); each object runs its own greedy (one
+    /// queue per tree).
+    pub budget: Option<usize>,
+    /// Select without the gaze: eccentricity 0 everywhere (Luebke & Hallen's
+    /// "without gaze"; for `Method::Lod` every node is then foveal).
+    pub ignore_gaze: bool,
+}
+
+impl ModelOptions {
+    /// Checks the options against `method` (requested, before the scene
+    /// decides); errors name the command-line flag.
+    pub fn check(&self, method: Method) -> Result<(), String> {
+        if let Some(b) = self.budget {
+            if method != Method::Simplify {
+                return Err(format!(
+                    "--budget: the triangle budget is Luebke & Hallen's best-effort mode, for --method simplify only (not {})",
+                    method.name()
+                ));
+            }
+            if !(1..=MAX_TRIANGLE_BUDGET).contains(&b) {
+                return Err(format!(
+                    "--budget {b}: must be from 1 to {MAX_TRIANGLE_BUDGET} triangles"
+                ));
+            }
+        }
+        if self.ignore_gaze && !method.is_model_based() {
+            return Err(format!(
+                "--no-gaze: only the model-based methods (simplify, lod) select without the gaze (not {})",
+                method.name()
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// Budget mode's outcome over the scene (Luebke & Hallen §5.3).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct BudgetReport {
+    /// The budget asked for.
+    pub budget: usize,
+    /// Of every object's greedy, the outcome whose most perceptible fold
+    /// left is the most perceptible (largest δ*/d): the viewing distance
+    /// (δ*) beyond which the whole simplification should be imperceptible.
+    pub outcome: BudgetOutcome,
+}
+
 /// What the last model-based frame did.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub struct ModelStats {
@@ -73,12 +137,15 @@ pub struct ModelStats {
     pub raster_ms: f64,
     /// The raster's counts.
     pub raster: RasterStats,
+    /// Budget mode only.
+    pub budget: Option<BudgetReport>,
 }
 
 /// The model-based method's state for one scene.
 pub struct ModelBased {
     objects: Vec<ObjectLod>,
     mode: Mode,
+    options: ModelOptions,
     thresholds: ThresholdTable,
     scene_contrast: f64,
     /// Triangles of the unsimplified scene (fixed at set-up).
@@ -92,10 +159,20 @@ pub struct ModelBased {
 
 impl ModelBased {
     /// Builds a tree per object of `scene` for `method` (`Simplify` or
-    /// `Lod`; any other method is an error).
-    pub fn new(scene: &Scene, camera: &Camera, method: Method) -> Result<Self, String> {
+    /// `Lod`; any other method is an error) and `options` (checked by
+    /// [`ModelOptions::check`]).
+    pub fn new(
+        scene: &Scene,
+        camera: &Camera,
+        method: Method,
+        options: ModelOptions,
+    ) -> Result<Self, String> {
+        options.check(method)?;
         let mode = match method {
-            Method::Simplify => Mode::Imperceptible,
+            Method::Simplify => match options.budget {
+                Some(triangles) => Mode::Budget { triangles },
+                None => Mode::Imperceptible,
+            },
             Method::Lod => Mode::murphy_duchowski(),
             other => return Err(format!("{} is not a model-based method", other.name())),
         };
@@ -137,6 +214,7 @@ impl ModelBased {
         Ok(Self {
             objects,
             mode,
+            options,
             thresholds: ThresholdTable::from_model(&GeislerPerry::default()),
             scene_contrast,
             triangles_full,
@@ -184,7 +262,7 @@ impl ModelBased {
         };
         let view = View {
             eye_mm: camera.eye,
-            gaze_point_mm: Some(gaze_point),
+            gaze_point_mm: (!self.options.ignore_gaze).then_some(gaze_point),
             thresholds: &self.thresholds,
             scene_contrast: self.scene_contrast,
         };
@@ -193,8 +271,13 @@ impl ModelBased {
             ..ModelStats::default()
         };
         self.triangles.clear();
-        for o in &mut self.objects {
-            let mode = self.mode;
+        let shares = self.options.budget.map(|b| budget_shares(b, &self.objects));
+        let mut worst: Option<BudgetOutcome> = None;
+        for (k, o) in self.objects.iter_mut().enumerate() {
+            let mode = match (&shares, self.mode) {
+                (Some(s), Mode::Budget { .. }) => Mode::Budget { triangles: s[k] },
+                (_, m) => m,
+            };
             let report: SelectionReport = o
                 .cells
                 .with_dependent_mut(|_, cut| cut.select(&view, &mode))
@@ -202,6 +285,11 @@ impl ModelBased {
             stats.folds += report.folds;
             stats.unfolds += report.unfolds;
             stats.nodes_visited += report.nodes_visited;
+            if let Some(b) = report.budget {
+                if worst.is_none_or(|w| b.distance_factor > w.distance_factor) {
+                    worst = Some(b);
+                }
+            }
             o.cells.with_dependent(|_, cut| {
                 cut.triangles_into(&mut self.positions);
                 cut.normals_into(&mut self.normals);
@@ -215,6 +303,11 @@ impl ModelBased {
             );
         }
         stats.triangles_drawn = self.triangles.len();
+        stats.budget = self
+            .options
+            .budget
+            .zip(worst)
+            .map(|(budget, outcome)| BudgetReport { budget, outcome });
         stats.select_ms = started.elapsed().as_secs_f64() * 1e3;
         let r = raster::rasterize(
             scene,
@@ -232,6 +325,36 @@ impl ModelBased {
             ..Stats::default()
         })
     }
+}
+
+/// Each object's share of a scene's triangle budget: in proportion to its
+/// full triangle count, rounded down (the shares never sum above `budget`).
+fn budget_shares(budget: usize, objects: &[ObjectLod]) -> Vec<usize> {
+    let counts: Vec<usize> = objects
+        .iter()
+        .map(|o| o.cells.borrow_owner().triangles().len())
+        .collect();
+    proportional_shares(budget, &counts)
+}
+
+/// `budget` split in proportion to `counts`, rounded down; all of it to a
+/// single entry.
+pub fn proportional_shares(budget: usize, counts: &[usize]) -> Vec<usize> {
+    let total: u128 = counts.iter().map(|&c| c as u128).sum();
+    if counts.len() == 1 {
+        return vec![budget];
+    }
+    counts
+        .iter()
+        .map(|&c| {
+            if total == 0 {
+                0
+            } else {
+                // u128: budget · count cannot overflow.
+                (budget as u128 * c as u128 / total) as usize
+            }
+        })
+        .collect()
 }
 
 /// An object's triangles as an indexed mesh.

@@ -84,6 +84,10 @@ pub struct AccuracyArgs {
     /// Fewer configurations (13 of 172) and two gazes unless --gazes is given.
     #[arg(long)]
     pub quick: bool,
+    /// Add `simplify` under a triangle budget of N (Luebke & Hallen's
+    /// best-effort mode; 1 to 10^9); repeat for several budgets.
+    #[arg(long, value_name = "TRIANGLES", value_parser = crate::args::parse_budget)]
+    pub budget: Vec<usize>,
 }
 
 #[derive(Debug, Clone, clap::Args)]

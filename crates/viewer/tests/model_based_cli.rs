@@ -1,0 +1,103 @@
+//! The model-based methods' command lines (issue 16) on the real binary:
+//! `render --method simplify --budget N` and `bench lod`.
+
+mod common;
+
+use common::{gazecast, Run};
+
+/// A small display so the binary renders quickly in tests.
+fn small_display(dir: &std::path::Path) -> std::path::PathBuf {
+    let p = dir.join("small.ron");
+    std::fs::write(&p, "Display(name: \"small\", resolution_px: (320, 256), size_mm: (337.9, 270.3), eye_distance_mm: 540.0)")
+        .expect("write");
+    p
+}
+
+/// `render` with a triangle budget prints and writes the budget outcome:
+/// the triangles drawn (never above the budget, more for a larger one) and
+/// the distance at which the folds left become imperceptible.
+#[test]
+fn render_reports_the_budget_outcome() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let d = small_display(dir.path());
+    let mut last = 0;
+    for (budget, no_gaze) in [("300", false), ("3000", false), ("3000", true)] {
+        let stats = dir.path().join(format!("s-{budget}-{no_gaze}.json"));
+        let mut cmd = gazecast();
+        cmd.args([
+            "render",
+            "--scene",
+            "config/scenes/bunny.ron",
+            "--method",
+            "simplify",
+            "--budget",
+            budget,
+            "--gaze",
+            "40,200",
+            "--display",
+        ])
+        .arg(&d)
+        .arg("--out")
+        .arg(dir.path().join("f.png"))
+        .arg("--stats")
+        .arg(&stats);
+        if no_gaze {
+            cmd.arg("--no-gaze");
+        }
+        let out = cmd.succeed();
+        let text = String::from_utf8_lossy(&out.stdout);
+        assert!(
+            text.contains(&format!("budget {budget}: stopped by")),
+            "{text}"
+        );
+        assert!(text.contains("imperceptible from"), "{text}");
+        let v: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(&stats).expect("json")).expect("json");
+        let m = &v["model"];
+        let drawn = m["triangles_drawn"].as_u64().expect("drawn");
+        let b: u64 = budget.parse().expect("number");
+        assert!(drawn <= b, "{drawn} > {b}");
+        assert!(m["imperceptible_distance_mm"].as_f64().expect("distance") > 0.0);
+        assert_eq!(m["no_gaze"].as_bool(), Some(no_gaze));
+        if !no_gaze {
+            assert!(drawn >= last);
+            last = drawn;
+        }
+    }
+}
+
+#[test]
+fn budget_errors_name_the_flag() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let d = small_display(dir.path());
+    for (method, budget, extra) in [
+        ("simplify", "0", None),
+        ("simplify", "12x", None),
+        ("simplify", "2000000000", None),
+        ("lod", "1000", None),
+        ("hybrid", "1000", None),
+        ("full", "", Some("--no-gaze")),
+    ] {
+        let mut cmd = gazecast();
+        cmd.args([
+            "render",
+            "--scene",
+            "config/scenes/bunny.ron",
+            "--method",
+            method,
+            "--display",
+        ])
+        .arg(&d)
+        .arg("--out")
+        .arg(dir.path().join("f.png"));
+        if !budget.is_empty() {
+            cmd.args(["--budget", budget]);
+        }
+        cmd.args(extra);
+        let out = cmd.output().expect("runs");
+        assert!(!out.status.success(), "{method} {budget} accepted");
+        let err = String::from_utf8_lossy(&out.stderr);
+        let flag = extra.unwrap_or("--budget");
+        assert!(err.contains(flag), "{method} {budget}: {err}");
+    }
+}

@@ -101,3 +101,58 @@ fn budget_errors_name_the_flag() {
         assert!(err.contains(flag), "{method} {budget}: {err}");
     }
 }
+
+/// `bench lod --quick` writes Table 2's shape: per mesh, the three methods
+/// with faces min ≤ avg ≤ max ≤ the full count, and one Fig. 8 row each.
+#[test]
+fn bench_lod_writes_table_2_and_fig_8() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let out = dir.path().join("lod");
+    let run = gazecast()
+        .args(["bench", "lod", "--quick", "--frames", "5", "--out"])
+        .arg(&out)
+        .succeed();
+    let text = String::from_utf8_lossy(&run.stdout);
+    assert!(text.contains("Table 2"), "{text}");
+    let md = std::fs::read_to_string(out.join("lod.md")).expect("lod.md");
+    assert!(md.contains("| torus-256 | lod |"), "{md}");
+    let csv = std::fs::read_to_string(out.join("lod.csv")).expect("lod.csv");
+    let mut lines = csv.lines();
+    assert_eq!(
+        lines.next(),
+        Some(gazecast_viewer::bench::lod::LOD_CSV_HEADER)
+    );
+    // 2 tori × 3 methods × 5 frames.
+    assert_eq!(lines.count(), 30);
+    let v: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("lod.json")).expect("json"))
+            .expect("json");
+    let rows = v["summaries"].as_array().expect("summaries");
+    assert_eq!(rows.len(), 6);
+    for r in rows {
+        let n = |k: &str| r[k].as_f64().expect(k);
+        assert!(
+            n("faces_min") <= n("faces_avg") && n("faces_avg") <= n("faces_max"),
+            "{r}"
+        );
+        assert!(n("faces_max") <= n("faces_full"), "{r}");
+        assert!(n("frame_ms_min") <= n("frame_ms_avg") && n("frame_ms_avg") <= n("frame_ms_max"));
+        assert_eq!(n("frames"), 5.0);
+    }
+    let fig8 = v["fig8"].as_array().expect("fig8");
+    assert_eq!(fig8.len(), 2);
+    for f in fig8 {
+        assert!(
+            (f["eccentricity_deg"].as_f64().expect("deg") - 29.0).abs() < 0.05,
+            "{f}"
+        );
+        assert!(f["faces"].as_u64().expect("faces") <= f["faces_full"].as_u64().expect("full"));
+    }
+    let e = gazecast()
+        .args(["bench", "lod", "--frames", "0", "--out"])
+        .arg(&out)
+        .output()
+        .expect("runs");
+    assert!(!e.status.success());
+    assert!(String::from_utf8_lossy(&e.stderr).contains("--frames"));
+}

@@ -5,6 +5,9 @@
 //!   for every configuration and gaze measures the frame time and the error
 //!   against the full-resolution frame of the same gaze
 //!   ([`foveation::quality`]). Writes `results.csv`, `pareto.png`, `report.md`.
+//! - `lod`: the model-based methods along a synthetic scanpath (Murphy &
+//!   Duchowski Table 2's shape; Luebke & Hallen Fig. 8's set-up). Writes
+//!   `lod.md`, `lod.csv`, `lod.json`.
 //! - `scaling`: frame time of full and foveated rendering against triangle
 //!   count and against resolution (log–log), to show whether the cost
 //!   follows the eye's ray budget. Writes `scaling.csv`,
@@ -16,6 +19,7 @@
 
 pub mod accuracy;
 pub mod configs;
+pub mod lod;
 pub mod measure;
 pub mod report;
 pub mod scaling;
@@ -45,6 +49,10 @@ pub enum BenchCommand {
     Scaling(ScalingArgs),
     /// Per-stage time of a foveated CPU frame next to a full frame.
     Stages(stages::StagesArgs),
+    /// The model-based methods along a synthetic scanpath: faces min/max/
+    /// average and frame time per method (Murphy & Duchowski Table 2), and
+    /// Luebke & Hallen Fig. 8's gaze 29° from the object.
+    Lod(lod::LodArgs),
 }
 
 /// Most gaze positions `bench accuracy` takes: every gaze costs a
@@ -113,7 +121,7 @@ pub fn run(args: &BenchArgs, out: &mut dyn Write) -> Result<(), String> {
     let backend = match &args.command {
         BenchCommand::Accuracy(a) => a.backend,
         BenchCommand::Scaling(a) => a.backend,
-        BenchCommand::Stages(_) => BackendChoice::Cpu,
+        BenchCommand::Stages(_) | BenchCommand::Lod(_) => BackendChoice::Cpu,
     };
     if backend == BackendChoice::Gpu {
         return Err(
@@ -127,6 +135,7 @@ pub fn run(args: &BenchArgs, out: &mut dyn Write) -> Result<(), String> {
         BenchCommand::Accuracy(a) => accuracy::run(a, out),
         BenchCommand::Scaling(a) => scaling::run(a, out),
         BenchCommand::Stages(a) => stages::run(a, out),
+        BenchCommand::Lod(a) => lod::run(a, out),
     }
 }
 

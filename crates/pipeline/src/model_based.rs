@@ -17,7 +17,14 @@
 //!
 //! Per frame: the gaze's 3-D point is the surface under the gaze pixel (or
 //! the screen point, when the gaze is on the background: the direction is
-//! the same); every object's cut is selected **incrementally** for the view
+//! the same); for `Method::Lod` with a binocular vergence depth for the
+//! frame ([`ModelBased::set_vergence_mm`], Murphy & Duchowski eqs 1–3,
+//! `g = h + s·v`), it is the point at that eye distance along the gaze ray
+//! instead. *Note*: the selection measures eccentricity as the angle at
+//! the eye between the gaze direction and a node (M&D §5.4 use only the
+//! gaze vector v), so any point on the gaze ray selects the same cut; the
+//! vergence point changes the reported 3-D gaze point
+//! ([`ModelStats::gaze_point_mm`]), not the triangles. Every object's cut is selected **incrementally** for the view
 //! (`Method::Simplify`: Luebke–Hallen imperceptible mode with the
 //! Geisler–Perry threshold table, or their best-effort mode under a
 //! triangle budget, [`ModelOptions::budget`]; `Method::Lod`:
@@ -139,6 +146,11 @@ pub struct ModelStats {
     pub raster: RasterStats,
     /// Budget mode only.
     pub budget: Option<BudgetReport>,
+    /// The 3-D point of regard the selection used (world mm): the surface
+    /// under the gaze pixel, or (`Method::Lod`) the vergence point.
+    pub gaze_point_mm: Option<Vec3>,
+    /// Whether `gaze_point_mm` came from the frame's vergence depth.
+    pub gaze_from_vergence: bool,
 }
 
 /// The model-based method's state for one scene.
@@ -146,6 +158,8 @@ pub struct ModelBased {
     objects: Vec<ObjectLod>,
     mode: Mode,
     options: ModelOptions,
+    /// The next frame's vergence depth (eye distance, mm), `Method::Lod` only.
+    vergence_mm: Option<f64>,
     thresholds: ThresholdTable,
     scene_contrast: f64,
     /// Triangles of the unsimplified scene (fixed at set-up).
@@ -215,6 +229,7 @@ impl ModelBased {
             objects,
             mode,
             options,
+            vergence_mm: None,
             thresholds: ThresholdTable::from_model(&GeislerPerry::default()),
             scene_contrast,
             triangles_full,
@@ -230,6 +245,14 @@ impl ModelBased {
     /// and its background.
     pub fn scene_contrast(&self) -> f64 {
         self.scene_contrast
+    }
+
+    /// The eye distance (mm) of the binocular 3-D gaze point for the next
+    /// frame (Murphy & Duchowski eqs 1–3); `Method::Lod` places the gaze
+    /// point there along the gaze ray. Holds for one frame; a non-finite or
+    /// non-positive depth counts as none.
+    pub fn set_vergence_mm(&mut self, depth_mm: Option<f64>) {
+        self.vergence_mm = depth_mm.filter(|d| d.is_finite() && *d > 0.0);
     }
 
     /// What the last frame did.
@@ -256,9 +279,17 @@ impl ModelBased {
         }
         let p = [gaze_px[0] as f32, gaze_px[1] as f32];
         let ray = camera.ray(p);
-        let gaze_point = match scene.intersect(&ray, 0.0, TriangleTest::Watertight) {
-            Some(h) => ray.at(h.t),
-            None => camera.screen_point(p),
+        let vergence = self
+            .vergence_mm
+            .take()
+            .filter(|_| matches!(self.mode, Mode::MurphyDuchowski { .. }));
+        let gaze_point = match (
+            vergence,
+            scene.intersect(&ray, 0.0, TriangleTest::Watertight),
+        ) {
+            (Some(d), _) => ray.origin + ray.dir.normalize() * d as f32,
+            (None, Some(h)) => ray.at(h.t),
+            (None, None) => camera.screen_point(p),
         };
         let view = View {
             eye_mm: camera.eye,
@@ -268,6 +299,8 @@ impl ModelBased {
         };
         let mut stats = ModelStats {
             triangles_full: self.triangles_full,
+            gaze_point_mm: view.gaze_point_mm,
+            gaze_from_vergence: vergence.is_some(),
             ..ModelStats::default()
         };
         self.triangles.clear();

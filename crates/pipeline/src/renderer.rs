@@ -268,6 +268,7 @@ impl<'s> Renderer<'s> {
                     .model_based
                     .as_mut()
                     .ok_or_else(|| RenderError::Unsupported("no model-based state".into()))?;
+                m.set_vergence_mm(vergence_mm);
                 let stats = m
                     .render(self.scene, &self.camera, gaze_px, surface, &mut frame)
                     .map_err(RenderError::Unsupported)?;

@@ -394,3 +394,52 @@ proptest::proptest! {
         }
     }
 }
+
+/// Murphy & Duchowski eqs 1–3: with a vergence depth for the frame,
+/// `Method::Lod`'s 3-D gaze point is at that eye distance along the gaze
+/// ray (for one frame; ignored when absent and by `Method::Simplify`).
+/// The selection measures eccentricity as an angle at the eye, so the cut
+/// and the frame are the same as with the surface point.
+#[test]
+fn a_vergence_depth_places_the_lod_gaze_point_along_the_gaze_ray() {
+    let s = scene("bunny");
+    let gaze = [150.0, 140.0];
+    let mut r = renderer(&s, Method::Lod);
+    let eye = r.camera().eye;
+    let (surface_frame, _) = r.render(gaze).expect("frame");
+    let at_surface = *r.model_based().expect("state").last();
+    assert!(!at_surface.gaze_from_vergence);
+    let p = at_surface.gaze_point_mm.expect("a gaze point");
+    let surface_mm = f64::from((p - eye).length());
+    assert!(
+        surface_mm > 540.0,
+        "the bunny is behind the screen: {surface_mm}"
+    );
+    for depth in [300.0, 2000.0] {
+        r.set_vergence_mm(Some(depth));
+        let (frame, _) = r.render(gaze).expect("frame");
+        let m = *r.model_based().expect("state").last();
+        assert!(m.gaze_from_vergence);
+        let q = m.gaze_point_mm.expect("a gaze point");
+        assert!((f64::from((q - eye).length()) - depth).abs() < 1e-3 * depth);
+        let angle = (q - eye).normalize().angle_between((p - eye).normalize());
+        assert!(angle < 1e-4, "off the gaze ray by {angle} rad");
+        assert_eq!(m.triangles_drawn, at_surface.triangles_drawn);
+        assert_eq!(frame, surface_frame);
+        // The next frame without a depth uses the surface again.
+        let (_, _) = r.render(gaze).expect("frame");
+        let next = *r.model_based().expect("state").last();
+        assert!(!next.gaze_from_vergence);
+        assert_eq!(next.gaze_point_mm, Some(p));
+    }
+    for bad in [f64::NAN, -5.0, 0.0, f64::INFINITY] {
+        r.set_vergence_mm(Some(bad));
+        let (_, _) = r.render(gaze).expect("frame");
+        assert!(!r.model_based().expect("state").last().gaze_from_vergence);
+    }
+    let mut simplify = renderer(&s, Method::Simplify);
+    simplify.set_vergence_mm(Some(300.0));
+    let (_, _) = simplify.render(gaze).expect("frame");
+    let m = *simplify.model_based().expect("state").last();
+    assert!(!m.gaze_from_vergence);
+}

@@ -35,6 +35,30 @@ pub fn parse_budget(s: &str) -> Result<usize, String> {
     Ok(n)
 }
 
+/// The model-based methods' options (`render`, `view`, `demo`).
+#[derive(Debug, Clone, Copy, Default, clap::Args)]
+pub struct ModelArgs {
+    /// `--method simplify` only: Luebke & Hallen's best-effort mode, at
+    /// most N triangles (1 to 10^9), most perceptible fold undone first;
+    /// reports the viewing distance at which the folds left become
+    /// imperceptible.
+    #[arg(long, value_name = "TRIANGLES", value_parser = parse_budget)]
+    pub budget: Option<usize>,
+    /// Model-based methods only: select without the gaze (eccentricity 0
+    /// everywhere, every node foveal).
+    #[arg(long)]
+    pub no_gaze: bool,
+}
+
+impl From<ModelArgs> for pipeline::model_based::ModelOptions {
+    fn from(a: ModelArgs) -> Self {
+        Self {
+            budget: a.budget,
+            ignore_gaze: a.no_gaze,
+        }
+    }
+}
+
 /// `--accel`: the acceleration structure.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
 pub enum AccelArg {

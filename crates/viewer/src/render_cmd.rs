@@ -9,7 +9,7 @@ use raycast::render::Stats;
 use raycast::{layers_rgb, Camera};
 use serde::Serialize;
 
-use crate::args::{parse_point, AccelArg, Intersector, Overlay};
+use crate::args::{parse_point, AccelArg, Intersector, ModelArgs, Overlay};
 use crate::config::{self, load_scene};
 use crate::picture::{draw_text_lines, save_png};
 use crate::stats::median;
@@ -72,16 +72,8 @@ pub struct RenderArgs {
     /// Draw the POR box even if the scene does not ask for it.
     #[arg(long, value_enum, value_name = "por")]
     pub overlay: Option<Overlay>,
-    /// `--method simplify` only: Luebke & Hallen's best-effort mode, at
-    /// most N triangles (1 to 10^9), most perceptible fold undone first;
-    /// prints the viewing distance at which the folds left become
-    /// imperceptible.
-    #[arg(long, value_name = "TRIANGLES", value_parser = crate::args::parse_budget)]
-    pub budget: Option<usize>,
-    /// Model-based methods only: select without the gaze (eccentricity 0
-    /// everywhere, every node foveal).
-    #[arg(long)]
-    pub no_gaze: bool,
+    #[command(flatten)]
+    pub model: ModelArgs,
 }
 
 /// The `--stats` JSON.
@@ -133,7 +125,7 @@ pub struct ModelReport {
 }
 
 impl ModelReport {
-    fn new(m: &pipeline::model_based::ModelStats, no_gaze: bool) -> Self {
+    pub fn new(m: &pipeline::model_based::ModelStats, no_gaze: bool) -> Self {
         Self {
             triangles_full: m.triangles_full,
             triangles_drawn: m.triangles_drawn,
@@ -230,10 +222,7 @@ pub fn run(args: &RenderArgs, out: &mut dyn Write) -> Result<(), String> {
         layout: args.layout,
         test: args.intersector.into(),
         por_overlay: args.overlay == Some(Overlay::Por),
-        model: pipeline::model_based::ModelOptions {
-            budget: args.budget,
-            ignore_gaze: args.no_gaze,
-        },
+        model: args.model.into(),
         ..Options::default()
     };
     let mut renderer = Renderer::new(&scene, Camera::new(&geometry), model, &options)
@@ -291,7 +280,7 @@ pub fn run(args: &RenderArgs, out: &mut dyn Write) -> Result<(), String> {
         times_ms: times,
         model: renderer
             .model_based()
-            .map(|m| ModelReport::new(m.last(), args.no_gaze)),
+            .map(|m| ModelReport::new(m.last(), args.model.no_gaze)),
     };
     if let Some(path) = &args.stats {
         let json = serde_json::to_string_pretty(&report).map_err(|e| e.to_string())?;

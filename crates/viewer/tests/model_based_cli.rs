@@ -156,3 +156,57 @@ fn bench_lod_writes_table_2_and_fig_8() {
     assert!(!e.status.success());
     assert!(String::from_utf8_lossy(&e.stderr).contains("--frames"));
 }
+
+/// `demo --headless` and `view` take the same options: demo prints each
+/// frame's budget outcome; view refuses a budget for another method.
+#[test]
+fn demo_and_view_take_the_budget() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let run = gazecast()
+        .args([
+            "demo",
+            "--headless",
+            "--fps",
+            "2",
+            "--method",
+            "simplify",
+            "--budget",
+            "3000",
+            "--out",
+        ])
+        .arg(dir.path())
+        .succeed();
+    let text = String::from_utf8_lossy(&run.stdout);
+    let lines: Vec<&str> = text
+        .lines()
+        .filter(|l| l.contains("model-based:"))
+        .collect();
+    assert!(!lines.is_empty(), "{text}");
+    for l in lines {
+        assert!(l.contains("budget 3000: stopped by"), "{l}");
+        let drawn: usize = l
+            .split("model-based: ")
+            .nth(1)
+            .and_then(|r| r.split(' ').next())
+            .and_then(|n| n.parse().ok())
+            .expect("a count");
+        assert!(drawn <= 3000, "{l}");
+    }
+    let out = gazecast()
+        .args([
+            "view",
+            "--explain",
+            "--method",
+            "hybrid",
+            "--budget",
+            "100",
+            "--scene",
+            "config/scenes/search-task.ron",
+            "--display",
+            "config/displays/tobii-et1750-17in.ron",
+        ])
+        .output()
+        .expect("runs");
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("--budget"));
+}

@@ -198,8 +198,14 @@ fn bounds(scene: &Scene) -> Option<(Vec3, f32)> {
 /// right of the eye → `centre` direction, and the angle it really makes.
 pub fn gaze_at_eccentricity(camera: &Camera, centre: Vec3, deg: f64) -> Option<([f64; 2], f64)> {
     let d0 = (centre - camera.eye).normalize_or_zero();
-    let d1 = Quat::from_rotation_y(-(deg as f32).to_radians()) * d0;
-    if d0 == Vec3::ZERO || d1.z >= -1e-6 {
+    // About the screen's up direction made perpendicular to d0, so that
+    // the turn is exactly `deg`.
+    let up = (Vec3::Y - d0 * d0.dot(Vec3::Y)).normalize_or_zero();
+    if d0 == Vec3::ZERO || up == Vec3::ZERO {
+        return None;
+    }
+    let d1 = Quat::from_axis_angle(up, -(deg as f32).to_radians()) * d0;
+    if d1.z >= -1e-6 {
         return None;
     }
     let s = camera.eye + d1 * (camera.eye.z / -d1.z);

@@ -379,13 +379,11 @@ pub fn proportional_shares(budget: usize, counts: &[usize]) -> Vec<usize> {
     }
     counts
         .iter()
+        // u128: budget · count cannot overflow; no triangles at all: 0 each.
         .map(|&c| {
-            if total == 0 {
-                0
-            } else {
-                // u128: budget · count cannot overflow.
-                (budget as u128 * c as u128 / total) as usize
-            }
+            (budget as u128 * c as u128)
+                .checked_div(total)
+                .map_or(0, |s| s as usize)
         })
         .collect()
 }

@@ -111,7 +111,8 @@ pub struct Fig8Row {
     pub eccentricity_deg: f64,
     pub gaze_px: [f64; 2],
     pub faces: usize,
-    /// The object's angular extent (its bounding box's diagonal), deg.
+    /// The object's angular extent, deg: the diameter of the sphere about
+    /// its bounding box's centre that holds every triangle.
     pub object_extent_deg: f64,
 }
 
@@ -181,7 +182,8 @@ pub fn scanpath(w: u32, h: u32, n: usize) -> Vec<[f64; 2]> {
         .collect()
 }
 
-/// The centre of the scene's bounding box and the box's half diagonal.
+/// The centre of the scene's bounding box and the farthest corner from it
+/// (the radius of a sphere about that centre holding every triangle).
 fn bounds(scene: &Scene) -> Option<(Vec3, f32)> {
     let mut lo = Vec3::splat(f32::INFINITY);
     let mut hi = Vec3::splat(f32::NEG_INFINITY);
@@ -191,7 +193,17 @@ fn bounds(scene: &Scene) -> Option<(Vec3, f32)> {
             hi = hi.max(p);
         }
     }
-    (lo.x <= hi.x).then(|| ((lo + hi) * 0.5, (hi - lo).length() * 0.5))
+    if lo.x > hi.x {
+        return None;
+    }
+    let c = (lo + hi) * 0.5;
+    let r = scene
+        .triangles
+        .iter()
+        .flat_map(|t| t.p)
+        .map(|p| p.distance(c))
+        .fold(0.0f32, f32::max);
+    Some((c, r))
 }
 
 /// The screen point (px, maybe off the screen) whose ray is `deg` to the
@@ -361,7 +373,7 @@ fn bench_mesh(
 
     // Luebke & Hallen Fig. 8: imperceptible mode, the gaze 29° to the
     // right of the object's centre, from a fresh cut.
-    let (centre, half_diagonal) = bounds(scene).ok_or_else(|| format!("{name}: no triangles"))?;
+    let (centre, radius) = bounds(scene).ok_or_else(|| format!("{name}: no triangles"))?;
     let (gaze_px, eccentricity_deg) = gaze_at_eccentricity(&camera, centre, FIG8_ECCENTRICITY_DEG)
         .ok_or_else(|| {
             format!("{name}: no screen point {FIG8_ECCENTRICITY_DEG}° from the object")
@@ -380,11 +392,7 @@ fn bench_mesh(
         eccentricity_deg,
         gaze_px,
         faces,
-        object_extent_deg: 2.0
-            * (f64::from(half_diagonal) / distance)
-                .min(1.0)
-                .asin()
-                .to_degrees(),
+        object_extent_deg: 2.0 * (f64::from(radius) / distance).min(1.0).asin().to_degrees(),
     };
     Ok((summaries, fig8))
 }

@@ -24,15 +24,15 @@
 //! the eye between the gaze direction and a node (M&D §5.4 use only the
 //! gaze vector v), so any point on the gaze ray selects the same cut; the
 //! vergence point changes the reported 3-D gaze point
-//! ([`ModelStats::gaze_point_mm`]), not the triangles. Every object's cut is selected **incrementally** for the view
-//! (`Method::Simplify`: Luebke–Hallen imperceptible mode with the
-//! Geisler–Perry threshold table, or their best-effort mode under a
-//! triangle budget, [`ModelOptions::budget`]; `Method::Lod`:
-//! Murphy–Duchowski Table 1 levels); with [`ModelOptions::ignore_gaze`] the
-//! view has no gaze (every node foveal: Luebke–Hallen "without gaze"); the
-//! active triangles (proxy positions and normals) are
-//! rasterised by [`raycast::raster`] into the same G-buffer with the same
-//! shading and gamma as the ray caster.
+//! ([`ModelStats::gaze_point_mm`]), not the triangles. Every object's cut
+//! is selected **incrementally** for the view (`Method::Simplify`:
+//! Luebke–Hallen imperceptible mode with the Geisler–Perry threshold
+//! table, or their best-effort mode under a triangle budget,
+//! [`ModelOptions::budget`]; `Method::Lod`: Murphy–Duchowski Table 1
+//! levels); with [`ModelOptions::ignore_gaze`] the view has no gaze (every
+//! node foveal: Luebke–Hallen "without gaze"); the active triangles (proxy
+//! positions and normals) are rasterised by [`raycast::raster`] into the
+//! same G-buffer with the same shading and gamma as the ray caster.
 //!
 //! The control is `Method::Full` (every pixel cast), which the rasteriser
 //! reproduces exactly on the unsimplified mesh (`raycast/tests/raster.rs`).

@@ -17,14 +17,24 @@
 //!
 //! Per frame: the gaze's 3-D point is the surface under the gaze pixel (or
 //! the screen point, when the gaze is on the background: the direction is
-//! the same); every object's cut is selected **incrementally** for the view
-//! (`Method::Simplify`: Luebke–Hallen imperceptible mode with the
-//! Geisler–Perry threshold table; `Method::Lod`: Murphy–Duchowski Table 1
-//! levels); the active triangles (proxy positions and normals) are
-//! rasterised into the same G-buffer with the same shading and gamma as the
-//! ray caster: by [`raycast::raster`] on the CPU backend, by
-//! `GpuRenderer::rasterize` (a `wgpu` render pipeline with a depth buffer)
-//! on the GPU backend ([`RasterOn`]).
+//! the same); for `Method::Lod` with a binocular vergence depth for the
+//! frame ([`ModelBased::set_vergence_mm`], Murphy & Duchowski eqs 1–3,
+//! `g = h + s·v`), it is the point at that eye distance along the gaze ray
+//! instead. *Note*: the selection measures eccentricity as the angle at
+//! the eye between the gaze direction and a node (M&D §5.4 use only the
+//! gaze vector v), so any point on the gaze ray selects the same cut; the
+//! vergence point changes the reported 3-D gaze point
+//! ([`ModelStats::gaze_point_mm`]), not the triangles. Every object's cut
+//! is selected **incrementally** for the view (`Method::Simplify`:
+//! Luebke–Hallen imperceptible mode with the Geisler–Perry threshold
+//! table, or their best-effort mode under a triangle budget,
+//! [`ModelOptions::budget`]; `Method::Lod`: Murphy–Duchowski Table 1
+//! levels); with [`ModelOptions::ignore_gaze`] the view has no gaze (every
+//! node foveal: Luebke–Hallen "without gaze"); the active triangles (proxy
+//! positions and normals) are rasterised into the same G-buffer with the
+//! same shading and gamma as the ray caster: by [`raycast::raster`] on the
+//! CPU backend, by `GpuRenderer::rasterize` (a `wgpu` render pipeline with
+//! a depth buffer) on the GPU backend ([`RasterOn`]).
 //!
 //! The control is `Method::Full` (every pixel cast), which the CPU
 //! rasteriser reproduces exactly on the unsimplified mesh
@@ -34,6 +44,7 @@
 use foveation::perceptibility::ThresholdTable;
 use foveation::GeislerPerry;
 use glam::Vec3;
+pub use lod::select::{BudgetOutcome, BudgetStop};
 use lod::select::{Mode, SelectionReport, View};
 use lod::{Cut, VertexTree};
 use raycast::gpu::GpuRenderer;
@@ -59,6 +70,66 @@ self_cell::self_cell!(
     }
 );
 
+/// Most triangles a budget may ask for (`--budget`): 10⁹, far above any
+/// scene this renderer loads (a bound, so that a typo is an error rather
+/// than "no limit").
+pub const MAX_TRIANGLE_BUDGET: usize = 1_000_000_000;
+
+/// The model-based methods' options (what a command line chooses).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct ModelOptions {
+    /// Luebke & Hallen §5.3 best-effort mode (`Method::Simplify` only): at
+    /// most this many triangles a frame, most perceptible fold undone
+    /// first. `None`: imperceptible mode. 1 to [`MAX_TRIANGLE_BUDGET`].
+    ///
+    /// *Decision*: a scene of several objects shares the budget in
+    /// proportion to each object's full triangle count (rounded down, so
+    /// the sum never exceeds it); each object runs its own greedy (one
+    /// queue per tree).
+    pub budget: Option<usize>,
+    /// Select without the gaze: eccentricity 0 everywhere (Luebke & Hallen's
+    /// "without gaze"; for `Method::Lod` every node is then foveal).
+    pub ignore_gaze: bool,
+}
+
+impl ModelOptions {
+    /// Checks the options against `method` (requested, before the scene
+    /// decides); errors name the command-line flag.
+    pub fn check(&self, method: Method) -> Result<(), String> {
+        if let Some(b) = self.budget {
+            if method != Method::Simplify {
+                return Err(format!(
+                    "--budget: the triangle budget is Luebke & Hallen's best-effort mode, for --method simplify only (not {})",
+                    method.name()
+                ));
+            }
+            if !(1..=MAX_TRIANGLE_BUDGET).contains(&b) {
+                return Err(format!(
+                    "--budget {b}: must be from 1 to {MAX_TRIANGLE_BUDGET} triangles"
+                ));
+            }
+        }
+        if self.ignore_gaze && !method.is_model_based() {
+            return Err(format!(
+                "--no-gaze: only the model-based methods (simplify, lod) select without the gaze (not {})",
+                method.name()
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// Budget mode's outcome over the scene (Luebke & Hallen §5.3).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct BudgetReport {
+    /// The budget asked for.
+    pub budget: usize,
+    /// Of every object's greedy, the outcome whose most perceptible fold
+    /// left is the most perceptible (largest δ*/d): the viewing distance
+    /// (δ*) beyond which the whole simplification should be imperceptible.
+    pub outcome: BudgetOutcome,
+}
+
 /// What the last model-based frame did.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub struct ModelStats {
@@ -76,6 +147,13 @@ pub struct ModelStats {
     pub raster_ms: f64,
     /// The raster's counts.
     pub raster: RasterStats,
+    /// Budget mode only.
+    pub budget: Option<BudgetReport>,
+    /// The 3-D point of regard the selection used (world mm): the surface
+    /// under the gaze pixel, or (`Method::Lod`) the vergence point.
+    pub gaze_point_mm: Option<Vec3>,
+    /// Whether `gaze_point_mm` came from the frame's vergence depth.
+    pub gaze_from_vergence: bool,
 }
 
 /// Where [`ModelBased::render`] rasterises the active triangles.
@@ -91,6 +169,9 @@ pub enum RasterOn<'a> {
 pub struct ModelBased {
     objects: Vec<ObjectLod>,
     mode: Mode,
+    options: ModelOptions,
+    /// The next frame's vergence depth (eye distance, mm), `Method::Lod` only.
+    vergence_mm: Option<f64>,
     thresholds: ThresholdTable,
     scene_contrast: f64,
     /// Triangles of the unsimplified scene (fixed at set-up).
@@ -104,10 +185,20 @@ pub struct ModelBased {
 
 impl ModelBased {
     /// Builds a tree per object of `scene` for `method` (`Simplify` or
-    /// `Lod`; any other method is an error).
-    pub fn new(scene: &Scene, camera: &Camera, method: Method) -> Result<Self, String> {
+    /// `Lod`; any other method is an error) and `options` (checked by
+    /// [`ModelOptions::check`]).
+    pub fn new(
+        scene: &Scene,
+        camera: &Camera,
+        method: Method,
+        options: ModelOptions,
+    ) -> Result<Self, String> {
+        options.check(method)?;
         let mode = match method {
-            Method::Simplify => Mode::Imperceptible,
+            Method::Simplify => match options.budget {
+                Some(triangles) => Mode::Budget { triangles },
+                None => Mode::Imperceptible,
+            },
             Method::Lod => Mode::murphy_duchowski(),
             other => return Err(format!("{} is not a model-based method", other.name())),
         };
@@ -149,6 +240,8 @@ impl ModelBased {
         Ok(Self {
             objects,
             mode,
+            options,
+            vergence_mm: None,
             thresholds: ThresholdTable::from_model(&GeislerPerry::default()),
             scene_contrast,
             triangles_full,
@@ -164,6 +257,14 @@ impl ModelBased {
     /// and its background.
     pub fn scene_contrast(&self) -> f64 {
         self.scene_contrast
+    }
+
+    /// The eye distance (mm) of the binocular 3-D gaze point for the next
+    /// frame (Murphy & Duchowski eqs 1–3); `Method::Lod` places the gaze
+    /// point there along the gaze ray. Holds for one frame; a non-finite or
+    /// non-positive depth counts as none.
+    pub fn set_vergence_mm(&mut self, depth_mm: Option<f64>) {
+        self.vergence_mm = depth_mm.filter(|d| d.is_finite() && *d > 0.0);
     }
 
     /// What the last frame did.
@@ -191,23 +292,38 @@ impl ModelBased {
         }
         let p = [gaze_px[0] as f32, gaze_px[1] as f32];
         let ray = camera.ray(p);
-        let gaze_point = match scene.intersect(&ray, 0.0, TriangleTest::Watertight) {
-            Some(h) => ray.at(h.t),
-            None => camera.screen_point(p),
+        let vergence = self
+            .vergence_mm
+            .take()
+            .filter(|_| matches!(self.mode, Mode::MurphyDuchowski { .. }));
+        let gaze_point = match (
+            vergence,
+            scene.intersect(&ray, 0.0, TriangleTest::Watertight),
+        ) {
+            (Some(d), _) => ray.origin + ray.dir.normalize() * d as f32,
+            (None, Some(h)) => ray.at(h.t),
+            (None, None) => camera.screen_point(p),
         };
         let view = View {
             eye_mm: camera.eye,
-            gaze_point_mm: Some(gaze_point),
+            gaze_point_mm: (!self.options.ignore_gaze).then_some(gaze_point),
             thresholds: &self.thresholds,
             scene_contrast: self.scene_contrast,
         };
         let mut stats = ModelStats {
             triangles_full: self.triangles_full,
+            gaze_point_mm: view.gaze_point_mm,
+            gaze_from_vergence: vergence.is_some(),
             ..ModelStats::default()
         };
         self.triangles.clear();
-        for o in &mut self.objects {
-            let mode = self.mode;
+        let shares = self.options.budget.map(|b| budget_shares(b, &self.objects));
+        let mut worst: Option<BudgetOutcome> = None;
+        for (k, o) in self.objects.iter_mut().enumerate() {
+            let mode = match (&shares, self.mode) {
+                (Some(s), Mode::Budget { .. }) => Mode::Budget { triangles: s[k] },
+                (_, m) => m,
+            };
             let report: SelectionReport = o
                 .cells
                 .with_dependent_mut(|_, cut| cut.select(&view, &mode))
@@ -215,6 +331,11 @@ impl ModelBased {
             stats.folds += report.folds;
             stats.unfolds += report.unfolds;
             stats.nodes_visited += report.nodes_visited;
+            if let Some(b) = report.budget {
+                if worst.is_none_or(|w| b.distance_factor > w.distance_factor) {
+                    worst = Some(b);
+                }
+            }
             o.cells.with_dependent(|_, cut| {
                 cut.triangles_into(&mut self.positions);
                 cut.normals_into(&mut self.normals);
@@ -228,6 +349,11 @@ impl ModelBased {
             );
         }
         stats.triangles_drawn = self.triangles.len();
+        stats.budget = self
+            .options
+            .budget
+            .zip(worst)
+            .map(|(budget, outcome)| BudgetReport { budget, outcome });
         stats.select_ms = started.elapsed().as_secs_f64() * 1e3;
         let r = match on {
             RasterOn::Cpu => raster::rasterize(
@@ -250,6 +376,34 @@ impl ModelBased {
             ..Stats::default()
         })
     }
+}
+
+/// Each object's share of a scene's triangle budget: in proportion to its
+/// full triangle count, rounded down (the shares never sum above `budget`).
+fn budget_shares(budget: usize, objects: &[ObjectLod]) -> Vec<usize> {
+    let counts: Vec<usize> = objects
+        .iter()
+        .map(|o| o.cells.borrow_owner().triangles().len())
+        .collect();
+    proportional_shares(budget, &counts)
+}
+
+/// `budget` split in proportion to `counts`, rounded down; all of it to a
+/// single entry.
+pub fn proportional_shares(budget: usize, counts: &[usize]) -> Vec<usize> {
+    let total: u128 = counts.iter().map(|&c| c as u128).sum();
+    if counts.len() == 1 {
+        return vec![budget];
+    }
+    counts
+        .iter()
+        // u128: budget · count cannot overflow; no triangles at all: 0 each.
+        .map(|&c| {
+            (budget as u128 * c as u128)
+                .checked_div(total)
+                .map_or(0, |s| s as usize)
+        })
+        .collect()
 }
 
 /// An object's triangles as an indexed mesh.

@@ -14,7 +14,7 @@ use crate::effects::{pass_for, passes_for, Pass, PassInput};
 use crate::gpu::{FramePost, GpuDof, GpuImage, GpuSplat};
 use crate::image_foveation::ImageFoveation;
 use crate::method::Method;
-use crate::model_based::{ModelBased, RasterOn};
+use crate::model_based::{ModelBased, ModelOptions, RasterOn};
 use raycast::scene::Effect;
 
 /// Why a frame could not be rendered.
@@ -47,6 +47,9 @@ pub struct Options {
     /// when no pass reads them (tests, debug pictures). Off, they are filled
     /// exactly when a pass needs them.
     pub surface: bool,
+    /// The model-based methods' budget and gaze options (checked against
+    /// `method`: a budget is for `Method::Simplify` only).
+    pub model: ModelOptions,
 }
 
 impl Default for Options {
@@ -60,6 +63,7 @@ impl Default for Options {
             check_coverage: false,
             por_overlay: false,
             surface: false,
+            model: ModelOptions::default(),
         }
     }
 }
@@ -115,6 +119,10 @@ impl<'s> Renderer<'s> {
         model: SamplingModel,
         options: &Options,
     ) -> Result<Self, RenderError> {
+        options
+            .model
+            .check(options.method)
+            .map_err(RenderError::Unsupported)?;
         let method = options.method.for_scene(scene);
         // The model-based methods rasterise on the backend chosen the same
         // way (on the GPU: its render pipeline, `GpuRenderer::rasterize`).
@@ -162,7 +170,10 @@ impl<'s> Renderer<'s> {
         };
         let gpu_image = (on_gpu && method == Method::Image).then(GpuImage::default);
         let model_based = if method.is_model_based() {
-            Some(ModelBased::new(scene, &camera, method).map_err(RenderError::Unsupported)?)
+            Some(
+                ModelBased::new(scene, &camera, method, options.model)
+                    .map_err(RenderError::Unsupported)?,
+            )
         } else {
             None
         };
@@ -249,6 +260,7 @@ impl<'s> Renderer<'s> {
                     .model_based
                     .as_mut()
                     .ok_or_else(|| RenderError::Unsupported("no model-based state".into()))?;
+                m.set_vergence_mm(vergence_mm);
                 let on = match backend {
                     Backend::Cpu => RasterOn::Cpu,
                     Backend::Gpu(g) => RasterOn::Gpu(g.as_mut()),

@@ -6,6 +6,7 @@
 use std::path::Path;
 
 use foveation::Display;
+use pipeline::model_based::{proportional_shares, ModelOptions};
 use pipeline::{BackendChoice, Method, Options, Renderer};
 use raycast::scene::Effect;
 use raycast::{Camera, Frame, Scene, SceneFile};
@@ -235,4 +236,197 @@ fn no_cracks_inside_silhouettes_at_any_gaze() {
             );
         }
     }
+}
+
+fn budget_renderer(scene: &Scene, budget: Option<usize>, ignore_gaze: bool) -> Renderer<'_> {
+    let g = display().geometry().expect("geometry");
+    let model = pipeline::sampling_model(g, 1.0).expect("model");
+    Renderer::new(
+        scene,
+        Camera::new(&g),
+        model,
+        &Options {
+            method: Method::Simplify,
+            backend: BackendChoice::Cpu,
+            model: ModelOptions {
+                budget,
+                ignore_gaze,
+            },
+            ..Options::default()
+        },
+    )
+    .expect("renderer")
+}
+
+/// Luebke & Hallen §5.3 best-effort mode through the pipeline: the drawn
+/// triangles never exceed the budget, grow with it, and the reported
+/// distance at which the folds left become imperceptible shrinks; with
+/// and without gaze.
+#[test]
+fn the_budget_is_kept_and_its_distance_reported() {
+    let s = scene("bunny");
+    for ignore_gaze in [false, true] {
+        let (mut drawn, mut factor) = (0usize, f64::INFINITY);
+        for budget in [1, 50, 500, 5_000, 20_000, 1_000_000_000] {
+            let mut r = budget_renderer(&s, Some(budget), ignore_gaze);
+            let (_, _) = r.render([40.0, 200.0]).expect("frame");
+            let m = *r.model_based().expect("state").last();
+            let b = m.budget.expect("budget mode reports its outcome");
+            eprintln!(
+                "budget {budget} (gaze ignored: {ignore_gaze}): {} of {} triangles, stopped by {:?}, \
+                 imperceptible from {:.0} mm ({:.2} x)",
+                m.triangles_drawn,
+                m.triangles_full,
+                b.outcome.stopped_by,
+                b.outcome.imperceptible_distance_mm,
+                b.outcome.distance_factor
+            );
+            assert_eq!(b.budget, budget);
+            assert!(
+                m.triangles_drawn <= budget,
+                "{} > {budget}",
+                m.triangles_drawn
+            );
+            assert!(
+                m.triangles_drawn >= drawn,
+                "fewer triangles for a larger budget"
+            );
+            assert!(
+                b.outcome.distance_factor <= factor,
+                "the folds left got more perceptible with a larger budget"
+            );
+            assert!(b.outcome.imperceptible_distance_mm.is_finite());
+            if b.outcome.stopped_by == pipeline::model_based::BudgetStop::Budget {
+                assert!(b.outcome.distance_factor > 1.0);
+            }
+            drawn = m.triangles_drawn;
+            factor = b.outcome.distance_factor;
+        }
+        assert!(drawn > 0);
+    }
+    // Without gaze every node is foveal: imperceptible mode keeps at least
+    // as many triangles as with the gaze far away.
+    let mut with = renderer(&s, Method::Simplify);
+    let (_, _) = with.render([2.0, 250.0]).expect("frame");
+    let mut without = budget_renderer(&s, None, true);
+    let (_, _) = without.render([2.0, 250.0]).expect("frame");
+    let (a, b) = (
+        with.model_based().expect("state").last().triangles_drawn,
+        without.model_based().expect("state").last().triangles_drawn,
+    );
+    assert!(b >= a, "without gaze {b} < with gaze {a}");
+    assert!(without
+        .model_based()
+        .expect("state")
+        .last()
+        .budget
+        .is_none());
+}
+
+#[test]
+fn budget_and_no_gaze_are_refused_where_they_do_not_apply() {
+    let s = scene("bunny");
+    let g = display().geometry().expect("geometry");
+    let make = |method, budget, ignore_gaze| {
+        Renderer::new(
+            &s,
+            Camera::new(&g),
+            pipeline::sampling_model(g, 1.0).expect("model"),
+            &Options {
+                method,
+                backend: BackendChoice::Cpu,
+                model: ModelOptions {
+                    budget,
+                    ignore_gaze,
+                },
+                ..Options::default()
+            },
+        )
+    };
+    for (method, budget, gaze, flag) in [
+        (Method::Lod, Some(100), false, "--budget"),
+        (Method::Hybrid, Some(100), false, "--budget"),
+        (Method::Simplify, Some(0), false, "--budget"),
+        (Method::Simplify, Some(usize::MAX), false, "--budget"),
+        (Method::Full, None, true, "--no-gaze"),
+    ] {
+        let e = make(method, budget, gaze).err().expect("refused");
+        assert!(e.to_string().contains(flag), "{method:?}: {e}");
+    }
+    assert!(make(Method::Lod, None, true).is_ok());
+}
+
+proptest::proptest! {
+    /// A scene's budget split over its objects never sums above the
+    /// budget, gives a single object all of it, and never gives a larger
+    /// object less.
+    #[test]
+    fn budget_shares_stay_within_the_budget(
+        budget in proptest::prop_oneof![proptest::strategy::Just(1usize), 1usize..100_000, proptest::strategy::Just(usize::MAX)],
+        counts in proptest::collection::vec(0usize..2_000_000, 1..8),
+    ) {
+        let shares = proportional_shares(budget, &counts);
+        proptest::prop_assert_eq!(shares.len(), counts.len());
+        let sum: u128 = shares.iter().map(|&s| s as u128).sum();
+        proptest::prop_assert!(sum <= budget as u128);
+        if counts.len() == 1 {
+            proptest::prop_assert_eq!(shares[0], budget);
+        }
+        for i in 0..counts.len() {
+            for j in 0..counts.len() {
+                if counts[i] <= counts[j] {
+                    proptest::prop_assert!(shares[i] <= shares[j]);
+                }
+            }
+        }
+    }
+}
+
+/// Murphy & Duchowski eqs 1–3: with a vergence depth for the frame,
+/// `Method::Lod`'s 3-D gaze point is at that eye distance along the gaze
+/// ray (for one frame; ignored when absent and by `Method::Simplify`).
+/// The selection measures eccentricity as an angle at the eye, so the cut
+/// and the frame are the same as with the surface point.
+#[test]
+fn a_vergence_depth_places_the_lod_gaze_point_along_the_gaze_ray() {
+    let s = scene("bunny");
+    let gaze = [150.0, 140.0];
+    let mut r = renderer(&s, Method::Lod);
+    let eye = r.camera().eye;
+    let (surface_frame, _) = r.render(gaze).expect("frame");
+    let at_surface = *r.model_based().expect("state").last();
+    assert!(!at_surface.gaze_from_vergence);
+    let p = at_surface.gaze_point_mm.expect("a gaze point");
+    let surface_mm = f64::from((p - eye).length());
+    assert!(
+        surface_mm > 540.0,
+        "the bunny is behind the screen: {surface_mm}"
+    );
+    for depth in [300.0, 2000.0] {
+        r.set_vergence_mm(Some(depth));
+        let (frame, _) = r.render(gaze).expect("frame");
+        let m = *r.model_based().expect("state").last();
+        assert!(m.gaze_from_vergence);
+        let q = m.gaze_point_mm.expect("a gaze point");
+        assert!((f64::from((q - eye).length()) - depth).abs() < 1e-3 * depth);
+        let angle = (q - eye).normalize().angle_between((p - eye).normalize());
+        assert!(angle < 1e-4, "off the gaze ray by {angle} rad");
+        assert_eq!(m.triangles_drawn, at_surface.triangles_drawn);
+        assert_eq!(frame, surface_frame);
+        // The next frame without a depth uses the surface again.
+        let (_, _) = r.render(gaze).expect("frame");
+        let next = *r.model_based().expect("state").last();
+        assert!(!next.gaze_from_vergence);
+        assert_eq!(next.gaze_point_mm, Some(p));
+    }
+    for bad in [f64::NAN, -5.0, 0.0, f64::INFINITY] {
+        r.set_vergence_mm(Some(bad));
+        let (_, _) = r.render(gaze).expect("frame");
+        assert!(!r.model_based().expect("state").last().gaze_from_vergence);
+    }
+    let mut simplify = renderer(&s, Method::Simplify);
+    simplify.set_vergence_mm(Some(300.0));
+    let (_, _) = simplify.render(gaze).expect("frame");
+    let m = *simplify.model_based().expect("state").last();
+    assert!(!m.gaze_from_vergence);
 }

@@ -21,6 +21,44 @@ pub fn parse_point(s: &str) -> Result<[f64; 2], String> {
     Ok([num(x)?, num(y)?])
 }
 
+/// `--budget N`: a triangle budget, a whole number from 1 to
+/// [`pipeline::model_based::MAX_TRIANGLE_BUDGET`].
+pub fn parse_budget(s: &str) -> Result<usize, String> {
+    let max = pipeline::model_based::MAX_TRIANGLE_BUDGET;
+    let n: usize = s
+        .trim()
+        .parse()
+        .map_err(|_| format!("`{s}`: expected a whole number of triangles from 1 to {max}"))?;
+    if !(1..=max).contains(&n) {
+        return Err(format!("`{s}`: must be from 1 to {max} triangles"));
+    }
+    Ok(n)
+}
+
+/// The model-based methods' options (`render`, `view`, `demo`).
+#[derive(Debug, Clone, Copy, Default, clap::Args)]
+pub struct ModelArgs {
+    /// `--method simplify` only: Luebke & Hallen's best-effort mode, at
+    /// most N triangles (1 to 10^9), most perceptible fold undone first;
+    /// reports the viewing distance at which the folds left become
+    /// imperceptible.
+    #[arg(long, value_name = "TRIANGLES", value_parser = parse_budget)]
+    pub budget: Option<usize>,
+    /// Model-based methods only: select without the gaze (eccentricity 0
+    /// everywhere, every node foveal).
+    #[arg(long)]
+    pub no_gaze: bool,
+}
+
+impl From<ModelArgs> for pipeline::model_based::ModelOptions {
+    fn from(a: ModelArgs) -> Self {
+        Self {
+            budget: a.budget,
+            ignore_gaze: a.no_gaze,
+        }
+    }
+}
+
 /// `--accel`: the acceleration structure.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
 pub enum AccelArg {
@@ -87,6 +125,25 @@ mod tests {
             .contains("not a finite number"));
         assert!(parse_point("inf,1").is_err());
         assert!(parse_point("").is_err());
+    }
+
+    #[test]
+    fn budgets_parse_or_say_what_is_wrong() {
+        assert_eq!(parse_budget("1"), Ok(1));
+        assert_eq!(parse_budget(" 5000 "), Ok(5000));
+        assert_eq!(parse_budget("1000000000"), Ok(1_000_000_000));
+        for bad in [
+            "0",
+            "-3",
+            "1.5",
+            "",
+            "lots",
+            "1000000001",
+            "99999999999999999999999",
+        ] {
+            let e = parse_budget(bad).expect_err(bad);
+            assert!(e.contains("from 1 to"), "{bad}: {e}");
+        }
     }
 
     #[test]

@@ -36,6 +36,8 @@ pub struct DemoArgs {
     /// The rendering method (`foveated` is an alias of `hybrid`).
     #[arg(long, value_enum, default_value = "hybrid")]
     pub method: pipeline::Method,
+    #[command(flatten)]
+    pub model: crate::args::ModelArgs,
     /// Window mode: the gaze source (`config/trackers/attention.ron`:
     /// Lee's attention model predicts it from each frame, no tracker).
     #[arg(long, value_name = "FILE.ron", default_value = MOUSE)]
@@ -96,6 +98,7 @@ pub fn run(args: &DemoArgs, out: &mut dyn Write) -> Result<(), String> {
             }),
             backend: pipeline::BackendChoice::Auto,
             method: args.method,
+            model: args.model.into(),
             ..LiveOptions::default()
         };
         match live::run(&session, out) {
@@ -142,6 +145,7 @@ pub fn run(args: &DemoArgs, out: &mut dyn Write) -> Result<(), String> {
     let options = pipeline::Options {
         method: args.method,
         por_overlay: true,
+        model: args.model.into(),
         ..pipeline::Options::default()
     };
     let mut renderer =
@@ -153,6 +157,9 @@ pub fn run(args: &DemoArgs, out: &mut dyn Write) -> Result<(), String> {
     let (mut rays, mut ms) = (0u64, 0.0f64);
     for (k, &gaze) in gazes.iter().enumerate() {
         let (frame, stats) = renderer.render(gaze).map_err(|e| e.to_string())?;
+        let model = renderer
+            .model_based()
+            .map(|m| crate::render_cmd::ModelReport::new(m.last(), args.model.no_gaze).line());
         line(
             out,
             format!(
@@ -165,6 +172,9 @@ pub fn run(args: &DemoArgs, out: &mut dyn Write) -> Result<(), String> {
                 stats.time_ms
             ),
         )?;
+        if let Some(m) = model {
+            line(out, format!("          {m}"))?;
+        }
         rays += stats.rays_total;
         ms += stats.time_ms;
         frames.push(half_size(&frame.rgb, w, h));

@@ -62,6 +62,8 @@ pub struct LiveOptions {
     pub backend: BackendChoice,
     /// The rendering method (the scene may still fall back to full).
     pub method: pipeline::Method,
+    /// The model-based methods' budget and gaze options.
+    pub model: pipeline::model_based::ModelOptions,
     /// Fullscreen on the current monitor.
     pub fullscreen: bool,
     /// Fullscreen on this monitor (0-based).
@@ -438,6 +440,7 @@ impl Loaded {
             backend: opts.backend,
             por_overlay: opts.por_overlay,
             surface,
+            model: opts.model,
             ..Options::default()
         };
         Renderer::new(&self.scene, Camera::new(&self.geometry), model, &options)

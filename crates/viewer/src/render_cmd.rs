@@ -9,7 +9,7 @@ use raycast::render::Stats;
 use raycast::{layers_rgb, Camera};
 use serde::Serialize;
 
-use crate::args::{parse_point, AccelArg, Intersector, Overlay};
+use crate::args::{parse_point, AccelArg, Intersector, ModelArgs, Overlay};
 use crate::config::{self, load_scene};
 use crate::picture::{draw_text_lines, save_png};
 use crate::stats::median;
@@ -72,6 +72,8 @@ pub struct RenderArgs {
     /// Draw the POR box even if the scene does not ask for it.
     #[arg(long, value_enum, value_name = "por")]
     pub overlay: Option<Overlay>,
+    #[command(flatten)]
+    pub model: ModelArgs,
 }
 
 /// The `--stats` JSON.
@@ -95,6 +97,84 @@ pub struct RenderReport {
     pub accel: &'static str,
     /// All repeat times, ms.
     pub times_ms: Vec<f64>,
+    /// The model-based methods' last frame; `None` for other methods.
+    pub model: Option<ModelReport>,
+}
+
+/// What a model-based frame drew (`--stats`).
+#[derive(Debug, Clone, Serialize)]
+pub struct ModelReport {
+    pub triangles_full: usize,
+    pub triangles_drawn: usize,
+    pub select_ms: f64,
+    pub raster_ms: f64,
+    /// Selection without the gaze (`--no-gaze`).
+    pub no_gaze: bool,
+    /// `--budget`, when given.
+    pub budget: Option<usize>,
+    /// Budget mode: why the greedy stopped (`budget`, `imperceptible`,
+    /// `exhausted`).
+    pub budget_stop: Option<&'static str>,
+    /// Budget mode: the viewing distance (mm, eye to the node) beyond which
+    /// the most perceptible fold left, and so every fold left, is
+    /// imperceptible (Luebke & Hallen §5.3); 0 when nothing is folded.
+    pub imperceptible_distance_mm: Option<f64>,
+    /// Budget mode: that distance over the node's current distance (≤ 1:
+    /// imperceptible from here).
+    pub distance_factor: Option<f64>,
+}
+
+impl ModelReport {
+    pub fn new(m: &pipeline::model_based::ModelStats, no_gaze: bool) -> Self {
+        Self {
+            triangles_full: m.triangles_full,
+            triangles_drawn: m.triangles_drawn,
+            select_ms: m.select_ms,
+            raster_ms: m.raster_ms,
+            no_gaze,
+            budget: m.budget.map(|b| b.budget),
+            budget_stop: m.budget.map(|b| budget_stop_name(b.outcome.stopped_by)),
+            imperceptible_distance_mm: m.budget.map(|b| b.outcome.imperceptible_distance_mm),
+            distance_factor: m.budget.map(|b| b.outcome.distance_factor),
+        }
+    }
+
+    /// The line `render` prints.
+    pub fn line(&self) -> String {
+        let mut s = format!(
+            "model-based: {} of {} triangles drawn{} (select {:.1} ms, raster {:.1} ms)",
+            self.triangles_drawn,
+            self.triangles_full,
+            if self.no_gaze { ", without gaze" } else { "" },
+            self.select_ms,
+            self.raster_ms
+        );
+        if let (Some(b), Some(stop), Some(d), Some(f)) = (
+            self.budget,
+            self.budget_stop,
+            self.imperceptible_distance_mm,
+            self.distance_factor,
+        ) {
+            s.push_str(&format!("; budget {b}: stopped by {stop}; "));
+            if d > 0.0 {
+                s.push_str(&format!(
+                    "the folds left are imperceptible from {d:.0} mm ({f:.2} x the current distance)"
+                ));
+            } else {
+                s.push_str("nothing left folded");
+            }
+        }
+        s
+    }
+}
+
+/// The report's name of a budget stop.
+pub fn budget_stop_name(s: pipeline::model_based::BudgetStop) -> &'static str {
+    match s {
+        pipeline::model_based::BudgetStop::Budget => "budget",
+        pipeline::model_based::BudgetStop::Imperceptible => "imperceptible",
+        pipeline::model_based::BudgetStop::Exhausted => "exhausted",
+    }
 }
 
 /// One GPU stage's time.
@@ -142,6 +222,7 @@ pub fn run(args: &RenderArgs, out: &mut dyn Write) -> Result<(), String> {
         layout: args.layout,
         test: args.intersector.into(),
         por_overlay: args.overlay == Some(Overlay::Por),
+        model: args.model.into(),
         ..Options::default()
     };
     let mut renderer = Renderer::new(&scene, Camera::new(&geometry), model, &options)
@@ -197,6 +278,9 @@ pub fn run(args: &RenderArgs, out: &mut dyn Write) -> Result<(), String> {
         triangles: scene.triangles.len(),
         accel: args.accel.name(),
         times_ms: times,
+        model: renderer
+            .model_based()
+            .map(|m| ModelReport::new(m.last(), args.model.no_gaze)),
     };
     if let Some(path) = &args.stats {
         let json = serde_json::to_string_pretty(&report).map_err(|e| e.to_string())?;
@@ -210,7 +294,12 @@ pub fn run(args: &RenderArgs, out: &mut dyn Write) -> Result<(), String> {
         Some(a) => format!("gpu ({a})"),
         None => format!("cpu ({} threads)", report.threads),
     };
-    let rays = if stats.rays_full > 0 {
+    if let Some(m) = &report.model {
+        writeln!(out, "{}", m.line()).map_err(|e| e.to_string())?;
+    }
+    let rays = if report.model.is_some() {
+        "rasterised".to_string()
+    } else if stats.rays_full > 0 {
         format!("{} rays (one per pixel)", stats.rays_total)
     } else {
         format!(

@@ -46,6 +46,8 @@ pub struct ViewArgs {
     /// The rendering method (`foveated` is an alias of `hybrid`).
     #[arg(long, value_enum, default_value = "hybrid")]
     pub method: pipeline::Method,
+    #[command(flatten)]
+    pub model: crate::args::ModelArgs,
     /// Fullscreen on the current monitor.
     #[arg(long)]
     pub fullscreen: bool,
@@ -72,6 +74,7 @@ impl ViewArgs {
             por_overlay: self.overlay == Some(Overlay::Por),
             backend: self.backend,
             method: self.method,
+            model: self.model.into(),
             fullscreen: self.fullscreen,
             monitor: self.monitor,
         }

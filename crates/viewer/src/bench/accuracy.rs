@@ -10,7 +10,7 @@ use raycast::scene::Effect;
 use raycast::{Camera, Frame};
 
 use crate::args::AccelArg;
-use crate::bench::configs::{configurations, gaze_positions, options_for};
+use crate::bench::configs::{budget_configurations, configurations, gaze_positions, options_for};
 use crate::bench::measure::{progress, timed};
 use crate::bench::report::{accuracy_report, create_dir, fmt_db, results_csv, write_file};
 use crate::bench::summary::{summarise, Row};
@@ -66,7 +66,8 @@ pub fn run(args: &AccuracyArgs, out: &mut dyn Write) -> Result<(), String> {
         scene.effects.push(Effect::FoveatedSampling);
     }
     let camera = Camera::new(&geometry);
-    let configs = configurations(args.quick);
+    let mut configs = configurations(args.quick);
+    configs.extend(budget_configurations(&args.budget));
     if configs.iter().any(|c| c.accel == AccelArg::Grid) {
         scene.build_grid();
     }

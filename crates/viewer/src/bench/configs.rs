@@ -49,13 +49,19 @@ pub struct Config {
     pub max_spacing_px: f64,
     pub refinement: Refinement,
     pub accel: AccelArg,
+    /// `Simplify` under a triangle budget (Luebke & Hallen §5.3,
+    /// `bench accuracy --budget`); `None` for every other configuration.
+    pub budget: Option<usize>,
 }
 
 impl Config {
     pub fn name(&self) -> String {
         let accel = self.accel.name();
         match self.layout {
-            None if self.method.is_model_based() => self.method.name().to_string(),
+            None if self.method.is_model_based() => match self.budget {
+                Some(b) => format!("{} budget={b}", self.method.name()),
+                None => self.method.name().to_string(),
+            },
             None if self.method == Method::Image => format!(
                 "image C={} n={} {accel}",
                 self.contrast, self.max_spacing_px
@@ -125,6 +131,7 @@ pub fn configurations(quick: bool) -> Vec<Config> {
             max_spacing_px: 1.0,
             refinement: Refinement::None,
             accel,
+            budget: None,
         })
         .collect();
     for &accel in accels {
@@ -139,6 +146,7 @@ pub fn configurations(quick: bool) -> Vec<Config> {
                             max_spacing_px,
                             refinement,
                             accel,
+                            budget: None,
                         });
                     }
                 }
@@ -155,6 +163,7 @@ pub fn configurations(quick: bool) -> Vec<Config> {
                     max_spacing_px,
                     refinement: Refinement::None,
                     accel,
+                    budget: None,
                 });
             }
         }
@@ -168,7 +177,29 @@ pub fn configurations(quick: bool) -> Vec<Config> {
             max_spacing_px: 1.0,
             refinement: Refinement::None,
             accel: AccelArg::Bvh,
+            budget: None,
         });
+    }
+    out
+}
+
+/// `Simplify` under each triangle budget (`bench accuracy --budget`), in
+/// the order given, each once.
+pub fn budget_configurations(budgets: &[usize]) -> Vec<Config> {
+    let mut out: Vec<Config> = Vec::new();
+    for &b in budgets {
+        let c = Config {
+            method: Method::Simplify,
+            layout: None,
+            contrast: 1.0,
+            max_spacing_px: 1.0,
+            refinement: Refinement::None,
+            accel: AccelArg::Bvh,
+            budget: Some(b),
+        };
+        if !out.contains(&c) {
+            out.push(c);
+        }
     }
     out
 }
@@ -180,6 +211,10 @@ pub fn options_for(config: &Config, scene: &Scene) -> Options {
         backend: BackendChoice::Cpu,
         layout: config.layout.unwrap_or_default(),
         triggers: Some(config.refinement.triggers(scene)),
+        model: pipeline::model_based::ModelOptions {
+            budget: config.budget,
+            ignore_gaze: false,
+        },
         ..Options::default()
     }
 }
@@ -222,6 +257,11 @@ mod tests {
             2
         );
         assert_eq!(quick.iter().filter(|c| c.is_default()).count(), 1);
+        assert!(all.iter().chain(&quick).all(|c| c.budget.is_none()));
+        let budgets = budget_configurations(&[5000, 1000, 5000]);
+        assert_eq!(budgets.len(), 2);
+        assert_eq!(budgets[0].name(), "simplify budget=5000");
+        assert_eq!(budgets[1].budget, Some(1000));
     }
 
     #[test]

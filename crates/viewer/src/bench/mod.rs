@@ -7,6 +7,9 @@
 //!   ([`foveation::quality`]). Writes `results.csv`, `pareto.png`, `report.md`.
 //! - `attention`: Lee's attention model against recorded gaze (A1–A3 and
 //!   the feature-group ablations of Lee's Table 3.2).
+//! - `lod`: the model-based methods along a synthetic scanpath (Murphy &
+//!   Duchowski Table 2's shape; Luebke & Hallen Fig. 8's set-up). Writes
+//!   `lod.md`, `lod.csv`, `lod.json`.
 //! - `scaling`: frame time of full and foveated rendering against triangle
 //!   count and against resolution (log–log), to show whether the cost
 //!   follows the eye's ray budget. Writes `scaling.csv`,
@@ -19,6 +22,7 @@
 pub mod accuracy;
 pub mod attention;
 pub mod configs;
+pub mod lod;
 pub mod measure;
 pub mod report;
 pub mod scaling;
@@ -55,6 +59,10 @@ pub enum BenchCommand {
     /// Attention-guided level of detail (Lee ch. 7): frame time against
     /// visible objects for no LOD and ULOD2–ULOD5, and the cost model.
     Ulod(ulod::UlodArgs),
+    /// The model-based methods along a synthetic scanpath: faces min/max/
+    /// average and frame time per method (Murphy & Duchowski Table 2), and
+    /// Luebke & Hallen Fig. 8's gaze 29° from the object.
+    Lod(lod::LodArgs),
 }
 
 /// Most gaze positions `bench accuracy` takes: every gaze costs a
@@ -94,6 +102,10 @@ pub struct AccuracyArgs {
     /// Fewer configurations (13 of 172) and two gazes unless --gazes is given.
     #[arg(long)]
     pub quick: bool,
+    /// Add `simplify` under a triangle budget of N (Luebke & Hallen's
+    /// best-effort mode; 1 to 10^9); repeat for several budgets.
+    #[arg(long, value_name = "TRIANGLES", value_parser = crate::args::parse_budget)]
+    pub budget: Vec<usize>,
 }
 
 #[derive(Debug, Clone, clap::Args)]
@@ -119,8 +131,10 @@ pub fn run(args: &BenchArgs, out: &mut dyn Write) -> Result<(), String> {
     let backend = match &args.command {
         BenchCommand::Accuracy(a) => a.backend,
         BenchCommand::Scaling(a) => a.backend,
-        BenchCommand::Stages(_) => BackendChoice::Cpu,
-        BenchCommand::Attention(_) | BenchCommand::Ulod(_) => BackendChoice::Cpu,
+        BenchCommand::Stages(_)
+        | BenchCommand::Lod(_)
+        | BenchCommand::Attention(_)
+        | BenchCommand::Ulod(_) => BackendChoice::Cpu,
     };
     if backend == BackendChoice::Gpu {
         return Err(
@@ -136,6 +150,7 @@ pub fn run(args: &BenchArgs, out: &mut dyn Write) -> Result<(), String> {
         BenchCommand::Stages(a) => stages::run(a, out),
         BenchCommand::Attention(a) => attention::run(a, out),
         BenchCommand::Ulod(a) => ulod::run(a, out),
+        BenchCommand::Lod(a) => lod::run(a, out),
     }
 }
 

@@ -117,7 +117,8 @@ grid, §6.1.1). `full` casts one ray per pixel (the reference). `image` is image
 each pixel, the spacing from the same C and n (its silhouettes are the full frame's by construction; \
 its time includes the full frame it blurs). `simplify` (Luebke & Hallen, imperceptible mode) and \
 `lod` (Murphy & Duchowski, Table 1 levels) simplify each object's vertex tree for the gaze and \
-rasterise it on the CPU.";
+rasterise it on the CPU; `simplify budget=N` (`--budget N`) is Luebke & Hallen's best-effort mode, \
+at most N triangles.";
 
 /// `report.md` of the accuracy sweep.
 pub fn accuracy_report(

@@ -1,4 +1,5 @@
-//! Selection time against triangle count (10⁴, 10⁵, 10⁶ triangles on a
+//! Selection time against triangle count (10⁴, 10⁵, 10⁶ and, with
+//! `LOD_BENCH_10M=1`, 10⁷ triangles on a
 //! torus 160 mm across, 500 mm from the eye, ~18° of visual angle), and the
 //! incremental update when the gaze moves 1° or 20° between frames.
 //!
@@ -31,7 +32,13 @@ fn bench(c: &mut Criterion) {
 
     let mut group = c.benchmark_group("select");
     group.sample_size(10);
-    for (nu, nv) in [(100u32, 50u32), (250, 200), (1000, 500)] {
+    // 10^7 triangles (a 2 GB tree build of about a minute) only on request:
+    // LOD_BENCH_10M=1 cargo bench -p lod --bench select.
+    let mut sizes = vec![(100u32, 50u32), (250, 200), (1000, 500)];
+    if std::env::var_os("LOD_BENCH_10M").is_some() {
+        sizes.push((3200, 1600));
+    }
+    for (nu, nv) in sizes {
         let mesh = common::torus(nu, nv, 60.0, 20.0, centre);
         let n_tri = mesh.triangles.len();
         let t0 = Instant::now();

@@ -27,13 +27,20 @@ pub enum Method {
     /// detail (Table 1's levels by eccentricity), rasterised on the CPU.
     #[value(alias = "murphy-duchowski")]
     Lod,
+    /// Lee 2009 ch. 7: attention-guided level of detail with ULOD's blend
+    /// of adjacent levels (`ULOD5`: 1, 1/4, … 1/256 of each object's
+    /// triangles by quadric simplification), levels set by Lee's attention
+    /// model on the previous frame; no eye tracker needed. CPU raster.
+    #[value(alias = "attention-lod")]
+    Ulod,
 }
 
 impl Method {
     /// The method that will run for `scene` when `self` is asked for: the
     /// foveated methods (hybrid, image-based, model-based) need the scene to list
     /// `FoveatedSampling`; without it the scene is rendered at full
-    /// resolution, on every backend.
+    /// resolution, on every backend. `Ulod` follows attention, not the
+    /// gaze, and runs whatever the scene lists.
     pub fn for_scene(self, scene: &Scene) -> Method {
         match self {
             Method::Hybrid | Method::Image | Method::Simplify | Method::Lod
@@ -53,6 +60,7 @@ impl Method {
             Method::Image => "image-based",
             Method::Simplify => "simplify",
             Method::Lod => "lod",
+            Method::Ulod => "ulod",
         }
     }
 

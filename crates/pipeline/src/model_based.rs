@@ -267,6 +267,11 @@ impl ModelBased {
         self.vergence_mm = depth_mm.filter(|d| d.is_finite() && *d > 0.0);
     }
 
+    /// The options this state was built with.
+    pub fn options(&self) -> ModelOptions {
+        self.options
+    }
+
     /// What the last frame did.
     pub fn last(&self) -> &ModelStats {
         &self.last

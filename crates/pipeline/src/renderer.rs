@@ -68,6 +68,10 @@ impl Default for Options {
     }
 }
 
+/// `Method::Ulod`'s levels (`ULOD5`, Lee's largest set) and attention map size.
+pub const ULOD_LEVELS: usize = 5;
+pub const ULOD_MAP_SIZE: u32 = 64;
+
 /// A scene on a backend, with the method and the effect passes chosen.
 pub struct Renderer<'s> {
     scene: &'s Scene,
@@ -88,6 +92,10 @@ pub struct Renderer<'s> {
     scratch: Scratch,
     /// The wall clock [`Renderer::render`] times frames by (its origin).
     clock: std::time::Instant,
+    /// `Method::Ulod`'s levels and attention model; `None` for other methods.
+    ulod: Option<Box<crate::ulod::Ulod>>,
+    /// `Method::Ulod`: the last frame, whose attention sets the next levels.
+    ulod_previous: Option<Frame>,
     /// The model-based methods' trees and cuts; `None` for other methods.
     model_based: Option<ModelBased>,
     /// The image-based method's pyramid; `None` for every other method.
@@ -126,10 +134,23 @@ impl<'s> Renderer<'s> {
         let method = options.method.for_scene(scene);
         // The model-based methods rasterise on the backend chosen the same
         // way (on the GPU: its render pipeline, `GpuRenderer::rasterize`).
-        let (backend, note) = Backend::choose(options.backend, scene, options.test)?;
+        let (backend, note) = if method == Method::Ulod {
+            if options.backend == BackendChoice::Gpu {
+                return Err(RenderError::Unsupported(
+                    "--method ulod rasterises on the CPU only; use --backend cpu or auto".into(),
+                ));
+            }
+            let note = (options.backend == BackendChoice::Auto)
+                .then(|| "--method ulod rasterises on the CPU".to_string());
+            (Backend::Cpu, note)
+        } else {
+            Backend::choose(options.backend, scene, options.test)?
+        };
         let settings = Settings {
             mode: match method {
-                Method::Full | Method::Image | Method::Simplify | Method::Lod => Mode::Full,
+                Method::Full | Method::Image | Method::Simplify | Method::Lod | Method::Ulod => {
+                    Mode::Full
+                }
                 Method::Hybrid => Mode::Foveated,
             },
             layout: options.layout,
@@ -177,8 +198,20 @@ impl<'s> Renderer<'s> {
         } else {
             None
         };
+        let ulod = if method == Method::Ulod {
+            let levels =
+                crate::ulod::scene_levels(scene, ULOD_LEVELS).map_err(RenderError::Unsupported)?;
+            Some(Box::new(
+                crate::ulod::Ulod::new(levels, ULOD_LEVELS, ULOD_MAP_SIZE)
+                    .map_err(RenderError::Unsupported)?,
+            ))
+        } else {
+            None
+        };
         Ok(Self {
             model_based,
+            ulod,
+            ulod_previous: None,
             scene,
             camera,
             model,
@@ -254,6 +287,33 @@ impl<'s> Renderer<'s> {
             }
         }
         let (mut frame, mut stats) = match (self.method, &mut self.backend) {
+            (Method::Ulod, _) => {
+                let mut frame = self.spare.take().unwrap_or_default();
+                let u = self
+                    .ulod
+                    .as_mut()
+                    .ok_or_else(|| RenderError::Unsupported("no ULOD state".into()))?;
+                let started = std::time::Instant::now();
+                let t = time_s.is_finite().then_some(time_s);
+                u.render(
+                    self.scene,
+                    &self.camera,
+                    self.ulod_previous.as_ref(),
+                    t,
+                    &mut frame,
+                );
+                // The next frame's levels come from this frame, before any
+                // pass draws on it (the buffers are reused).
+                match &mut self.ulod_previous {
+                    Some(p) => p.clone_from(&frame),
+                    None => self.ulod_previous = Some(frame.clone()),
+                }
+                let stats = Stats {
+                    time_ms: started.elapsed().as_secs_f64() * 1e3,
+                    ..Stats::default()
+                };
+                (frame, stats)
+            }
             (Method::Simplify | Method::Lod, backend) => {
                 let mut frame = self.spare.take().unwrap_or_default();
                 let m = self
@@ -403,6 +463,12 @@ impl<'s> Renderer<'s> {
         self.scratch.stages()
     }
 
+    /// `Method::Ulod`'s state (levels, attention, last frame's counts), when
+    /// it runs; `None` otherwise (nothing of it is built for other methods).
+    pub fn ulod(&self) -> Option<&crate::ulod::Ulod> {
+        self.ulod.as_deref()
+    }
+
     /// The model-based method's state (trees, cuts, last frame's counts),
     /// when a model-based method runs; `None` otherwise.
     pub fn model_based(&self) -> Option<&ModelBased> {
@@ -547,13 +613,29 @@ impl<'s> Renderer<'s> {
             (Method::Full, _) => out.push(
                 "per frame: cast and shade every pixel (no mask, no foveated buffers)".into(),
             ),
+            (Method::Ulod, _) => out.push(format!(
+                "per frame: Lee's attention model ({ULOD_MAP_SIZE}² maps) on the previous frame sets each object's level L = {}(1 − S_o/max S_o) (Lee eq. 7.3); level ⌊L⌋ drawn opaque and ⌊L⌋+1 blended over it with opacity L − ⌊L⌋ (ULOD), levels of 4^−l of the triangles by quadric simplification; CPU z-buffer",
+                ULOD_LEVELS - 1
+            )),
             (Method::Simplify | Method::Lod, backend) => out.push(format!(
                 "per frame: select each object's vertex-tree cut incrementally ({}, CPU), \
                  then rasterise the active triangles with the ray caster's shading ({})",
-                if self.method == Method::Simplify {
-                    "Luebke–Hallen imperceptible mode, Geisler–Perry thresholds"
-                } else {
-                    "Murphy–Duchowski Table 1 levels"
+                {
+                    let options = self.model_based.as_ref().map(|m| m.options()).unwrap_or_default();
+                    let mode = match (self.method, options.budget) {
+                        (Method::Simplify, Some(b)) => format!(
+                            "Luebke–Hallen best-effort mode under a budget of {b} triangles, Geisler–Perry thresholds"
+                        ),
+                        (Method::Simplify, None) => {
+                            "Luebke–Hallen imperceptible mode, Geisler–Perry thresholds".to_string()
+                        }
+                        _ => "Murphy–Duchowski Table 1 levels".to_string(),
+                    };
+                    if options.ignore_gaze {
+                        format!("{mode}, without the gaze: every node foveal")
+                    } else {
+                        mode
+                    }
                 },
                 match backend {
                     Backend::Cpu => "CPU z-buffer",

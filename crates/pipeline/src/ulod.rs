@@ -1,8 +1,9 @@
 //! Attention-guided level of detail (Lee 2009 ch. 7) with ULOD's blend of
 //! two adjacent levels (Giegl & Wimmer 2007).
 //!
-//! - **Levels** (eq. 7.4): level `l` of an object keeps `r(l) = 4^−l` of its
-//!   triangles, made by Garland–Heckbert quadric simplification: the vertex
+//! - **Levels** (eq. 7.4): level `l` of an object keeps about `r(l) = 4^−l`
+//!   of its triangles (at most `⌊4^−l·n⌋`; a level that would be empty
+//!   repeats the last non-empty one), made by Garland–Heckbert quadric simplification: the vertex
 //!   tree's edge collapses folded cheapest first until the count is met
 //!   ([`lod::Cut::fold_to_triangles`]). `ULODn` has levels `0 … n−1`.
 //! - **Attention** comes from Lee's model run on the *previous* frame's
@@ -15,7 +16,8 @@
 //!   `S_o` rarely reaches 1; *decision*: rescale by the maximum, so the
 //!   most attended object is always at full detail). An object the model
 //!   did not rank (not visible last frame) gets `S_o = 0`, the coarsest
-//!   level.
+//!   level; scenery (importance 0, never ranked) is not simplified. A
+//!   frame the model cannot read keeps the last levels.
 //! - **ULOD blend** (*decisions*; Lee defers the rules to Giegl & Wimmer):
 //!   with `l = ⌊L⌋` and `α = L − l`, level `l` is drawn opaque and level
 //!   `l + 1` over it with opacity `α`. The blended level shows where it is
@@ -47,7 +49,10 @@ pub struct ObjectLevels {
 
 impl ObjectLevels {
     /// Levels `0 … count−1` of a mesh by quadric simplification, each with
-    /// at most `4^−l` of the triangles, as world triangles of `object`.
+    /// at most `⌊4^−l · n⌋` of its `n` triangles (a fold removes one to a
+    /// few, so a level may fall a little short of that), as world
+    /// triangles of `object`. A level that would be empty repeats the last
+    /// non-empty one.
     pub fn build(
         object: u32,
         positions: &[Vec3],
@@ -66,8 +71,17 @@ impl ObjectLevels {
         let (mut p, mut n) = (Vec::new(), Vec::new());
         let mut levels = Vec::with_capacity(count);
         for l in 0..count {
-            let target = (full as f64 * 0.25f64.powi(l as i32)).round() as usize;
+            let target = (full as f64 * 0.25f64.powi(l as i32)).floor() as usize;
             cut.fold_to_triangles(target);
+            if cut.active_triangle_count() == 0 && full > 0 {
+                // A small mesh runs out of triangles: its coarsest levels
+                // repeat the last one that shows something (an object
+                // that drew nothing could never be attended again).
+                if let Some(last) = levels.last().cloned() {
+                    levels.push(last);
+                    continue;
+                }
+            }
             cut.triangles_into(&mut p);
             cut.normals_into(&mut n);
             levels.push(
@@ -129,6 +143,23 @@ pub struct UlodStats {
     pub attention_ms: f64,
     pub raster_ms: f64,
     pub blend_ms: f64,
+}
+
+impl UlodStats {
+    /// One line for a command's output.
+    pub fn line(&self) -> String {
+        format!(
+            "ulod: {} of {} triangles drawn ({} opaque, {} blended on {} objects), mean level {:.2}, attention {:.1} ms, raster {:.1} ms",
+            self.triangles_opaque + self.triangles_blended,
+            self.triangles_full,
+            self.triangles_opaque,
+            self.triangles_blended,
+            self.blended_objects,
+            self.mean_level,
+            self.attention_ms,
+            self.raster_ms
+        )
+    }
 }
 
 /// Attention-guided LOD over a set of objects.
@@ -205,13 +236,27 @@ impl Ulod {
         let result = self
             .attention
             .update(previous, &scene.object_importance, time_s);
-        let ranked = result.as_ref().map_or(&[][..], |r| &r.ranking[..]);
+        // A frame the model cannot read keeps the last levels.
+        let Some(result) = result else {
+            return;
+        };
+        let ranked = &result.ranking[..];
         let max = ranked
             .iter()
             .map(|o| o.attention)
             .filter(|a| a.is_finite())
             .fold(0.0f32, f32::max);
-        self.level.fill(m);
+        // Scenery (importance 0: floors, walls) is never attended and is
+        // not simplified; everything else unranked (not visible in the
+        // last frame) goes to the coarsest level.
+        for (l, &i) in self.level.iter_mut().zip(
+            scene
+                .object_importance
+                .iter()
+                .chain(std::iter::repeat(&1.0)),
+        ) {
+            *l = if i > 0.0 { m } else { 0.0 };
+        }
         for o in ranked {
             if let Some(l) = self.level.get_mut(o.id as usize) {
                 let s = if max > 0.0 && o.attention.is_finite() {

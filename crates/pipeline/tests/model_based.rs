@@ -430,3 +430,22 @@ fn a_vergence_depth_places_the_lod_gaze_point_along_the_gaze_ray() {
     let m = *simplify.model_based().expect("state").last();
     assert!(!m.gaze_from_vergence);
 }
+
+/// `view --explain` says which selection runs: the budget and the gaze.
+#[test]
+fn explain_names_the_budget_and_the_missing_gaze() {
+    let s = scene("bunny");
+    let text = |budget, ignore_gaze| {
+        budget_renderer(&s, budget, ignore_gaze)
+            .explain()
+            .join("\n")
+    };
+    let budget = text(Some(5000), false);
+    assert!(budget.contains("budget of 5000 triangles"), "{budget}");
+    assert!(!budget.contains("without the gaze"), "{budget}");
+    let plain = text(None, true);
+    assert!(
+        plain.contains("imperceptible mode") && plain.contains("without the gaze"),
+        "{plain}"
+    );
+}

@@ -47,7 +47,7 @@ fn levels_keep_a_quarter_each_and_attention_picks_them() {
         let full = o.levels[0].len();
         assert_eq!(full, 5120, "an icosphere of 4 subdivisions");
         for (l, level) in o.levels.iter().enumerate() {
-            let target = (full as f64 / 4f64.powi(l as i32)).round() as usize;
+            let target = (full as f64 / 4f64.powi(l as i32)).floor() as usize;
             assert!(
                 level.len() <= target && level.len() + 8 >= target,
                 "level {l}: {} for {target}",
@@ -88,8 +88,8 @@ fn levels_keep_a_quarter_each_and_attention_picks_them() {
         std::mem::swap(&mut previous, &mut frame);
     }
     let levels = ulod.levels().to_vec();
-    // The scenery is never ranked: the coarsest level.
-    assert_eq!(levels[2], 3.0, "{levels:?}");
+    // The scenery is never ranked and never simplified.
+    assert_eq!(levels[2], 0.0, "{levels:?}");
     // The most attended object is at full detail; the other is coarser.
     let (best, other) = if levels[0] < levels[1] {
         (0, 1)
@@ -130,4 +130,61 @@ fn bad_level_counts_are_refused() {
         &mut f,
     );
     assert_eq!(s.triangles_opaque, 0);
+}
+
+#[test]
+fn the_renderer_runs_ulod_and_builds_it_for_no_other_method() {
+    use pipeline::{BackendChoice, Method, Options, Renderer};
+    let scene = scene();
+    let g = display().geometry().expect("geometry");
+    let model = pipeline::sampling_model(g, 1.0).expect("model");
+    let make = |method, backend| {
+        Renderer::new(
+            &scene,
+            Camera::new(&g),
+            model,
+            &Options {
+                method,
+                backend,
+                ..Options::default()
+            },
+        )
+    };
+    let mut r = make(Method::Ulod, BackendChoice::Cpu).expect("renderer");
+    assert!(r.model_based().is_none());
+    let mut drawn = Vec::new();
+    for k in 0..4 {
+        let (frame, _) = r.render_at([100.0, 80.0], k as f64 / 60.0).expect("frame");
+        assert!(frame.hit.iter().any(|&h| h));
+        let s = r.ulod().expect("ulod state").last();
+        drawn.push(s.triangles_opaque + s.triangles_blended);
+        r.recycle(frame);
+    }
+    assert_eq!(drawn[0], 3 * 5120, "the first frame draws level 0");
+    assert!(drawn[3] < drawn[0], "{drawn:?}");
+    assert!(r.explain().join("\n").contains("ULOD"));
+    // The GPU backend is refused by name; auto says it uses the CPU.
+    let e = make(Method::Ulod, BackendChoice::Gpu)
+        .err()
+        .expect("refused");
+    assert!(e.to_string().contains("--method ulod"), "{e}");
+    // Pay per use: no other method builds levels or an attention model.
+    for m in [Method::Full, Method::Hybrid, Method::Image, Method::Lod] {
+        let r = make(m, BackendChoice::Cpu).expect("renderer");
+        assert!(r.ulod().is_none(), "{m:?}");
+    }
+}
+
+#[test]
+fn a_small_mesh_never_runs_out_of_triangles() {
+    use glam::Vec3;
+    use pipeline::ulod::ObjectLevels;
+    // A quad: two triangles, so level 1 asks for 0.
+    let p = [Vec3::ZERO, Vec3::X, Vec3::new(1.0, 1.0, 0.0), Vec3::Y];
+    let levels =
+        ObjectLevels::build(0, &p, &[Vec3::Z; 4], &[[0, 1, 2], [0, 2, 3]], 5).expect("levels");
+    assert_eq!(levels.levels[0].len(), 2);
+    for (l, level) in levels.levels.iter().enumerate() {
+        assert!(!level.is_empty(), "level {l} is empty");
+    }
 }

@@ -159,7 +159,8 @@ pub fn run(args: &DemoArgs, out: &mut dyn Write) -> Result<(), String> {
         let (frame, stats) = renderer.render(gaze).map_err(|e| e.to_string())?;
         let model = renderer
             .model_based()
-            .map(|m| crate::render_cmd::ModelReport::new(m.last(), args.model.no_gaze).line());
+            .map(|m| crate::render_cmd::ModelReport::new(m.last(), args.model.no_gaze).line())
+            .or_else(|| renderer.ulod().map(|u| u.last().line()));
         line(
             out,
             format!(

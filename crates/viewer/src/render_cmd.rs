@@ -297,7 +297,10 @@ pub fn run(args: &RenderArgs, out: &mut dyn Write) -> Result<(), String> {
     if let Some(m) = &report.model {
         writeln!(out, "{}", m.line()).map_err(|e| e.to_string())?;
     }
-    let rays = if report.model.is_some() {
+    if let Some(u) = renderer.ulod() {
+        writeln!(out, "{}", u.last().line()).map_err(|e| e.to_string())?;
+    }
+    let rays = if report.model.is_some() || renderer.ulod().is_some() {
         "rasterised".to_string()
     } else if stats.rays_full > 0 {
         format!("{} rays (one per pixel)", stats.rays_total)

@@ -15,8 +15,10 @@
 //!    Frames render on the CPU backend; the model runs on the CPU.
 //! 2. **Eye state** (Lee §3.5.2): an invalid sample is a blink; otherwise
 //!    the velocity is the change of the gaze in normalised screen
-//!    coordinates (0–1 on each axis) since the last frame: below 0.03 a
-//!    fixation, above 0.1 a saccade, a drift in between. The first frame and
+//!    coordinates (0–1 on each axis) since the last frame, per 60-Hz frame
+//!    (scaled at other rates): below 0.03 a fixation, above 0.1 a saccade,
+//!    a drift in between. A sample more than two frames old (a gap in the
+//!    recording) counts as invalid. The first frame and
 //!    the first after a blink have no velocity and are dropped with the
 //!    saccades. Only fixations and drifts are scored.
 //! 3. **Looked-at object:** the object under the gaze pixel; on background,
@@ -43,7 +45,8 @@
 //!
 //! `--synthesize-gaze FILE` writes a synthetic session for the scene
 //! instead: fixations (200–600 ms, 0.1° Gaussian jitter per sample) on
-//! objects drawn uniformly at random from those visible, 40-ms saccades,
+//! objects drawn uniformly at random from those covering at least 20
+//! pixels (never the one just fixated), 40-ms saccades,
 //! and a 150-ms blink after one fixation in ten, at 120 Hz. Its comment
 //! line says it is synthetic, and every report made from it repeats that.
 //! Its viewer looks at random objects, so the model's scores on it are
@@ -64,8 +67,12 @@ use tracker_hal::csv::{parse_gaze, GazeRow, CSV_HEADER};
 use crate::bench::report::{create_dir, write_file};
 use crate::config::{self, load_scene};
 
-/// Most frames one session may be cut into (a day at 60 Hz is 5.2 M).
-pub const MAX_FRAMES: usize = 10_000_000;
+/// Most frames one session may be cut into (9 hours at 60 Hz); a longer
+/// session (or a clock jump that makes one) is cut there and says so.
+pub const MAX_FRAMES: usize = 2_000_000;
+/// Most `#` note lines kept from a session, and their length.
+pub const MAX_NOTES: usize = 100;
+pub const MAX_NOTE_CHARS: usize = 500;
 /// Largest `--radius-deg`.
 pub const MAX_RADIUS_DEG: f64 = 5.0;
 /// Lee's velocity thresholds (normalised screen units per frame).
@@ -156,13 +163,20 @@ impl EyeState {
 }
 
 /// Classifies a frame's gaze from the last frame's (screen px, or `None`
-/// when invalid) on a `size` px screen.
-pub fn eye_state(last: Option<[f64; 2]>, now: Option<[f64; 2]>, size: [f64; 2]) -> EyeState {
+/// when invalid) on a `size` px screen, frames at `rate_hz`.
+pub fn eye_state(
+    last: Option<[f64; 2]>,
+    now: Option<[f64; 2]>,
+    size: [f64; 2],
+    rate_hz: f64,
+) -> EyeState {
     match (last, now) {
         (_, None) => EyeState::Blink,
         (None, Some(_)) => EyeState::Start,
         (Some(a), Some(b)) => {
-            let v = ((b[0] - a[0]) / size[0]).hypot((b[1] - a[1]) / size[1]);
+            // Lee's thresholds are per 60-Hz frame: the change per frame at
+            // another rate is scaled to a 60-Hz frame's.
+            let v = ((b[0] - a[0]) / size[0]).hypot((b[1] - a[1]) / size[1]) * rate_hz / 60.0;
             if !v.is_finite() || v > SACCADE_ABOVE {
                 EyeState::Saccade
             } else if v < FIXATION_BELOW {
@@ -179,7 +193,8 @@ pub fn eye_state(last: Option<[f64; 2]>, now: Option<[f64; 2]>, size: [f64; 2]) 
 pub type FrameGaze = (f64, Option<[f64; 2]>);
 
 /// Cuts `rows` into frames at `rate_hz`: each frame's time (s since the
-/// first sample) and the newest sample's gaze at or before it. At most
+/// first sample) and the newest sample's gaze at or before it (`None`
+/// when that sample is invalid or more than two frames old). At most
 /// `max` frames; the second value says whether the session was longer.
 pub fn frames_of(rows: &[GazeRow], rate_hz: f64, max: usize) -> (Vec<FrameGaze>, bool) {
     let (Some(first), Some(last)) = (rows.first(), rows.last()) else {
@@ -194,21 +209,27 @@ pub fn frames_of(rows: &[GazeRow], rate_hz: f64, max: usize) -> (Vec<FrameGaze>,
     };
     let mut out = Vec::with_capacity(n);
     let mut next = 0;
+    // A sample older than two frames is no gaze for this frame: a gap in
+    // the recording counts as invalid (a blink), not as a still eye.
+    let max_age_us = (2e6 / rate_hz).ceil() as u64;
     for k in 0..n {
         let t_s = k as f64 / rate_hz;
         let due_us = first.host_time_us + (t_s * 1e6).round() as u64;
         while next + 1 < rows.len() && rows[next + 1].host_time_us <= due_us {
             next += 1;
         }
-        out.push((t_s, rows[next].gaze));
+        let row = rows[next];
+        let fresh = due_us.saturating_sub(row.host_time_us) <= max_age_us;
+        out.push((t_s, row.gaze.filter(|_| fresh)));
     }
     (out, (n as f64) < total)
 }
 
-/// Whether object `id` is worth attending in this scene (listed, with an
-/// importance above 0).
+/// Whether object `id` is worth attending in this scene (among the ids the
+/// model lists, with an importance above 0).
 fn foreground(id: u32, importance: &[f32]) -> bool {
-    importance.get(id as usize).is_some_and(|&i| i > 0.0)
+    (id as usize) < attention::frame::MAX_OBJECTS
+        && importance.get(id as usize).is_some_and(|&i| i > 0.0)
 }
 
 /// The object looked at: under the gaze pixel, else the nearest
@@ -313,7 +334,8 @@ pub struct SessionResult {
     /// Frames per eye state: blink, start, saccade, drift, fixation.
     pub states: [usize; 5],
     pub accuracy: [attention::AccuracyAccumulator; 8],
-    /// Median model time per frame, ms, per combination (baseline 0).
+    /// Median model time per frame, ms, per combination (the baseline's is
+    /// drawing its random pixels).
     pub model_ms: [f64; 8],
 }
 
@@ -341,9 +363,31 @@ fn read_session(path: &Path) -> Result<tracker_hal::csv::GazeCsv, String> {
             path.display()
         ));
     }
-    let text = std::fs::read_to_string(path)
+    // Read through a limit too: a pipe or FIFO reports no length.
+    let mut text = String::new();
+    let file = std::fs::File::open(path)
         .map_err(|e| format!("--gaze {}: cannot read: {e}", path.display()))?;
-    parse_gaze(&text).map_err(|e| format!("--gaze {}: {e}", path.display()))
+    std::io::Read::read_to_string(&mut std::io::Read::take(file, MAX_CSV_BYTES + 1), &mut text)
+        .map_err(|e| format!("--gaze {}: cannot read: {e}", path.display()))?;
+    if text.len() as u64 > MAX_CSV_BYTES {
+        return Err(format!(
+            "--gaze {}: more than {MAX_CSV_BYTES} bytes; at most that many are read",
+            path.display()
+        ));
+    }
+    let mut csv = parse_gaze(&text).map_err(|e| format!("--gaze {}: {e}", path.display()))?;
+    let extra = csv.notes.len().saturating_sub(MAX_NOTES);
+    csv.notes.truncate(MAX_NOTES);
+    for n in &mut csv.notes {
+        if n.chars().count() > MAX_NOTE_CHARS {
+            *n = n.chars().take(MAX_NOTE_CHARS).collect::<String>() + "…";
+        }
+    }
+    if extra > 0 {
+        csv.notes
+            .push(format!("({extra} more note lines not shown)"));
+    }
+    Ok(csv)
 }
 
 fn check_args(args: &AttentionArgs) -> Result<(), String> {
@@ -429,6 +473,12 @@ pub fn run(args: &AttentionArgs, out: &mut dyn Write) -> Result<(), String> {
     create_dir(dir)?;
     let mut results = Vec::new();
     for (k, (path, csv)) in sessions.into_iter().enumerate() {
+        // A fresh renderer per session: no effect's state (a focus, its
+        // clock) carries from one session into the next.
+        if k > 0 {
+            renderer = Renderer::new(&scene, Camera::new(&geometry), model, &options)
+                .map_err(|e| e.to_string())?;
+        }
         let (result, frames_csv) =
             evaluate(&mut renderer, &scene, &geometry, args, k as u64, path, csv)?;
         write_file(&dir.join(format!("frames-{}.csv", k + 1)), &frames_csv)?;
@@ -492,7 +542,7 @@ fn evaluate(
         let Some((frame, fg)) = &still else {
             continue;
         };
-        let state = eye_state(last, gaze, size);
+        let state = eye_state(last, gaze, size, args.frame_rate);
         last = gaze;
         result.states[state_index(state)] += 1;
         let seen = gaze.and_then(|g| looked_at(frame, g, radius, importance));
@@ -787,18 +837,21 @@ mod tests {
     #[test]
     fn eye_states_follow_lee_thresholds() {
         let size = [1000.0, 1000.0];
-        assert_eq!(eye_state(None, None, size), EyeState::Blink);
-        assert_eq!(eye_state(None, Some([1.0, 1.0]), size), EyeState::Start);
+        assert_eq!(eye_state(None, None, size, 60.0), EyeState::Blink);
         assert_eq!(
-            eye_state(Some([0.0, 0.0]), Some([10.0, 0.0]), size),
+            eye_state(None, Some([1.0, 1.0]), size, 60.0),
+            EyeState::Start
+        );
+        assert_eq!(
+            eye_state(Some([0.0, 0.0]), Some([10.0, 0.0]), size, 60.0),
             EyeState::Fixation
         );
         assert_eq!(
-            eye_state(Some([0.0, 0.0]), Some([50.0, 0.0]), size),
+            eye_state(Some([0.0, 0.0]), Some([50.0, 0.0]), size, 60.0),
             EyeState::Drift
         );
         assert_eq!(
-            eye_state(Some([0.0, 0.0]), Some([200.0, 0.0]), size),
+            eye_state(Some([0.0, 0.0]), Some([200.0, 0.0]), size, 60.0),
             EyeState::Saccade
         );
         assert!(!EyeState::Saccade.scored() && EyeState::Drift.scored());
@@ -824,6 +877,13 @@ mod tests {
         assert!(cut);
         assert_eq!(f.len(), 10);
         assert!(frames_of(&[], 60.0, 10).0.is_empty());
+        // A 200-ms gap: the frames inside it have no gaze.
+        let (f, _) = frames_of(&[row(1_000_000, 1.0), row(1_200_000, 2.0)], 50.0, 100);
+        let valid: Vec<bool> = f.iter().map(|(_, g)| g.is_some()).collect();
+        assert_eq!(
+            valid,
+            vec![true, true, true, false, false, false, false, false, false, false, true]
+        );
     }
 
     #[test]

@@ -399,8 +399,20 @@ fn a_1000_hz_replay_gives_every_frame_a_new_sample() {
 /// mode.
 #[test]
 fn the_demo_opens_the_window_in_mouse_mode_when_there_is_a_display() {
-    let x = Xvfb::start();
-    let out = windowed(&x).args(["demo", "--frames", "2"]).succeed();
+    let mut x = Xvfb::start();
+    let mut out = windowed(&x).args(["demo", "--frames", "2"]).succeed();
+    // Under a loaded CI machine a fresh Xvfb has once refused the first
+    // connection; one retry on a new server separates that from the demo
+    // not opening its window (which fails twice).
+    if String::from_utf8_lossy(&out.stdout).contains("cannot open a window") {
+        eprintln!(
+            "first try could not connect to {}; retrying on a new Xvfb:\n{}",
+            x.display,
+            String::from_utf8_lossy(&out.stdout)
+        );
+        x = Xvfb::start();
+        out = windowed(&x).args(["demo", "--frames", "2"]).succeed();
+    }
     let text = String::from_utf8_lossy(&out.stdout);
     assert!(
         text.contains("gazecast view: search-task")

@@ -205,7 +205,8 @@ impl Drop for Participant {
 /// The simulated ISCAN: every 1/[`ISCAN_RATE_HZ`] s a binary record of the
 /// uncalibrated raw units of where the participant looks (both eyes the
 /// same), with Gaussian-like jitter of about 0.1° (the sum of four
-/// uniforms). Ends at the stop flag or when the line closes.
+/// uniforms). Ends at the stop flag; a record the line refuses (no reader
+/// yet) is dropped.
 fn iscan_writer(
     mut port: serialport::TTYPort,
     config: &IscanConfig,
@@ -239,9 +240,11 @@ fn iscan_writer(
             IscanMode::Binary => encode_binary(&values),
             IscanMode::Ascii => tracker_hal::iscan::encode_ascii(&values),
         };
-        if port.write_all(&record).is_err() {
-            return;
-        }
+        // Until the tracker has opened the slave (and while it reconnects)
+        // the master may refuse writes (EIO); ending here would close the
+        // master, the slave's path would vanish, and the tracker would
+        // retry forever. The record is dropped, as a line would lose it.
+        let _ = port.write_all(&record);
         next += period;
         let now = std::time::Instant::now();
         if next > now {

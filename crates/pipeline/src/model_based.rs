@@ -412,15 +412,15 @@ pub fn proportional_shares(budget: usize, counts: &[usize]) -> Vec<usize> {
 }
 
 /// An object's triangles as an indexed mesh.
-pub(crate) struct Welded {
-    pub(crate) positions: Vec<Vec3>,
-    pub(crate) normals: Vec<Vec3>,
-    pub(crate) triangles: Vec<[u32; 3]>,
+pub struct Welded {
+    pub positions: Vec<Vec3>,
+    pub normals: Vec<Vec3>,
+    pub triangles: Vec<[u32; 3]>,
 }
 
 /// Every object's world triangles as an indexed mesh (index = object id),
 /// welded by exact corner position, in one pass over the scene.
-pub(crate) fn weld(scene: &Scene) -> Vec<Welded> {
+pub fn weld(scene: &Scene) -> Vec<Welded> {
     let n = scene.object_materials.len();
     let mut index: Vec<std::collections::HashMap<[u32; 3], u32>> = vec![Default::default(); n];
     let mut out: Vec<Welded> = (0..n)

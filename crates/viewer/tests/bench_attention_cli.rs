@@ -5,6 +5,8 @@
 
 mod common;
 
+use std::path::Path;
+
 use common::{gazecast, Run};
 
 const DISPLAY: &str = "Display(name: \"tiny\", resolution_px: (160, 128), size_mm: (337.9, 253.4), eye_distance_mm: 540.0)";
@@ -20,6 +22,18 @@ const SCENE: &str = r#"Scene(
     ],
 )"#;
 
+const SEARCH: &str = "config/scenes/search-task.ron";
+
+/// `gazecast bench attention --scene SCENE --display DISPLAY`.
+fn attention(scene: &Path, display: &Path) -> std::process::Command {
+    let mut c = gazecast();
+    c.args(["bench", "attention", "--scene"])
+        .arg(scene)
+        .arg("--display")
+        .arg(display);
+    c
+}
+
 fn header() -> &'static str {
     "seq,device_time_us,host_time_us,left_x,left_y,left_valid,right_x,right_y,right_valid,gaze_x,gaze_y,gaze_valid"
 }
@@ -30,15 +44,7 @@ fn a_synthesised_session_is_evaluated_in_eight_combinations() {
     let display = dir.path().join("tiny.ron");
     std::fs::write(&display, DISPLAY).expect("write");
     let session = dir.path().join("synthetic.csv");
-    gazecast()
-        .args([
-            "bench",
-            "attention",
-            "--scene",
-            "config/scenes/search-task.ron",
-            "--display",
-        ])
-        .arg(&display)
+    attention(Path::new(SEARCH), &display)
         .args(["--seconds", "2", "--synthesize-gaze"])
         .arg(&session)
         .succeed();
@@ -55,15 +61,7 @@ fn a_synthesised_session_is_evaluated_in_eight_combinations() {
     );
 
     let out = dir.path().join("eval");
-    let run = gazecast()
-        .args([
-            "bench",
-            "attention",
-            "--scene",
-            "config/scenes/search-task.ron",
-            "--display",
-        ])
-        .arg(&display)
+    let run = attention(Path::new(SEARCH), &display)
         .arg("--gaze")
         .arg(&session)
         .arg("--out")
@@ -109,11 +107,7 @@ fn a_viewer_on_the_only_target_scores_one_and_scenery_is_never_predicted() {
     let session = dir.path().join("centre.csv");
     std::fs::write(&session, csv).expect("write");
     let out = dir.path().join("eval");
-    gazecast()
-        .args(["bench", "attention", "--scene"])
-        .arg(&scene)
-        .arg("--display")
-        .arg(&display)
+    attention(&scene, &display)
         .arg("--gaze")
         .arg(&session)
         .arg("--out")
@@ -156,15 +150,7 @@ fn bad_sessions_are_refused_naming_file_and_line() {
     )
     .expect("write");
     let out = dir.path().join("eval");
-    let run = gazecast()
-        .args([
-            "bench",
-            "attention",
-            "--scene",
-            "config/scenes/search-task.ron",
-            "--display",
-        ])
-        .arg(&display)
+    let run = attention(Path::new(SEARCH), &display)
         .arg("--gaze")
         .arg(&session)
         .arg("--out")
@@ -179,15 +165,7 @@ fn bad_sessions_are_refused_naming_file_and_line() {
     );
     assert!(!out.exists(), "nothing written for a bad session");
     // An output over an input is refused.
-    let run = gazecast()
-        .args([
-            "bench",
-            "attention",
-            "--scene",
-            "config/scenes/search-task.ron",
-            "--display",
-        ])
-        .arg(&display)
+    let run = attention(Path::new(SEARCH), &display)
         .arg("--synthesize-gaze")
         .arg(&display)
         .output()

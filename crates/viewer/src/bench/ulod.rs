@@ -83,47 +83,28 @@ struct Point {
 /// The instanced mesh, centred on the origin with radius 1.
 fn base_mesh(path: &Path) -> Result<ObjectLevels, String> {
     let scene = load_scene(path)?;
-    let mut tris: Vec<WorldTriangle> = scene
-        .triangles
-        .iter()
-        .filter(|t| t.object == 0)
-        .copied()
-        .collect();
-    if tris.is_empty() {
-        return Err(format!(
-            "--mesh-scene {}: its first object has no triangles",
-            path.display()
-        ));
-    }
+    // Welded by exact position, as the model-based methods do.
+    let mut mesh = pipeline::model_based::weld(&scene)
+        .into_iter()
+        .next()
+        .filter(|m| !m.triangles.is_empty())
+        .ok_or_else(|| {
+            format!(
+                "--mesh-scene {}: its first object has no triangles",
+                path.display()
+            )
+        })?;
     let (mut lo, mut hi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
-    for t in &tris {
-        for p in t.p {
-            lo = lo.min(p);
-            hi = hi.max(p);
-        }
+    for &p in &mesh.positions {
+        lo = lo.min(p);
+        hi = hi.max(p);
     }
     let centre = (lo + hi) * 0.5;
     let radius = ((hi - lo) * 0.5).length().max(f32::MIN_POSITIVE);
-    for t in &mut tris {
-        t.p = t.p.map(|p| (p - centre) / radius);
+    for p in &mut mesh.positions {
+        *p = (*p - centre) / radius;
     }
-    // Weld by exact position, as the model-based methods do.
-    let mut index = std::collections::HashMap::new();
-    let (mut positions, mut normals, mut triangles) = (Vec::new(), Vec::new(), Vec::new());
-    for t in &tris {
-        let mut tri = [0u32; 3];
-        for (slot, (&p, &n)) in tri.iter_mut().zip(t.p.iter().zip(&t.n)) {
-            *slot = *index
-                .entry(p.to_array().map(f32::to_bits))
-                .or_insert_with(|| {
-                    positions.push(p);
-                    normals.push(n);
-                    (positions.len() - 1) as u32
-                });
-        }
-        triangles.push(tri);
-    }
-    ObjectLevels::build(0, &positions, &normals, &triangles, 5)
+    ObjectLevels::build(0, &mesh.positions, &mesh.normals, &mesh.triangles, 5)
 }
 
 /// The generated scene (materials, lights) and each instance's levels.

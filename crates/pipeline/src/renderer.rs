@@ -94,8 +94,9 @@ pub struct Renderer<'s> {
     clock: std::time::Instant,
     /// `Method::Ulod`'s levels and attention model; `None` for other methods.
     ulod: Option<Box<crate::ulod::Ulod>>,
-    /// `Method::Ulod`: the last frame, whose attention sets the next levels.
-    ulod_previous: Option<Frame>,
+    /// `Method::Ulod`: the model's time on the last frame, ms (it set this
+    /// frame's levels).
+    ulod_attention_ms: f64,
     /// The model-based methods' trees and cuts; `None` for other methods.
     model_based: Option<ModelBased>,
     /// The image-based method's pyramid; `None` for every other method.
@@ -211,7 +212,7 @@ impl<'s> Renderer<'s> {
         Ok(Self {
             model_based,
             ulod,
-            ulod_previous: None,
+            ulod_attention_ms: 0.0,
             scene,
             camera,
             model,
@@ -295,19 +296,11 @@ impl<'s> Renderer<'s> {
                     .ok_or_else(|| RenderError::Unsupported("no ULOD state".into()))?;
                 let started = std::time::Instant::now();
                 let t = time_s.is_finite().then_some(time_s);
-                u.render(
-                    self.scene,
-                    &self.camera,
-                    self.ulod_previous.as_ref(),
-                    t,
-                    &mut frame,
-                );
-                // The next frame's levels come from this frame, before any
-                // pass draws on it (the buffers are reused).
-                match &mut self.ulod_previous {
-                    Some(p) => p.clone_from(&frame),
-                    None => self.ulod_previous = Some(frame.clone()),
-                }
+                let attention_ms = self.ulod_attention_ms;
+                u.draw(self.scene, &self.camera, attention_ms, &mut frame);
+                // The next frame's levels come from this frame, read now,
+                // before any pass draws on it (Lee's previous frame).
+                self.ulod_attention_ms = u.observe(self.scene, &frame, t);
                 let stats = Stats {
                     time_ms: started.elapsed().as_secs_f64() * 1e3,
                     ..Stats::default()

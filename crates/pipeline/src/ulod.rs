@@ -279,12 +279,34 @@ impl Ulod {
         time_s: Option<f64>,
         frame: &mut Frame,
     ) -> UlodStats {
+        let attention_ms = match previous {
+            Some(p) => self.observe(scene, p, time_s),
+            None => {
+                self.level.fill(0.0);
+                0.0
+            }
+        };
+        self.draw(scene, camera, attention_ms, frame)
+    }
+
+    /// Sets the levels the next [`Ulod::draw`] uses from Lee's model on
+    /// `frame` (eq. 7.3); returns the model's time, ms. A caller that
+    /// observes each frame as soon as it is drawn needs no copy of it.
+    pub fn observe(&mut self, scene: &Scene, frame: &Frame, time_s: Option<f64>) -> f64 {
         let started = std::time::Instant::now();
-        match previous {
-            Some(p) => self.update_levels(scene, p, time_s),
-            None => self.level.fill(0.0),
-        }
-        let attention_ms = started.elapsed().as_secs_f64() * 1e3;
+        self.update_levels(scene, frame, time_s);
+        started.elapsed().as_secs_f64() * 1e3
+    }
+
+    /// Draws a frame with the current levels (level 0 everywhere before
+    /// any [`Ulod::observe`]); `attention_ms` is reported in the stats.
+    pub fn draw(
+        &mut self,
+        scene: &Scene,
+        camera: &Camera,
+        attention_ms: f64,
+        frame: &mut Frame,
+    ) -> UlodStats {
         let top = self.levels - 1;
         self.opaque.clear();
         self.blended.clear();

@@ -496,6 +496,15 @@ pub struct Scene {
     /// ([`Scene::build_grid`]); used when `accel` is `Grid`.
     pub grid: Option<UniformGrid>,
     pub accel: Accel,
+    /// Names this geometry: a number no other build (or pose of a moving
+    /// scene) in the process has. Caches of cast samples key on it.
+    revision: u64,
+}
+
+/// The next [`Scene::revision`].
+fn next_revision() -> u64 {
+    static NEXT: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(1);
+    NEXT.fetch_add(1, std::sync::atomic::Ordering::Relaxed)
 }
 
 /// Which acceleration structure `intersect` uses.
@@ -833,7 +842,14 @@ impl Scene {
             bvh,
             grid: None,
             accel: Accel::Bvh,
+            revision: next_revision(),
         })
+    }
+
+    /// What this geometry is called by caches: unequal for any two builds
+    /// (and any two poses of a moving scene); a clone keeps it.
+    pub fn revision(&self) -> u64 {
+        self.revision
     }
 
     /// Builds the seed's uniform grid and makes `intersect` use it.

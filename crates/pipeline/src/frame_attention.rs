@@ -7,12 +7,17 @@
 //! Decisions where the seed is silent or the scene says nothing: the first
 //! `attention::frame::MAX_OBJECTS` objects are listed (later ids count as
 //! background), each object's task importance is the scene file's
-//! `importance` (default 1), objects do not move (static scenes), the
-//! camera is static, and the Kalman filter's time step is the frames'
+//! `importance` (default 1), objects and camera move as the scene's
+//! paths say (`raycast::motion`; a static scene's stand still): each
+//! object's motion (Lee eq. 3.3) is the velocity of its bounding box's
+//! fastest corner relative to the viewer, and the camera's (eq. 3.9) the
+//! viewer's velocity in the display's frame, whose view direction is −z;
+//! both at the time the scene was posed for the frame
+//! (`raycast::Scene::pose`). The Kalman filter's time step is the frames'
 //! time difference (0 without a clock). The tracker's own constants and
 //! threshold are `attention::AttentionConfig`'s defaults.
 
-use raycast::Frame;
+use raycast::{Frame, Scene};
 
 /// The model and what it needs between frames.
 pub struct FrameAttention {
@@ -63,31 +68,51 @@ impl FrameAttention {
     }
 
     /// Runs the model on `frame` (whose surface buffers must be filled)
-    /// of a scene whose objects have the task importances
-    /// `importance` (`Scene::object_importance`), at `time_s`. `None` when
-    /// the frame cannot be read (no surface buffers, a size the model
-    /// refuses); the result's `attended` is `None` when no object reaches
-    /// the threshold.
+    /// of `scene` as posed for it (its objects' task importances
+    /// `Scene::object_importance` and, when it moves, the velocities of
+    /// `Scene::pose`), at `time_s`. `None` when the frame cannot be read
+    /// (no surface buffers, a size the model refuses); the result's
+    /// `attended` is `None` when no object reaches the threshold.
     pub fn update(
         &mut self,
         frame: &Frame,
-        importance: &[f32],
+        scene: &Scene,
         time_s: Option<f64>,
     ) -> Option<attention::Attention> {
+        let importance = &scene.object_importance;
         let listed = &importance[..importance.len().min(attention::frame::MAX_OBJECTS)];
+        let pose = scene.pose();
+        let velocity = |id: usize| {
+            pose.and_then(|p| p.object_velocity_mm_per_s.get(id))
+                .copied()
+                .unwrap_or([0.0; 3])
+        };
         let same = self.objects.len() == listed.len()
             && self
                 .objects
                 .iter()
                 .zip(listed)
-                .all(|(o, &i)| o.importance.to_bits() == i.to_bits());
-        if !same {
-            self.objects = listed
-                .iter()
                 .enumerate()
-                .map(|(id, &i)| attention::ObjectInfo::still(id as u32, i))
-                .collect();
+                .all(|(id, (o, &i))| {
+                    o.importance.to_bits() == i.to_bits()
+                        && o.motion_mm_per_s.map(f32::to_bits) == velocity(id).map(f32::to_bits)
+                });
+        if !same {
+            self.objects.clear();
+            self.objects.extend(
+                listed
+                    .iter()
+                    .enumerate()
+                    .map(|(id, &i)| attention::ObjectInfo {
+                        id: id as u32,
+                        importance: i,
+                        motion_mm_per_s: velocity(id),
+                    }),
+            );
         }
+        let camera = pose.map_or(attention::CameraMotion::STATIC, |p| {
+            attention::CameraMotion::new([0.0, 0.0, -1.0], p.camera_velocity_mm_per_s)
+        });
         let dt = match (self.last_time_s, time_s) {
             (Some(a), Some(b)) if b.is_finite() && b >= a => b - a,
             _ => 0.0,
@@ -102,22 +127,14 @@ impl FrameAttention {
             depth_mm: &frame.depth_mm,
             object: &frame.object,
         };
-        let result = self
-            .tracker
-            .update(&view, &self.objects, attention::CameraMotion::STATIC, dt)
-            .ok();
+        let result = self.tracker.update(&view, &self.objects, camera, dt).ok();
         self.attended = result.as_ref().and_then(|r| r.attended);
         result
     }
 
     /// The attended object's mean eye distance in `frame`, mm, or `None`.
-    pub fn depth_mm(
-        &mut self,
-        frame: &Frame,
-        importance: &[f32],
-        time_s: Option<f64>,
-    ) -> Option<f64> {
-        let result = self.update(frame, importance, time_s)?;
+    pub fn depth_mm(&mut self, frame: &Frame, scene: &Scene, time_s: Option<f64>) -> Option<f64> {
+        let result = self.update(frame, scene, time_s)?;
         let d = f64::from(result.get(result.attended?)?.distance_mm);
         (d.is_finite() && d > 0.0).then_some(d)
     }
@@ -127,10 +144,10 @@ impl FrameAttention {
     pub fn gaze_px(
         &mut self,
         frame: &Frame,
-        importance: &[f32],
+        scene: &Scene,
         time_s: Option<f64>,
     ) -> Option<[f64; 2]> {
-        let result = self.update(frame, importance, time_s)?;
+        let result = self.update(frame, scene, time_s)?;
         let p = result.gaze_px?;
         let p = [f64::from(p[0]), f64::from(p[1])];
         (p[0].is_finite() && p[1].is_finite()).then_some(p)

@@ -75,6 +75,9 @@ pub const ULOD_MAP_SIZE: u32 = 64;
 /// A scene on a backend, with the method and the effect passes chosen.
 pub struct Renderer<'s> {
     scene: &'s Scene,
+    /// A moving scene posed for the last frame's time (`Scene::posed`);
+    /// `None` for a static scene, which is rendered as it was built.
+    posed: Option<Scene>,
     camera: Camera,
     model: SamplingModel,
     settings: Settings,
@@ -133,6 +136,14 @@ impl<'s> Renderer<'s> {
             .check(options.method)
             .map_err(RenderError::Unsupported)?;
         let method = options.method.for_scene(scene);
+        if scene.is_moving() && (method.is_model_based() || method == Method::Ulod) {
+            return Err(RenderError::Unsupported(format!(
+                "--method {}: this scene moves (a camera path or object motion), and the \
+                 model-based methods build their levels from the scene once; use --method \
+                 full, hybrid or image",
+                method.name()
+            )));
+        }
         // The model-based methods rasterise on the backend chosen the same
         // way (on the GPU: its render pipeline, `GpuRenderer::rasterize`).
         let (backend, note) = if method == Method::Ulod {
@@ -144,6 +155,23 @@ impl<'s> Renderer<'s> {
             let note = (options.backend == BackendChoice::Auto)
                 .then(|| "--method ulod rasterises on the CPU".to_string());
             (Backend::Cpu, note)
+        } else if scene.is_moving() {
+            // The GPU core keeps the scene it uploaded; a moving scene is
+            // posed and its BVH rebuilt on the CPU every frame.
+            match options.backend {
+                BackendChoice::Gpu => {
+                    return Err(RenderError::Unsupported(
+                        "--backend gpu: this scene moves (a camera path or object motion) and \
+                         renders on the CPU only; use --backend cpu or auto"
+                            .into(),
+                    ))
+                }
+                BackendChoice::Auto => (
+                    Backend::Cpu,
+                    Some("auto: this scene moves; moving scenes render on the CPU".to_string()),
+                ),
+                BackendChoice::Cpu => (Backend::Cpu, None),
+            }
         } else {
             Backend::choose(options.backend, scene, options.test)?
         };
@@ -214,6 +242,7 @@ impl<'s> Renderer<'s> {
             ulod,
             ulod_attention_ms: 0.0,
             scene,
+            posed: None,
             camera,
             model,
             settings,
@@ -274,6 +303,14 @@ impl<'s> Renderer<'s> {
         time_s: f64,
     ) -> Result<(Frame, Stats), RenderError> {
         let surface = self.wants_surface();
+        // A moving scene is posed for this frame's time (once per time).
+        if self.scene.is_moving() {
+            let posed_at = self.posed.as_ref().and_then(|s| s.pose()).map(|p| p.time_s);
+            if posed_at.map(f64::to_bits) != Some(time_s.to_bits()) {
+                self.posed = self.scene.posed(time_s);
+            }
+        }
+        let scene: &Scene = self.posed.as_ref().unwrap_or(self.scene);
         // The vergence depth holds for this frame only.
         let vergence_mm = self.vergence_mm.take();
         if self.image.is_some() {
@@ -297,10 +334,10 @@ impl<'s> Renderer<'s> {
                 let started = std::time::Instant::now();
                 let t = time_s.is_finite().then_some(time_s);
                 let attention_ms = self.ulod_attention_ms;
-                u.draw(self.scene, &self.camera, attention_ms, &mut frame);
+                u.draw(scene, &self.camera, attention_ms, &mut frame);
                 // The next frame's levels come from this frame, read now,
                 // before any pass draws on it (Lee's previous frame).
-                self.ulod_attention_ms = u.observe(self.scene, &frame, t);
+                self.ulod_attention_ms = u.observe(scene, &frame, t);
                 let stats = Stats {
                     time_ms: started.elapsed().as_secs_f64() * 1e3,
                     ..Stats::default()
@@ -319,14 +356,14 @@ impl<'s> Renderer<'s> {
                     Backend::Gpu(g) => RasterOn::Gpu(g.as_mut()),
                 };
                 let stats = m
-                    .render(self.scene, &self.camera, gaze_px, surface, &mut frame, on)
+                    .render(scene, &self.camera, gaze_px, surface, &mut frame, on)
                     .map_err(RenderError::Unsupported)?;
                 (frame, stats)
             }
             (Method::Full | Method::Hybrid | Method::Image, Backend::Cpu) => {
                 let mut frame = self.spare.take().unwrap_or_default();
                 let stats = raycast::render::render_with(
-                    self.scene,
+                    scene,
                     &self.camera,
                     &self.model,
                     &self.settings,
@@ -365,7 +402,7 @@ impl<'s> Renderer<'s> {
                     time_s: Some(time_s),
                     vergence_mm,
                 });
-                let background = self.scene.background.to_array();
+                let background = scene.background.to_array();
                 let splat = self.gpu_splat.as_mut().map(|state| crate::gpu::SplatFrame {
                     state,
                     camera: &self.camera,
@@ -396,7 +433,7 @@ impl<'s> Renderer<'s> {
             stats.time_ms += self.image_ms;
         }
         let input = PassInput {
-            scene: self.scene,
+            scene,
             camera: &self.camera,
             gaze_px,
             time_s: Some(time_s),
@@ -414,9 +451,10 @@ impl<'s> Renderer<'s> {
         self.method
     }
 
-    /// The scene being rendered.
-    pub fn scene(&self) -> &'s Scene {
-        self.scene
+    /// The scene being rendered: for a moving scene, as posed for the last
+    /// frame (as built before the first).
+    pub fn scene(&self) -> &Scene {
+        self.posed.as_ref().unwrap_or(self.scene)
     }
 
     /// The camera (the eye through the display).
@@ -602,6 +640,11 @@ impl<'s> Renderer<'s> {
             format!("scene {}: effects {:?}", s.name, s.effects),
             format!("method: {} on {on}", self.method.name()),
         ];
+        if let Some(m) = s.motion_summary() {
+            out.push(format!(
+                "scene moves: {m}; posed for each frame's time, every vertex placed and the BVH rebuilt on the CPU"
+            ));
+        }
         match (self.method, &self.backend) {
             (Method::Full, _) => out.push(
                 "per frame: cast and shade every pixel (no mask, no foveated buffers)".into(),

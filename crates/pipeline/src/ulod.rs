@@ -233,9 +233,7 @@ impl Ulod {
     /// Sets every level from Lee's model run on `previous` (eq. 7.3).
     fn update_levels(&mut self, scene: &Scene, previous: &Frame, time_s: Option<f64>) {
         let m = (self.levels - 1) as f64;
-        let result = self
-            .attention
-            .update(previous, &scene.object_importance, time_s);
+        let result = self.attention.update(previous, scene, time_s);
         // A frame the model cannot read keeps the last levels.
         let Some(result) = result else {
             return;

@@ -33,6 +33,7 @@ pub mod frame;
 pub mod gpu;
 pub mod layers;
 pub mod mesh;
+pub mod motion;
 pub mod raster;
 pub mod ray;
 pub mod render;

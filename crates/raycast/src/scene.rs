@@ -12,6 +12,7 @@ use serde::{Deserialize, Serialize};
 use crate::accel::{Bvh, Bvh4, UniformGrid};
 use crate::error::SceneError;
 use crate::mesh::TriangleMesh;
+use crate::motion::{Motion, Pose};
 use crate::ray::{moller_trumbore, watertight, Aabb, Ray, TriangleTest, WatertightRay};
 
 /// Where a mesh comes from.
@@ -99,6 +100,10 @@ pub struct Object {
     /// treats every object alike.
     #[serde(default = "default_importance")]
     pub importance: f32,
+    /// A keyframed path the object follows, as an offset from its own pose
+    /// (`crate::motion`); none: the object stands still.
+    #[serde(default)]
+    pub motion: Option<Motion>,
 }
 
 fn default_importance() -> f32 {
@@ -406,6 +411,10 @@ pub struct SceneFile {
     /// across a cell's corners exceeds 1 + this.
     #[serde(default = "default_depth_jump")]
     pub depth_jump: f32,
+    /// A keyframed path of the viewer (eye and display together) through
+    /// the world (`crate::motion`); none: the camera stands still.
+    #[serde(default)]
+    pub camera: Option<Motion>,
 }
 
 fn default_background() -> (f32, f32, f32) {
@@ -499,6 +508,167 @@ pub struct Scene {
     /// Names this geometry: a number no other build (or pose of a moving
     /// scene) in the process has. Caches of cast samples key on it.
     revision: u64,
+    /// What a moving scene needs to pose itself at any time; `None` for a
+    /// static scene (which then keeps nothing more than its triangles).
+    motion: Option<std::sync::Arc<SceneMotion>>,
+    /// The time of this pose (s on the scene's clock) and, at that time,
+    /// each object's fastest corner's velocity and the camera's velocity
+    /// (mm/s, display frame); `None` for a static scene.
+    pose: Option<PoseState>,
+}
+
+/// A moving scene's state at the time it was posed.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PoseState {
+    /// Seconds on the scene's clock.
+    pub time_s: f64,
+    /// Per object id: the velocity (mm/s, display frame) of the corner of
+    /// the object's bounding box that moves fastest (Lee eq. 3.3's
+    /// "outermost vertex"), relative to the viewer.
+    pub object_velocity_mm_per_s: Vec<[f32; 3]>,
+    /// The viewer's velocity through the world, in the display's frame
+    /// (x right, y up, z towards the viewer; moving forward is z < 0).
+    pub camera_velocity_mm_per_s: [f32; 3],
+}
+
+/// One object of a moving scene: its mesh and pose.
+#[derive(Debug)]
+struct MovingObject {
+    mesh: usize,
+    scale_mm: f32,
+    base: Pose,
+    motion: Option<Motion>,
+    /// The scaled mesh's bounding-box corners (object frame, mm).
+    corners: [Vec3; 8],
+}
+
+/// What a moving scene keeps to pose itself.
+#[derive(Debug)]
+struct SceneMotion {
+    meshes: Vec<TriangleMesh>,
+    objects: Vec<MovingObject>,
+    camera: Option<Motion>,
+    /// The scene file's lights, in world coordinates.
+    lights: Vec<Light>,
+}
+
+/// Time step of the velocities' central differences, s.
+const VELOCITY_STEP_S: f64 = 1e-3;
+
+impl SceneMotion {
+    /// The viewer's pose at `t_s` (identity without a camera path).
+    fn camera(&self, t_s: f64) -> Pose {
+        self.camera.as_ref().map_or(Pose::IDENTITY, |m| m.pose(t_s))
+    }
+
+    /// Object `o`'s pose in the display frame at `t_s`, given the viewer's
+    /// inverse pose `view`.
+    fn object(&self, o: &MovingObject, view: &Pose, t_s: f64) -> Pose {
+        let world = match &o.motion {
+            Some(m) => {
+                let (t, r) = m.sample(t_s);
+                Pose {
+                    rotation: crate::motion::euler_deg(r) * o.base.rotation,
+                    translation: o.base.translation + t,
+                }
+            }
+            None => o.base,
+        };
+        view.after(&world)
+    }
+
+    /// The triangles (object ids in order), lights and velocities at `t_s`.
+    fn place(&self, t_s: f64) -> (Vec<WorldTriangle>, Vec<Light>, PoseState) {
+        let view = self.camera(t_s).inverse();
+        let mut triangles = Vec::new();
+        for (k, o) in self.objects.iter().enumerate() {
+            let Some(mesh) = self.meshes.get(o.mesh) else {
+                continue;
+            };
+            let pose = self.object(o, &view, t_s);
+            let placed: Vec<Vec3> = mesh
+                .positions
+                .iter()
+                .map(|p| pose.apply(*p * o.scale_mm))
+                .collect();
+            triangles.extend(mesh.indices.iter().map(|tri| WorldTriangle {
+                p: tri.map(|i| placed[i as usize]),
+                n: tri.map(|i| pose.rotation * mesh.normals[i as usize]),
+                object: k as u32,
+            }));
+        }
+        let lights = self
+            .lights
+            .iter()
+            .map(|l| match *l {
+                Light::Point {
+                    position_mm,
+                    intensity,
+                } => {
+                    let p = view.apply(Vec3::new(position_mm.0, position_mm.1, position_mm.2));
+                    Light::Point {
+                        position_mm: (p.x, p.y, p.z),
+                        intensity,
+                    }
+                }
+                Light::Directional {
+                    direction,
+                    intensity,
+                } => {
+                    let d = view.rotation * Vec3::new(direction.0, direction.1, direction.2);
+                    Light::Directional {
+                        direction: (d.x, d.y, d.z),
+                        intensity,
+                    }
+                }
+                headlight => headlight,
+            })
+            .collect();
+        (triangles, lights, self.velocities(t_s))
+    }
+
+    /// Velocities at `t_s` by central differences over ±1 ms.
+    fn velocities(&self, t_s: f64) -> PoseState {
+        let h = VELOCITY_STEP_S;
+        let t = if t_s.is_finite() { t_s } else { 0.0 };
+        let (before, after) = (t - h, t + h);
+        let (view_a, view_b) = (self.camera(before).inverse(), self.camera(after).inverse());
+        let object_velocity_mm_per_s = self
+            .objects
+            .iter()
+            .map(|o| {
+                let (a, b) = (
+                    self.object(o, &view_a, before),
+                    self.object(o, &view_b, after),
+                );
+                let fastest = o
+                    .corners
+                    .iter()
+                    .map(|c| (b.apply(*c) - a.apply(*c)) / (2.0 * h) as f32)
+                    .filter(|v| v.is_finite())
+                    .fold(Vec3::ZERO, |m, v| {
+                        if v.length_squared() > m.length_squared() {
+                            v
+                        } else {
+                            m
+                        }
+                    });
+                fastest.to_array()
+            })
+            .collect();
+        let (ca, cb) = (self.camera(before), self.camera(after));
+        let world_velocity = (cb.translation - ca.translation) / (2.0 * h) as f32;
+        let camera = self.camera(t).rotation.transpose() * world_velocity;
+        PoseState {
+            time_s: t,
+            object_velocity_mm_per_s,
+            camera_velocity_mm_per_s: if camera.is_finite() {
+                camera.to_array()
+            } else {
+                [0.0; 3]
+            },
+        }
+    }
 }
 
 /// The next [`Scene::revision`].
@@ -526,6 +696,106 @@ pub const MAX_TRIANGLES: u64 = 20_000_000;
 /// a third of a 128-byte 4-wide node (64 + 43 B): 299 B. At
 /// [`MAX_TRIANGLES`], about 6 GB.
 pub const BYTES_PER_TRIANGLE: u64 = 300;
+
+/// Triangles in BVH leaf order and the BVH over them.
+fn hierarchy(triangles: Vec<WorldTriangle>) -> (Vec<WorldTriangle>, Bvh) {
+    let bounds: Vec<Aabb> = triangles
+        .iter()
+        .map(|t| {
+            let mut b = Aabb::EMPTY;
+            t.p.iter().for_each(|p| b.grow(*p));
+            b
+        })
+        .collect();
+    let bvh = Bvh::build(&bounds);
+    let triangles = bvh.order.iter().map(|&i| triangles[i as usize]).collect();
+    (triangles, bvh)
+}
+
+/// Largest coordinate (mm) any pose of a moving scene may reach: far
+/// inside `f32` so that placing, differencing and intersecting stay finite.
+const MAX_POSED_MM: f32 = 1e15;
+
+/// The paths of a scene file, checked, with the meshes they move; `None`
+/// when nothing moves. Every pose stays within [`MAX_POSED_MM`]: a rotation
+/// keeps a point's distance from the origin, so an object's corners lie
+/// within its scaled radius of base + path translation, and the camera's
+/// inverse pose adds at most its own translation.
+fn moving_scene(
+    file: &SceneFile,
+    meshes: &BTreeMap<String, TriangleMesh>,
+) -> Result<Option<SceneMotion>, SceneError> {
+    if file.camera.is_none() && file.objects.iter().all(|o| o.motion.is_none()) {
+        return Ok(None);
+    }
+    let camera_reach = match &file.camera {
+        Some(m) => {
+            m.validate("camera")?;
+            m.max_translation_mm() * 3f32.sqrt()
+        }
+        None => 0.0,
+    };
+    let names: Vec<&String> = meshes.keys().collect();
+    let mut objects = Vec::with_capacity(file.objects.len());
+    for (k, o) in file.objects.iter().enumerate() {
+        let field = format!("objects[{k}].motion");
+        let path_reach = match &o.motion {
+            Some(m) => {
+                m.validate(&field)?;
+                m.max_translation_mm() * 3f32.sqrt()
+            }
+            None => 0.0,
+        };
+        let index = names.iter().position(|n| **n == o.mesh).ok_or_else(|| {
+            SceneError::field(
+                format!("objects[{k}].mesh"),
+                format!("no mesh named `{}` in `meshes`", o.mesh),
+            )
+        })?;
+        let mesh = &meshes[&o.mesh];
+        let mut lo = Vec3::splat(f32::INFINITY);
+        let mut hi = Vec3::splat(f32::NEG_INFINITY);
+        for p in &mesh.positions {
+            lo = lo.min(*p * o.scale_mm);
+            hi = hi.max(*p * o.scale_mm);
+        }
+        if mesh.positions.is_empty() {
+            (lo, hi) = (Vec3::ZERO, Vec3::ZERO);
+        }
+        let corners = std::array::from_fn(|i| {
+            Vec3::new(
+                if i & 1 == 0 { lo.x } else { hi.x },
+                if i & 2 == 0 { lo.y } else { hi.y },
+                if i & 4 == 0 { lo.z } else { hi.z },
+            )
+        });
+        let radius = lo.abs().max(hi.abs()).length();
+        let base_t = Vec3::new(o.translate_mm.0, o.translate_mm.1, o.translate_mm.2);
+        let reach = base_t.length() + path_reach + radius + camera_reach;
+        if !(reach.is_finite() && reach <= MAX_POSED_MM) {
+            return Err(SceneError::field(
+                field,
+                format!(
+                    "the object's path with the camera's could take it {reach:e} mm from the screen, beyond {MAX_POSED_MM:e} mm"
+                ),
+            ));
+        }
+        let r = o.rotate_deg;
+        objects.push(MovingObject {
+            mesh: index,
+            scale_mm: o.scale_mm,
+            base: Pose::from_parts(base_t, Vec3::new(r.0, r.1, r.2)),
+            motion: o.motion.clone(),
+            corners,
+        });
+    }
+    Ok(Some(SceneMotion {
+        meshes: names.iter().map(|n| meshes[*n].clone()).collect(),
+        objects,
+        camera: file.camera.clone(),
+        lights: file.lights.clone(),
+    }))
+}
 
 impl Scene {
     /// Builds the world. Relative OBJ paths are resolved against `base_dir`.
@@ -812,16 +1082,15 @@ impl Scene {
                 return Err(SceneError::field(name, "must be zero or positive"));
             }
         }
-        let bounds: Vec<Aabb> = triangles
-            .iter()
-            .map(|t| {
-                let mut b = Aabb::EMPTY;
-                t.p.iter().for_each(|p| b.grow(*p));
-                b
-            })
-            .collect();
-        let bvh = Bvh::build(&bounds);
-        let triangles = bvh.order.iter().map(|&i| triangles[i as usize]).collect();
+        let motion = moving_scene(file, &meshes)?;
+        let (triangles, lights, pose) = match &motion {
+            Some(m) => {
+                let (t, l, p) = m.place(0.0);
+                (t, l, Some(p))
+            }
+            None => (triangles, file.lights.clone(), None),
+        };
+        let (triangles, bvh) = hierarchy(triangles);
         let object_materials = object_material
             .iter()
             .map(|&m| materials[m as usize])
@@ -833,7 +1102,7 @@ impl Scene {
             background_rgb8: crate::shade::to_rgb8(Vec3::new(c.0, c.1, c.2)),
             object_materials,
             object_importance,
-            lights: file.lights.clone(),
+            lights,
             effects: file.effects.clone(),
             crease_deg: file.crease_deg,
             depth_jump: file.depth_jump,
@@ -843,7 +1112,68 @@ impl Scene {
             grid: None,
             accel: Accel::Bvh,
             revision: next_revision(),
+            motion: motion.map(std::sync::Arc::new),
+            pose,
         })
+    }
+
+    /// Whether the scene file gives the camera or any object a path.
+    pub fn is_moving(&self) -> bool {
+        self.motion.is_some()
+    }
+
+    /// What moves, in words (`view --explain`); `None` for a static scene.
+    pub fn motion_summary(&self) -> Option<String> {
+        let m = self.motion.as_ref()?;
+        let camera = match &m.camera {
+            Some(c) => format!("a camera path of {} keys ({:?})", c.keys.len(), c.repeat),
+            None => "a still camera".to_string(),
+        };
+        let moving = m.objects.iter().filter(|o| o.motion.is_some()).count();
+        Some(format!(
+            "{camera}; {moving} of {} objects on paths",
+            m.objects.len()
+        ))
+    }
+
+    /// A moving scene's time and velocities at its pose (`None` when
+    /// static). A scene is built posed at time 0.
+    pub fn pose(&self) -> Option<&PoseState> {
+        self.pose.as_ref()
+    }
+
+    /// The scene at `t_s` seconds on its clock: every triangle and light
+    /// placed for that time, a new BVH (and grid, if this scene uses one)
+    /// and a new [`Scene::revision`]. `None` for a static scene. The cost
+    /// is a placement of every vertex and a BVH build (see the README's
+    /// *Scenes that move*).
+    pub fn posed(&self, t_s: f64) -> Option<Scene> {
+        let motion = self.motion.as_ref()?;
+        let (triangles, lights, pose) = motion.place(t_s);
+        let (triangles, bvh) = hierarchy(triangles);
+        let mut scene = Scene {
+            name: self.name.clone(),
+            background: self.background,
+            background_rgb8: self.background_rgb8,
+            object_materials: self.object_materials.clone(),
+            object_importance: self.object_importance.clone(),
+            lights,
+            effects: self.effects.clone(),
+            crease_deg: self.crease_deg,
+            depth_jump: self.depth_jump,
+            triangles,
+            bvh4: Bvh4::collapse(&bvh),
+            bvh,
+            grid: None,
+            accel: Accel::Bvh,
+            revision: next_revision(),
+            motion: Some(motion.clone()),
+            pose: Some(pose),
+        };
+        if self.accel == Accel::Grid {
+            scene.build_grid();
+        }
+        Some(scene)
     }
 
     /// What this geometry is called by caches: unequal for any two builds

@@ -72,11 +72,13 @@ fn face_scene(expression: u32, subdivisions: u32, x: f32, y: f32, turn: (f32, f3
             rotate_deg: (turn.0, turn.1, 0.0),
             scale_mm: SCALE_MM,
             importance: 1.0,
+            motion: None,
         }],
         lights: vec![Light::Headlight { intensity: 1.0 }],
         effects: vec![Effect::FoveatedSampling, Effect::SilhouetteRefinement],
         crease_deg: 30.0,
         depth_jump: 0.05,
+        camera: None,
     };
     Scene::build(&file, Path::new(".")).expect("face scene")
 }

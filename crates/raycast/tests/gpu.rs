@@ -179,6 +179,7 @@ fn sphere_scene(radius_mm: f32) -> Scene {
             rotate_deg: (0.0, 0.0, 0.0),
             scale_mm: radius_mm,
             importance: 1.0,
+            motion: None,
         }],
         lights: vec![
             Light::Headlight { intensity: 0.7 },
@@ -198,6 +199,7 @@ fn sphere_scene(radius_mm: f32) -> Scene {
         ],
         crease_deg: 30.0,
         depth_jump: 0.05,
+        camera: None,
     };
     Scene::build(&file, Path::new(".")).expect("builds")
 }
@@ -421,6 +423,7 @@ fn noise_scene() -> Scene {
             rotate_deg: (0.0, 0.0, 0.0),
             scale_mm: 400.0,
             importance: 1.0,
+            motion: None,
         }],
         lights: vec![Light::Headlight { intensity: 1.0 }],
         effects: vec![
@@ -430,6 +433,7 @@ fn noise_scene() -> Scene {
         ],
         crease_deg: 0.5,
         depth_jump: 0.05,
+        camera: None,
     };
     Scene::build(&file, Path::new(".")).expect("builds")
 }

@@ -43,6 +43,7 @@ fn scene_of(tris: &[Tri]) -> Scene {
             rotate_deg: (0.0, 0.0, 0.0),
             scale_mm: 1.0,
             importance: 1.0,
+            motion: None,
         })
         .collect();
     let file: SceneFile =

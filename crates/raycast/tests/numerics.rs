@@ -38,11 +38,13 @@ fn scene_of(
             rotate_deg,
             scale_mm: scale,
             importance: 1.0,
+            motion: None,
         }],
         lights: vec![],
         effects: vec![],
         crease_deg: 30.0,
         depth_jump: 0.05,
+        camera: None,
     };
     Scene::build(&file, std::path::Path::new(".")).expect("scene")
 }

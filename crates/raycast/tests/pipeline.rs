@@ -100,12 +100,14 @@ fn big_spheres() -> Scene {
             rotate_deg: (0.0, 0.0, 0.0),
             scale_mm: s,
             importance: 1.0,
+            motion: None,
         })
         .collect(),
         lights: vec![Light::Headlight { intensity: 1.0 }],
         effects: vec![Effect::FoveatedSampling, Effect::SilhouetteRefinement],
         crease_deg: 30.0,
         depth_jump: 0.05,
+        camera: None,
     };
     Scene::build(&file, Path::new(".")).expect("scene")
 }

@@ -208,11 +208,13 @@ fn triangle_scene(p: [Vec3; 3]) -> Scene {
             rotate_deg: (0.0, 0.0, 0.0),
             scale_mm: 1.0,
             importance: 1.0,
+            motion: None,
         }],
         lights: vec![Light::Headlight { intensity: 1.0 }],
         effects: vec![Effect::FoveatedSampling],
         crease_deg: 30.0,
         depth_jump: 0.05,
+        camera: None,
     };
     Scene::build(&file, Path::new(".")).expect("scene")
 }

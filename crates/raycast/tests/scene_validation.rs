@@ -74,11 +74,13 @@ fn scene_file(
             rotate_deg,
             scale_mm,
             importance: 1.0,
+            motion: None,
         }],
         lights: vec![],
         effects: vec![],
         crease_deg: 30.0,
         depth_jump: 0.05,
+        camera: None,
     }
 }
 

@@ -278,10 +278,9 @@ impl Viewer<'_> {
         self.renderer.set_vergence_mm(vergence);
         let (mut frame, stats) = self.renderer.render(gaze).map_err(|e| e.to_string())?;
         if let Some(a) = &mut self.attention {
-            let importance = &self.renderer.scene().object_importance;
             let t = self.started.elapsed().as_secs_f64();
             self.feed
-                .attention_gaze(a.gaze_px(&frame, importance, Some(t)));
+                .attention_gaze(a.gaze_px(&frame, self.renderer.scene(), Some(t)));
         }
         if self.layers {
             frame.rgb = layers_rgb(&frame);

@@ -47,6 +47,12 @@ pub struct RenderArgs {
     /// Render this many times; `time_ms` is the median.
     #[arg(long, value_name = "N", default_value_t = 1)]
     pub repeat: u32,
+    /// The time on the scene's clock, seconds: where a moving scene's
+    /// camera path and object paths are (default 0). Also the time of
+    /// every repeat (no refocusing between repeats).
+    #[arg(long, value_name = "S", allow_negative_numbers = true,
+          value_parser = finite_time)]
+    pub time: Option<f64>,
     /// Write counts and time as JSON.
     #[arg(long, value_name = "FILE.json")]
     pub stats: Option<PathBuf>,
@@ -99,6 +105,17 @@ pub struct RenderReport {
     pub times_ms: Vec<f64>,
     /// The model-based methods' last frame; `None` for other methods.
     pub model: Option<ModelReport>,
+    /// A moving scene's pose: the time on its clock and the velocities
+    /// the attention model reads; `None` for a static scene.
+    pub pose: Option<PoseReport>,
+}
+
+/// A moving scene's pose (`--stats`).
+#[derive(Debug, Clone, Serialize)]
+pub struct PoseReport {
+    pub time_s: f64,
+    pub object_velocity_mm_per_s: Vec<[f32; 3]>,
+    pub camera_velocity_mm_per_s: [f32; 3],
 }
 
 /// What a model-based frame drew (`--stats`).
@@ -241,7 +258,14 @@ pub fn run(args: &RenderArgs, out: &mut dyn Write) -> Result<(), String> {
     let mut times = Vec::new();
     let mut last = None;
     for _ in 0..args.repeat.max(1) {
-        let (frame, stats) = renderer.render(gaze).map_err(|e| e.to_string())?;
+        // A moving scene is rendered at a stated time (0 by default), not
+        // at the wall clock's, so the same command gives the same picture.
+        let rendered = match (args.time, scene.is_moving()) {
+            (Some(t), _) => renderer.render_at(gaze, t),
+            (None, true) => renderer.render_at(gaze, 0.0),
+            (None, false) => renderer.render(gaze),
+        };
+        let (frame, stats) = rendered.map_err(|e| e.to_string())?;
         times.push(stats.time_ms);
         // The previous frame's buffers serve the next one (no allocation
         // per repeat).
@@ -281,6 +305,11 @@ pub fn run(args: &RenderArgs, out: &mut dyn Write) -> Result<(), String> {
         model: renderer
             .model_based()
             .map(|m| ModelReport::new(m.last(), args.model.no_gaze)),
+        pose: renderer.scene().pose().map(|p| PoseReport {
+            time_s: p.time_s,
+            object_velocity_mm_per_s: p.object_velocity_mm_per_s.clone(),
+            camera_velocity_mm_per_s: p.camera_velocity_mm_per_s,
+        }),
     };
     if let Some(path) = &args.stats {
         let json = serde_json::to_string_pretty(&report).map_err(|e| e.to_string())?;
@@ -408,4 +437,17 @@ pub fn level_colour(level: f64) -> [u8; 3] {
         [1.0; 3],
     ];
     ramp(&STOPS, level)
+}
+
+/// `--time`: a finite number of seconds within the scene paths' range.
+fn finite_time(s: &str) -> Result<f64, String> {
+    let t: f64 = s.parse().map_err(|e| format!("{s}: {e}"))?;
+    let max = raycast::motion::MAX_KEY_TIME_S;
+    if t.is_finite() && t.abs() <= max {
+        Ok(t)
+    } else {
+        Err(format!(
+            "{s}: must be finite seconds, at most {max} in size"
+        ))
+    }
 }

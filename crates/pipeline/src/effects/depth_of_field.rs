@@ -346,13 +346,10 @@ impl Focuser {
             DofFocus::Vergence => {
                 vergence_or(input.vergence_mm, || gaze_depth_mm(frame, input.gaze_px))
             }
-            DofFocus::Attention => {
-                let importance = &input.scene.object_importance;
-                match &mut self.attention {
-                    Some(a) => a.depth_mm(frame, importance, input.time_s),
-                    None => None,
-                }
-            }
+            DofFocus::Attention => match &mut self.attention {
+                Some(a) => a.depth_mm(frame, input.scene, input.time_s),
+                None => None,
+            },
         };
         self.settle(focus, found, input.time_s)
     }

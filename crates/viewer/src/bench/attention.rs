@@ -513,7 +513,9 @@ fn evaluate(
     );
     let size = geometry.size_px();
     let radius = radius_px(geometry, args.radius_deg);
-    let dynamic = !scene.effects.is_empty();
+    // Effects with dynamics (refocusing) and scenes that move need every
+    // frame rendered; a static scene without effects is rendered once.
+    let dynamic = !scene.effects.is_empty() || scene.is_moving();
     let centre = geometry.centre_px();
     let mut still: Option<(Frame, bool)> = None;
     let mut result = SessionResult {
@@ -553,7 +555,7 @@ fn evaluate(
         for (m, model) in models.iter_mut().enumerate() {
             let started = std::time::Instant::now();
             let ranking = model
-                .update(frame, importance, Some(t_s))
+                .update(frame, renderer.scene(), Some(t_s))
                 .map(|a| a.ranking_ids())
                 .unwrap_or_default();
             times[m + 1].push(started.elapsed().as_secs_f64() * 1e3);

@@ -159,11 +159,13 @@ pub fn lod_torus(segments: u32, sides: u32) -> Result<Scene, String> {
             rotate_deg: (60.0, 20.0, 0.0),
             scale_mm: 95.0,
             importance: 1.0,
+            motion: None,
         }],
         lights: vec![Light::Headlight { intensity: 1.0 }],
         effects: vec![Effect::FoveatedSampling],
         crease_deg: 30.0,
         depth_jump: 0.05,
+        camera: None,
     };
     Scene::build(&file, Path::new(".")).map_err(|e| e.to_string())
 }

@@ -43,6 +43,7 @@ pub fn scaling_scene(triangles: u64) -> Result<Scene, String> {
             rotate_deg: (60.0, 20.0, 0.0),
             scale_mm: 150.0,
             importance: 1.0,
+            motion: None,
         }],
         lights: vec![Light::Headlight { intensity: 1.0 }],
         effects: vec![
@@ -52,6 +53,7 @@ pub fn scaling_scene(triangles: u64) -> Result<Scene, String> {
         ],
         crease_deg: 30.0,
         depth_jump: 0.05,
+        camera: None,
     };
     Scene::build(&file, Path::new(".")).map_err(|e| e.to_string())
 }

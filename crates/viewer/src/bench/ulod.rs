@@ -137,6 +137,7 @@ fn generate(
         effects: Vec::new(),
         crease_deg: 30.0,
         depth_jump: 0.05,
+        camera: None,
     };
     let mut placed = Vec::with_capacity(count);
     for k in 0..count {
@@ -160,6 +161,7 @@ fn generate(
             rotate_deg: (0.0, 0.0, 0.0),
             scale_mm: 1.0,
             importance: 1.0,
+            motion: None,
         });
         let size = rng.random_range(8.0..24.0f32);
         let z = rng.random_range(-120.0..0.0f32);

@@ -187,6 +187,7 @@ fn base_scene(name: String, design: &Design, effects: Vec<Effect>) -> SceneFile 
         effects,
         crease_deg: 30.0,
         depth_jump: 0.05,
+        camera: None,
     }
 }
 
@@ -202,6 +203,7 @@ fn object(mesh: u32, (x, y): (f64, f64), scale_mm: f64) -> Object {
         rotate_deg: (0.0, 0.0, 0.0),
         scale_mm: scale_mm as f32,
         importance: 1.0,
+        motion: None,
     }
 }
 

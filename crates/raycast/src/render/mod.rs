@@ -30,6 +30,7 @@ use std::time::Instant;
 use foveation::mask::{self, Layout, RayMask, NO_VERTEX};
 use foveation::SamplingModel;
 use glam::Vec3;
+use rayon::iter::Either;
 use rayon::prelude::*;
 
 use crate::camera::Camera;
@@ -119,11 +120,14 @@ pub struct Stats {
 
 mod hybrid;
 mod ownership;
+mod reuse;
 mod scratch;
 
 use hybrid::*;
 use ownership::*;
 pub use ownership::{ownership, OWNER_FOVEA, OWNER_NONE};
+pub use reuse::ReuseStats;
+use reuse::*;
 use scratch::lap;
 pub use scratch::{Scratch, StageTimes};
 
@@ -227,13 +231,44 @@ pub fn render_with(
     let start = Instant::now();
     let (w, h) = (cam.width_px as usize, cam.height_px as usize);
     let foveated_mode = settings.mode == Mode::Foveated && scene.has(Effect::FoveatedSampling);
-    // The mask first: a bad gaze leaves the frame as it was.
-    if foveated_mode {
-        match &mut scratch.mask {
-            Some(m) => mask::rebuild(m, model, settings.layout, gaze_px)?,
-            None => scratch.mask = Some(mask::build(model, settings.layout, gaze_px)?),
+    // The mask first: a bad gaze leaves the frame (and the cache) as it was.
+    let kept = if foveated_mode {
+        match scratch.reuse.as_deref_mut() {
+            None => {
+                match &mut scratch.mask {
+                    Some(m) => mask::rebuild(m, model, settings.layout, gaze_px)?,
+                    None => scratch.mask = Some(mask::build(model, settings.layout, gaze_px)?),
+                }
+                false
+            }
+            Some(r) => {
+                match &mut r.spare {
+                    Some(m) => mask::rebuild(m, model, settings.layout, gaze_px)?,
+                    None => r.spare = Some(mask::build(model, settings.layout, gaze_px)?),
+                }
+                r.stats = ReuseStats::default();
+                r.stats.invalidated = r.begin(CastKey::new(scene, cam, settings.test), w, h);
+                let now = FrameKey {
+                    triggers: settings.triggers,
+                    check_coverage: settings.check_coverage,
+                };
+                let kept = r.frame == Some(now)
+                    && matches!((&r.spare, &scratch.mask), (Some(a), Some(b)) if same_mask(a, b));
+                if !kept {
+                    std::mem::swap(&mut r.spare, &mut scratch.mask);
+                }
+                // Until this frame has finished, nothing is kept.
+                r.frame = None;
+                r.stats.mask_reused = kept;
+                kept
+            }
         }
-    }
+    } else {
+        if let Some(r) = scratch.reuse.as_deref_mut() {
+            r.stats = ReuseStats::default();
+        }
+        false
+    };
     let mut stats = Stats::default();
     scratch.stages = StageTimes::default();
     let mut t = start;
@@ -246,7 +281,13 @@ pub fn render_with(
         stats.rays_full = (w * h) as u64;
         stats.rays_total = stats.rays_full;
     } else {
-        foveated(scene, cam, settings, frame, &mut stats, scratch, t);
+        foveated(scene, cam, settings, frame, &mut stats, scratch, kept, t);
+        if let Some(r) = scratch.reuse.as_deref_mut() {
+            r.frame = Some(FrameKey {
+                triggers: settings.triggers,
+                check_coverage: settings.check_coverage,
+            });
+        }
     }
     stats.time_ms = start.elapsed().as_secs_f64() * 1e3;
     Ok(stats)
@@ -277,16 +318,20 @@ fn full(scene: &Scene, cam: &Camera, test: TriangleTest, frame: &mut Frame) {
         });
 }
 
-/// Runs `f(y, row)` on every row of `frame` in parallel and folds the
-/// results with `op` (`T::default()` for none). The rows are split off the
-/// buffers in place: nothing is allocated per frame.
-fn map_rows<T: Default + Send>(
+/// Runs `f(y, row, extra_row)` on every row of `frame` in parallel and
+/// folds the results with `op` (`T::default()` for none); `extra_row` is
+/// row `y` of `extra` (a per-pixel buffer of the frame's size) when there is
+/// one. The rows are split off the buffers in place: nothing is allocated
+/// per frame.
+fn map_rows<T: Default + Send, C: Send>(
     frame: &mut Frame,
-    f: impl Fn(usize, RowMut<'_>) -> T + Sync + Send,
+    extra: Option<&mut [C]>,
+    f: impl Fn(usize, RowMut<'_>, Option<&mut [C]>) -> T + Sync + Send,
     op: impl Fn(T, T) -> T + Sync + Send,
 ) -> T {
     let w = frame.width_px as usize;
-    if w == 0 || frame.height_px == 0 {
+    let h = frame.height_px as usize;
+    if w == 0 || h == 0 {
         return T::default();
     }
     let surface = frame.has_surface();
@@ -299,10 +344,15 @@ fn map_rows<T: Default + Send>(
         layer,
         ..
     } = frame;
+    let extra = match extra {
+        Some(e) => Either::Left(e[..w * h].par_chunks_mut(w).map(Some)),
+        None => Either::Right((0..h).into_par_iter().map(|_| None)),
+    };
     let rows = rgb
         .par_chunks_mut(3 * w)
         .zip(hit.par_chunks_mut(w))
         .zip(layer.par_chunks_mut(w))
+        .zip(extra)
         .enumerate();
     if surface {
         rows.zip(
@@ -311,20 +361,22 @@ fn map_rows<T: Default + Send>(
                 .zip(object.par_chunks_mut(w))
                 .zip(normal.par_chunks_mut(w)),
         )
-        .map(|((y, ((rgb, hit), layer)), ((depth_mm, object), normal))| {
-            let row = RowMut {
-                rgb,
-                hit,
-                depth_mm,
-                object,
-                normal,
-                layer,
-            };
-            f(y, row)
-        })
+        .map(
+            |((y, (((rgb, hit), layer), extra)), ((depth_mm, object), normal))| {
+                let row = RowMut {
+                    rgb,
+                    hit,
+                    depth_mm,
+                    object,
+                    normal,
+                    layer,
+                };
+                f(y, row, extra)
+            },
+        )
         .reduce(T::default, &op)
     } else {
-        rows.map(|(y, ((rgb, hit), layer))| {
+        rows.map(|(y, (((rgb, hit), layer), extra))| {
             let row = RowMut {
                 rgb,
                 hit,
@@ -333,7 +385,7 @@ fn map_rows<T: Default + Send>(
                 normal: &mut [],
                 layer,
             };
-            f(y, row)
+            f(y, row, extra)
         })
         .reduce(T::default, &op)
     }

@@ -147,11 +147,13 @@ fn search_task() -> &'static Scene {
 #[test]
 fn frames_with_reuse_equal_fresh_frames_through_fixations_saccades_and_changes() {
     let scene = search_task();
-    let d = display(320, 256);
+    let d = display(640, 512);
     let mut v = View::new(scene, &d);
     let mut scratch = Scratch::with_reuse();
     let mut frame = Frame::default();
-    let c = [160.0, 128.0];
+    // Off the centre, so that the fovea (radius ≈ 140 px here) leaves most
+    // of the screen to the cells.
+    let c = [250.0, 300.0];
     let at = |dx: f64, dy: f64| [c[0] + dx, c[1] + dy];
 
     // First frame: the cache starts empty.
@@ -190,11 +192,11 @@ fn frames_with_reuse_equal_fresh_frames_through_fixations_saccades_and_changes()
     step(&v, at(1e-7, 0.0), &mut frame, &mut scratch, "surface again");
     // Saccades: across the screen, off it, and back to the fixation.
     for (k, g) in [
-        [20.0, 230.0],
-        [300.0, 15.0],
-        [-400.0, 100.0],
-        [160.5, 900.0],
-        [161.0, 128.5],
+        [40.0, 460.0],
+        [600.0, 30.0],
+        [-800.0, 200.0],
+        [320.5, 1800.0],
+        [251.0, 300.5],
     ]
     .into_iter()
     .enumerate()
@@ -263,6 +265,8 @@ fn frames_with_reuse_equal_fresh_frames_through_fixations_saccades_and_changes()
     assert!(r.invalidated, "watertight: {r:?}");
     let r = step(&v, c, &mut frame, &mut scratch, "watertight, repeat");
     assert!(r.mask_reused, "watertight, repeat: {r:?}");
+    let refined = fresh(&v, c).1.rays_refine;
+    assert!(refined > 0, "the scene's triggers refine cells here");
     let mut w = v.clone();
     w.settings.triggers = Triggers::NONE;
     let r = step(&w, c, &mut frame, &mut scratch, "no triggers");
@@ -279,13 +283,13 @@ fn frames_with_reuse_equal_fresh_frames_through_fixations_saccades_and_changes()
     assert!(!r.mask_reused, "seed layout: {r:?}");
 
     // A resize: another display, model and camera.
-    let small = display(256, 200);
+    let small = display(512, 400);
     let s = View::new(scene, &small);
-    let r = step(&s, [128.0, 100.0], &mut frame, &mut scratch, "resized");
+    let r = step(&s, [200.0, 230.0], &mut frame, &mut scratch, "resized");
     assert!(r.invalidated && r.pixels_reused == 0, "resized: {r:?}");
     step(
         &s,
-        [128.5, 99.0],
+        [200.5, 229.0],
         &mut frame,
         &mut scratch,
         "resized, jitter",
@@ -431,7 +435,7 @@ fn op() -> impl Strategy<Value = Op> {
     prop_oneof![
         4 => (-0.5..0.5f64, -0.5..0.5f64).prop_map(|(x, y)| Op::Jitter(x, y)),
         3 => (-4.0..4.0f64, -4.0..4.0f64).prop_map(|(x, y)| Op::Drift(x, y)),
-        2 => (-40.0..200.0f64, -40.0..170.0f64).prop_map(|(x, y)| Op::Saccade(x, y)),
+        2 => (-250.0..410.0f64, -250.0..380.0f64).prop_map(|(x, y)| Op::Saccade(x, y)),
         2 => Just(Op::Repeat),
         1 => Just(Op::Nan),
         1 => Just(Op::Surface),
@@ -445,7 +449,9 @@ proptest! {
 
     #[test]
     fn random_gaze_sequences_render_what_fresh_frames_render(
-        start in (0.0..160.0f64, 0.0..128.0f64),
+        // The fovea (radius ≈ 100 px) covers this small screen from its
+        // centre, so gazes range well beyond it: there the cells do.
+        start in (-250.0..410.0f64, -250.0..380.0f64),
         ops in prop::collection::vec(op(), 1..14),
     ) {
         let scenes = small_scenes();

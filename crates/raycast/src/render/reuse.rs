@@ -91,6 +91,9 @@ pub(super) struct Sample {
     stamp: u32,
 }
 
+// 28 bytes a pixel, as the docs say.
+const _: () = assert!(std::mem::size_of::<Sample>() == 28);
+
 const EMPTY: Sample = Sample {
     hit: Hit {
         t: 0.0,
@@ -170,15 +173,17 @@ impl Reuse {
 }
 
 /// Bit-identical masks (what the renderer reads of them: vertices, cells,
-/// fovea spans and size).
+/// fovea spans and size). The vertices first: masks for two gazes differ in
+/// their first vertex, while their fovea spans and cells (the topology) are
+/// often the same for long stretches.
 pub(super) fn same_mask(a: &RayMask, b: &RayMask) -> bool {
     a.width_px == b.width_px
         && a.height_px == b.height_px
-        && a.fovea == b.fovea
-        && a.cells == b.cells
         && a.vertices.len() == b.vertices.len()
         && a.vertices
             .iter()
             .zip(&b.vertices)
             .all(|(p, q)| p.map(f32::to_bits) == q.map(f32::to_bits))
+        && a.fovea == b.fovea
+        && a.cells == b.cells
 }

@@ -64,7 +64,7 @@ impl Scratch {
     /// A scratch with temporal reuse on: foveated frames take the hits of
     /// pixel centres cast by earlier frames from a per-pixel cache, and
     /// keep a whole frame's vertex rays, classification and owners while
-    /// the mask stays bit-identical. The cache (32 bytes a pixel) is
+    /// the mask stays bit-identical. The cache (28 bytes a pixel) is
     /// allocated by the first foveated frame.
     pub fn with_reuse() -> Self {
         let mut s = Self::default();

@@ -47,27 +47,22 @@ pub(super) fn corners_of(cell: &[u32; 4]) -> &[u32] {
     }
 }
 
-pub(super) fn foveated(
+/// Stages 2–4: cast the mask vertices, classify the cells, widen by the
+/// margin, and give every pixel its owner.
+#[allow(clippy::too_many_arguments)]
+fn vertices_and_cells(
     scene: &Scene,
     cam: &Camera,
     settings: &Settings,
-    frame: &mut Frame,
-    stats: &mut Stats,
-    scratch: &mut Scratch,
-    mut t: Instant,
+    m: &RayMask,
+    vertex_hits: &mut Vec<Option<Hit>>,
+    refined: &mut Vec<bool>,
+    touched: &mut Vec<bool>,
+    owner: &mut Vec<AtomicU32>,
+    stages: &mut StageTimes,
+    (w, h): (usize, usize),
+    t: &mut Instant,
 ) {
-    let Scratch {
-        mask,
-        vertex_hits,
-        refined,
-        touched,
-        owner,
-        stages,
-    } = scratch;
-    let Some(m) = mask.as_ref() else {
-        return;
-    };
-    let (w, h) = (frame.width_px as usize, frame.height_px as usize);
     let test = settings.test;
     // 2. Mask rays.
     m.vertices
@@ -75,7 +70,7 @@ pub(super) fn foveated(
         .map(|v| cast(scene, cam, *v, test))
         .collect_into_vec(vertex_hits);
     let vertex_hits: &[Option<Hit>] = vertex_hits;
-    stages.vertex_rays = lap(&mut t);
+    stages.vertex_rays = lap(t);
     // 3. Classify, then widen by one vertex ring.
     m.cells
         .par_iter()
@@ -88,7 +83,7 @@ pub(super) fn foveated(
             !homogeneous(&hits[..corners.len()], &settings.triggers)
         })
         .collect_into_vec(refined);
-    stages.classify = lap(&mut t);
+    stages.classify = lap(t);
     if settings.triggers.margin {
         touched.clear();
         touched.resize(m.vertices.len(), false);
@@ -106,7 +101,7 @@ pub(super) fn foveated(
             .for_each(|(r, c)| *r = *r || corners_of(c).iter().any(|&v| touched[v as usize]));
     }
     let refined: &[bool] = refined;
-    stages.margin = lap(&mut t);
+    stages.margin = lap(t);
     // 4. Ownership: fovea spans, then cells by an exact top-left rule.
     // A homogeneous cell whose corners all miss is background: unless
     // coverage is being checked, it is not rasterised at all.
@@ -118,14 +113,67 @@ pub(super) fn foveated(
     owners_into(owner, m, w, h, |ci| {
         !settings.check_coverage && !refined[ci] && background(&m.cells[ci])
     });
+    stages.ownership = lap(t);
+}
+
+/// Stages 2–5 of a foveated frame. With `kept`, the mask is bit-identical
+/// to the last frame's and the vertex hits, refined flags and owners in
+/// `scratch` are still right: stages 2–4 are skipped.
+#[allow(clippy::too_many_arguments)]
+pub(super) fn foveated(
+    scene: &Scene,
+    cam: &Camera,
+    settings: &Settings,
+    frame: &mut Frame,
+    stats: &mut Stats,
+    scratch: &mut Scratch,
+    kept: bool,
+    mut t: Instant,
+) {
+    let Scratch {
+        mask,
+        vertex_hits,
+        refined,
+        touched,
+        owner,
+        stages,
+        reuse,
+    } = scratch;
+    let Some(m) = mask.as_ref() else {
+        return;
+    };
+    let (w, h) = (frame.width_px as usize, frame.height_px as usize);
+    let test = settings.test;
+    if !kept {
+        vertices_and_cells(
+            scene,
+            cam,
+            settings,
+            m,
+            vertex_hits,
+            refined,
+            touched,
+            owner,
+            stages,
+            (w, h),
+            &mut t,
+        );
+    }
+    let vertex_hits: &[Option<Hit>] = vertex_hits;
+    let refined: &[bool] = refined;
     let owner: &[AtomicU32] = owner;
-    stages.ownership = lap(&mut t);
-    // 5. Cast or interpolate, and shade.
-    let counts: (u64, u64, u64, f64) = map_rows(
+    let (epoch, samples) = match reuse.as_deref_mut() {
+        Some(r) => (r.epoch, Some(&mut r.samples[..])),
+        None => (0, None),
+    };
+    // 5. Cast (or take from the cache) or interpolate, and shade.
+    let counts: (u64, u64, u64, f64, u64) = map_rows(
         frame,
-        |y, mut row| {
+        samples,
+        |y, mut row, mut kept_row| {
             let surface = row.has_surface();
-            let mut n = (0u64, 0u64, 0u64, 0f64); // fovea, refine, gap, cast ms
+            // Fovea, refine, gap, cast ms, taken from the cache.
+            let mut n = (0u64, 0u64, 0u64, 0f64, 0u64);
             let owners = &owner[y * w..(y + 1) * w];
             let py = y as f32 + 0.5;
             // The sample of a pixel whose owner sees nothing: the same
@@ -159,7 +207,20 @@ pub(super) fn foveated(
                     let t0 = Instant::now();
                     for x in x..end {
                         let p = [x as f32 + 0.5, py];
-                        let hit = cast(scene, cam, p, test);
+                        let hit = match kept_row.as_deref_mut() {
+                            None => cast(scene, cam, p, test),
+                            Some(kept) => match kept[x].get(epoch) {
+                                Some(hit) => {
+                                    n.4 += 1;
+                                    hit
+                                }
+                                None => {
+                                    let hit = cast(scene, cam, p, test);
+                                    kept[x].set(epoch, hit);
+                                    hit
+                                }
+                            },
+                        };
                         row.put(x, texel(scene, cam, p, hit, layer, surface));
                     }
                     n.3 += t0.elapsed().as_secs_f64() * 1e3;
@@ -186,8 +247,12 @@ pub(super) fn foveated(
             }
             n
         },
-        |a, b| (a.0 + b.0, a.1 + b.1, a.2 + b.2, a.3 + b.3),
+        |a, b| (a.0 + b.0, a.1 + b.1, a.2 + b.2, a.3 + b.3, a.4 + b.4),
     );
+    if let Some(r) = reuse.as_deref_mut() {
+        r.stats.pixels_reused = counts.4;
+        r.stats.pixels_cast = counts.0 + counts.1 + counts.2 - counts.4;
+    }
     stats.rays_fovea = counts.0;
     stats.rays_mask = m.vertices.len() as u64;
     stats.rays_refine = counts.1 + counts.2;

@@ -1,5 +1,6 @@
 //! What a hybrid frame keeps across frames (the mask, vertex hits, flags,
-//! pixel owners) and the stage times of the last frame.
+//! pixel owners, and with reuse on the cache of cast samples) and the stage
+//! times of the last frame.
 
 use super::*;
 
@@ -42,6 +43,11 @@ impl StageTimes {
 /// vertex hits, the refined flags, the pixel owners), kept across frames so
 /// that a renderer allocates nothing per frame once it has had one frame of
 /// this size; and the stage times of the last frame.
+///
+/// [`Scratch::default`] keeps buffers only. [`Scratch::with_reuse`] also
+/// keeps the samples it casts for the next frames (temporal reuse during
+/// fixations, see the [`render`](crate::render) module): the frames are the same,
+/// byte for byte, with or without it.
 #[derive(Debug, Default)]
 pub struct Scratch {
     pub(super) mask: Option<RayMask>,
@@ -50,12 +56,56 @@ pub struct Scratch {
     pub(super) touched: Vec<bool>,
     pub(super) owner: Vec<AtomicU32>,
     pub(super) stages: StageTimes,
+    /// The cache of cast samples; `None` with reuse off.
+    pub(super) reuse: Option<Box<Reuse>>,
 }
 
 impl Scratch {
+    /// A scratch with temporal reuse on: foveated frames take the hits of
+    /// pixel centres cast by earlier frames from a per-pixel cache, and
+    /// keep a whole frame's vertex rays, classification and owners while
+    /// the mask stays bit-identical. The cache (28 bytes a pixel) is
+    /// allocated by the first foveated frame.
+    pub fn with_reuse() -> Self {
+        let mut s = Self::default();
+        s.set_reuse(true);
+        s
+    }
+
+    /// Turns temporal reuse on (keeping any cache) or off (dropping it).
+    pub fn set_reuse(&mut self, on: bool) {
+        match (on, self.reuse.is_some()) {
+            (true, false) => self.reuse = Some(Box::default()),
+            (false, true) => self.reuse = None,
+            _ => {}
+        }
+    }
+
+    /// Whether temporal reuse is on.
+    pub fn reuse(&self) -> bool {
+        self.reuse.is_some()
+    }
+
+    /// Forgets every kept sample and frame (the cache stays allocated). Not
+    /// needed for correctness when the scene, camera or settings change —
+    /// those are detected — only for a scene whose geometry was edited in
+    /// place without a new [`Scene::revision`].
+    pub fn invalidate(&mut self) {
+        if let Some(r) = self.reuse.as_deref_mut() {
+            r.invalidate();
+        }
+    }
+
     /// Wall time of each stage of the last frame rendered with it.
     pub fn stages(&self) -> &StageTimes {
         &self.stages
+    }
+
+    /// What temporal reuse did in the last frame (zero with reuse off).
+    pub fn reuse_stats(&self) -> ReuseStats {
+        self.reuse
+            .as_deref()
+            .map_or_else(ReuseStats::default, |r| r.stats)
     }
 }
 

@@ -392,6 +392,7 @@ fn small_scenes() -> &'static [Scene; 2] {
                     rotate_deg: (30.0, 20.0, 0.0),
                     scale_mm: s,
                     importance: 1.0,
+                    motion: None,
                 })
                 .collect(),
                 lights: vec![Light::Headlight { intensity: 1.0 }],
@@ -403,6 +404,7 @@ fn small_scenes() -> &'static [Scene; 2] {
                 ],
                 crease_deg: 30.0,
                 depth_jump: 0.05,
+                camera: None,
             };
             Scene::build(&file, Path::new(".")).expect("scene")
         };

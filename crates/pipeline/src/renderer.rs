@@ -50,6 +50,12 @@ pub struct Options {
     /// The model-based methods' budget and gaze options (checked against
     /// `method`: a budget is for `Method::Simplify` only).
     pub model: ModelOptions,
+    /// Temporal reuse during fixations (CPU hybrid frames): cast samples
+    /// are kept across frames and a bit-identical mask keeps its vertex
+    /// rays, classification and owners ([`Scratch::with_reuse`]). The
+    /// frames are the same byte for byte; only their time changes. The live
+    /// view turns it on; off, nothing of it is allocated.
+    pub reuse: bool,
 }
 
 impl Default for Options {
@@ -64,6 +70,7 @@ impl Default for Options {
             por_overlay: false,
             surface: false,
             model: ModelOptions::default(),
+            reuse: false,
         }
     }
 }
@@ -252,7 +259,11 @@ impl<'s> Renderer<'s> {
             note,
             surface: options.surface,
             spare: None,
-            scratch: Scratch::default(),
+            scratch: if options.reuse {
+                Scratch::with_reuse()
+            } else {
+                Scratch::default()
+            },
             clock: std::time::Instant::now(),
             image: (method == Method::Image).then(ImageFoveation::default),
             image_ms: 0.0,
@@ -492,6 +503,12 @@ impl<'s> Renderer<'s> {
     /// first CPU frame; a full-resolution frame spends it all in pixels).
     pub fn cpu_stages(&self) -> &StageTimes {
         self.scratch.stages()
+    }
+
+    /// What temporal reuse did in the last CPU frame (all zero with
+    /// [`Options::reuse`] off).
+    pub fn reuse_stats(&self) -> raycast::render::ReuseStats {
+        self.scratch.reuse_stats()
     }
 
     /// `Method::Ulod`'s state (levels, attention, last frame's counts), when

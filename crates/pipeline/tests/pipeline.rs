@@ -343,3 +343,52 @@ mod any_gaze {
         }
     }
 }
+
+/// `Options::reuse` (what the live view, the demo and the experiment turn
+/// on) renders the frames of a fresh renderer byte for byte along a gaze
+/// that fixates, jumps and returns, and on a scene that moves; during a
+/// fixation it re-casts fewer pixels than it shows. Off, it does nothing.
+#[test]
+fn temporal_reuse_keeps_the_frames_and_saves_casts_during_a_fixation() {
+    let effects = [Effect::FoveatedSampling, Effect::SilhouetteRefinement];
+    let still = scene("search-task", &effects);
+    let moving = scene("moving", &effects);
+    let gazes = [
+        [300.0, 250.0],
+        [300.4, 250.2],
+        [300.4, 250.2],
+        [120.0, 400.0],
+        [300.0, 250.0],
+    ];
+    for (what, s) in [("still", &still), ("moving", &moving)] {
+        let mut off = renderer(s, BackendChoice::Cpu, Options::default());
+        let mut on = renderer(
+            s,
+            BackendChoice::Cpu,
+            Options {
+                reuse: true,
+                ..Options::default()
+            },
+        );
+        let mut reused = 0;
+        for (k, &gaze) in gazes.iter().enumerate() {
+            let t = 0.05 * k as f64;
+            let (a, sa) = off.render_at(gaze, t).expect("renders");
+            let (b, sb) = on.render_at(gaze, t).expect("renders");
+            assert_eq!(off.reuse_stats(), Default::default(), "{what}: reuse off");
+            assert!(a == b, "{what} frame {k}: reuse changed the frame");
+            assert_eq!(sa.rays_total, sb.rays_total, "{what} frame {k}");
+            let r = on.reuse_stats();
+            if k == 2 && what == "still" {
+                // The same gaze again: the mask and every pixel are kept.
+                assert!(r.mask_reused && r.pixels_cast == 0, "{what}: {r:?}");
+            }
+            if what == "moving" {
+                // Every pose is a new scene: nothing carries over.
+                assert_eq!(r.pixels_reused, 0, "{what} frame {k}: {r:?}");
+            }
+            reused += r.pixels_reused;
+        }
+        assert_eq!(reused > 0, what == "still", "{what}");
+    }
+}

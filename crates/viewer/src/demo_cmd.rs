@@ -146,6 +146,7 @@ pub fn run(args: &DemoArgs, out: &mut dyn Write) -> Result<(), String> {
         method: args.method,
         por_overlay: true,
         model: args.model.into(),
+        reuse: true,
         ..pipeline::Options::default()
     };
     let mut renderer =

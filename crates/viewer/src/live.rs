@@ -328,8 +328,17 @@ impl Viewer<'_> {
             self.fresh_frames += 1;
             age = format!("{:.1} ms", ms(submit_us));
         }
+        let reuse = self.renderer.reuse_stats();
+        let reused = match (reuse.pixels_reused, reuse.mask_reused) {
+            (0, false) => String::new(),
+            (n, kept) => format!(
+                " reused{} {n} of {} pixel hits",
+                if kept { " the mask and" } else { "" },
+                n + reuse.pixels_cast
+            ),
+        };
         self.say(&format!(
-            "frame {} gaze ({:.1}, {:.1}) age {age} rays {} render {:.1} ms",
+            "frame {} gaze ({:.1}, {:.1}) age {age} rays {} render {:.1} ms{reused}",
             self.frames, gaze[0], gaze[1], stats.rays_total, stats.time_ms
         ));
         self.frames += 1;
@@ -440,6 +449,8 @@ impl Loaded {
             por_overlay: opts.por_overlay,
             surface,
             model: opts.model,
+            // Fixations re-cast only what the cache lacks (same frames).
+            reuse: true,
             ..Options::default()
         };
         Renderer::new(&self.scene, Camera::new(&self.geometry), model, &options)

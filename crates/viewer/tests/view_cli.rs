@@ -4,7 +4,7 @@
 
 mod common;
 
-use common::{gazecast, windowed, Run, Xvfb};
+use common::{gazecast, succeed_windowed, windowed, Run, Xvfb};
 
 /// `gazecast view` of the search task on the seed's display, CPU backend, in
 /// the given X display.
@@ -400,19 +400,7 @@ fn a_1000_hz_replay_gives_every_frame_a_new_sample() {
 #[test]
 fn the_demo_opens_the_window_in_mouse_mode_when_there_is_a_display() {
     let mut x = Xvfb::start();
-    let mut out = windowed(&x).args(["demo", "--frames", "2"]).succeed();
-    // Under a loaded CI machine a fresh Xvfb has once refused the first
-    // connection; one retry on a new server separates that from the demo
-    // not opening its window (which fails twice).
-    if String::from_utf8_lossy(&out.stdout).contains("cannot open a window") {
-        eprintln!(
-            "first try could not connect to {}; retrying on a new Xvfb:\n{}",
-            x.display,
-            String::from_utf8_lossy(&out.stdout)
-        );
-        x = Xvfb::start();
-        out = windowed(&x).args(["demo", "--frames", "2"]).succeed();
-    }
+    let out = succeed_windowed(&mut x, &["demo", "--frames", "2"]);
     let text = String::from_utf8_lossy(&out.stdout);
     assert!(
         text.contains("gazecast view: search-task")
@@ -425,15 +413,16 @@ fn the_demo_opens_the_window_in_mouse_mode_when_there_is_a_display() {
         "{text}"
     );
     // The attention model can lead the demo instead.
-    let out = windowed(&x)
-        .args([
+    let out = succeed_windowed(
+        &mut x,
+        &[
             "demo",
             "--frames",
             "2",
             "--tracker",
             "config/trackers/attention.ron",
-        ])
-        .succeed();
+        ],
+    );
     let text = String::from_utf8_lossy(&out.stdout);
     assert!(
         text.contains("attention (config/trackers/attention.ron)"),

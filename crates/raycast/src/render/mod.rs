@@ -67,7 +67,8 @@
 //! a scratch per call, where a cache only costs; and the cache takes 28
 //! bytes a pixel (37 MB at 1280×1024, 232 MB at 3840×2160). A caller that
 //! renders a live view turns it on ([`Scratch::with_reuse`],
-//! [`Scratch::set_reuse`]).
+//! [`Scratch::set_reuse`]; `pipeline::Options::reuse`, which `gazecast
+//! view`, `gazecast demo` and the experiment's search screens set).
 
 use std::sync::atomic::{AtomicU32, Ordering};
 use std::time::Instant;

@@ -99,6 +99,8 @@ impl TrialState {
                 _ => Method::Full,
             },
             backend: setup.backend,
+            // Fixations re-cast only what the cache lacks (same frames).
+            reuse: true,
             ..Options::default()
         };
         let search = SearchScene::try_new(scene, |s| {

@@ -333,8 +333,8 @@ fn check_calibration(files: &Files, text: &str) -> Result<bool, String> {
     for i in 0..=8 {
         for j in 0..=8 {
             let p = [
-                raw[0] + (raw[2] - raw[0]) * f64::from(i) / 8.0,
-                raw[1] + (raw[3] - raw[1]) * f64::from(j) / 8.0,
+                raw[0] + (raw[2] - raw[0]) * (f64::from(i) / 8.0),
+                raw[1] + (raw[3] - raw[1]) * (f64::from(j) / 8.0),
             ];
             match c.map(p) {
                 Some(q) if q[0].is_finite() && q[1].is_finite() => {}

@@ -274,6 +274,10 @@ impl Calibration {
 /// from the origin: a fit puts its points within a few units of it.
 const NORMALISED_REACH: f64 = 1e6;
 
+/// How far from zero the raw range a calibration is checked over may reach
+/// (tracker units): far beyond any device's, well within `f64`.
+const MAX_RAW_UNITS: f64 = 1e12;
+
 /// Smallest ratio of the homography's denominator, over the tracker's
 /// range, to its largest: below it the mapping nears its horizon.
 const MIN_DENOMINATOR_RATIO: f64 = 0.1;
@@ -423,6 +427,22 @@ impl Calibration {
             }
         }
         let (raw, screen) = self.ranges();
+        // No tracker reports raw units this large (pixels, ISCAN counts,
+        // HID micrometres); a range beyond it only overflows arithmetic.
+        if let Some(v) = raw.iter().find(|v| v.is_nan() || v.abs() > MAX_RAW_UNITS) {
+            return Err((
+                if self.points.len() >= self.model.min_points() {
+                    "points".into()
+                } else {
+                    "raw.scale".into()
+                },
+                format!(
+                    "the raw range reaches {}: beyond ±{} tracker units",
+                    fmt_f64(*v),
+                    fmt_f64(MAX_RAW_UNITS)
+                ),
+            ));
+        }
         let corners = [
             [raw[0], raw[1]],
             [raw[2], raw[1]],

@@ -20,21 +20,18 @@
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-use foveation::{Display, GeislerPerry, Layout, SamplingModel};
 use raycast::motion::{Key, Motion, Repeat};
-use raycast::ray::TriangleTest;
-use raycast::render::{render_with, Mode, Scratch, Settings, Triggers};
+use raycast::render::{render_with, Scratch};
 use raycast::{Camera, Frame, Scene, SceneFile};
+
+mod common;
+use common::{display_model, foveated, median, read, repo};
 
 struct Args {
     scenes: Vec<PathBuf>,
     display: PathBuf,
     frames: usize,
     rounds: usize,
-}
-
-fn repo() -> &'static Path {
-    Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../.."))
 }
 
 fn args() -> Result<Args, String> {
@@ -64,20 +61,6 @@ fn args() -> Result<Args, String> {
         }
     }
     Ok(a)
-}
-
-fn median(mut v: Vec<f64>) -> f64 {
-    v.sort_by(f64::total_cmp);
-    let n = v.len();
-    match n {
-        0 => f64::NAN,
-        _ if n % 2 == 1 => v[n / 2],
-        _ => 0.5 * (v[n / 2 - 1] + v[n / 2]),
-    }
-}
-
-fn read(p: &Path) -> Result<String, String> {
-    std::fs::read_to_string(p).map_err(|e| format!("{}: {e}", p.display()))
 }
 
 /// The scene of `path`, moving: a file without paths gets the bench's
@@ -110,17 +93,7 @@ fn moving_scene(path: &Path) -> Result<(Scene, bool), String> {
 
 fn main() -> Result<(), String> {
     let a = args()?;
-    let display: Display =
-        ron::from_str(&read(&a.display)?).map_err(|e| format!("{}: {e}", a.display.display()))?;
-    let g = display.geometry().map_err(|e| e.to_string())?;
-    // pipeline::sampling_model(geometry, 1.0): the renderer's model.
-    let model = SamplingModel::new(
-        g,
-        GeislerPerry::default(),
-        1.0,
-        foveation::sampling::SEED_MAX_SPACING_PX,
-    )
-    .map_err(|e| e.to_string())?;
+    let (g, model) = display_model(&a.display)?;
     let cam = Camera::new(&g);
     let gaze = g.centre_px();
     println!(
@@ -138,13 +111,7 @@ fn main() -> Result<(), String> {
     println!("|---|---:|---|---:|---:|---:|");
     for path in &a.scenes {
         let (scene, added) = moving_scene(path)?;
-        let settings = Settings {
-            mode: Mode::Foveated,
-            layout: Layout::Nyquist,
-            triggers: Triggers::from_scene(&scene),
-            test: TriangleTest::Watertight,
-            check_coverage: false,
-        };
+        let settings = foveated(&scene);
         let mut scratch = Scratch::default();
         let mut frame = Frame::default();
         let (mut pose_ms, mut frame_ms) = (Vec::new(), Vec::new());

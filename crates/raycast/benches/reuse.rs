@@ -35,10 +35,12 @@
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-use foveation::{Display, GeislerPerry, Layout, SamplingModel};
-use raycast::ray::TriangleTest;
-use raycast::render::{render_with, Mode, Scratch, Settings, StageTimes, Triggers};
+use foveation::SamplingModel;
+use raycast::render::{render_with, Scratch, Settings, StageTimes};
 use raycast::{Camera, Frame, Scene, SceneFile};
+
+mod common;
+use common::{display_model, foveated, median, read, repo};
 
 struct Args {
     scene: PathBuf,
@@ -46,10 +48,6 @@ struct Args {
     frames: usize,
     rounds: usize,
     seed: u64,
-}
-
-fn repo() -> &'static Path {
-    Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../.."))
 }
 
 fn args() -> Result<Args, String> {
@@ -196,45 +194,15 @@ fn run(
     Ok(r)
 }
 
-fn median(mut v: Vec<f64>) -> f64 {
-    v.sort_by(f64::total_cmp);
-    let n = v.len();
-    if n == 0 {
-        return f64::NAN;
-    }
-    if n % 2 == 1 {
-        v[n / 2]
-    } else {
-        0.5 * (v[n / 2 - 1] + v[n / 2])
-    }
-}
-
 fn main() -> Result<(), String> {
     let a = args()?;
-    let read = |p: &Path| std::fs::read_to_string(p).map_err(|e| format!("{}: {e}", p.display()));
     let file: SceneFile =
         ron::from_str(&read(&a.scene)?).map_err(|e| format!("{}: {e}", a.scene.display()))?;
     let dir = a.scene.parent().unwrap_or(Path::new("."));
     let scene = Scene::build(&file, dir).map_err(|e| format!("{}: {e}", a.scene.display()))?;
-    let display: Display =
-        ron::from_str(&read(&a.display)?).map_err(|e| format!("{}: {e}", a.display.display()))?;
-    let g = display.geometry().map_err(|e| e.to_string())?;
-    // pipeline::sampling_model(geometry, 1.0): the renderer's model.
-    let model = SamplingModel::new(
-        g,
-        GeislerPerry::default(),
-        1.0,
-        foveation::sampling::SEED_MAX_SPACING_PX,
-    )
-    .map_err(|e| e.to_string())?;
+    let (g, model) = display_model(&a.display)?;
     let cam = Camera::new(&g);
-    let settings = Settings {
-        mode: Mode::Foveated,
-        layout: Layout::Nyquist,
-        triggers: Triggers::from_scene(&scene),
-        test: TriangleTest::Watertight,
-        check_coverage: false,
-    };
+    let settings = foveated(&scene);
     let traces = traces(&g, a.frames, a.seed);
     println!(
         "scene {}, {}x{}, {} frames a trace, {} rounds, threads {}; synthetic gaze traces",

@@ -115,12 +115,8 @@ impl Bvh4 {
         let (ox, oy, oz) = (Vec4::splat(o.x), Vec4::splat(o.y), Vec4::splat(o.z));
         let (ix, iy, iz) = (Vec4::splat(inv.x), Vec4::splat(inv.y), Vec4::splat(inv.z));
         let grow = 1.0 + 2.0 * f32::EPSILON;
-        // (reference, triangle count or 0 for a node, entry distance)
-        let mut stack = [(0u32, 0u32, 0f32); 4 * super::bvh::MAX_DEPTH];
-        let mut sp = 1;
-        while sp > 0 {
-            sp -= 1;
-            let (r, count, t_entry) = stack[sp];
+        let mut stack = Stack::new();
+        while let Some((r, count, t_entry)) = stack.pop() {
             if t_entry > t_max {
                 continue;
             }
@@ -153,12 +149,97 @@ impl Bvh4 {
                 }
             }
             let order = &mut order[..k];
-            order.sort_unstable_by(|a, b| b.0.total_cmp(&a.0));
+            // Far to near by insertion (at most four entries; the order of
+            // `sort_unstable_by` on them, without its call).
+            for i in 1..order.len() {
+                let mut j = i;
+                while j > 0 && order[j - 1].0.total_cmp(&order[j].0).is_lt() {
+                    order.swap(j - 1, j);
+                    j -= 1;
+                }
+            }
             for &(t, slot) in order.iter() {
-                stack[sp] = (n.child[slot], n.count[slot], t);
-                sp += 1;
+                stack.push((n.child[slot], n.count[slot], t));
             }
         }
         t_max
+    }
+}
+
+/// Entries the traversal stack holds in place; a deeper stack spills to the
+/// heap. Each level of a 4-wide node pushes at most three entries more than
+/// it pops, so 64 cover a tree 21 levels deep; the builder's depth cap
+/// (`MAX_DEPTH`) allows more, which the spill handles.
+const STACK_INLINE: usize = 64;
+
+/// One traversal's stack: (reference, triangle count or 0 for a node,
+/// entry distance). The inline part is small so that setting it up costs
+/// little per ray (a 4·`MAX_DEPTH` array zeroed per ray was 6–10 % of a
+/// frame's time).
+struct Stack {
+    inline: [(u32, u32, f32); STACK_INLINE],
+    len: usize,
+    spill: Vec<(u32, u32, f32)>,
+}
+
+impl Stack {
+    #[inline]
+    fn new() -> Self {
+        let mut s = Self {
+            inline: [(0, 0, 0.0); STACK_INLINE],
+            len: 1,
+            spill: Vec::new(),
+        };
+        s.inline[0] = (0, 0, 0.0); // the root
+        s
+    }
+
+    #[inline]
+    fn push(&mut self, e: (u32, u32, f32)) {
+        if self.len < STACK_INLINE {
+            self.inline[self.len] = e;
+            self.len += 1;
+        } else {
+            self.spill.push(e);
+        }
+    }
+
+    #[inline]
+    fn pop(&mut self) -> Option<(u32, u32, f32)> {
+        if let Some(e) = self.spill.pop() {
+            return Some(e);
+        }
+        if self.len == 0 {
+            return None;
+        }
+        self.len -= 1;
+        Some(self.inline[self.len])
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_stack_is_last_in_first_out_past_its_inline_part() {
+        let mut s = Stack::new();
+        assert_eq!(s.pop(), Some((0, 0, 0.0)), "the root comes first");
+        assert_eq!(s.pop(), None);
+        let n = 3 * STACK_INLINE + 7;
+        for i in 0..n as u32 {
+            s.push((i, i + 1, i as f32));
+        }
+        assert!(!s.spill.is_empty(), "the test reaches the spill");
+        // Interleaved pops and pushes across the boundary keep the order.
+        for i in (n as u32 - 10..n as u32).rev() {
+            assert_eq!(s.pop(), Some((i, i + 1, i as f32)));
+        }
+        s.push((9999, 0, 1.0));
+        assert_eq!(s.pop(), Some((9999, 0, 1.0)));
+        for i in (0..n as u32 - 10).rev() {
+            assert_eq!(s.pop(), Some((i, i + 1, i as f32)));
+        }
+        assert_eq!(s.pop(), None);
     }
 }

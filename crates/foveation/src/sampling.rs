@@ -10,7 +10,7 @@ pub const SEED_MAX_SPACING_PX: f64 = 17.0;
 
 /// A display, a CSF and a contrast level: everything that decides the
 /// allowed ray spacing at a screen point for a given point of regard.
-#[derive(Debug, Clone, Copy)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub struct SamplingModel {
     pub geometry: ScreenGeometry,
     pub csf: GeislerPerry,
@@ -24,7 +24,22 @@ pub struct SamplingModel {
     /// the one-ray-per-pixel disc is the CSF's alone. Set with
     /// [`SamplingModel::with_inset_deg`].
     pub inset_deg: f64,
+    /// Gaze tolerance, degrees of visual angle: the spacing at a point is
+    /// the one its eccentricity less this allows (`f_c(max(e − ε, 0))`),
+    /// so a mask built for a POR `c` is dense enough for every POR within
+    /// `ε` of `c` at the eye (the angle between two lines of sight obeys
+    /// the triangle inequality, and the allowed spacing grows with
+    /// eccentricity). A renderer may then keep one mask while the gaze
+    /// stays within `ε` of the POR it was built for (a fixation's jitter)
+    /// and reuse its work. 0 (the default): the mask fits its POR alone.
+    /// Set with [`SamplingModel::with_gaze_tolerance_deg`].
+    pub gaze_tolerance_deg: f64,
 }
+
+/// The largest gaze tolerance [`SamplingModel::with_gaze_tolerance_deg`]
+/// takes, degrees: a tolerance this wide already makes a fovea about 20°
+/// across, most of a desktop display.
+pub const MAX_GAZE_TOLERANCE_DEG: f64 = 10.0;
 
 /// The allowed spacing at one point, with what it was derived from.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -72,7 +87,33 @@ impl SamplingModel {
             contrast,
             max_spacing_px,
             inset_deg: 0.0,
+            gaze_tolerance_deg: 0.0,
         })
+    }
+
+    /// The same model with a gaze tolerance of `deg` degrees (see
+    /// [`SamplingModel::gaze_tolerance_deg`]). 0 removes it. Errors: not
+    /// finite, negative, or above [`MAX_GAZE_TOLERANCE_DEG`].
+    pub fn with_gaze_tolerance_deg(mut self, deg: f64) -> Result<Self, ParamError> {
+        if !(deg.is_finite() && (0.0..=MAX_GAZE_TOLERANCE_DEG).contains(&deg)) {
+            return Err(ParamError::new(
+                "gaze_tolerance_deg",
+                deg,
+                format!("must be a finite angle in [0, {MAX_GAZE_TOLERANCE_DEG}] degrees"),
+            ));
+        }
+        self.gaze_tolerance_deg = deg;
+        Ok(self)
+    }
+
+    /// Whether a mask built for the POR `built_px` serves the POR `gaze_px`
+    /// under this model's gaze tolerance: the two lines of sight are at
+    /// most [`SamplingModel::gaze_tolerance_deg`] apart at the eye (and the
+    /// tolerance is not 0). Non-finite points never do.
+    pub fn within_tolerance(&self, built_px: [f64; 2], gaze_px: [f64; 2]) -> bool {
+        self.gaze_tolerance_deg > 0.0
+            && built_px.iter().chain(&gaze_px).all(|v| v.is_finite())
+            && self.geometry.eccentricity_deg(built_px, gaze_px) <= self.gaze_tolerance_deg
     }
 
     /// The same model with a full-resolution inset `diameter_deg` wide
@@ -125,6 +166,7 @@ impl SamplingModel {
             e2_deg: self.csf.e2_deg,
             ppd_per_mm: std::f64::consts::PI / 180.0 / g.max_pitch_mm(),
             max_spacing_px: self.max_spacing_px,
+            tolerance_deg: self.gaze_tolerance_deg,
         }
     }
 
@@ -132,6 +174,11 @@ impl SamplingModel {
     /// `min(1, (2 f_c(e) / ppd)²)` (no `max_spacing_px` floor).
     pub fn required_density(&self, por_px: [f64; 2], p_px: [f64; 2]) -> f64 {
         let e = self.geometry.eccentricity_deg(por_px, p_px);
+        let e = if self.gaze_tolerance_deg > 0.0 {
+            (e - self.gaze_tolerance_deg).max(0.0)
+        } else {
+            e
+        };
         let f = self.csf.cutoff_frequency_cpd(self.contrast, e);
         let per_px = 2.0 * f / self.geometry.local_ppd(p_px);
         (per_px * per_px).min(1.0)
@@ -150,6 +197,7 @@ pub struct PorSampler {
     e2_deg: f64,
     ppd_per_mm: f64,
     max_spacing_px: f64,
+    tolerance_deg: f64,
 }
 
 impl PorSampler {
@@ -171,7 +219,13 @@ impl PorSampler {
         let dot = a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
         let eccentricity_deg = norm3(cross).atan2(dot).to_degrees();
         let ppd = norm3(b) * self.ppd_per_mm;
-        let cutoff = self.cutoff_numerator / (eccentricity_deg + self.e2_deg);
+        // The gaze tolerance lowers the eccentricity the cut-off is taken at.
+        let e = if self.tolerance_deg > 0.0 {
+            (eccentricity_deg - self.tolerance_deg).max(0.0)
+        } else {
+            eccentricity_deg
+        };
+        let cutoff = self.cutoff_numerator / (e + self.e2_deg);
         let raw = 0.5 / cutoff * ppd;
         let spacing_px = if raw.is_nan() {
             1.0

@@ -426,8 +426,23 @@ impl<'s> Renderer<'s> {
                 let post = (post.image.is_some() || post.dof.is_some() || post.splat.is_some())
                     .then_some(&mut post as &mut dyn raycast::gpu::GpuPost);
                 if self.method == Method::Hybrid {
-                    let mask = foveation::mask::build(&self.model, self.settings.layout, gaze_px)?;
-                    g.render_foveated_with(&self.camera, &mask, &self.settings.triggers, post)?
+                    // The mask kept across frames (the same gaze, or one
+                    // within the model's tolerance): the GPU keeps its
+                    // upload and pixel owners too.
+                    let (_, generation) =
+                        self.scratch
+                            .mask_for(&self.model, self.settings.layout, gaze_px)?;
+                    let mask = self
+                        .scratch
+                        .mask()
+                        .ok_or_else(|| RenderError::Unsupported("no ray mask was built".into()))?;
+                    g.render_foveated_kept(
+                        &self.camera,
+                        mask,
+                        Some(generation),
+                        &self.settings.triggers,
+                        post,
+                    )?
                 } else {
                     g.render_full_with(&self.camera, post)?
                 }

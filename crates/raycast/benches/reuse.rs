@@ -6,11 +6,13 @@
 //! ```text
 //! cargo bench -p raycast --no-default-features --bench reuse -- \
 //!     [--scene FILE] [--display FILE] [--frames N] [--rounds R] [--seed S]
+//!     [--tolerance DEG]
 //! ```
 //!
 //! Defaults: `config/scenes/search-task.ron` on the seed's display
 //! (`config/displays/tobii-et1750-17in.ron`, 1280×1024), 24 frames a trace,
-//! 3 rounds. Each round renders every trace once without reuse and once
+//! 3 rounds, no gaze tolerance (`--tolerance DEG`: the sampling model's
+//! `gaze_tolerance_deg`, so that a fixation keeps its mask). Each round renders every trace once without reuse and once
 //! with it (a fresh scratch each time, so a trace's first frame finds an
 //! empty cache), the two alternating so both see the same machine load.
 //! Every frame with reuse is checked byte for byte against the one without.
@@ -48,6 +50,7 @@ struct Args {
     frames: usize,
     rounds: usize,
     seed: u64,
+    tolerance_deg: f64,
 }
 
 fn args() -> Result<Args, String> {
@@ -57,6 +60,7 @@ fn args() -> Result<Args, String> {
         frames: 24,
         rounds: 3,
         seed: 15,
+        tolerance_deg: 0.0,
     };
     let mut it = std::env::args().skip(1);
     while let Some(flag) = it.next() {
@@ -71,6 +75,11 @@ fn args() -> Result<Args, String> {
             "--frames" => a.frames = number(&value)?.clamp(1, 10_000) as usize,
             "--rounds" => a.rounds = number(&value)?.clamp(1, 100) as usize,
             "--seed" => a.seed = number(&value)?,
+            "--tolerance" => {
+                a.tolerance_deg = value
+                    .parse::<f64>()
+                    .map_err(|e| format!("{flag} {value}: {e}"))?
+            }
             _ => return Err(format!("unknown argument `{flag}`")),
         }
     }
@@ -201,17 +210,21 @@ fn main() -> Result<(), String> {
     let dir = a.scene.parent().unwrap_or(Path::new("."));
     let scene = Scene::build(&file, dir).map_err(|e| format!("{}: {e}", a.scene.display()))?;
     let (g, model) = display_model(&a.display)?;
+    let model = model
+        .with_gaze_tolerance_deg(a.tolerance_deg)
+        .map_err(|e| format!("--tolerance: {e}"))?;
     let cam = Camera::new(&g);
     let settings = foveated(&scene);
     let traces = traces(&g, a.frames, a.seed);
     println!(
-        "scene {}, {}x{}, {} frames a trace, {} rounds, threads {}; synthetic gaze traces",
+        "scene {}, {}x{}, {} frames a trace, {} rounds, threads {}, gaze tolerance {}°; synthetic gaze traces",
         scene.name,
         g.width_px,
         g.height_px,
         a.frames,
         a.rounds,
-        rayon::current_num_threads()
+        rayon::current_num_threads(),
+        a.tolerance_deg
     );
     // Warm-up: one frame of each kind.
     run(

@@ -299,6 +299,112 @@ fn frames_with_reuse_equal_fresh_frames_through_fixations_saccades_and_changes()
 }
 
 #[test]
+fn a_second_kept_frame_is_the_last_one_copied_unless_its_inputs_changed() {
+    let scene = search_task();
+    let d = display(320, 256);
+    let mut v = View::new(scene, &d);
+    let mut scratch = Scratch::with_reuse();
+    let mut frame = Frame::default();
+    let g = [120.0, 150.0];
+    let r = step(&v, g, &mut frame, &mut scratch, "first");
+    assert!(!r.mask_reused && !r.frame_reused, "first: {r:?}");
+    let r = step(&v, g, &mut frame, &mut scratch, "second");
+    assert!(r.mask_reused && !r.frame_reused, "second: {r:?}");
+    for k in 0..3 {
+        let r = step(&v, g, &mut frame, &mut scratch, &format!("copy {k}"));
+        assert!(r.mask_reused && r.frame_reused, "copy {k}: {r:?}");
+    }
+    // Surface buffers asked for again: not a copy (they were not filled).
+    v.surface = false;
+    let r = step(&v, g, &mut frame, &mut scratch, "no surface");
+    assert!(!r.frame_reused, "no surface: {r:?}");
+    let r = step(&v, g, &mut frame, &mut scratch, "no surface, copy");
+    assert!(r.frame_reused, "no surface, copy: {r:?}");
+    v.surface = true;
+    let r = step(&v, g, &mut frame, &mut scratch, "surface again");
+    assert!(!r.frame_reused, "surface again: {r:?}");
+    // Shading the cast cache does not key on: materials, lights and the
+    // background change the pixels, so a copy would be stale.
+    let mut shaded = scene.clone();
+    for m in &mut shaded.object_materials {
+        m.diffuse.0 *= 0.5;
+    }
+    let mut w = v.clone();
+    w.scene = &shaded;
+    step(&w, g, &mut frame, &mut scratch, "repainted");
+    let r = step(&w, g, &mut frame, &mut scratch, "repainted, again");
+    assert!(r.mask_reused, "repainted: {r:?}");
+    let mut lit = shaded.clone();
+    lit.lights.push(Light::Headlight { intensity: 0.3 });
+    w.scene = &lit;
+    let r = step(&w, g, &mut frame, &mut scratch, "relit");
+    assert!(!r.frame_reused, "relit: {r:?}");
+    let mut dark = lit.clone();
+    dark.background = glam::Vec3::ZERO;
+    dark.background_rgb8 = [0; 3];
+    w.scene = &dark;
+    let r = step(&w, g, &mut frame, &mut scratch, "dark");
+    assert!(!r.frame_reused, "dark: {r:?}");
+    // A gaze moved by a bit: a new mask, drawn afresh.
+    let r = step(&w, [120.5, 150.0], &mut frame, &mut scratch, "moved");
+    assert!(!r.mask_reused && !r.frame_reused, "moved: {r:?}");
+}
+
+#[test]
+fn a_gaze_within_the_tolerance_keeps_the_mask_and_its_frame() {
+    let scene = search_task();
+    let d = display(320, 256);
+    let mut v = View::new(scene, &d);
+    v.model = v.model.with_gaze_tolerance_deg(1.0).expect("tolerance");
+    let c = [150.0, 120.0];
+    // One degree at the test display's distance, in pixels along x.
+    let g = v.model.geometry;
+    let one_deg_px = g.eye_distance_mm * 1f64.to_radians().tan() / g.pitch_x_mm;
+    assert!(
+        one_deg_px > 4.0,
+        "the test needs a tolerance of a few pixels"
+    );
+    let (want, want_stats) = fresh(&v, c);
+    for mut scratch in [Scratch::default(), Scratch::with_reuse()] {
+        let reuse = scratch.reuse();
+        let mut frame = Frame::default();
+        draw(&v, c, &mut frame, &mut scratch).expect("first");
+        // Jitter inside the tolerance: the frame stays the one for `c`.
+        for (k, f) in [0.3, -0.5, 0.9, 0.0, -0.9].into_iter().enumerate() {
+            let gaze = [c[0] + 0.8 * f * one_deg_px, c[1] - 0.6 * f * one_deg_px];
+            assert!(v.model.within_tolerance(c, gaze), "jitter {k} is within 1°");
+            let stats = draw(&v, gaze, &mut frame, &mut scratch).expect("held");
+            let what = format!("reuse {reuse}, jitter {k}");
+            assert_same(&frame, &want, &what);
+            assert_same_counts(stats, want_stats, &what);
+            if reuse {
+                let r = scratch.reuse_stats();
+                assert!(r.mask_reused && (k == 0 || r.frame_reused), "{what}: {r:?}");
+            }
+        }
+        // Beyond it: a new mask for the new gaze.
+        let far = [c[0] + 1.6 * one_deg_px, c[1]];
+        let stats = draw(&v, far, &mut frame, &mut scratch).expect("moved");
+        let (want_far, want_far_stats) = fresh(&v, far);
+        assert_same(&frame, &want_far, &format!("reuse {reuse}, beyond"));
+        assert_same_counts(stats, want_far_stats, "beyond");
+        assert!(!scratch.reuse_stats().mask_reused);
+        // The mask is now the new gaze's: back at `c`, 1.6° away, too.
+        draw(&v, c, &mut frame, &mut scratch).expect("back");
+        assert_same(&frame, &want, &format!("reuse {reuse}, back"));
+    }
+    // A tolerance of 0: the frame follows every gaze (no holding).
+    let mut plain = v.clone();
+    plain.model = plain.model.with_gaze_tolerance_deg(0.0).expect("none");
+    let mut scratch = Scratch::default();
+    let mut frame = Frame::default();
+    draw(&plain, c, &mut frame, &mut scratch).expect("first");
+    let moved = [c[0] + 0.3 * one_deg_px, c[1]];
+    draw(&plain, moved, &mut frame, &mut scratch).expect("moved");
+    assert_same(&frame, &fresh(&plain, moved).0, "no tolerance");
+}
+
+#[test]
 fn a_nan_gaze_leaves_the_frame_and_the_cache_usable() {
     let scene = search_task();
     let v = View::new(scene, &display(160, 128));

@@ -35,6 +35,32 @@ pub fn parse_budget(s: &str) -> Result<usize, String> {
     Ok(n)
 }
 
+/// `--gaze-tolerance DEG`: the sampling model's gaze tolerance
+/// (`foveation::SamplingModel::gaze_tolerance_deg`), 0 to
+/// [`foveation::sampling::MAX_GAZE_TOLERANCE_DEG`] degrees.
+pub fn parse_gaze_tolerance(s: &str) -> Result<f64, String> {
+    let max = foveation::sampling::MAX_GAZE_TOLERANCE_DEG;
+    s.trim()
+        .parse::<f64>()
+        .ok()
+        .filter(|d| d.is_finite() && (0.0..=max).contains(d))
+        .ok_or_else(|| format!("`{s}`: expected an angle from 0 to {max} degrees"))
+}
+
+/// The sampling model for a display and contrast with the hybrid method's
+/// gaze tolerance (degrees; 0 for none); errors name the option.
+pub fn sampling_model(
+    geometry: foveation::ScreenGeometry,
+    contrast: f64,
+    gaze_tolerance_deg: f64,
+) -> Result<foveation::SamplingModel, String> {
+    let flag = |e: foveation::ParamError| format!("--{}: {e}", e.field.replace('_', "-"));
+    pipeline::sampling_model(geometry, contrast)
+        .map_err(flag)?
+        .with_gaze_tolerance_deg(gaze_tolerance_deg)
+        .map_err(|e| format!("--gaze-tolerance: {e}"))
+}
+
 /// The model-based methods' options (`render`, `view`, `demo`).
 #[derive(Debug, Clone, Copy, Default, clap::Args)]
 pub struct ModelArgs {

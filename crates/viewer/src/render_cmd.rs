@@ -44,6 +44,12 @@ pub struct RenderArgs {
         allow_negative_numbers = true
     )]
     pub contrast: f64,
+    /// Hybrid method: the ray mask is built dense enough for any point of
+    /// regard within DEG degrees of the gaze (a larger fovea, more rays), so
+    /// a live view keeps one mask while a fixation's jitter stays within it.
+    #[arg(long, value_name = "DEG", default_value_t = 0.0,
+          value_parser = crate::args::parse_gaze_tolerance)]
+    pub gaze_tolerance: f64,
     /// Render this many times; `time_ms` is the median.
     #[arg(long, value_name = "N", default_value_t = 1)]
     pub repeat: u32,
@@ -218,8 +224,7 @@ pub fn run(args: &RenderArgs, out: &mut dyn Write) -> Result<(), String> {
     }
     let display = config::load_display(&args.display).map_err(|e| e.to_string())?;
     let geometry = display.geometry().map_err(|e| e.to_string())?;
-    let model = pipeline::sampling_model(geometry, args.contrast)
-        .map_err(|e| format!("--{}: {e}", e.field.replace('_', "-")))?;
+    let model = crate::args::sampling_model(geometry, args.contrast, args.gaze_tolerance)?;
     let gaze = args.gaze.unwrap_or_else(|| geometry.centre_px());
     let maps = args.coc.is_some() || args.dof_level.is_some();
     // The maps are the CPU pass's: with them, `auto` renders on the CPU.

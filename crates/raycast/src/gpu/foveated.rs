@@ -111,7 +111,7 @@ fn groups(n: u64) -> (u32, u32) {
 
 impl GpuRenderer {
     /// Makes sure the foveated buffers hold this many vertices, cells and
-    /// pixels.
+    /// pixels (new buffers hold no mask).
     fn foveated_target(&mut self, vertices: u64, cells: u64, pixels: u64) -> Result<(), GpuError> {
         if self
             .fov_target
@@ -120,6 +120,7 @@ impl GpuRenderer {
         {
             return Ok(());
         }
+        self.uploaded_mask = None;
         self.fov_target = Some(FoveatedTarget::new(
             &self.device,
             &self.layouts,
@@ -150,10 +151,27 @@ impl GpuRenderer {
         triggers: &Triggers,
         post: Option<&mut dyn GpuPost>,
     ) -> Result<(Frame, Stats), GpuError> {
+        self.render_foveated_kept(cam, mask, None, triggers, post)
+    }
+
+    /// [`GpuRenderer::render_foveated_with`] for a mask of a known
+    /// `generation` ([`crate::render::Scratch::mask_for`]): when the GPU
+    /// already holds that mask for this frame size (the last foveated frame
+    /// uploaded it, and a gaze within the model's tolerance kept it), its
+    /// pixel ownership is not rasterised again and nothing of it is
+    /// uploaded (4 bytes a pixel of owners, 33 MB at 3840×2160, besides the
+    /// vertices and cells). `None`: always uploaded.
+    pub fn render_foveated_kept(
+        &mut self,
+        cam: &Camera,
+        mask: &RayMask,
+        generation: Option<(u64, u64)>,
+        triggers: &Triggers,
+        post: Option<&mut dyn GpuPost>,
+    ) -> Result<(Frame, Stats), GpuError> {
         let start = Instant::now();
         let (w, h) = (cam.width_px, cam.height_px);
         let pixels = self.write_params(cam)?;
-        let owner = crate::render::ownership(mask, w as usize, h as usize);
         let (nv, nc) = (mask.vertices.len() as u64, mask.cells.len() as u64);
         let too_many = |what, n: u64| GpuError::TooLarge {
             what,
@@ -163,6 +181,21 @@ impl GpuRenderer {
         let n_vertices = u32::try_from(nv).map_err(|_| too_many("the mask vertices", nv))?;
         let n_cells = u32::try_from(nc).map_err(|_| too_many("the mask cells", nc))?;
         self.foveated_target(nv, nc, u64::from(pixels))?;
+        let key = generation.map(|g| (g, (w, h)));
+        let upload = key.is_none() || key != self.uploaded_mask;
+        let owner = if upload {
+            crate::render::ownership(mask, w as usize, h as usize)
+        } else {
+            Vec::new()
+        };
+        self.uploaded_mask = key;
+        self.mask_upload_bytes = if upload {
+            (std::mem::size_of_val(&mask.vertices[..])
+                + std::mem::size_of_val(&mask.cells[..])
+                + std::mem::size_of_val(&owner[..])) as u64
+        } else {
+            0
+        };
         let fov = FovParams {
             n_vertices,
             n_cells,
@@ -185,10 +218,10 @@ impl GpuRenderer {
             return Err(GpuError::Readback("no frame or foveated buffers".into()));
         };
         let pipelines = &self.pipelines;
-        if nv > 0 {
+        if upload && nv > 0 {
             queue.write_buffer(&ft.mask_vertices, 0, bytemuck::cast_slice(&mask.vertices));
         }
-        if nc > 0 {
+        if upload && nc > 0 {
             queue.write_buffer(&ft.mask_cells, 0, bytemuck::cast_slice(&mask.cells));
         }
         if !owner.is_empty() {

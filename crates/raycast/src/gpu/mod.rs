@@ -104,6 +104,12 @@ pub struct GpuRenderer {
     target: Option<FrameTarget>,
     /// The foveated stages' buffers, made by the first foveated frame.
     fov_target: Option<FoveatedTarget>,
+    /// The generation and frame size of the mask whose vertices, cells and
+    /// pixel owners `fov_target` holds ([`GpuRenderer::render_foveated_kept`]);
+    /// `None` after any other upload.
+    uploaded_mask: Option<((u64, u64), (u32, u32))>,
+    /// Bytes of mask and pixel owners the last foveated frame uploaded.
+    mask_upload_bytes: u64,
     adapter: String,
     max_binding: u64,
     /// The adapter reports `TIMESTAMP_QUERY`.
@@ -164,6 +170,8 @@ impl GpuRenderer {
             background_rgb8: scene.background_rgb8,
             target: None,
             fov_target: None,
+            uploaded_mask: None,
+            mask_upload_bytes: 0,
             adapter: opened.name,
             max_binding,
             timestamps: opened.timestamps,
@@ -180,6 +188,13 @@ impl GpuRenderer {
     /// foveated frame; a full-resolution scene never allocates them).
     pub fn has_foveated_buffers(&self) -> bool {
         self.fov_target.is_some()
+    }
+
+    /// Bytes of ray mask (vertices, cells) and pixel owners the last
+    /// foveated frame uploaded: 0 when it rendered a mask already on the
+    /// GPU ([`GpuRenderer::render_foveated_kept`]).
+    pub fn mask_upload_bytes(&self) -> u64 {
+        self.mask_upload_bytes
     }
 
     /// Whether the hidden-image cast's pipeline exists (made by the first

@@ -138,6 +138,7 @@ pub(super) fn foveated(
         owner,
         stages,
         reuse,
+        ..
     } = scratch;
     let Some(m) = mask.as_ref() else {
         return;

@@ -60,6 +60,20 @@
 //! ownership raster (11 ms) and the interpolation and shading of every
 //! other pixel remain, so a fixation runs at 10 fps, not the 60.
 //!
+//! ### Holding the mask through a fixation, and whole-frame reuse
+//!
+//! A model with a gaze tolerance ε
+//! ([`SamplingModel::gaze_tolerance_deg`]) builds masks dense enough for
+//! any POR within ε of theirs, and [`Scratch::mask_for`] keeps the mask
+//! while the gaze stays within ε of the POR it was built for (with or
+//! without reuse; without a tolerance only a bit-identical gaze keeps it).
+//! The frame is then the one of the kept mask: a fixation's jitter no
+//! longer changes it. With reuse on, such a frame skips stages 2–4; and
+//! a second one in a row, with the same scene, shading inputs, camera,
+//! settings and surface flag, is the last one copied
+//! ([`ReuseStats::frame_reused`]). Only frames drawn with a kept mask are
+//! kept for copying, so a saccade's frames do not pay for the copy.
+//!
 //! **Off by default** ([`Scratch::default`]), although it is bit-identical
 //! and never measurably slower: with it on, a repeated gaze (what
 //! `gazecast bench stages` and `gazecast render --repeat` time) would
@@ -278,31 +292,20 @@ pub fn render_with(
     let (w, h) = (cam.width_px as usize, cam.height_px as usize);
     let foveated_mode = settings.mode == Mode::Foveated && scene.has(Effect::FoveatedSampling);
     // The mask first: a bad gaze leaves the frame (and the cache) as it was.
+    let mut mask_generation = (0, 0);
     let kept = if foveated_mode {
+        let (held, generation) = scratch.mask_for(model, settings.layout, gaze_px)?;
+        mask_generation = generation;
         match scratch.reuse.as_deref_mut() {
-            None => {
-                match &mut scratch.mask {
-                    Some(m) => mask::rebuild(m, model, settings.layout, gaze_px)?,
-                    None => scratch.mask = Some(mask::build(model, settings.layout, gaze_px)?),
-                }
-                false
-            }
+            None => false,
             Some(r) => {
-                match &mut r.spare {
-                    Some(m) => mask::rebuild(m, model, settings.layout, gaze_px)?,
-                    None => r.spare = Some(mask::build(model, settings.layout, gaze_px)?),
-                }
                 r.stats = ReuseStats::default();
                 r.stats.invalidated = r.begin(CastKey::new(scene, cam, settings.test), w, h);
                 let now = FrameKey {
                     triggers: settings.triggers,
                     check_coverage: settings.check_coverage,
                 };
-                let kept = r.frame == Some(now)
-                    && matches!((&r.spare, &scratch.mask), (Some(a), Some(b)) if same_mask(a, b));
-                if !kept {
-                    std::mem::swap(&mut r.spare, &mut scratch.mask);
-                }
+                let kept = held && r.frame == Some(now);
                 // Until this frame has finished, nothing is kept.
                 r.frame = None;
                 r.stats.mask_reused = kept;
@@ -327,12 +330,46 @@ pub fn render_with(
         stats.rays_full = (w * h) as u64;
         stats.rays_total = stats.rays_full;
     } else {
-        foveated(scene, cam, settings, frame, &mut stats, scratch, kept, t);
+        // A second frame in a row with the kept mask and nothing else
+        // changed: the last one's pixels, copied.
+        let copied = kept
+            && scratch.reuse.as_deref_mut().is_some_and(|r| {
+                let Some(k) = r.last.as_deref().filter(|k| {
+                    k.generation == mask_generation
+                        && k.key
+                            .as_ref()
+                            .is_some_and(|key| key.matches(scene, surface))
+                        && k.frame.width_px == frame.width_px
+                        && k.frame.height_px == frame.height_px
+                }) else {
+                    return false;
+                };
+                frame.clone_from(&k.frame);
+                stats = k.stats;
+                r.stats.frame_reused = true;
+                r.stats.pixels_reused = stats.rays_fovea + stats.rays_refine;
+                true
+            });
+        if copied {
+            scratch.stages.pixels = lap(&mut t);
+        } else {
+            foveated(scene, cam, settings, frame, &mut stats, scratch, kept, t);
+        }
         if let Some(r) = scratch.reuse.as_deref_mut() {
             r.frame = Some(FrameKey {
                 triggers: settings.triggers,
                 check_coverage: settings.check_coverage,
             });
+            // A frame drawn with a kept mask is kept in turn (a frame with
+            // a new mask is not: a saccade's frames would pay the copy for
+            // nothing).
+            if kept && !copied {
+                let k = r.last.get_or_insert_with(Box::default);
+                k.frame.clone_from(frame);
+                k.stats = stats;
+                k.generation = mask_generation;
+                OutKey::set(&mut k.key, scene, surface);
+            }
         }
     }
     stats.time_ms = start.elapsed().as_secs_f64() * 1e3;

@@ -18,9 +18,12 @@
 //!   seed display) no vertex of the new mask lands where an old one was
 //!   (measured: 0 or 1 of 217 k shared for moves of 0.001–16 px; all of
 //!   them for the same gaze). So the vertex rays are reused only when the
-//!   new mask is bit-identical to the last one (same gaze, model and
-//!   layout): then the vertex hits, the classification, the margin and the
-//!   pixel owners of the last frame are all still right and are kept.
+//!   mask is kept ([`Scratch::mask_for`]: the same gaze, model and layout,
+//!   or a gaze within the model's gaze tolerance of the mask's POR): then
+//!   the vertex hits, the classification, the margin and the pixel owners
+//!   of the last frame are all still right and are kept.
+//! - **The whole frame.** A second frame in a row with a kept mask and
+//!   the same shading inputs and surface flag is the last one, copied.
 //!
 //! The cache is emptied when what a cast depends on changes: the scene
 //! ([`Scene::revision`], and which accelerator it traverses), the camera
@@ -30,7 +33,7 @@
 //! from the camera, and reused across frames.
 
 use super::*;
-use crate::scene::Accel;
+use crate::scene::{Accel, Light, Material};
 
 /// What temporal reuse did in the last frame rendered with a [`Scratch`]
 /// (all zero when reuse is off or the frame was full resolution).
@@ -42,6 +45,11 @@ pub struct ReuseStats {
     /// The mask was bit-identical to the last frame's: its vertex rays,
     /// classification, margin and pixel owners were kept, not redone.
     pub mask_reused: bool,
+    /// The whole frame was the last one's, copied: the mask was kept for
+    /// a second frame in a row with nothing else changed (the same scene,
+    /// shading, camera, settings and surface buffers), so every pixel
+    /// would come out as it did.
+    pub frame_reused: bool,
     /// Fovea, refined and gap pixels whose hit came from the cache.
     pub pixels_reused: u64,
     /// Fovea, refined and gap pixels cast (and kept for later frames).
@@ -138,13 +146,65 @@ pub(super) struct Reuse {
     pub(super) epoch: u32,
     /// One per pixel, row-major (`width × height` of the key's camera).
     pub(super) samples: Vec<Sample>,
-    /// The mask being built for the new gaze; after the frame, the last
-    /// frame's (or an older one's), whose buffers the next frame reuses.
-    pub(super) spare: Option<RayMask>,
     /// Set when a foveated frame finished with the mask, vertex hits,
     /// refined flags and owners now in the scratch: what they were made with.
     pub(super) frame: Option<FrameKey>,
     pub(super) stats: ReuseStats,
+    /// The last frame rendered with a kept mask, what it was rendered with,
+    /// and its stats: the next frame with the same mask and inputs is a copy.
+    pub(super) last: Option<Box<Kept>>,
+}
+
+/// A whole frame kept for the next one.
+#[derive(Debug, Default)]
+pub(super) struct Kept {
+    pub(super) frame: Frame,
+    pub(super) stats: Stats,
+    pub(super) key: Option<OutKey>,
+    /// The generation of the mask it was drawn with.
+    pub(super) generation: (u64, u64),
+}
+
+/// What a frame's pixels depend on besides the mask, the casts
+/// ([`CastKey`]) and the frame state ([`FrameKey`]): the shading inputs
+/// (materials, lights, background, which the cast cache does not key on)
+/// and whether the surface buffers are filled.
+#[derive(Debug, Clone, PartialEq)]
+pub(super) struct OutKey {
+    surface: bool,
+    background: [u32; 3],
+    background_rgb8: [u8; 3],
+    materials: Vec<Material>,
+    lights: Vec<Light>,
+}
+
+impl OutKey {
+    /// Whether `self` is the key of a frame of `scene` with `surface`
+    /// (compared without allocating).
+    pub(super) fn matches(&self, scene: &Scene, surface: bool) -> bool {
+        self.surface == surface
+            && self.background == scene.background.to_array().map(f32::to_bits)
+            && self.background_rgb8 == scene.background_rgb8
+            && self.materials == scene.object_materials
+            && self.lights == scene.lights
+    }
+
+    /// Makes `self` the key of a frame of `scene` with `surface`, reusing
+    /// its buffers.
+    pub(super) fn set(key: &mut Option<OutKey>, scene: &Scene, surface: bool) {
+        let k = key.get_or_insert_with(|| OutKey {
+            surface,
+            background: [0; 3],
+            background_rgb8: [0; 3],
+            materials: Vec::new(),
+            lights: Vec::new(),
+        });
+        k.surface = surface;
+        k.background = scene.background.to_array().map(f32::to_bits);
+        k.background_rgb8 = scene.background_rgb8;
+        k.materials.clone_from(&scene.object_materials);
+        k.lights.clone_from(&scene.lights);
+    }
 }
 
 impl Reuse {
@@ -152,6 +212,9 @@ impl Reuse {
     pub(super) fn invalidate(&mut self) {
         self.key = None;
         self.frame = None;
+        if let Some(k) = self.last.as_deref_mut() {
+            k.key = None;
+        }
     }
 
     /// Makes the cache valid for `key`: emptied (and sized for the camera)
@@ -162,6 +225,9 @@ impl Reuse {
         }
         self.key = Some(key);
         self.frame = None;
+        if let Some(k) = self.last.as_deref_mut() {
+            k.key = None;
+        }
         if self.epoch >= LAST_EPOCH {
             self.epoch = 0;
             self.samples.par_iter_mut().for_each(|s| *s = EMPTY);
@@ -170,20 +236,4 @@ impl Reuse {
         self.samples.resize(w * h, EMPTY);
         true
     }
-}
-
-/// Bit-identical masks (what the renderer reads of them: vertices, cells,
-/// fovea spans and size). The vertices first: masks for two gazes differ in
-/// their first vertex, while their fovea spans and cells (the topology) are
-/// often the same for long stretches.
-pub(super) fn same_mask(a: &RayMask, b: &RayMask) -> bool {
-    a.width_px == b.width_px
-        && a.height_px == b.height_px
-        && a.vertices.len() == b.vertices.len()
-        && a.vertices
-            .iter()
-            .zip(&b.vertices)
-            .all(|(p, q)| p.map(f32::to_bits) == q.map(f32::to_bits))
-        && a.fovea == b.fovea
-        && a.cells == b.cells
 }

@@ -51,6 +51,12 @@ impl StageTimes {
 #[derive(Debug, Default)]
 pub struct Scratch {
     pub(super) mask: Option<RayMask>,
+    /// What `mask` was built from; `None` while it is being rebuilt.
+    pub(super) source: Option<MaskSource>,
+    /// Counts the masks built into `mask`, with a number of this scratch's
+    /// own: a consumer of the mask (the GPU core's upload) can tell one it
+    /// already has ([`Scratch::mask_for`]).
+    pub(super) generation: (u64, u64),
     pub(super) vertex_hits: Vec<Option<Hit>>,
     pub(super) refined: Vec<bool>,
     pub(super) touched: Vec<bool>,
@@ -60,7 +66,75 @@ pub struct Scratch {
     pub(super) reuse: Option<Box<Reuse>>,
 }
 
+/// What a kept mask was built from.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(super) struct MaskSource {
+    model: SamplingModel,
+    layout: Layout,
+    gaze_px: [f64; 2],
+}
+
+impl MaskSource {
+    /// Whether the mask built from `self` serves a frame for `other`: the
+    /// same model and layout, and the same gaze or one within the model's
+    /// gaze tolerance of the mask's POR.
+    fn holds(&self, mask: &RayMask, other: &MaskSource) -> bool {
+        self.model == other.model
+            && self.layout == other.layout
+            && (self.gaze_px.map(f64::to_bits) == other.gaze_px.map(f64::to_bits) || {
+                let g = &self.model.geometry;
+                let [w, h] = g.size_px();
+                let gaze = foveation::mask::stand_in_por(other.gaze_px, w, h);
+                self.model.within_tolerance(mask.por_px, gaze)
+            })
+    }
+}
+
+/// Distinguishes scratches in [`Scratch::mask_for`]'s generations.
+static SCRATCHES: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(1);
+
 impl Scratch {
+    /// Makes [`Scratch::mask`] the ray mask for a frame at `gaze_px`: the
+    /// kept one when it was built from the same model, layout and gaze, or,
+    /// with a gaze tolerance ([`SamplingModel::gaze_tolerance_deg`]), when
+    /// the gaze is within it of the kept mask's POR; else rebuilt in place
+    /// for this gaze. Returns whether it was kept, and its generation (a
+    /// pair that differs for every mask this or any other scratch built).
+    /// On error (a non-finite gaze) the kept mask stays as it was.
+    pub fn mask_for(
+        &mut self,
+        model: &SamplingModel,
+        layout: Layout,
+        gaze_px: [f64; 2],
+    ) -> Result<(bool, (u64, u64)), foveation::ParamError> {
+        let wanted = MaskSource {
+            model: *model,
+            layout,
+            gaze_px,
+        };
+        let kept = match (&self.mask, &self.source) {
+            (Some(m), Some(s)) => s.holds(m, &wanted),
+            _ => false,
+        };
+        if !kept {
+            match &mut self.mask {
+                Some(m) => mask::rebuild(m, model, layout, gaze_px)?,
+                None => self.mask = Some(mask::build(model, layout, gaze_px)?),
+            }
+            self.source = Some(wanted);
+            if self.generation.0 == 0 {
+                self.generation.0 = SCRATCHES.fetch_add(1, Ordering::Relaxed);
+            }
+            self.generation.1 += 1;
+        }
+        Ok((kept, self.generation))
+    }
+
+    /// The ray mask of the last foveated frame (or [`Scratch::mask_for`]).
+    pub fn mask(&self) -> Option<&RayMask> {
+        self.mask.as_ref()
+    }
+
     /// A scratch with temporal reuse on: foveated frames take the hits of
     /// pixel centres cast by earlier frames from a per-pixel cache, and
     /// keep a whole frame's vertex rays, classification and owners while

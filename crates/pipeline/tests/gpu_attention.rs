@@ -933,3 +933,59 @@ fn attention_on_the_gpu_is_paid_per_use() {
         "{text}"
     );
 }
+
+/// Bad input is an error, checked before anything is sized from it, and
+/// leaves the history alone; the model goes on working afterwards.
+#[test]
+fn bad_input_is_an_error_not_a_panic() {
+    use attention::AttentionError;
+    use pipeline::gpu_attention::GpuAttentionError;
+    let config = AttentionConfig::default();
+    assert!(matches!(
+        GpuAttention::new(AttentionConfig::with_map_size(1024)).err(),
+        Some(GpuAttentionError::Attention(
+            AttentionError::MapSizeOutOfRange { .. }
+        ))
+    ));
+    let mut gpu = gpu_model(config);
+    let mut c = Canvas::new(64, 48, [20, 20, 20]);
+    c.rect([10, 10, 30, 30], 1, [200, 50, 50], 1000.0);
+    let objects = still([1]);
+    assert!(gpu.measure(&objects).is_err(), "nothing uploaded yet");
+    let first = gpu
+        .update(&c.view(), &objects, CameraMotion::STATIC, 0.0)
+        .expect("frame");
+    let before = gpu.tracker().smoothed_attention(1);
+    assert_eq!(first.attended, Some(1));
+    let mut short = c.clone();
+    short.depth_mm.pop();
+    let huge = FrameView {
+        width: 1 << 20,
+        height: 1 << 20,
+        ..c.view()
+    };
+    let empty = FrameView {
+        width: 0,
+        ..c.view()
+    };
+    for (what, frame, objects, dt) in [
+        ("short depth buffer", short.view(), objects.clone(), 0.0),
+        ("huge frame", huge, objects.clone(), 0.0),
+        ("empty frame", empty, objects.clone(), 0.0),
+        ("duplicate ids", c.view(), still([1, 1]), 0.0),
+        ("background id", c.view(), still([BACKGROUND_ID]), 0.0),
+        ("negative time step", c.view(), objects.clone(), -1.0),
+        ("NaN time step", c.view(), objects.clone(), f64::NAN),
+    ] {
+        let r = gpu.update(&frame, &objects, CameraMotion::STATIC, dt);
+        assert!(
+            matches!(r, Err(GpuAttentionError::Attention(_))),
+            "{what}: {r:?}"
+        );
+        assert_eq!(gpu.tracker().smoothed_attention(1), before, "{what}");
+    }
+    let again = gpu
+        .update(&c.view(), &objects, CameraMotion::STATIC, 0.0)
+        .expect("frame after errors");
+    assert_eq!(again.attended, Some(1));
+}

@@ -69,6 +69,10 @@ pub enum AttentionError {
     /// The frame time step is negative or not finite.
     #[error("time step {0} s is invalid: use a finite value >= 0")]
     InvalidTimeStep(f64),
+    /// A measured frame record ([`crate::FrameMeasure`]) does not fit the
+    /// frame or the object list.
+    #[error("measured frame statistics are inconsistent: {0}")]
+    InvalidMeasure(String),
     /// A configuration value is out of its range.
     #[error("configuration `{field}` is invalid: {reason}")]
     InvalidConfig {

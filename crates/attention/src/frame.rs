@@ -34,20 +34,8 @@ pub struct FrameView<'a> {
 
 impl FrameView<'_> {
     /// Pixel count, after checking the size and every buffer length.
-    pub(crate) fn validate(&self) -> Result<u64, AttentionError> {
-        let (width, height) = (self.width, self.height);
-        if width == 0 || height == 0 {
-            return Err(AttentionError::EmptyFrame { width, height });
-        }
-        let pixels = u64::from(width) * u64::from(height);
-        if width > MAX_FRAME_SIDE || height > MAX_FRAME_SIDE || pixels > MAX_FRAME_PIXELS {
-            return Err(AttentionError::FrameTooLarge {
-                width,
-                height,
-                max_side: MAX_FRAME_SIDE,
-                max_pixels: MAX_FRAME_PIXELS,
-            });
-        }
+    pub fn validate(&self) -> Result<u64, AttentionError> {
+        let pixels = crate::measure::check_frame_size(self.width, self.height)?;
         let check = |buffer: &'static str, expected: u64, actual: usize| {
             let actual = actual as u64;
             if actual == expected {
@@ -92,7 +80,7 @@ impl ObjectInfo {
     }
 
     /// `T_i` as used: clamped to [0, 1], non-finite as 0.
-    pub(crate) fn importance_used(&self) -> f32 {
+    pub fn importance_used(&self) -> f32 {
         if self.importance.is_finite() {
             self.importance.clamp(0.0, 1.0)
         } else {
@@ -101,7 +89,7 @@ impl ObjectInfo {
     }
 
     /// `B_m` before normalisation: the speed, non-finite as 0.
-    pub(crate) fn speed_used(&self) -> f32 {
+    pub fn speed_used(&self) -> f32 {
         let [x, y, z] = self.motion_mm_per_s.map(f64::from);
         let speed = (x * x + y * y + z * z).sqrt();
         if speed.is_finite() {

@@ -14,6 +14,19 @@
 //! against recorded gaze (Lee's `A_1`–`A_3`); [`synthetic`] makes test
 //! scenes.
 //!
+//! ## CPU and GPU
+//!
+//! `update` is two halves with one record between them ([`measure`]):
+//! [`AttentionTracker::measure`] runs the per-pixel and per-map part
+//! (steps 1–6 below) and returns each object's pixel statistics
+//! ([`FrameMeasure`]); [`AttentionTracker::update_measured`] finishes a
+//! frame from such a record (steps 7–9: contexts, Kalman filter, ranking,
+//! threshold). A GPU implementation of steps 1–6 — gazecast's
+//! `pipeline::gpu_attention`, WGSL on the renderer's own frame buffers —
+//! fills the same record, so the finishing code exists once and this crate
+//! has no GPU dependency. This crate's CPU path is the reference; the
+//! pipeline crate states and tests the tolerance between the two.
+//!
 //! ## The pipeline (Lee Fig. 3.1) and where each formula is
 //!
 //! 1. **Downsample** the frame to an `M × M` map, `M` in 64..=512 (Lee
@@ -165,6 +178,7 @@ pub mod eval;
 pub mod fast_math;
 pub mod frame;
 pub mod kalman;
+pub mod measure;
 pub mod pyramid;
 pub mod synthetic;
 mod tracker;
@@ -175,4 +189,5 @@ pub use config::{
 pub use error::AttentionError;
 pub use eval::{top_k_hit, AccuracyAccumulator};
 pub use frame::{CameraMotion, FrameView, ObjectInfo, BACKGROUND_ID};
+pub use measure::{CellAxis, FrameMeasure, ObjectIndex, ObjectMeasure};
 pub use tracker::{Attention, AttentionTracker, Feature, ObjectAttention, SaliencyMaps};

@@ -10,8 +10,9 @@ use crate::config::AttentionConfig;
 use crate::context::{spatial_context, TemporalContext};
 use crate::contrast::{combine, contrast_weight, CentreSurround};
 use crate::error::AttentionError;
-use crate::frame::{CameraMotion, FrameView, ObjectInfo, BACKGROUND_ID, MAX_OBJECTS};
+use crate::frame::{CameraMotion, FrameView, ObjectInfo, BACKGROUND_ID};
 use crate::kalman::ScalarKalman;
+use crate::measure::{footprints, FrameMeasure, ObjectIndex, ObjectMeasure};
 use crate::pyramid::Pyramid;
 
 /// The five bottom-up features (Lee §3.1.1).
@@ -389,36 +390,6 @@ struct CellGrid {
     cell_of_y: Vec<u32>,
 }
 
-fn footprints(
-    frame_len: u32,
-    map_len: u32,
-    lo: &mut Vec<u32>,
-    hi: &mut Vec<u32>,
-    cell_of: &mut Vec<u32>,
-) {
-    let (n, m) = (u64::from(frame_len), u64::from(map_len));
-    lo.clear();
-    hi.clear();
-    for c in 0..m {
-        let a = (c * n / m).min(n - 1);
-        let b = ((c + 1) * n / m).max(a + 1).min(n);
-        lo.push(a as u32);
-        hi.push(b as u32);
-    }
-    cell_of.clear();
-    if n >= m {
-        // Footprints partition the frame.
-        cell_of.resize(frame_len as usize, 0);
-        for c in 0..map_len as usize {
-            for p in lo[c]..hi[c] {
-                cell_of[p as usize] = c as u32;
-            }
-        }
-    } else {
-        cell_of.extend((0..n).map(|p| (((2 * p + 1) * m) / (2 * n)).min(m - 1) as u32));
-    }
-}
-
 impl CellGrid {
     fn prepare(&mut self, width: u32, height: u32, map: u32) {
         if self.key == (width, height, map) {
@@ -450,9 +421,10 @@ pub struct AttentionTracker {
     config: AttentionConfig,
     frame_index: u64,
     states: HashMap<u32, ObjectState>,
-    order: Vec<usize>,
-    sorted_ids: Vec<u32>,
+    index: ObjectIndex,
     lookup: IdLookup,
+    /// This frame's measured statistics per object, dense order.
+    measures: Vec<ObjectMeasure>,
     objects: Vec<FrameObject>,
     blocks: Vec<PixelBlock>,
     grid: CellGrid,
@@ -478,9 +450,9 @@ impl AttentionTracker {
             config,
             frame_index: 0,
             states: HashMap::new(),
-            order: Vec::new(),
-            sorted_ids: Vec::new(),
+            index: ObjectIndex::default(),
             lookup: IdLookup::default(),
+            measures: Vec::new(),
             objects: Vec::new(),
             blocks: vec![PixelBlock::default(); PIXEL_BLOCKS],
             grid: CellGrid::default(),
@@ -544,12 +516,57 @@ impl AttentionTracker {
         dt_s: f64,
         allow_fused: bool,
     ) -> Result<Attention, AttentionError> {
-        let total_pixels = frame.validate()?;
         if !(dt_s.is_finite() && dt_s >= 0.0) {
+            frame.validate()?;
             return Err(AttentionError::InvalidTimeStep(dt_s));
         }
-        self.index_objects(objects)?;
+        let (informative, background, unlisted) = self.measure_with(frame, objects, allow_fused)?;
         self.frame_index += 1;
+        Ok(self.finish(
+            objects,
+            camera,
+            dt_s,
+            (frame.width, frame.height),
+            informative,
+            (background, unlisted),
+        ))
+    }
+
+    /// The per-pixel and per-map part of a frame on the CPU (Lee Fig. 3.1
+    /// steps 1–6): the maps ([`AttentionTracker::maps`]) and the per-object
+    /// statistics, in the order of `objects`. Touches no history;
+    /// [`AttentionTracker::update_measured`] with the result is
+    /// [`AttentionTracker::update`], bit for bit.
+    pub fn measure(
+        &mut self,
+        frame: &FrameView,
+        objects: &[ObjectInfo],
+    ) -> Result<FrameMeasure, AttentionError> {
+        let (informative, background, unlisted) = self.measure_with(frame, objects, true)?;
+        let mut records = vec![ObjectMeasure::default(); objects.len()];
+        for (&source, m) in self.index.sources().iter().zip(&self.measures) {
+            records[source] = *m;
+        }
+        Ok(FrameMeasure {
+            width: frame.width,
+            height: frame.height,
+            objects: records,
+            background_pixels: background,
+            unlisted_pixels: unlisted,
+            bottom_up_informative: informative,
+        })
+    }
+
+    /// Fills the maps and `self.measures` (dense order); returns whether
+    /// `S_p` is informative and the background and unlisted pixel counts.
+    fn measure_with(
+        &mut self,
+        frame: &FrameView,
+        objects: &[ObjectInfo],
+        allow_fused: bool,
+    ) -> Result<(bool, u64, u64), AttentionError> {
+        let total_pixels = frame.validate()?;
+        self.index_objects(objects)?;
         let features = self.config.features;
         let n = self.objects.len();
 
@@ -643,16 +660,89 @@ impl AttentionTracker {
             }
         }
 
-        // Top-down modulation, smoothing, ranking (eq. 3.7–3.10).
-        let (w, h) = (f64::from(frame.width), f64::from(frame.height));
+        self.measures.clear();
+        self.measures.extend(
+            stats
+                .iter()
+                .zip(&saliency_stats)
+                .map(|(st, ss)| ObjectMeasure {
+                    pixel_count: st.count,
+                    depth_sum_mm: st.depth_sum_mm,
+                    depth_count: st.depth_count,
+                    sum_x: st.sum_x,
+                    sum_y: st.sum_y,
+                    saliency_sum: ss.sum,
+                    peak_saliency: ss.best,
+                    peak_cell: ss.best_cell,
+                    peak_count: ss.best_count,
+                    peak_sum_x: ss.best_sum_x,
+                    peak_sum_y: ss.best_sum_y,
+                }),
+        );
+        Ok((informative, background, unlisted))
+    }
+
+    /// Finishes a frame whose per-pixel and per-map part ran elsewhere (a
+    /// GPU): the same contexts (eq. 3.9, 3.10), final attention (3.8),
+    /// Kalman smoothing, ranking and threshold as [`AttentionTracker::update`],
+    /// from `measure`'s per-object statistics (one record per entry of
+    /// `objects`, in its order). `measure` is checked first
+    /// ([`FrameMeasure::validate`]); errors leave the history unchanged.
+    ///
+    /// The tracker's own maps ([`AttentionTracker::maps`]) are not touched:
+    /// they keep the last CPU frame's.
+    pub fn update_measured(
+        &mut self,
+        measure: &FrameMeasure,
+        objects: &[ObjectInfo],
+        camera: CameraMotion,
+        dt_s: f64,
+    ) -> Result<Attention, AttentionError> {
+        measure.validate(objects.len(), self.config.map_size)?;
+        if !(dt_s.is_finite() && dt_s >= 0.0) {
+            return Err(AttentionError::InvalidTimeStep(dt_s));
+        }
+        self.index_objects(objects)?;
+        self.frame_index += 1;
+        self.measures.clear();
+        let index = &self.index;
+        self.measures.extend(
+            index
+                .sources()
+                .iter()
+                .map(|&source| measure.objects[source]),
+        );
+        let informative = measure.bottom_up_informative && self.config.features.any_bottom_up();
+        Ok(self.finish(
+            objects,
+            camera,
+            dt_s,
+            (measure.width, measure.height),
+            informative,
+            (measure.background_pixels, measure.unlisted_pixels),
+        ))
+    }
+
+    /// Top-down modulation, smoothing, ranking (eq. 3.7–3.10) from
+    /// `self.measures` (dense order): the one place a frame is finished.
+    fn finish(
+        &mut self,
+        objects: &[ObjectInfo],
+        camera: CameraMotion,
+        dt_s: f64,
+        (width, height): (u32, u32),
+        informative: bool,
+        (background, unlisted): (u64, u64),
+    ) -> Attention {
+        let features = self.config.features;
+        let (w, h) = (f64::from(width), f64::from(height));
         let half_diagonal = 0.5 * (w * w + h * h).sqrt();
         let moving_forward = camera.moving_forward();
         let cfg = self.config;
         let mut ranking = Vec::new();
-        for (d, o) in self.objects.iter().enumerate() {
+        for (o, st) in self.objects.iter().zip(&self.measures) {
             let info = &objects[o.source];
-            let st = &stats[d];
-            let visible = st.count > 0;
+            let visible = st.pixel_count > 0;
             let state = self.states.entry(info.id).or_insert_with(|| ObjectState {
                 temporal: TemporalContext::new(cfg.temporal_window_frames as usize),
                 kalman: None,
@@ -660,7 +750,7 @@ impl AttentionTracker {
                 listed_in_frame: 0,
             });
             state.listed_in_frame = self.frame_index;
-            let count = st.count.max(1) as f64;
+            let count = st.pixel_count.max(1) as f64;
             let centre = [
                 (st.sum_x as f64 / count + 0.5) as f32,
                 (st.sum_y as f64 / count + 0.5) as f32,
@@ -684,16 +774,15 @@ impl AttentionTracker {
             let temporal = state.temporal.push(spatial);
             state.last_distance_mm = visible.then_some(distance_mm);
 
-            let ss = &saliency_stats[d];
             let (mean_saliency, peak) = if !visible {
                 (0.0, centre)
-            } else if informative && ss.best_count > 0 {
-                let bc = ss.best_count as f64;
+            } else if informative && st.peak_count > 0 {
+                let bc = st.peak_count as f64;
                 (
-                    (ss.sum / st.count as f64).clamp(0.0, 1.0) as f32,
+                    (st.saliency_sum / st.pixel_count as f64).clamp(0.0, 1.0) as f32,
                     [
-                        (ss.best_sum_x as f64 / bc + 0.5) as f32,
-                        (ss.best_sum_y as f64 / bc + 0.5) as f32,
+                        (st.peak_sum_x as f64 / bc + 0.5) as f32,
+                        (st.peak_sum_y as f64 / bc + 0.5) as f32,
                     ],
                 )
             } else {
@@ -734,7 +823,7 @@ impl AttentionTracker {
                     object_saliency,
                     spatial_context: spatial,
                     temporal_context: temporal,
-                    pixel_count: st.count,
+                    pixel_count: st.pixel_count,
                     distance_mm,
                     screen_centre_px: centre,
                     peak_px: peak,
@@ -748,46 +837,30 @@ impl AttentionTracker {
         let attended = ranking
             .first()
             .filter(|o| o.attention >= cfg.attention_threshold);
-        Ok(Attention {
+        Attention {
             attended: attended.map(|o| o.id),
             gaze_px: attended.map(|o| o.peak_px),
             ranking,
             bottom_up_informative: informative,
             background_pixels: background,
             unlisted_pixels: unlisted,
-        })
+        }
     }
 
     /// Sorts the object list by id into dense indices; rejects duplicates,
     /// the background id and overlong lists. Touches no history.
     fn index_objects(&mut self, objects: &[ObjectInfo]) -> Result<(), AttentionError> {
-        if objects.len() > MAX_OBJECTS {
-            return Err(AttentionError::TooManyObjects {
-                count: objects.len(),
-                max: MAX_OBJECTS,
-            });
-        }
-        self.order.clear();
-        self.order.extend(0..objects.len());
-        self.order.sort_unstable_by_key(|&i| objects[i].id);
-        self.sorted_ids.clear();
-        self.sorted_ids
-            .extend(self.order.iter().map(|&i| objects[i].id));
-        if self.sorted_ids.last() == Some(&BACKGROUND_ID) {
-            return Err(AttentionError::ReservedObjectId);
-        }
-        if let Some(pair) = self.sorted_ids.windows(2).find(|p| p[0] == p[1]) {
-            return Err(AttentionError::DuplicateObjectId(pair[0]));
-        }
-        self.lookup.rebuild(&self.sorted_ids);
+        self.index.rebuild(objects)?;
+        self.lookup.rebuild(self.index.sorted_ids());
         self.objects.clear();
-        self.objects.extend(self.order.iter().map(|&i| FrameObject {
-            source: i,
-            importance: objects[i].importance_used(),
-            speed: objects[i].speed_used(),
-            size: 0.0,
-            motion: 0.0,
-        }));
+        self.objects
+            .extend(self.index.sources().iter().map(|&i| FrameObject {
+                source: i,
+                importance: objects[i].importance_used(),
+                speed: objects[i].speed_used(),
+                size: 0.0,
+                motion: 0.0,
+            }));
         let n = objects.len();
         for block in &mut self.blocks {
             block.stats.clear();

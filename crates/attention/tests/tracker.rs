@@ -617,3 +617,77 @@ fn small_frames_below_the_map_size_work() {
         "{gaze:?}"
     );
 }
+
+#[test]
+fn a_measured_frame_finishes_exactly_as_update_does() {
+    // The finishing steps (contexts, filter, ranking) exist once:
+    // `measure` + `update_measured` is `update`, bit for bit, over frames
+    // with history, on frames larger and smaller than the map.
+    for (w, h, map) in [(320u32, 256u32, 64u32), (50, 40, 64)] {
+        let mut scene = SyntheticScene::new(w, h, 12, 7).expect("valid");
+        let camera = CameraMotion::new([0.0, 0.0, -1.0], [0.0, 0.0, -400.0]);
+        let mut whole = tracker(map);
+        let mut split = tracker(map);
+        for _ in 0..5 {
+            let objects = scene.objects();
+            let a = whole
+                .update(&scene.view(), &objects, camera, DT)
+                .expect("frame");
+            let measure = split.measure(&scene.view(), &objects).expect("measure");
+            assert_eq!(measure.objects.len(), objects.len());
+            let b = split
+                .update_measured(&measure, &objects, camera, DT)
+                .expect("finish");
+            assert_eq!(a, b, "{w}x{h}");
+            assert!(!a.ranking.is_empty());
+            scene.advance(0.05);
+        }
+    }
+}
+
+#[test]
+fn inconsistent_measures_are_refused_and_leave_history_alone() {
+    let scene = SyntheticScene::new(160, 128, 6, 3).expect("valid");
+    let objects = scene.objects();
+    let mut t = tracker(64);
+    let good = t.measure(&scene.view(), &objects).expect("measure");
+    let first = t
+        .update_measured(&good, &objects, CameraMotion::STATIC, DT)
+        .expect("finish");
+    let before = t.smoothed_attention(first.ranking[0].id);
+    let mut short = good.clone();
+    short.objects.pop();
+    let mut miscounted = good.clone();
+    miscounted.background_pixels += 1;
+    let mut nan = good.clone();
+    nan.objects[0].saliency_sum = f64::NAN;
+    let mut sub = good.clone();
+    sub.objects[0].depth_count = sub.objects[0].pixel_count + 1;
+    let mut cell = good.clone();
+    let visible = cell
+        .objects
+        .iter()
+        .position(|o| o.peak_count > 0)
+        .expect("a peak");
+    cell.objects[visible].peak_cell = 64 * 64;
+    for (what, bad) in [
+        ("short", short),
+        ("miscounted", miscounted),
+        ("nan", nan),
+        ("sub-count", sub),
+        ("cell", cell),
+    ] {
+        let r = t.update_measured(&bad, &objects, CameraMotion::STATIC, DT);
+        assert!(
+            matches!(r, Err(AttentionError::InvalidMeasure(_))),
+            "{what}: {r:?}"
+        );
+    }
+    assert_eq!(t.smoothed_attention(first.ranking[0].id), before);
+    let mut empty = good.clone();
+    empty.width = 0;
+    assert!(matches!(
+        t.update_measured(&empty, &objects, CameraMotion::STATIC, DT),
+        Err(AttentionError::EmptyFrame { .. })
+    ));
+}

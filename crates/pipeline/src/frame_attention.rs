@@ -16,8 +16,19 @@
 //! (`raycast::Scene::pose`). The Kalman filter's time step is the frames'
 //! time difference (0 without a clock). The tracker's own constants and
 //! threshold are `attention::AttentionConfig`'s defaults.
+//!
+//! Two paths run the model: [`FrameAttention::update`] on a frame read back
+//! to the CPU (the reference; the CPU backend's path), and, inside the GPU
+//! backend's depth-of-field pass, its per-pixel part on the GPU frame's own
+//! buffers before any read-back (`crate::gpu_attention` states the split
+//! and the tolerance). Both finish the frame in the same CPU tracker, so
+//! the contexts, filter and ranking are one piece of code. The GPU state is
+//! made by the first GPU frame only.
 
+use raycast::gpu::{wgpu, GpuError, GpuFrame};
 use raycast::{Frame, Scene};
+
+use crate::gpu::{GpuSaliency, PrepareError, SaliencyInput};
 
 /// The model and what it needs between frames.
 pub struct FrameAttention {
@@ -26,6 +37,9 @@ pub struct FrameAttention {
     features: attention::Features,
     last_time_s: Option<f64>,
     attended: Option<u32>,
+    /// The per-pixel part on the GPU: made by the first frame measured
+    /// there, `None` on the CPU path.
+    gpu: Option<Box<GpuSaliency>>,
 }
 
 impl std::fmt::Debug for FrameAttention {
@@ -54,7 +68,14 @@ impl FrameAttention {
             features,
             last_time_s: None,
             attended: None,
+            gpu: None,
         })
+    }
+
+    /// Whether the GPU passes' shader and buffers exist (made by the first
+    /// frame measured on the GPU; never on the CPU path).
+    pub fn has_gpu_buffers(&self) -> bool {
+        self.gpu.as_ref().is_some_and(|g| g.has_buffers())
     }
 
     /// The object attended in the last frame, if any.
@@ -79,6 +100,84 @@ impl FrameAttention {
         scene: &Scene,
         time_s: Option<f64>,
     ) -> Option<attention::Attention> {
+        let (camera, dt) = self.frame_inputs(scene, time_s);
+        let view = attention::FrameView {
+            width: frame.width_px,
+            height: frame.height_px,
+            rgb: &frame.rgb,
+            depth_mm: &frame.depth_mm,
+            object: &frame.object,
+        };
+        let result = self.tracker.update(&view, &self.objects, camera, dt).ok();
+        self.attended = result.as_ref().and_then(|r| r.attended);
+        result
+    }
+
+    /// [`FrameAttention::update`] on a frame still on the GPU, before its
+    /// read-back: the per-pixel part runs on its colour, depth and object-id
+    /// buffers (encoded after `encoder`'s passes, then one wait for the
+    /// per-object statistics), the CPU tracker finishes it. Returns a fresh
+    /// encoder for the rest of the frame. `Ok((None, …))` when the model
+    /// refuses the frame (a size it does not take).
+    pub(crate) fn update_on_gpu(
+        &mut self,
+        frame: &GpuFrame<'_>,
+        encoder: wgpu::CommandEncoder,
+        scene: &Scene,
+        time_s: Option<f64>,
+    ) -> Result<(Option<attention::Attention>, wgpu::CommandEncoder), GpuError> {
+        let (camera, dt) = self.frame_inputs(scene, time_s);
+        let config = *self.tracker.config();
+        let gpu = self
+            .gpu
+            .get_or_insert_with(|| Box::new(GpuSaliency::new(config)));
+        let input = SaliencyInput {
+            device: frame.device(),
+            queue: frame.queue(),
+            pixels: frame.pixels(),
+            depth: frame.depth(),
+            ids: frame.object_ids(),
+            width: frame.width(),
+            height: frame.height(),
+            max_binding: frame.max_binding_bytes(),
+        };
+        match gpu.prepare(&input, &self.objects) {
+            Ok(()) => {}
+            Err(PrepareError::Attention(_)) => {
+                self.attended = None;
+                return Ok((None, encoder));
+            }
+            Err(PrepareError::Gpu(e)) => return Err(e),
+        }
+        let (measure, next) = gpu.measure(&input, encoder)?;
+        let result = self
+            .tracker
+            .update_measured(&measure, &self.objects, camera, dt)
+            .ok();
+        self.attended = result.as_ref().and_then(|r| r.attended);
+        Ok((result, next))
+    }
+
+    /// The attended object's mean eye distance on a GPU frame, mm, or
+    /// `None` ([`FrameAttention::depth_mm`]'s GPU twin).
+    pub(crate) fn depth_mm_on_gpu(
+        &mut self,
+        frame: &GpuFrame<'_>,
+        encoder: wgpu::CommandEncoder,
+        scene: &Scene,
+        time_s: Option<f64>,
+    ) -> Result<(Option<f64>, wgpu::CommandEncoder), GpuError> {
+        let (result, next) = self.update_on_gpu(frame, encoder, scene, time_s)?;
+        Ok((result.as_ref().and_then(attended_depth_mm), next))
+    }
+
+    /// The object list (rebuilt when the scene's importances or velocities
+    /// changed), the camera's motion and the time step for this frame.
+    fn frame_inputs(
+        &mut self,
+        scene: &Scene,
+        time_s: Option<f64>,
+    ) -> (attention::CameraMotion, f64) {
         let importance = &scene.object_importance;
         let listed = &importance[..importance.len().min(attention::frame::MAX_OBJECTS)];
         let pose = scene.pose();
@@ -120,23 +219,12 @@ impl FrameAttention {
         if let Some(t) = time_s.filter(|t| t.is_finite()) {
             self.last_time_s = Some(t);
         }
-        let view = attention::FrameView {
-            width: frame.width_px,
-            height: frame.height_px,
-            rgb: &frame.rgb,
-            depth_mm: &frame.depth_mm,
-            object: &frame.object,
-        };
-        let result = self.tracker.update(&view, &self.objects, camera, dt).ok();
-        self.attended = result.as_ref().and_then(|r| r.attended);
-        result
+        (camera, dt)
     }
 
     /// The attended object's mean eye distance in `frame`, mm, or `None`.
     pub fn depth_mm(&mut self, frame: &Frame, scene: &Scene, time_s: Option<f64>) -> Option<f64> {
-        let result = self.update(frame, scene, time_s)?;
-        let d = f64::from(result.get(result.attended?)?.distance_mm);
-        (d.is_finite() && d > 0.0).then_some(d)
+        attended_depth_mm(&self.update(frame, scene, time_s)?)
     }
 
     /// The attended object's saliency peak in `frame` (screen px): a point
@@ -152,4 +240,10 @@ impl FrameAttention {
         let p = [f64::from(p[0]), f64::from(p[1])];
         (p[0].is_finite() && p[1].is_finite()).then_some(p)
     }
+}
+
+/// The attended object's mean eye distance, mm, when finite and positive.
+fn attended_depth_mm(result: &attention::Attention) -> Option<f64> {
+    let d = f64::from(result.get(result.attended?)?.distance_mm);
+    (d.is_finite() && d > 0.0).then_some(d)
 }

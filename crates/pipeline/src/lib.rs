@@ -23,13 +23,16 @@
 //!   configure the hybrid method.
 //! - On the **GPU backend** depth of field and image-based foveation run on
 //!   the GPU frame's buffers before the read-back (`gpu`, WGSL twins of the
-//!   CPU passes, which stay the reference).
+//!   CPU passes, which stay the reference), and so does the per-pixel part
+//!   of Lee's attention model when depth of field focuses on the attended
+//!   object ([`gpu_attention`] states the split and its tolerance).
 
 pub mod backend;
 pub mod colour;
 pub mod effects;
 pub mod frame_attention;
 mod gpu;
+pub mod gpu_attention;
 pub mod image_foveation;
 pub mod method;
 pub mod model;

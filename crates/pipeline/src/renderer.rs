@@ -121,8 +121,7 @@ pub struct Renderer<'s> {
     gpu_dof: Option<GpuDof>,
     /// Depth of field by splatting (Lee ch. 5) on the GPU, its hidden image
     /// cast there too: on the GPU backend when the scene lists
-    /// `DepthOfField(method: Splat)` as its first pass, except `focus:
-    /// Attention`; `None` otherwise.
+    /// `DepthOfField(method: Splat)` as its first pass; `None` otherwise.
     gpu_splat: Option<GpuSplat>,
     /// Image-based foveation on the GPU (the level map stays `image`'s):
     /// on the GPU backend for `Method::Image` only.
@@ -205,8 +204,6 @@ impl<'s> Renderer<'s> {
         let gpu_dof = match scene.effect(Effect::DEPTH_OF_FIELD) {
             Some(e) if on_gpu => DepthOfField::from_effect(e)
                 .filter(|d| passes.first().is_some_and(|p| p.name() == d.name()))
-                // The attention model reads the frame's colour and ids: CPU.
-                .filter(|d| d.focus != raycast::scene::DofFocus::Attention)
                 // Foreground smoothing has no GPU path: CPU.
                 .filter(|d| !d.smooth_foreground)
                 .map(|d| {
@@ -218,7 +215,6 @@ impl<'s> Renderer<'s> {
         let gpu_splat = match scene.effect(Effect::DEPTH_OF_FIELD) {
             Some(e) if on_gpu => DepthOfFieldSplat::from_effect(e)
                 .filter(|d| passes.first().is_some_and(|p| p.name() == d.name()))
-                .filter(|d| d.focus != raycast::scene::DofFocus::Attention)
                 .map(|d| {
                     passes.remove(0);
                     GpuSplat::new(d)
@@ -409,6 +405,7 @@ impl<'s> Renderer<'s> {
                 let dof = self.gpu_dof.as_mut().map(|state| crate::gpu::DofFrame {
                     state,
                     camera: &self.camera,
+                    scene,
                     gaze_px,
                     time_s: Some(time_s),
                     vergence_mm,
@@ -417,6 +414,7 @@ impl<'s> Renderer<'s> {
                 let splat = self.gpu_splat.as_mut().map(|state| crate::gpu::SplatFrame {
                     state,
                     camera: &self.camera,
+                    scene,
                     background,
                     gaze_px,
                     time_s: Some(time_s),
@@ -564,6 +562,24 @@ impl<'s> Renderer<'s> {
     /// them, with its first frame.
     pub fn has_splat_buffers(&self) -> bool {
         self.gpu_splat.as_ref().is_some_and(|d| d.has_buffers())
+    }
+
+    /// Whether the GPU backend holds the attention model's shader and
+    /// buffers (false on the CPU backend, whose model reads the frame read
+    /// back): only depth of field with `focus: Attention` makes them, with
+    /// its first frame.
+    pub fn has_attention_buffers(&self) -> bool {
+        let dof = self
+            .gpu_dof
+            .as_ref()
+            .and_then(|d| d.pass.attention())
+            .is_some_and(|a| a.has_gpu_buffers());
+        let splat = self
+            .gpu_splat
+            .as_ref()
+            .and_then(|d| d.pass.attention())
+            .is_some_and(|a| a.has_gpu_buffers());
+        dof || splat
     }
 
     /// Whether the GPU backend holds image-based foveation's pyramid and
@@ -782,8 +798,12 @@ impl<'s> Renderer<'s> {
                      {FOCUS_WINDOW_PX}×{FOCUS_WINDOW_PX} window at the gaze read back after the cast; \
                      refocus on the CPU"
                 ),
-                // Never moved to the GPU (see `new`).
-                raycast::scene::DofFocus::Attention => "the attended object (CPU)".to_string(),
+                raycast::scene::DofFocus::Attention => format!(
+                    "the attended object: Lee's attention model ({}² maps) on the frame's \
+                     colour, depth and ids on the GPU, per-object statistics read back (one \
+                     wait), contexts, Kalman filter and ranking on the CPU; refocus on the CPU",
+                    crate::effects::depth_of_field::ATTENTION_MAP_SIZE
+                ),
             };
             out.push(format!(
                 "GPU pass before the read-back: {} — focus {focus}; level 0 (colour, depth, σ) \
@@ -798,7 +818,11 @@ impl<'s> Renderer<'s> {
                      (or the vergence depth) read back after the cast, refocus on the CPU"
                 ),
                 raycast::scene::DofFocus::Fixed { depth_mm } => format!("fixed at {depth_mm} mm"),
-                raycast::scene::DofFocus::Attention => "the attended object (CPU)".to_string(),
+                raycast::scene::DofFocus::Attention => format!(
+                    "the attended object: Lee's attention model ({}² maps) on the GPU frame, \
+                     per-object statistics read back, finished on the CPU",
+                    crate::effects::depth_of_field::ATTENTION_MAP_SIZE
+                ),
             };
             out.push(format!(
                 "GPU pass before the read-back: {} — focus {focus}; V with signed CoC and \

@@ -467,11 +467,16 @@ fn vergence_focus_on_the_gpu_is_the_cpu_pass() {
         );
         assert!(worst <= 1, "{vergence:?}: {worst}");
     }
-    // Attention focus reads the whole frame: it stays on the CPU.
+    // Attention focus runs on the GPU too, on the frame's own buffers
+    // (tests/gpu_attention.rs compares it with the CPU pass).
     let s = scene("DepthOfField(focus: Attention)");
     let r = renderer(&s, Method::Full, BackendChoice::Gpu);
-    assert!(r.gpu_pass_names().is_empty());
-    assert!(r.depth_of_field().is_some_and(|d| d.has_attention_model()));
+    assert_eq!(
+        r.gpu_pass_names().len(),
+        1,
+        "attention focus runs on the GPU"
+    );
+    assert!(r.depth_of_field().is_none(), "no CPU pass is left");
     // So does foreground smoothing (no GPU path).
     let s = scene("DepthOfField(smooth_foreground: true)");
     let r = renderer(&s, Method::Full, BackendChoice::Gpu);

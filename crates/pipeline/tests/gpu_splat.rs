@@ -390,10 +390,11 @@ fn the_splat_pass_is_paid_per_use_and_named() {
             && text.contains("hidden image cast on the GPU"),
         "{text}"
     );
-    // Attention focus reads the whole frame: it stays on the CPU.
+    // Attention focus runs on the GPU too, on the frame's own buffers
+    // (tests/gpu_attention.rs compares it with the CPU pass).
     let att = scene("DepthOfField(pupil_mm: 8.0, focus: Attention, method: Splat)");
     let r = renderer(&att, BackendChoice::Gpu);
-    assert!(r.gpu_pass_names().is_empty());
+    assert_eq!(r.gpu_pass_names(), [SPLAT]);
     assert_eq!(r.pass_names(), [SPLAT]);
 }
 

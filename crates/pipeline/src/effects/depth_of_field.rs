@@ -295,6 +295,19 @@ impl DepthOfField {
     pub(crate) fn focus_with(&mut self, found_mm: Option<f64>, time_s: Option<f64>) -> f64 {
         self.focuser.settle(self.focus, found_mm, time_s)
     }
+
+    /// `focus: Attention`'s model (the GPU path runs it on the frame's
+    /// buffers); `None` for other focuses.
+    pub(crate) fn attention_model(
+        &mut self,
+    ) -> Option<&mut crate::frame_attention::FrameAttention> {
+        self.focuser.attention_model()
+    }
+
+    /// `focus: Attention`'s model, read only.
+    pub fn attention(&self) -> Option<&crate::frame_attention::FrameAttention> {
+        self.focuser.attention()
+    }
 }
 
 /// Where a depth-of-field pass focuses, frame after frame: the search for
@@ -330,6 +343,16 @@ impl Focuser {
 
     pub(crate) fn has_attention_model(&self) -> bool {
         self.attention.is_some()
+    }
+
+    /// `focus: Attention`'s model, for a pass whose focus search runs
+    /// elsewhere (the GPU path); `None` for other focuses.
+    pub(crate) fn attention_model(&mut self) -> Option<&mut AttentionFocus> {
+        self.attention.as_deref_mut()
+    }
+
+    pub(crate) fn attention(&self) -> Option<&AttentionFocus> {
+        self.attention.as_deref()
     }
 
     /// The focus distance for `frame`, mm (may be infinite), after the

@@ -310,6 +310,19 @@ impl DepthOfFieldSplat {
         self.focuser.settle(self.focus, found_mm, time_s)
     }
 
+    /// `focus: Attention`'s model (the GPU path runs it on the frame's
+    /// buffers); `None` for other focuses.
+    pub(crate) fn attention_model(
+        &mut self,
+    ) -> Option<&mut crate::frame_attention::FrameAttention> {
+        self.focuser.attention_model()
+    }
+
+    /// `focus: Attention`'s model, read only.
+    pub fn attention(&self) -> Option<&crate::frame_attention::FrameAttention> {
+        self.focuser.attention()
+    }
+
     /// Hidden-image samples splatted in the last frame.
     pub fn hidden_samples(&self) -> usize {
         self.hidden_count

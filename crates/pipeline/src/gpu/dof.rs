@@ -46,6 +46,8 @@ pub(crate) struct GpuDof {
 pub(crate) struct DofFrame<'a> {
     pub state: &'a mut GpuDof,
     pub camera: &'a Camera,
+    /// The scene as rendered (`focus: Attention` reads its objects).
+    pub scene: &'a raycast::Scene,
     pub gaze_px: [f64; 2],
     pub time_s: Option<f64>,
     /// The frame's vergence depth, mm (`focus: Vergence`).
@@ -134,12 +136,23 @@ impl DofFrame<'_> {
         }
         // The focus: the gaze window read back where the focus needs it,
         // the CPU pass's median and dynamics.
+        let focus_kind = self.state.pass.focus;
+        let attention = self
+            .state
+            .pass
+            .attention_model()
+            .map(|model| super::AttentionFocus {
+                model,
+                scene: self.scene,
+                time_s: self.time_s,
+            });
         let (found, next) = super::found_focus(
-            self.state.pass.focus,
+            focus_kind,
             self.vergence_mm,
             frame,
             encoder,
             self.gaze_px,
+            attention,
         )?;
         encoder = next;
         let focus = self.state.pass.focus_with(found, self.time_s);

@@ -25,14 +25,22 @@
 //! Depth of field by splatting (Lee ch. 5, `splat.wgsl`) runs here too,
 //! its hidden image cast on the GPU (see [`splat`]'s notes).
 //!
+//! Depth of field's `focus: Attention` runs Lee's attention model here
+//! (`attention.wgsl`, see [`attention`]'s notes): its per-pixel and
+//! per-map part on the frame's colour, depth and object ids, a read-back of
+//! per-object statistics, and the CPU tracker's finishing steps, before the
+//! blur; the frame's surface buffers need not come back for it.
+//!
 //! Pay per use: a renderer makes a pass's GPU state only when the scene
 //! lists `DepthOfField` or the method is `Image`, and its buffers with its
-//! first frame.
+//! first frame; the attention passes only for `focus: Attention`.
 
+mod attention;
 mod dof;
 mod image;
 mod splat;
 
+pub(crate) use attention::{GpuSaliency, PrepareError, SaliencyInput};
 pub(crate) use dof::{DofFrame, GpuDof};
 pub(crate) use image::{GpuImage, ImageFrame};
 pub(crate) use splat::{GpuSplat, SplatFrame};
@@ -329,22 +337,36 @@ pub(crate) fn gaze_window_depth(
     }
 }
 
+/// `focus: Attention`'s model and what it reads besides the frame.
+pub(crate) struct AttentionFocus<'a> {
+    pub model: &'a mut crate::frame_attention::FrameAttention,
+    pub scene: &'a raycast::Scene,
+    pub time_s: Option<f64>,
+}
+
 /// What a GPU depth-of-field pass's focus search finds this frame, as the
 /// CPU's `Focuser` would (then settled by the pass's `focus_with`): the
 /// vergence depth, or the gaze window's median read back (one wait) where
-/// the focus needs it; nothing for a fixed focus. `Attention` never runs
-/// on the GPU (the renderer keeps it on the CPU).
+/// the focus needs it; for `Attention`, the attended object's mean eye
+/// distance from Lee's model run on the frame's buffers (its GPU passes,
+/// one wait, and the CPU tracker's finishing steps); nothing for a fixed
+/// focus.
 pub(crate) fn found_focus(
     focus: raycast::scene::DofFocus,
     vergence_mm: Option<f64>,
     frame: &GpuFrame<'_>,
     encoder: wgpu::CommandEncoder,
     gaze_px: [f64; 2],
+    attention: Option<AttentionFocus<'_>>,
 ) -> Result<(Option<f64>, wgpu::CommandEncoder), GpuError> {
     use raycast::scene::DofFocus;
     let vergence = vergence_mm.filter(|d| d.is_finite() && *d > 0.0);
     match focus {
-        DofFocus::Fixed { .. } | DofFocus::Attention => Ok((None, encoder)),
+        DofFocus::Fixed { .. } => Ok((None, encoder)),
+        DofFocus::Attention => match attention {
+            Some(a) => a.model.depth_mm_on_gpu(frame, encoder, a.scene, a.time_s),
+            None => Ok((None, encoder)),
+        },
         DofFocus::Vergence if vergence.is_some() => Ok((vergence, encoder)),
         DofFocus::Gaze | DofFocus::Vergence => gaze_window_depth(frame, encoder, gaze_px),
     }

@@ -81,6 +81,8 @@ pub(crate) struct GpuSplat {
 pub(crate) struct SplatFrame<'a> {
     pub state: &'a mut GpuSplat,
     pub camera: &'a Camera,
+    /// The scene as rendered (`focus: Attention` reads its objects).
+    pub scene: &'a raycast::Scene,
     /// The scene's linear background colour.
     pub background: [f32; 3],
     pub gaze_px: [f64; 2],
@@ -148,12 +150,23 @@ impl SplatFrame<'_> {
         if w == 0 || h == 0 || self.state.pass.is_pinhole() {
             return Ok(encoder);
         }
+        let focus_kind = self.state.pass.focus;
+        let attention = self
+            .state
+            .pass
+            .attention_model()
+            .map(|model| super::AttentionFocus {
+                model,
+                scene: self.scene,
+                time_s: self.time_s,
+            });
         let (found, next) = super::found_focus(
-            self.state.pass.focus,
+            focus_kind,
             self.vergence_mm,
             frame,
             encoder,
             self.gaze_px,
+            attention,
         )?;
         encoder = next;
         let focus = self.state.pass.focus_with(found, self.time_s);

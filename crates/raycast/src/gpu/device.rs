@@ -68,3 +68,26 @@ pub(super) fn open() -> Result<Opened, GpuError> {
         max_binding: limits.max_storage_buffer_binding_size,
     })
 }
+
+/// A device of its own, on the adapter `GpuRenderer::new` would choose,
+/// for compute work on buffers that do not come from a cast (the attention
+/// model on a frame rendered elsewhere, its tests and benchmarks).
+pub struct GpuDevice {
+    pub device: wgpu::Device,
+    pub queue: wgpu::Queue,
+    /// The adapter in words (name, backend, type, driver).
+    pub adapter: String,
+    /// `max_storage_buffer_binding_size` of the adapter (bytes).
+    pub max_binding: u64,
+}
+
+/// Opens a [`GpuDevice`] (no timestamp queries).
+pub fn open_device() -> Result<GpuDevice, GpuError> {
+    let opened = open()?;
+    Ok(GpuDevice {
+        device: opened.device,
+        queue: opened.queue,
+        adapter: opened.name,
+        max_binding: opened.max_binding,
+    })
+}

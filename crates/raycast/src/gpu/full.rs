@@ -109,6 +109,7 @@ impl GpuRenderer {
                 queue: &queue,
                 pixels: &target.out.pixels,
                 depth: &target.out.depth,
+                object: &target.out.object,
                 width: w,
                 height: h,
                 max_binding,

@@ -14,8 +14,8 @@
 //!   casts that list with an indirect dispatch — stage for stage the CPU's
 //!   `render::foveated` ([`Stage`], [`foveated_stages`]). Building the mask
 //!   and the ownership on the GPU is not done.
-//! - A caller may encode its own compute passes on the frame's colour and
-//!   depth buffers between the cast and the read-back ([`GpuPost`],
+//! - A caller may encode its own compute passes on the frame's colour,
+//!   depth and object-id buffers between the cast and the read-back ([`GpuPost`],
 //!   `render_full_with`, `render_foveated_with`): the pipeline's depth of
 //!   field and image-based foveation run there. Such a pass may also cast
 //!   the hidden image of Lee's ch. 5 ([`GpuFrame::cast_hidden`], `hidden`:
@@ -53,10 +53,10 @@ mod readback;
 mod timer;
 mod upload;
 
-pub use device::probe;
+pub use device::{open_device, probe, GpuDevice};
 pub use foveated::{foveated_stages, Stage};
 pub use hidden::HIDDEN_HITS;
-pub use post::{GpuFrame, GpuPost};
+pub use post::{read_words, storage_buffer, GpuFrame, GpuPost};
 pub use raster::off_axis_projection;
 /// The `wgpu` this backend is built on, for callers of [`GpuPost`].
 pub use wgpu;

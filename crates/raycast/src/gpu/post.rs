@@ -10,8 +10,10 @@
 //!   in bits 25–26. A pass that changes the colour must keep bits 24–31.
 //! - `depth`: one `f32` per pixel, the eye distance (mm) where the hit flag
 //!   is set, `3.4028235e38` (f32::MAX) where it is not.
+//! - `object_ids`: one `u32` per pixel, the object hit, `0xffffffff` where
+//!   nothing is (Lee's item buffer; the attention model reads it).
 //!
-//! Both are bound as storage (`pixels` read-write). A pass may submit the
+//! All three are bound as storage (`pixels` read-write). A pass may submit the
 //! encoder it is given and go on in a new one (to read a few words back,
 //! [`GpuFrame::read_words`]); the read-back is appended to the encoder it
 //! returns. Post passes are not timed in `stage_ms`: the frame's `Stats`
@@ -28,6 +30,7 @@ pub struct GpuFrame<'a> {
     pub(super) queue: &'a wgpu::Queue,
     pub(super) pixels: &'a wgpu::Buffer,
     pub(super) depth: &'a wgpu::Buffer,
+    pub(super) object: &'a wgpu::Buffer,
     pub(super) width: u32,
     pub(super) height: u32,
     pub(super) max_binding: u64,
@@ -54,6 +57,11 @@ impl<'a> GpuFrame<'a> {
         self.depth
     }
 
+    /// The object id per pixel (u32; `0xffffffff` where nothing is hit).
+    pub fn object_ids(&self) -> &'a wgpu::Buffer {
+        self.object
+    }
+
     pub fn width(&self) -> u32 {
         self.width
     }
@@ -75,7 +83,7 @@ impl<'a> GpuFrame<'a> {
         bytes: u64,
         extra: wgpu::BufferUsages,
     ) -> Result<wgpu::Buffer, GpuError> {
-        storage(self.device, what, bytes.max(4), extra, self.max_binding)
+        storage_buffer(self.device, what, bytes, extra, self.max_binding)
     }
 
     /// Submits `encoder` with copies of the word ranges `reads` (buffer,
@@ -85,45 +93,70 @@ impl<'a> GpuFrame<'a> {
     /// costs a wait on the GPU.
     pub fn read_words(
         &self,
-        mut encoder: wgpu::CommandEncoder,
+        encoder: wgpu::CommandEncoder,
         reads: &[(&wgpu::Buffer, u64, u64)],
     ) -> Result<(Vec<Vec<u32>>, wgpu::CommandEncoder), GpuError> {
-        let total: u64 = reads.iter().map(|r| r.2).sum();
-        let fresh = |d: &wgpu::Device| {
-            d.create_command_encoder(&wgpu::CommandEncoderDescriptor {
-                label: Some("frame, after a read"),
-            })
-        };
-        if total == 0 {
-            return Ok((reads.iter().map(|_| Vec::new()).collect(), encoder));
-        }
-        let staging = self.device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("post read"),
-            size: 4 * total,
-            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
-            mapped_at_creation: false,
-        });
-        let mut at = 0u64;
-        for &(buffer, first, n) in reads {
-            if n > 0 {
-                encoder.copy_buffer_to_buffer(buffer, 4 * first, &staging, 4 * at, 4 * n);
-            }
-            at += n;
-        }
-        self.queue.submit(Some(encoder.finish()));
-        let words = read_back(self.device, &staging, 4 * total)?;
-        let mut out = Vec::with_capacity(reads.len());
-        let mut at = 0usize;
-        for &(_, _, n) in reads {
-            let n = n as usize;
-            let part = words
-                .get(at..at + n)
-                .ok_or_else(|| GpuError::Readback("short post read".into()))?;
-            out.push(part.to_vec());
-            at += n;
-        }
-        Ok((out, fresh(self.device)))
+        read_words(self.device, self.queue, encoder, reads)
     }
+}
+
+/// A storage buffer of `bytes` bytes (at least 4, with `extra` usages) on
+/// `device`, refused with [`GpuError::TooLarge`] above `max_binding`.
+pub fn storage_buffer(
+    device: &wgpu::Device,
+    what: &'static str,
+    bytes: u64,
+    extra: wgpu::BufferUsages,
+    max_binding: u64,
+) -> Result<wgpu::Buffer, GpuError> {
+    storage(device, what, bytes.max(4), extra, max_binding)
+}
+
+/// Submits `encoder` with copies of the word ranges `reads` (buffer, first
+/// word, number of words; each buffer with `COPY_SRC`) into one small
+/// mappable buffer, waits, and returns the words of each range, with a
+/// fresh encoder for what follows. Every call is a wait on the GPU.
+pub fn read_words(
+    device: &wgpu::Device,
+    queue: &wgpu::Queue,
+    mut encoder: wgpu::CommandEncoder,
+    reads: &[(&wgpu::Buffer, u64, u64)],
+) -> Result<(Vec<Vec<u32>>, wgpu::CommandEncoder), GpuError> {
+    let total: u64 = reads.iter().map(|r| r.2).sum();
+    let fresh = |d: &wgpu::Device| {
+        d.create_command_encoder(&wgpu::CommandEncoderDescriptor {
+            label: Some("frame, after a read"),
+        })
+    };
+    if total == 0 {
+        return Ok((reads.iter().map(|_| Vec::new()).collect(), encoder));
+    }
+    let staging = device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("post read"),
+        size: 4 * total,
+        usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+        mapped_at_creation: false,
+    });
+    let mut at = 0u64;
+    for &(buffer, first, n) in reads {
+        if n > 0 {
+            encoder.copy_buffer_to_buffer(buffer, 4 * first, &staging, 4 * at, 4 * n);
+        }
+        at += n;
+    }
+    queue.submit(Some(encoder.finish()));
+    let words = read_back(device, &staging, 4 * total)?;
+    let mut out = Vec::with_capacity(reads.len());
+    let mut at = 0usize;
+    for &(_, _, n) in reads {
+        let n = n as usize;
+        let part = words
+            .get(at..at + n)
+            .ok_or_else(|| GpuError::Readback("short post read".into()))?;
+        out.push(part.to_vec());
+        at += n;
+    }
+    Ok((out, fresh(device)))
 }
 
 /// Compute passes a caller encodes on a frame's buffers between the cast

@@ -1,0 +1,626 @@
+//! Lee's attention model (2009 ch. 3) on the GPU: the per-pixel and
+//! per-map part (`attention.wgsl`) on a frame's colour, depth and object-id
+//! buffers, ending in one small read-back of per-object statistics
+//! ([`attention::FrameMeasure`]); the CPU finishes the frame with the
+//! tracker's own code (`AttentionTracker::update_measured`: contexts,
+//! Kalman filter, ranking, threshold).
+//!
+//! Per frame: a buffer clear and 21 compute dispatches (11 entry points,
+//! two of them once per pyramid level; see `attention.wgsl`), one wait, and
+//! a read-back of `4·(16 + 16·n)` bytes for `n` listed objects (16 KiB for
+//! 256 objects);
+//! the `M²` map of `S_p` stays on the GPU unless asked for
+//! ([`GpuSaliency::read_saliency_map`], `4·M²` bytes: 16 KiB at 64², 1 MiB at
+//! 512²). Uploads per frame: the per-object table (ids, speeds) when it
+//! changed, the cell tables when the frame or map size did. Nothing is made
+//! before the first frame (the shader, the buffers); a renderer that runs
+//! no attention makes none of it.
+
+use attention::measure::check_frame_size;
+use attention::pyramid::{texel_coordinate, PYRAMID_LEVELS};
+use attention::{
+    AttentionConfig, AttentionError, CellAxis, FrameMeasure, ObjectIndex, ObjectInfo, ObjectMeasure,
+};
+use raycast::gpu::wgpu;
+use raycast::gpu::{read_words, storage_buffer, GpuError};
+
+use super::{level_layout, Kernels, Words, SLOT};
+
+/// Bytes of `AttParams` in `attention.wgsl`: 32 words, then 7 levels.
+const PARAMS_BYTES: u64 = 128 + 16 * PYRAMID_LEVELS as u64;
+
+/// Entry points, in the order of `Kernels::pipelines`.
+const ENTRIES: [&str; 11] = [
+    "att_stats",
+    "att_objects",
+    "att_cells",
+    "att_rows",
+    "att_cols",
+    "att_contrast",
+    "att_combine",
+    "att_normalise",
+    "att_saliency",
+    "att_peak",
+    "att_centroid",
+];
+const STATS: usize = 0;
+const OBJECTS: usize = 1;
+const CELLS: usize = 2;
+const ROWS: usize = 3;
+const COLS: usize = 4;
+const CONTRAST: usize = 5;
+const COMBINE: usize = 6;
+const NORMALISE: usize = 7;
+const SALIENCY: usize = 8;
+const PEAK: usize = 9;
+const CENTROID: usize = 10;
+
+/// `stats` layout (`attention.wgsl`): globals, then a record per object.
+const GLOBALS: usize = 16;
+const REC: usize = 16;
+const G_BACKGROUND: usize = 0;
+const G_UNLISTED: usize = 1;
+const G_CMAX: usize = 3;
+const G_SMAX: usize = 8;
+const O_COUNT: usize = 0;
+const O_DEPTH_COUNT: usize = 1;
+const O_SUM_X: usize = 2;
+const O_SUM_Y: usize = 4;
+const O_DEPTH: usize = 6;
+const O_SAL: usize = 8;
+const O_BEST: usize = 10;
+const O_NOT_CELL: usize = 11;
+const O_PEAK_COUNT: usize = 12;
+const O_PEAK_X: usize = 13;
+const O_PEAK_Y: usize = 14;
+/// Units of the fixed-point sums: depth in 1/256 mm, `S_p` in 2^-23.
+const DEPTH_UNIT_MM: f64 = 1.0 / 256.0;
+const SALIENCY_UNIT: f64 = 1.0 / 8_388_608.0;
+/// Ids below this get a direct lookup table (as the CPU's `IdLookup`).
+const DIRECT_LOOKUP_IDS: u32 = 1 << 16;
+/// Workgroup side of the 2-D entry points, and size of the 1-D ones.
+const GROUP_2D: u32 = 8;
+const GROUP_1D: u32 = 64;
+
+/// The frame buffers the passes read, on the device they live on.
+pub(crate) struct SaliencyInput<'a> {
+    pub device: &'a wgpu::Device,
+    pub queue: &'a wgpu::Queue,
+    /// Packed colour words (`pack` in cast.wgsl); bit 24 is the hit flag.
+    pub pixels: &'a wgpu::Buffer,
+    /// Eye distance per pixel, f32 bits.
+    pub depth: &'a wgpu::Buffer,
+    /// Object id per pixel.
+    pub ids: &'a wgpu::Buffer,
+    pub width: u32,
+    pub height: u32,
+    /// `max_storage_buffer_binding_size`.
+    pub max_binding: u64,
+}
+
+/// Word offsets of the per-frame tables and map regions.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+struct Layout {
+    t_sorted: u32,
+    t_direct: u32,
+    direct_len: u32,
+    t_speed: u32,
+    t_fx0: u32,
+    t_fx1: u32,
+    t_fy0: u32,
+    t_fy1: u32,
+    t_ox0: u32,
+    t_ox1: u32,
+    t_oy0: u32,
+    t_oy1: u32,
+    t_celly: u32,
+    t_taps: u32,
+    m_plane: u32,
+    m_scratch: u32,
+    m_scratch_plane: u32,
+    m_contrast: u32,
+    m_sal: u32,
+    m_objfeat: u32,
+    m_total: u64,
+}
+
+struct Buffers {
+    /// The frame buffers the bind group was made for.
+    frame: [wgpu::Buffer; 3],
+    tables_words: u64,
+    stats_words: u64,
+    maps_words: u64,
+    params: wgpu::Buffer,
+    tables: wgpu::Buffer,
+    stats: wgpu::Buffer,
+    maps: wgpu::Buffer,
+    group: wgpu::BindGroup,
+}
+
+/// The GPU state of the attention model's per-pixel part: the shader and,
+/// from the first frame, its buffers.
+pub(crate) struct GpuSaliency {
+    config: AttentionConfig,
+    kernels: Option<Kernels>,
+    buffers: Option<Buffers>,
+    index: ObjectIndex,
+    tables: Vec<u32>,
+    uploaded_tables: Vec<u32>,
+    layout: Layout,
+    /// The frame size the cell tables were made for.
+    grid: Option<(u32, u32)>,
+    cell_tables: Vec<u32>,
+    /// The last frame's contrast maxima (eq. 3.6) and the maximum of `S̄_p`.
+    maxima: [f32; 6],
+    /// Width and height of the last frame measured.
+    measured: Option<(u32, u32)>,
+}
+
+/// `contrast::contrast_weight` from a read-back maximum.
+fn weight_of(max: f32) -> f32 {
+    if max > attention::contrast::MIN_CONTRAST && max.is_finite() {
+        1.0 / max
+    } else {
+        0.0
+    }
+}
+
+impl GpuSaliency {
+    /// The state for `config` (checked by the caller's tracker); nothing on
+    /// the GPU yet.
+    pub fn new(config: AttentionConfig) -> Self {
+        Self {
+            config,
+            kernels: None,
+            buffers: None,
+            index: ObjectIndex::default(),
+            tables: Vec::new(),
+            uploaded_tables: Vec::new(),
+            layout: Layout::default(),
+            grid: None,
+            cell_tables: Vec::new(),
+            maxima: [0.0; 6],
+            measured: None,
+        }
+    }
+
+    /// Whether the buffers exist (made by the first frame).
+    pub fn has_buffers(&self) -> bool {
+        self.buffers.is_some()
+    }
+
+    /// `w_f` of eq. 3.6 in `Feature::ALL` order, from the last frame's
+    /// maxima (0 for switched-off or flat features).
+    pub fn weights(&self) -> [f32; 5] {
+        let on = self.feature_flags();
+        std::array::from_fn(|f| {
+            if on[f] {
+                weight_of(self.maxima[f])
+            } else {
+                0.0
+            }
+        })
+    }
+
+    fn feature_flags(&self) -> [bool; 5] {
+        let f = self.config.features;
+        [f.luminance, f.hue, f.depth, f.size, f.motion]
+    }
+
+    /// Decision 7 of the attention crate: whether `S_p` carried anything.
+    fn informative(&self) -> bool {
+        let active = self.weights().iter().any(|&w| w > 0.0);
+        let smax = self.maxima[5];
+        self.config.features.any_bottom_up() && active && smax > 0.0 && smax.is_finite()
+    }
+
+    /// Checks the frame and the object list and makes what the frame needs
+    /// (tables, buffers); nothing is encoded. Errors here leave every GPU
+    /// buffer as it was.
+    pub fn prepare(
+        &mut self,
+        input: &SaliencyInput<'_>,
+        objects: &[ObjectInfo],
+    ) -> Result<(), PrepareError> {
+        let (w, h) = (input.width, input.height);
+        check_frame_size(w, h)?;
+        self.index.rebuild(objects)?;
+        let m = self.config.map_size;
+        if self.grid != Some((w, h)) {
+            self.build_cell_tables(w, h, m);
+            self.grid = Some((w, h));
+        }
+        let n = self.index.len();
+        // The per-object table: sorted ids, speeds, the direct lookup.
+        let sorted = self.index.sorted_ids();
+        let max_id = sorted.last().copied().unwrap_or(0);
+        let direct_len = if n > 0 && max_id < DIRECT_LOOKUP_IDS {
+            max_id + 1
+        } else {
+            0
+        };
+        self.tables.clear();
+        self.tables.extend_from_slice(&self.cell_tables);
+        let mut layout = self.layout;
+        layout.t_sorted = self.tables.len() as u32;
+        self.tables.extend_from_slice(sorted);
+        layout.t_speed = self.tables.len() as u32;
+        self.tables.extend(
+            self.index
+                .sources()
+                .iter()
+                .map(|&s| objects[s].speed_used().to_bits()),
+        );
+        layout.t_direct = self.tables.len() as u32;
+        layout.direct_len = direct_len;
+        if direct_len > 0 {
+            let start = self.tables.len();
+            self.tables.resize(start + direct_len as usize, u32::MAX);
+            for (d, &id) in sorted.iter().enumerate() {
+                self.tables[start + id as usize] = d as u32;
+            }
+        }
+        // Maps: the pyramids, the REDUCE scratch, contrast, S_p, B_s and B_m.
+        let (levels, texels) = level_layout(m, m, PYRAMID_LEVELS);
+        let plane = texels;
+        let scratch_plane = u64::from(m.div_ceil(2)) * u64::from(m);
+        let cells = u64::from(m) * u64::from(m);
+        layout.m_plane = plane as u32;
+        layout.m_scratch = (6 * plane) as u32;
+        layout.m_scratch_plane = scratch_plane as u32;
+        layout.m_contrast = (6 * plane + 6 * scratch_plane) as u32;
+        layout.m_sal = (u64::from(layout.m_contrast) + 5 * cells) as u32;
+        layout.m_objfeat = (u64::from(layout.m_sal) + cells) as u32;
+        layout.m_total = u64::from(layout.m_objfeat) + 2 * n.max(1) as u64;
+        self.layout = layout;
+        debug_assert_eq!(levels.len(), PYRAMID_LEVELS);
+
+        let tables_words = self.tables.len().max(1) as u64;
+        let stats_words = (GLOBALS + REC * n.max(1)) as u64;
+        let device = input.device;
+        let kernels = self.kernels.get_or_insert_with(|| {
+            Kernels::new(
+                device,
+                "attention.wgsl",
+                include_str!("attention.wgsl"),
+                &ENTRIES,
+                &[true, true, true, false, false],
+                PARAMS_BYTES,
+            )
+        });
+        let frame = [input.pixels, input.depth, input.ids];
+        let stale = self.buffers.as_ref().is_none_or(|b| {
+            b.frame.iter().zip(frame).any(|(a, f)| a != f)
+                || b.tables_words < tables_words
+                || b.stats_words < stats_words
+                || b.maps_words < layout.m_total
+        });
+        if stale {
+            // Grow with headroom so a changing object list does not
+            // reallocate every frame.
+            let (tables_words, stats_words) = match &self.buffers {
+                Some(b) => (
+                    tables_words.max(b.tables_words),
+                    stats_words.max(b.stats_words),
+                ),
+                None => (tables_words, stats_words),
+            };
+            let maps_words = layout.m_total;
+            let max = input.max_binding;
+            use wgpu::BufferUsages as U;
+            let tables = storage_buffer(
+                device,
+                "attention tables",
+                4 * tables_words,
+                U::COPY_DST,
+                max,
+            )?;
+            let stats = storage_buffer(
+                device,
+                "attention object statistics",
+                4 * stats_words,
+                U::COPY_DST | U::COPY_SRC,
+                max,
+            )?;
+            let maps = storage_buffer(device, "attention maps", 4 * maps_words, U::COPY_SRC, max)?;
+            let params = device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("attention params"),
+                size: SLOT * PYRAMID_LEVELS as u64,
+                usage: U::UNIFORM | U::COPY_DST,
+                mapped_at_creation: false,
+            });
+            let group = kernels.bind(
+                device,
+                &params,
+                PARAMS_BYTES,
+                input.pixels,
+                &[input.depth, input.ids, &tables, &stats, &maps],
+            );
+            self.buffers = Some(Buffers {
+                frame: frame.map(Clone::clone),
+                tables_words,
+                stats_words,
+                maps_words,
+                params,
+                tables,
+                stats,
+                maps,
+                group,
+            });
+            self.uploaded_tables.clear();
+        }
+        let Some(b) = self.buffers.as_ref() else {
+            return Err(PrepareError::Gpu(GpuError::Readback(
+                "no attention buffers".into(),
+            )));
+        };
+        if self.uploaded_tables != self.tables {
+            input
+                .queue
+                .write_buffer(&b.tables, 0, &u32_bytes(&self.tables));
+            self.uploaded_tables.clone_from(&self.tables);
+        }
+        // One uniform slot per pyramid level (the rows/cols dispatches read
+        // `level`); slot 0 serves every other dispatch.
+        let cfg = &self.config;
+        let f = cfg.features;
+        let flags = [f.luminance, f.hue, f.depth, f.size, f.motion]
+            .iter()
+            .enumerate()
+            .fold(0u32, |acc, (i, &on)| acc | (u32::from(on) << i));
+        let near = cfg.depth_near_mm;
+        let inv_range = 1.0 / (cfg.depth_far_mm - near);
+        let mut all = Vec::with_capacity(SLOT as usize * PYRAMID_LEVELS);
+        for level in 0..PYRAMID_LEVELS as u32 {
+            let mut words = Words::default();
+            words
+                .u(w)
+                .u(h)
+                .u(m)
+                .u(n as u32)
+                .u(flags)
+                .u(u32::from(direct_len > 0))
+                .u(direct_len)
+                .u(level)
+                .f(near)
+                .f(inv_range)
+                .f((u64::from(w) * u64::from(h)) as f32)
+                .u(0)
+                .u(layout.t_sorted)
+                .u(layout.t_direct)
+                .u(layout.t_speed)
+                .u(layout.t_fx0)
+                .u(layout.t_fx1)
+                .u(layout.t_fy0)
+                .u(layout.t_fy1)
+                .u(layout.t_ox0)
+                .u(layout.t_ox1)
+                .u(layout.t_oy0)
+                .u(layout.t_oy1)
+                .u(layout.t_celly)
+                .u(layout.t_taps)
+                .u(layout.m_plane)
+                .u(layout.m_scratch)
+                .u(layout.m_scratch_plane)
+                .u(layout.m_contrast)
+                .u(layout.m_sal)
+                .u(layout.m_objfeat)
+                .u(0);
+            for l in &levels {
+                words.u(l[0]).u(l[1]).u(l[2]).u(0);
+            }
+            words.pad_to(SLOT as usize);
+            all.extend(words.0);
+        }
+        input.queue.write_buffer(&b.params, 0, &all);
+        Ok(())
+    }
+
+    /// The frame-size tables: footprints and owned pixel ranges on both
+    /// axes, each frame row's map row, and the CPU's magnification taps.
+    fn build_cell_tables(&mut self, w: u32, h: u32, m: u32) {
+        let x = CellAxis::new(w, m);
+        let y = CellAxis::new(h, m);
+        let t = &mut self.cell_tables;
+        t.clear();
+        let l = &mut self.layout;
+        let push = |t: &mut Vec<u32>, values: &[u32]| {
+            let at = t.len() as u32;
+            t.extend_from_slice(values);
+            at
+        };
+        let owned_x = x.owned();
+        let owned_y = y.owned();
+        let first = |r: &[[u32; 2]]| r.iter().map(|r| r[0]).collect::<Vec<u32>>();
+        let end = |r: &[[u32; 2]]| r.iter().map(|r| r[1]).collect::<Vec<u32>>();
+        l.t_fx0 = push(t, &x.lo);
+        l.t_fx1 = push(t, &x.hi);
+        l.t_fy0 = push(t, &y.lo);
+        l.t_fy1 = push(t, &y.hi);
+        l.t_ox0 = push(t, &first(&owned_x));
+        l.t_ox1 = push(t, &end(&owned_x));
+        l.t_oy0 = push(t, &first(&owned_y));
+        l.t_oy1 = push(t, &end(&owned_y));
+        l.t_celly = push(t, &y.cell_of);
+        // `pyramid::AxisTaps::fill` for levels 1-6 (the map is square).
+        l.t_taps = t.len() as u32;
+        let (levels, _) = level_layout(m, m, PYRAMID_LEVELS);
+        for level in &levels[1..] {
+            let len = level[1] as usize;
+            for i in 0..m as usize {
+                let u = texel_coordinate(i, m as usize, len);
+                let lo = u.floor() as usize;
+                let hi = (lo + 1).min(len - 1);
+                t.extend([lo as u32, hi as u32, (u - lo as f32).to_bits()]);
+            }
+        }
+    }
+
+    /// Encodes the passes on the frame `prepare` checked, submits them with
+    /// `encoder`, waits, and reads the per-object statistics back: the
+    /// frame's [`FrameMeasure`], its records in the order of `objects`
+    /// (the list given to `prepare`), and a fresh encoder.
+    pub fn measure(
+        &mut self,
+        input: &SaliencyInput<'_>,
+        mut encoder: wgpu::CommandEncoder,
+    ) -> Result<(FrameMeasure, wgpu::CommandEncoder), GpuError> {
+        let (Some(kernels), Some(b)) = (self.kernels.as_ref(), self.buffers.as_ref()) else {
+            return Err(GpuError::Readback(
+                "attention: measure before prepare".into(),
+            ));
+        };
+        let (w, h) = (input.width, input.height);
+        let m = self.config.map_size;
+        let n = self.index.len() as u32;
+        let p = &kernels.pipelines;
+        let g = &b.group;
+        let groups2 = |x: u32, y: u32| [x.div_ceil(GROUP_2D), y.div_ceil(GROUP_2D), 1];
+        let groups1 = |x: u32| [x.div_ceil(GROUP_1D), 1, 1];
+        let stats_words = (GLOBALS + REC * n as usize) as u64;
+        encoder.clear_buffer(&b.stats, 0, Some(4 * stats_words));
+        run(&mut encoder, &p[STATS], g, 0, groups2(m, h));
+        if self.config.features.any_bottom_up() {
+            run(&mut encoder, &p[OBJECTS], g, 0, groups1(n));
+            run(&mut encoder, &p[CELLS], g, 0, groups2(m, m));
+            let (levels, _) = level_layout(m, m, PYRAMID_LEVELS);
+            for l in 0..PYRAMID_LEVELS - 1 {
+                let [_, _, src_h] = levels[l];
+                let [_, dst_w, dst_h] = levels[l + 1];
+                let [gx, gy, _] = groups2(dst_w, src_h);
+                run(&mut encoder, &p[ROWS], g, l as u32, [gx, gy, 6]);
+                let [gx, gy, _] = groups2(dst_w, dst_h);
+                run(&mut encoder, &p[COLS], g, l as u32, [gx, gy, 6]);
+            }
+            run(&mut encoder, &p[CONTRAST], g, 0, groups2(m, m));
+            run(&mut encoder, &p[COMBINE], g, 0, groups2(m, m));
+        }
+        run(&mut encoder, &p[NORMALISE], g, 0, groups2(m, m));
+        run(&mut encoder, &p[SALIENCY], g, 0, groups2(m, h));
+        run(&mut encoder, &p[PEAK], g, 0, groups2(m, h));
+        run(&mut encoder, &p[CENTROID], g, 0, groups1(n));
+        let (mut words, next) = read_words(
+            input.device,
+            input.queue,
+            encoder,
+            &[(&b.stats, 0, stats_words)],
+        )?;
+        let words = words.pop().unwrap_or_default();
+        if words.len() as u64 != stats_words {
+            return Err(GpuError::Readback(
+                "attention statistics: short read".into(),
+            ));
+        }
+        let f = |i: usize| f32::from_bits(words[i]);
+        self.maxima = [
+            f(G_CMAX),
+            f(G_CMAX + 1),
+            f(G_CMAX + 2),
+            f(G_CMAX + 3),
+            f(G_CMAX + 4),
+            f(G_SMAX),
+        ];
+        let wide = |i: usize| u64::from(words[i]) | (u64::from(words[i + 1]) << 32);
+        let mut records = vec![ObjectMeasure::default(); n as usize];
+        for (d, &source) in self.index.sources().iter().enumerate() {
+            let r = GLOBALS + REC * d;
+            let not_cell = words[r + O_NOT_CELL];
+            let count = u64::from(words[r + O_COUNT]);
+            let peak_count = if not_cell == 0 {
+                0
+            } else {
+                u64::from(words[r + O_PEAK_COUNT])
+            };
+            records[source] = ObjectMeasure {
+                pixel_count: count,
+                depth_sum_mm: wide(r + O_DEPTH) as f64 * DEPTH_UNIT_MM,
+                depth_count: u64::from(words[r + O_DEPTH_COUNT]),
+                sum_x: wide(r + O_SUM_X),
+                sum_y: wide(r + O_SUM_Y),
+                saliency_sum: wide(r + O_SAL) as f64 * SALIENCY_UNIT,
+                peak_saliency: f32::from_bits(words[r + O_BEST]),
+                peak_cell: !not_cell,
+                peak_count,
+                peak_sum_x: u64::from(words[r + O_PEAK_X]),
+                peak_sum_y: u64::from(words[r + O_PEAK_Y]),
+            };
+        }
+        self.measured = Some((w, h));
+        Ok((
+            FrameMeasure {
+                width: w,
+                height: h,
+                objects: records,
+                background_pixels: u64::from(words[G_BACKGROUND]),
+                unlisted_pixels: u64::from(words[G_UNLISTED]),
+                bottom_up_informative: self.informative(),
+            },
+            next,
+        ))
+    }
+
+    /// The last frame's `S_p` map (`M²` values, row-major), read back: a
+    /// wait on the GPU and `4·M²` bytes. `None` before the first frame.
+    pub fn read_saliency_map(
+        &self,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+    ) -> Result<Option<Vec<f32>>, GpuError> {
+        let (Some(b), Some(_)) = (self.buffers.as_ref(), self.measured) else {
+            return Ok(None);
+        };
+        let m = u64::from(self.config.map_size);
+        let encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
+            label: Some("attention map read"),
+        });
+        let (mut words, _) = read_words(
+            device,
+            queue,
+            encoder,
+            &[(&b.maps, u64::from(self.layout.m_sal), m * m)],
+        )?;
+        Ok(Some(
+            words
+                .pop()
+                .unwrap_or_default()
+                .into_iter()
+                .map(f32::from_bits)
+                .collect(),
+        ))
+    }
+}
+
+/// Why a frame could not be prepared: the model refused it (size, object
+/// list) or the GPU could not hold it.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum PrepareError {
+    #[error(transparent)]
+    Attention(#[from] AttentionError),
+    #[error(transparent)]
+    Gpu(#[from] GpuError),
+}
+
+/// One compute pass: `pipeline` over `groups` with the uniform slot `slot`;
+/// nothing for an empty grid.
+fn run(
+    encoder: &mut wgpu::CommandEncoder,
+    pipeline: &wgpu::ComputePipeline,
+    group: &wgpu::BindGroup,
+    slot: u32,
+    groups: [u32; 3],
+) {
+    if groups.contains(&0) {
+        return;
+    }
+    let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+        label: Some("attention pass"),
+        timestamp_writes: None,
+    });
+    pass.set_pipeline(pipeline);
+    pass.set_bind_group(0, group, &[slot * SLOT as u32]);
+    pass.dispatch_workgroups(groups[0], groups[1], groups[2]);
+}
+
+fn u32_bytes(words: &[u32]) -> Vec<u8> {
+    words.iter().flat_map(|w| w.to_le_bytes()).collect()
+}

@@ -747,13 +747,13 @@ impl<'s> Renderer<'s> {
                 let stages: Vec<&str> = match backend {
                     Backend::Gpu(_) => {
                         out.push(
-                            "per gaze (CPU): ray mask and pixel ownership, uploaded to the GPU core"
+                            "per new mask (CPU): ray mask and pixel ownership, uploaded to the GPU core"
                                 .into(),
                         );
                         gpu::foveated_stages(t).iter().map(|s| s.name()).collect()
                     }
                     Backend::Cpu => {
-                        out.push("per gaze: ray mask".into());
+                        out.push("per new mask: ray mask".into());
                         let mut v = vec!["cast vertices"];
                         if t.silhouette || t.crease_deg.is_some() || t.depth_jump.is_some() {
                             v.push("classify cells");
@@ -766,6 +766,19 @@ impl<'s> Renderer<'s> {
                     }
                 };
                 out.push(format!("per frame: {}", stages.join(" → ")));
+                let tolerance = self.model.gaze_tolerance_deg;
+                out.push(if tolerance > 0.0 {
+                    format!(
+                        "gaze tolerance {tolerance}°: masks dense enough for any gaze within                          {tolerance}° of theirs; a mask is kept while the gaze stays within it{}",
+                        if self.scratch.reuse() && matches!(backend, Backend::Cpu) {
+                            " (its vertex rays, cells and owners kept; a second frame in a row copied)"
+                        } else {
+                            ""
+                        }
+                    )
+                } else {
+                    "gaze tolerance 0°: a new mask for every new gaze".to_string()
+                });
                 let mut triggers = Vec::new();
                 if t.silhouette {
                     triggers.push("silhouette (+ one-cell margin)".to_string());

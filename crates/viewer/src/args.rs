@@ -35,6 +35,11 @@ pub fn parse_budget(s: &str) -> Result<usize, String> {
     Ok(n)
 }
 
+/// The live loops' default gaze tolerance (`view`, `demo`), degrees: the
+/// accuracy eye trackers of the seeds' kind state (about 0.5°, e.g. the
+/// Tobii ET-1750), so a mask is trusted no further than the tracker is.
+pub const LIVE_GAZE_TOLERANCE_DEG: f64 = 0.5;
+
 /// `--gaze-tolerance DEG`: the sampling model's gaze tolerance
 /// (`foveation::SamplingModel::gaze_tolerance_deg`), 0 to
 /// [`foveation::sampling::MAX_GAZE_TOLERANCE_DEG`] degrees.

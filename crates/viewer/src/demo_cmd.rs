@@ -38,6 +38,11 @@ pub struct DemoArgs {
     pub method: pipeline::Method,
     #[command(flatten)]
     pub model: crate::args::ModelArgs,
+    /// Hybrid method: keep a ray mask while the gaze stays within DEG
+    /// degrees of the gaze it was built for (see `view --help`).
+    #[arg(long, value_name = "DEG", default_value_t = crate::args::LIVE_GAZE_TOLERANCE_DEG,
+          value_parser = crate::args::parse_gaze_tolerance)]
+    pub gaze_tolerance: f64,
     /// Window mode: the gaze source (`config/trackers/attention.ron`:
     /// Lee's attention model predicts it from each frame, no tracker).
     #[arg(long, value_name = "FILE.ron", default_value = MOUSE)]
@@ -99,6 +104,7 @@ pub fn run(args: &DemoArgs, out: &mut dyn Write) -> Result<(), String> {
             backend: pipeline::BackendChoice::Auto,
             method: args.method,
             model: args.model.into(),
+            gaze_tolerance_deg: args.gaze_tolerance,
             ..LiveOptions::default()
         };
         match live::run(&session, out) {
@@ -141,7 +147,7 @@ pub fn run(args: &DemoArgs, out: &mut dyn Write) -> Result<(), String> {
         .ok_or_else(|| format!("{SCENE}: no object with mesh `target`"))?;
     let gazes =
         tracker_hal::sim::search_scanpath(&g, &objects, target, f64::from(args.fps), args.seed);
-    let model = pipeline::sampling_model(g, 1.0).map_err(|e| e.to_string())?;
+    let model = crate::args::sampling_model(g, 1.0, args.gaze_tolerance)?;
     let options = pipeline::Options {
         method: args.method,
         por_overlay: true,

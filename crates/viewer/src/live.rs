@@ -64,6 +64,9 @@ pub struct LiveOptions {
     pub method: pipeline::Method,
     /// The model-based methods' budget and gaze options.
     pub model: pipeline::model_based::ModelOptions,
+    /// The hybrid method's gaze tolerance, degrees
+    /// (`foveation::SamplingModel::gaze_tolerance_deg`).
+    pub gaze_tolerance_deg: f64,
     /// Fullscreen on the current monitor.
     pub fullscreen: bool,
     /// Fullscreen on this monitor (0-based).
@@ -161,6 +164,12 @@ struct Viewer<'a> {
     hud: bool,
     frames: u64,
     fresh_frames: u64,
+    /// Frames drawn with a new ray mask, and frames that were the last
+    /// one copied (a kept mask, nothing else changed).
+    new_masks: u64,
+    copied_frames: u64,
+    /// When the first frame was submitted.
+    first_submit_us: Option<u64>,
     latency: Latency,
     last_submit_us: Option<u64>,
     last: Option<(Frame, Stats)>,
@@ -329,14 +338,21 @@ impl Viewer<'_> {
             age = format!("{:.1} ms", ms(submit_us));
         }
         let reuse = self.renderer.reuse_stats();
-        let reused = match (reuse.pixels_reused, reuse.mask_reused) {
-            (0, false) => String::new(),
-            (n, kept) => format!(
+        let reused = match (reuse.frame_reused, reuse.pixels_reused, reuse.mask_reused) {
+            (true, ..) => " copied the last frame (mask kept)".to_string(),
+            (false, 0, false) => String::new(),
+            (false, n, kept) => format!(
                 " reused{} {n} of {} pixel hits",
                 if kept { " the mask and" } else { "" },
                 n + reuse.pixels_cast
             ),
         };
+        self.first_submit_us.get_or_insert(submit_us);
+        if reuse.frame_reused {
+            self.copied_frames += 1;
+        } else if stats.rays_mask > 0 && !reuse.mask_reused {
+            self.new_masks += 1;
+        }
         self.say(&format!(
             "frame {} gaze ({:.1}, {:.1}) age {age} rays {} render {:.1} ms{reused}",
             self.frames, gaze[0], gaze[1], stats.rays_total, stats.time_ms
@@ -442,7 +458,7 @@ impl Loaded {
     /// `surface`: fill the depth and object ids whatever the passes need
     /// (the attention gaze source reads them).
     fn renderer(&self, opts: &LiveOptions, surface: bool) -> Result<Renderer<'_>, String> {
-        let model = pipeline::sampling_model(self.geometry, 1.0).map_err(|e| e.to_string())?;
+        let model = crate::args::sampling_model(self.geometry, 1.0, opts.gaze_tolerance_deg)?;
         let options = Options {
             method: opts.method,
             backend: opts.backend,
@@ -520,6 +536,9 @@ pub fn run(opts: &LiveOptions, out: &mut dyn Write) -> Result<(), LiveError> {
         hud: true,
         frames: 0,
         fresh_frames: 0,
+        new_masks: 0,
+        copied_frames: 0,
+        first_submit_us: None,
         latency: Latency::default(),
         last_submit_us: None,
         last: None,
@@ -544,6 +563,20 @@ pub fn run(opts: &LiveOptions, out: &mut dyn Write) -> Result<(), LiveError> {
         viewer.frames, viewer.fresh_frames
     );
     viewer.say(&frames);
+    if let (Some(first), Some(last)) = (viewer.first_submit_us, viewer.last_submit_us) {
+        let s = last.saturating_sub(first) as f64 / 1e6;
+        let n = viewer.frames.saturating_sub(1);
+        if n > 0 && s > 0.0 {
+            let rate = format!(
+                "{:.1} frames per second from the first frame's submit to the last's ({n} intervals in {s:.2} s); hybrid frames: {} with a new ray mask, {} the last frame copied (gaze tolerance {}°)",
+                n as f64 / s,
+                viewer.new_masks,
+                viewer.copied_frames,
+                viewer.opts.gaze_tolerance_deg
+            );
+            viewer.say(&rate);
+        }
+    }
     for l in viewer.latency.summary() {
         viewer.say(&l);
     }

@@ -204,15 +204,17 @@ impl Screen {
     /// submits and presents; returns the host time (µs) of the submit.
     pub fn present(&mut self, tex: wgpu::SurfaceTexture, rgb: &[u8], (fw, fh): (u32, u32)) -> u64 {
         let (w, h) = (fw.min(self.config.width), fh.min(self.config.height));
-        let bytes = &mut self.staging;
-        bytes.clear();
-        for row in rgb.chunks_exact(3 * fw as usize).take(h as usize) {
-            for p in row[..3 * w as usize].chunks_exact(3) {
-                if self.bgra {
-                    bytes.extend_from_slice(&[p[2], p[1], p[0], 255]);
-                } else {
-                    bytes.extend_from_slice(&[p[0], p[1], p[2], 255]);
-                }
+        // RGB to RGBA (or BGRA) into a buffer sized once, a row at a time.
+        let (wu, hu) = (w as usize, h as usize);
+        self.staging.resize(4 * wu * hu, 255);
+        let bgra = self.bgra;
+        for (src, dst) in rgb
+            .chunks_exact(3 * fw as usize)
+            .zip(self.staging.chunks_exact_mut(4 * wu))
+        {
+            for (p, q) in src[..3 * wu].chunks_exact(3).zip(dst.chunks_exact_mut(4)) {
+                let [r, g, b] = [p[0], p[1], p[2]];
+                q.copy_from_slice(&if bgra { [b, g, r, 255] } else { [r, g, b, 255] });
             }
         }
         self.queue.write_texture(

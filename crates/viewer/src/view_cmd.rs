@@ -48,6 +48,13 @@ pub struct ViewArgs {
     pub method: pipeline::Method,
     #[command(flatten)]
     pub model: crate::args::ModelArgs,
+    /// Hybrid method: build each ray mask dense enough for any gaze within
+    /// DEG degrees of its own, and keep it (and, on the CPU, its frame)
+    /// while the gaze stays within DEG: a fixation's jitter then costs no
+    /// new frame. 0: a new mask for every new gaze sample.
+    #[arg(long, value_name = "DEG", default_value_t = crate::args::LIVE_GAZE_TOLERANCE_DEG,
+          value_parser = crate::args::parse_gaze_tolerance)]
+    pub gaze_tolerance: f64,
     /// Fullscreen on the current monitor.
     #[arg(long)]
     pub fullscreen: bool,
@@ -75,6 +82,7 @@ impl ViewArgs {
             backend: self.backend,
             method: self.method,
             model: self.model.into(),
+            gaze_tolerance_deg: self.gaze_tolerance,
             fullscreen: self.fullscreen,
             monitor: self.monitor,
         }

@@ -495,3 +495,59 @@ fn the_attention_source_moves_the_gaze_to_an_object_and_records_it() {
         "the shown gaze {last:?} is not among the recorded samples"
     );
 }
+
+#[test]
+fn a_fixation_within_the_gaze_tolerance_keeps_its_frame_and_bad_tolerances_are_refused() {
+    let x = Xvfb::start();
+    // The recording's first frames fixate (mouse jitter of a few pixels):
+    // within the live default of 0.5° (about 18 px here) the mask is kept
+    // and, after one frame drawn with it, the frame is copied.
+    let out = view(&x)
+        .args(["--replay", "tests/data/mouse-120hz.gzrec", "--frames", "12"])
+        .succeed();
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(text.contains("copied the last frame (mask kept)"), "{text}");
+    assert!(text.contains("frames per second"), "{text}");
+    assert!(text.contains("(gaze tolerance 0.5°)"), "{text}");
+    // The summary counts what the frame lines say.
+    let copied = text
+        .lines()
+        .filter(|l| l.starts_with("frame ") && l.contains("copied the last frame"))
+        .count();
+    assert!(
+        text.contains(&format!("{copied} the last frame copied")),
+        "{text}"
+    );
+    // --explain names the tolerance.
+    let out = gazecast()
+        .args([
+            "view",
+            "--explain",
+            "--gaze-tolerance",
+            "1.5",
+            "--scene",
+            "config/scenes/search-task.ron",
+            "--display",
+            "config/displays/tobii-et1750-17in.ron",
+        ])
+        .succeed();
+    let explain = String::from_utf8_lossy(&out.stdout);
+    assert!(explain.contains("gaze tolerance 1.5°"), "{explain}");
+    for bad in ["-1", "nan", "11", "x"] {
+        let out = gazecast()
+            .args([
+                "view",
+                "--explain",
+                "--scene",
+                "config/scenes/search-task.ron",
+                "--display",
+                "config/displays/tobii-et1750-17in.ron",
+                &format!("--gaze-tolerance={bad}"),
+            ])
+            .output()
+            .expect("runs");
+        assert!(!out.status.success(), "{bad} accepted");
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(err.contains("--gaze-tolerance"), "{bad}: {err}");
+    }
+}

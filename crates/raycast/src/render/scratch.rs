@@ -76,12 +76,12 @@ pub(super) struct MaskSource {
 
 impl MaskSource {
     /// Whether the mask built from `self` serves a frame for `other`: the
-    /// same model and layout, and the same gaze or one within the model's
-    /// gaze tolerance of the mask's POR.
-    fn holds(&self, mask: &RayMask, other: &MaskSource) -> bool {
+    /// same model and layout, and the same gaze (when `same_gaze` counts)
+    /// or one within the model's gaze tolerance of the mask's POR.
+    fn holds(&self, mask: &RayMask, other: &MaskSource, same_gaze: bool) -> bool {
         self.model == other.model
             && self.layout == other.layout
-            && (self.gaze_px.map(f64::to_bits) == other.gaze_px.map(f64::to_bits) || {
+            && (same_gaze && self.gaze_px.map(f64::to_bits) == other.gaze_px.map(f64::to_bits) || {
                 let g = &self.model.geometry;
                 let [w, h] = g.size_px();
                 let gaze = foveation::mask::stand_in_por(other.gaze_px, w, h);
@@ -95,10 +95,12 @@ static SCRATCHES: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::n
 
 impl Scratch {
     /// Makes [`Scratch::mask`] the ray mask for a frame at `gaze_px`: the
-    /// kept one when it was built from the same model, layout and gaze, or,
-    /// with a gaze tolerance ([`SamplingModel::gaze_tolerance_deg`]), when
-    /// the gaze is within it of the kept mask's POR; else rebuilt in place
-    /// for this gaze. Returns whether it was kept, and its generation (a
+    /// kept one when, with a gaze tolerance
+    /// ([`SamplingModel::gaze_tolerance_deg`]), the gaze is within it of the
+    /// kept mask's POR, or, with reuse on, the gaze is the one it was built
+    /// for (same model and layout in both cases); else rebuilt in place for
+    /// this gaze. (Without reuse or a tolerance every frame builds its mask,
+    /// so that a repeated gaze times a whole frame.) Returns whether it was kept, and its generation (a
     /// pair that differs for every mask this or any other scratch built).
     /// On error (a non-finite gaze) the kept mask stays as it was.
     pub fn mask_for(
@@ -113,7 +115,7 @@ impl Scratch {
             gaze_px,
         };
         let kept = match (&self.mask, &self.source) {
-            (Some(m), Some(s)) => s.holds(m, &wanted),
+            (Some(m), Some(s)) => s.holds(m, &wanted, self.reuse.is_some()),
             _ => false,
         };
         if !kept {

@@ -107,44 +107,6 @@ impl Frame {
             && self.object.len() == self.len()
             && self.normal.len() == self.len()
     }
-
-    /// Rows of every buffer, for filling in parallel (the surface rows are
-    /// empty slices when the frame has no surface buffers).
-    pub(crate) fn rows_mut(&mut self) -> Vec<RowMut<'_>> {
-        let w = self.width_px as usize;
-        let h = self.height_px as usize;
-        if w == 0 || h == 0 {
-            return Vec::new();
-        }
-        let surface = self.has_surface();
-        let mut depth = self.depth_mm.chunks_mut(w);
-        let mut object = self.object.chunks_mut(w);
-        let mut normal = self.normal.chunks_mut(w);
-        self.rgb
-            .chunks_mut(3 * w)
-            .zip(self.hit.chunks_mut(w))
-            .zip(self.layer.chunks_mut(w))
-            .map(|((rgb, hit), layer)| {
-                let (depth_mm, object, normal) = if surface {
-                    (
-                        depth.next().unwrap_or_default(),
-                        object.next().unwrap_or_default(),
-                        normal.next().unwrap_or_default(),
-                    )
-                } else {
-                    (Default::default(), Default::default(), Default::default())
-                };
-                RowMut {
-                    rgb,
-                    hit,
-                    depth_mm,
-                    object,
-                    normal,
-                    layer,
-                }
-            })
-            .collect()
-    }
 }
 
 /// One row of a [`Frame`]'s buffers.

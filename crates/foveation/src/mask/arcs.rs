@@ -6,17 +6,85 @@
 
 use std::f64::consts::{FRAC_PI_2, PI, TAU};
 
+/// Intervals an [`ArcList`] holds at most. A circle meets a rectangle's
+/// four edges in at most four forbidden arcs, so what is left of it on the
+/// screen is at most four arcs, and widening or merging never adds one.
+pub const MAX_ARCS: usize = 8;
+
+/// Up to [`MAX_ARCS`] intervals, held in place: building a mask allocates
+/// nothing for them.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct ArcList {
+    len: usize,
+    arcs: [(f64, f64); MAX_ARCS],
+}
+
+/// Equal intervals (the unused slots do not count).
+impl PartialEq for ArcList {
+    fn eq(&self, other: &Self) -> bool {
+        self.as_slice() == other.as_slice()
+    }
+}
+
+impl ArcList {
+    /// The intervals.
+    pub fn as_slice(&self) -> &[(f64, f64)] {
+        &self.arcs[..self.len]
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.len == 0
+    }
+
+    /// Appends `arc`; false (and nothing added) when full.
+    fn push(&mut self, arc: (f64, f64)) -> bool {
+        if self.len == MAX_ARCS {
+            return false;
+        }
+        self.arcs[self.len] = arc;
+        self.len += 1;
+        true
+    }
+
+    fn as_mut_slice(&mut self) -> &mut [(f64, f64)] {
+        &mut self.arcs[..self.len]
+    }
+
+    fn pop(&mut self) {
+        self.len = self.len.saturating_sub(1);
+    }
+
+    /// A list of these intervals (at most [`MAX_ARCS`] are kept; the
+    /// callers' lists are shorter).
+    pub fn from_slice(arcs: &[(f64, f64)]) -> Self {
+        let mut l = Self::default();
+        for &a in arcs {
+            l.push(a);
+        }
+        l
+    }
+}
+
 /// A set of angles on the circle.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub enum ArcSet {
     /// Every angle.
     Full,
     /// Disjoint intervals `[a, b]`, sorted, `a < b`, all within one turn
     /// starting at the first `a` (the first may start below 0).
-    Arcs(Vec<(f64, f64)>),
+    Arcs(ArcList),
 }
 
+/// The one turn [`ArcSet::intervals`] gives for [`ArcSet::Full`].
+const FULL_TURN: [(f64, f64); 1] = [(0.0, TAU)];
+
 impl ArcSet {
+    /// No angle.
+    pub const EMPTY: ArcSet = ArcSet::Arcs(ArcList {
+        len: 0,
+        arcs: [(0.0, 0.0); MAX_ARCS],
+    });
+
     pub fn is_empty(&self) -> bool {
         matches!(self, ArcSet::Arcs(a) if a.is_empty())
     }
@@ -27,17 +95,19 @@ impl ArcSet {
         match self {
             ArcSet::Full => ArcSet::Full,
             ArcSet::Arcs(arcs) => from_intervals(
-                arcs.iter().map(|&(a, b)| (a - margin, b + margin)),
+                arcs.as_slice()
+                    .iter()
+                    .map(|&(a, b)| (a - margin, b + margin)),
                 join_gap,
             ),
         }
     }
 
     /// The intervals, or one full turn.
-    pub fn intervals(&self) -> Vec<(f64, f64)> {
+    pub fn intervals(&self) -> &[(f64, f64)] {
         match self {
-            ArcSet::Full => vec![(0.0, TAU)],
-            ArcSet::Arcs(a) => a.clone(),
+            ArcSet::Full => &FULL_TURN,
+            ArcSet::Arcs(a) => a.as_slice(),
         }
     }
 }
@@ -87,11 +157,11 @@ impl ScreenFromPor {
             return if radius_px == 0.0 && self.por_inside() {
                 ArcSet::Full
             } else {
-                ArcSet::Arcs(Vec::new())
+                ArcSet::EMPTY
             };
         }
         if radius_px < self.min_distance_px || radius_px > self.max_distance_px {
-            return ArcSet::Arcs(Vec::new());
+            return ArcSet::EMPTY;
         }
         if !self.por_inside() {
             return self.screen_angular_span();
@@ -99,7 +169,7 @@ impl ScreenFromPor {
         // Each edge forbids the arc of angles whose point lies beyond it:
         // an edge at distance m in direction c forbids |φ - c| < acos(m / r).
         let directions = [0.0, FRAC_PI_2, PI, 3.0 * FRAC_PI_2];
-        let mut forbidden = Vec::with_capacity(5);
+        let mut forbidden = ArcList::default();
         for (m, c) in self.margins.iter().zip(directions) {
             if *m < radius_px {
                 let half = (m / radius_px).acos();
@@ -109,20 +179,22 @@ impl ScreenFromPor {
         if forbidden.is_empty() {
             return ArcSet::Full;
         }
-        let forbidden = match from_intervals(forbidden.into_iter(), 0.0) {
-            ArcSet::Full => return ArcSet::Arcs(Vec::new()),
+        let forbidden = match from_intervals(forbidden.as_slice().iter().copied(), 0.0) {
+            ArcSet::Full => return ArcSet::EMPTY,
             ArcSet::Arcs(f) => f,
         };
+        let forbidden = forbidden.as_slice();
         // Complement within the turn that starts where the first forbidden arc ends.
         let start = forbidden[0].1;
-        let mut allowed = Vec::with_capacity(forbidden.len());
+        let mut allowed = ArcList::default();
         for (i, &(_, end)) in forbidden.iter().enumerate() {
             let next_start = forbidden.get(i + 1).map_or(forbidden[0].0 + TAU, |n| n.0);
             if next_start > end {
+                // At most one gap per forbidden arc: never more than the list holds.
                 allowed.push((end, next_start));
             }
         }
-        debug_assert!(allowed.iter().all(|&(a, _)| a >= start));
+        debug_assert!(allowed.as_slice().iter().all(|&(a, _)| a >= start));
         ArcSet::Arcs(allowed)
     }
 
@@ -139,7 +211,7 @@ impl ScreenFromPor {
             lo = lo.min(rel);
             hi = hi.max(rel);
         }
-        ArcSet::Arcs(vec![(c + lo, c + hi)])
+        ArcSet::Arcs(ArcList::from_slice(&[(c + lo, c + hi)]))
     }
 }
 
@@ -154,39 +226,48 @@ fn wrap_pi(a: f64) -> f64 {
 }
 
 /// Builds a set from intervals of any start (each shorter than a turn or
-/// covering it), merging overlaps and gaps below `join_gap`.
+/// covering it), merging overlaps and gaps below `join_gap`. More than
+/// [`MAX_ARCS`] intervals (no caller makes them) give the whole turn: a
+/// superset, so a mask built from it only has more cells, never a hole.
 pub fn from_intervals(intervals: impl Iterator<Item = (f64, f64)>, join_gap: f64) -> ArcSet {
-    let mut v: Vec<(f64, f64)> = Vec::new();
+    let mut v = ArcList::default();
     for (a, b) in intervals {
         if b - a >= TAU - join_gap {
             return ArcSet::Full;
         }
         let s = a.rem_euclid(TAU);
-        v.push((s, s + (b - a)));
+        if !v.push((s, s + (b - a))) {
+            return ArcSet::Full;
+        }
     }
     if v.is_empty() {
         return ArcSet::Arcs(v);
     }
-    v.sort_by(|x, y| x.0.total_cmp(&y.0));
-    let mut merged: Vec<(f64, f64)> = Vec::with_capacity(v.len());
-    for (a, b) in v {
-        match merged.last_mut() {
+    v.as_mut_slice()
+        .sort_unstable_by(|x, y| x.0.total_cmp(&y.0));
+    let mut merged = ArcList::default();
+    for &(a, b) in v.as_slice() {
+        match merged.as_mut_slice().last_mut() {
             Some(last) if a <= last.1 + join_gap => last.1 = last.1.max(b),
-            _ => merged.push((a, b)),
+            _ => {
+                merged.push((a, b));
+            }
         }
     }
     // An interval that runs past one turn may reach the first ones again.
-    while merged.len() > 1 {
-        let last = merged[merged.len() - 1];
-        let first = merged[0];
+    while merged.len > 1 {
+        let m = merged.as_mut_slice();
+        let last = m[m.len() - 1];
+        let first = m[0];
         if last.1 - TAU + join_gap >= first.0 {
+            m[0] = (last.0 - TAU, first.1.max(last.1 - TAU));
             merged.pop();
-            merged[0] = (last.0 - TAU, first.1.max(last.1 - TAU));
         } else {
             break;
         }
     }
-    if merged.len() == 1 && merged[0].1 - merged[0].0 >= TAU - join_gap {
+    let m = merged.as_slice();
+    if m.len() == 1 && m[0].1 - m[0].0 >= TAU - join_gap {
         return ArcSet::Full;
     }
     ArcSet::Arcs(merged)
@@ -199,7 +280,7 @@ mod tests {
     fn contains(set: &ArcSet, phi: f64) -> bool {
         match set {
             ArcSet::Full => true,
-            ArcSet::Arcs(a) => a.iter().any(|&(lo, hi)| {
+            ArcSet::Arcs(a) => a.as_slice().iter().any(|&(lo, hi)| {
                 let p = lo + (phi - lo).rem_euclid(TAU);
                 p <= hi
             }),
@@ -236,6 +317,16 @@ mod tests {
     #[test]
     fn intervals_across_zero_are_joined() {
         let set = from_intervals([(6.0, 6.5), (0.1, 0.3)].into_iter(), 0.0);
-        assert_eq!(set, ArcSet::Arcs(vec![(6.0 - TAU, 0.3)]));
+        assert_eq!(set, ArcSet::Arcs(ArcList::from_slice(&[(6.0 - TAU, 0.3)])));
+    }
+
+    #[test]
+    fn more_intervals_than_the_list_holds_give_the_whole_turn() {
+        let many = (0..MAX_ARCS + 1).map(|k| (k as f64 * 0.5, k as f64 * 0.5 + 0.1));
+        assert_eq!(from_intervals(many, 0.0), ArcSet::Full);
+        let fit = (0..MAX_ARCS).map(|k| (k as f64 * 0.5, k as f64 * 0.5 + 0.1));
+        assert!(
+            matches!(from_intervals(fit, 0.0), ArcSet::Arcs(a) if a.as_slice().len() == MAX_ARCS)
+        );
     }
 }

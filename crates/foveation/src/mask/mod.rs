@@ -171,6 +171,9 @@ pub struct RayMask {
     /// Intermediate-mesh cells: four vertex indices (quads) or three and
     /// [`NO_VERTEX`] (triangles), in ring order.
     pub cells: Vec<[u32; 4]>,
+    /// The two rings' vertex slots the mesh walk uses, kept so that a
+    /// rebuild in place allocates nothing once they have grown.
+    slots: [RingSlots; 2],
 }
 
 impl RayMask {
@@ -265,6 +268,7 @@ pub fn build(
         rings: Vec::new(),
         vertices: Vec::new(),
         cells: Vec::new(),
+        slots: Default::default(),
     };
     rebuild(&mut mask, model, layout, por_px)?;
     Ok(mask)
@@ -609,6 +613,7 @@ impl Hasher for IndexHasher {
 /// previous one rotated by one angular step: one complex multiply instead of
 /// a sine and cosine (the drift over a few thousand steps is ~1e-13, far
 /// below the f32 the vertices are stored in).
+#[derive(Debug, Clone)]
 struct RingSlots {
     radius: f64,
     n: u32,
@@ -620,6 +625,12 @@ struct RingSlots {
     last_index: usize,
     last_unit: [f64; 2],
     step: [f64; 2],
+}
+
+impl Default for RingSlots {
+    fn default() -> Self {
+        Self::new()
+    }
 }
 
 impl RingSlots {
@@ -638,6 +649,12 @@ impl RingSlots {
 
     fn reset(&mut self, ring: &Ring) {
         self.generation += 1;
+        if self.generation > u64::from(u32::MAX) {
+            // The generation lives in a slot's upper 32 bits: start again
+            // from an emptied array rather than let an old id look current.
+            self.slots.fill(0);
+            self.generation = 1;
+        }
         self.radius = ring.radius_px;
         self.n = ring.points_per_turn;
         self.last_index = usize::MAX;
@@ -704,15 +721,16 @@ impl RingSlots {
 /// the strip can touch the screen.
 fn mesh_strips(mask: &mut RayMask, screen: &ScreenFromPor) {
     let por = mask.por_px;
-    let strips: Vec<ArcSet> = mask
-        .rings
-        .windows(2)
-        .map(|pair| strip_arcs(&pair[0], &pair[1], screen))
-        .collect();
+    // The strips' arcs, computed again where they are walked (cheaper than
+    // keeping a list of them: a few hundred rings).
+    let strips = || {
+        mask.rings
+            .windows(2)
+            .map(|pair| strip_arcs(&pair[0], &pair[1], screen))
+    };
     // Reserve what the strips will produce: a ring's share of points is the
     // visible fraction of its turn.
-    let estimate: f64 = strips
-        .iter()
+    let estimate: f64 = strips()
         .zip(&mask.rings)
         .map(|(arcs, ring)| {
             let turn: f64 = arcs
@@ -731,9 +749,9 @@ fn mesh_strips(mask: &mut RayMask, screen: &ScreenFromPor) {
     cells.clear();
     vertices.reserve((estimate * 1.1) as usize + 16);
     cells.reserve((estimate * 1.1) as usize + 16);
-    let mut inner = RingSlots::new();
-    let mut outer = RingSlots::new();
-    for (pair, arcs) in mask.rings.windows(2).zip(strips) {
+    let [mut inner, mut outer] = std::mem::take(&mut mask.slots);
+    for pair in mask.rings.windows(2) {
+        let arcs = strip_arcs(&pair[0], &pair[1], screen);
         let (ri, ro) = (&pair[0], &pair[1]);
         let (ni, no) = (ri.points_per_turn, ro.points_per_turn);
         std::mem::swap(&mut inner, &mut outer);
@@ -752,7 +770,7 @@ fn mesh_strips(mask: &mut RayMask, screen: &ScreenFromPor) {
             ArcSet::Full => strip.walk(0, 0, |i, j| i < i64::from(ni) || j < i64::from(no)),
             ArcSet::Arcs(list) => {
                 let (si, so) = (TAU / f64::from(ni), TAU / f64::from(no));
-                for (a, b) in list {
+                for &(a, b) in list.as_slice() {
                     let i0 = (a / si).floor() as i64;
                     let j0 = (a / so).floor() as i64;
                     strip.walk(i0, j0, |i, j| (i as f64) * si < b || (j as f64) * so < b);
@@ -762,6 +780,7 @@ fn mesh_strips(mask: &mut RayMask, screen: &ScreenFromPor) {
     }
     mask.vertices = vertices;
     mask.cells = cells;
+    mask.slots = [inner, outer];
 }
 
 /// The angles over which the strip between two rings can touch the screen,
@@ -771,7 +790,7 @@ fn strip_arcs(ri: &Ring, ro: &Ring, screen: &ScreenFromPor) -> ArcSet {
     let step_max = TAU / f64::from(ri.points_per_turn.min(ro.points_per_turn));
     let inset = ri.radius_px * (PI / f64::from(ri.points_per_turn)).cos();
     if ro.radius_px < screen.min_distance_px || inset > screen.max_distance_px {
-        return ArcSet::Arcs(Vec::new());
+        return ArcSet::EMPTY;
     }
     screen
         .visible_arcs(inset.max(screen.min_distance_px))
@@ -828,5 +847,44 @@ impl Strip<'_> {
                 d = c;
             }
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn ring(n: u32) -> Ring {
+        Ring {
+            radius_px: 10.0,
+            points_per_turn: n,
+            radial_step_px: 1.0,
+            tightest: Spacing {
+                spacing_px: 1.0,
+                eccentricity_deg: 0.0,
+                ppd: 1.0,
+            },
+        }
+    }
+
+    #[test]
+    fn ring_slots_forget_old_ids_when_the_generation_wraps() {
+        let mut s = RingSlots::new();
+        let mut vertices = Vec::new();
+        s.reset(&ring(16));
+        let a = s.vertex(3, [0.0, 0.0], &mut vertices);
+        assert_eq!(s.lookup(3), Some(a));
+        // The last generation the upper 32 bits hold, then one more reset.
+        s.generation = u64::from(u32::MAX) - 1;
+        s.reset(&ring(16));
+        assert_eq!(s.lookup(3), None);
+        let b = s.vertex(3, [0.0, 0.0], &mut vertices);
+        assert_eq!(s.lookup(3), Some(b));
+        s.reset(&ring(16));
+        assert_eq!(s.generation, 1, "wrapped");
+        assert_eq!(s.lookup(3), None, "an id from before the wrap");
+        let c = s.vertex(3, [0.0, 0.0], &mut vertices);
+        assert_ne!(c, b);
+        assert_eq!(s.lookup(3), Some(c));
     }
 }

@@ -387,18 +387,19 @@ fn rgb8(scene: &Scene, colour: Vec3) -> [u8; 3] {
 }
 
 fn full(scene: &Scene, cam: &Camera, test: TriangleTest, frame: &mut Frame) {
-    frame
-        .rows_mut()
-        .into_par_iter()
-        .enumerate()
-        .for_each(|(y, mut row)| {
+    map_rows::<(), ()>(
+        frame,
+        None,
+        |y, mut row, _| {
             let surface = row.has_surface();
             for x in 0..row.hit.len() {
                 let p = [x as f32 + 0.5, y as f32 + 0.5];
                 let hit = cast(scene, cam, p, test);
                 row.put(x, texel(scene, cam, p, hit, Layer::Full, surface));
             }
-        });
+        },
+        |(), ()| (),
+    );
 }
 
 /// Runs `f(y, row, extra_row)` on every row of `frame` in parallel and

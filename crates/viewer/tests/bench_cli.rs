@@ -121,3 +121,78 @@ fn bench_errors_are_clear() {
     assert!(!out.status.success());
     assert!(String::from_utf8_lossy(&out.stderr).contains("--gazes"));
 }
+
+/// The cells of the row of `scene` in a `bench stages` table, after the
+/// header named `columns`.
+fn stage_row(stdout: &str, scene: &str) -> (Vec<String>, Vec<String>) {
+    let mut lines = stdout.lines().filter(|l| l.starts_with('|'));
+    let cells = |l: &str| -> Vec<String> {
+        l.trim_matches('|')
+            .split('|')
+            .map(|c| c.trim().to_string())
+            .collect()
+    };
+    let header = cells(lines.next().expect("header"));
+    let row = lines
+        .find(|l| l.contains(scene))
+        .map(cells)
+        .unwrap_or_default();
+    (header, row)
+}
+
+#[test]
+fn bench_stages_breaks_a_frame_down_on_the_cpu_and_the_gpu() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let display = dir.path().join("small.ron");
+    std::fs::write(
+        &display,
+        "Display(name: \"small\", resolution_px: (160, 128), size_mm: (337.9, 270.3), eye_distance_mm: 540.0)",
+    )
+    .expect("write");
+    let run = |backend: &str| {
+        let out = gazecast()
+            .args([
+                "bench",
+                "stages",
+                "--scene",
+                "config/scenes/bunny.ron",
+                "--repeats",
+                "1",
+                "--backend",
+                backend,
+                "--display",
+            ])
+            .arg(&display)
+            .succeed();
+        String::from_utf8_lossy(&out.stdout).to_string()
+    };
+    let cpu = run("cpu");
+    let (header, row) = stage_row(&cpu, "bunny");
+    for column in [
+        "full ms",
+        "foveated ms",
+        "mask",
+        "vertex rays",
+        "classify",
+        "margin",
+        "ownership",
+        "pixels",
+        "effects",
+    ] {
+        assert!(header.iter().any(|h| h == column), "{column}: {cpu}");
+    }
+    assert_eq!(header.len(), row.len(), "{cpu}");
+    for (h, v) in header.iter().zip(&row).skip(2) {
+        let x: f64 = v.parse().unwrap_or_else(|_| panic!("{h} = {v}: {cpu}"));
+        assert!(x.is_finite() && x >= 0.0, "{h} = {v}");
+    }
+    assert!(cpu.contains("cpu, threads:"), "{cpu}");
+    // The GPU core's passes by name (lavapipe here: a software adapter).
+    let gpu = run("gpu");
+    let (header, row) = stage_row(&gpu, "bunny");
+    assert_eq!(header.len(), row.len(), "{gpu}");
+    assert!(gpu.contains("\ngpu: "), "{gpu}");
+    if !gpu.contains("none when") || header.iter().any(|h| h == "cast vertices") {
+        assert!(header.iter().any(|h| h == "cast vertices"), "{gpu}");
+    }
+}

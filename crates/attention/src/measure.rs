@@ -11,6 +11,7 @@
 //! to agree on which pixel belongs to which object and map cell
 //! ([`ObjectIndex`], [`CellAxis`]).
 
+use crate::config::{MAX_MAP_SIZE, MIN_MAP_SIZE};
 use crate::error::AttentionError;
 use crate::frame::{ObjectInfo, BACKGROUND_ID, MAX_FRAME_PIXELS, MAX_FRAME_SIDE, MAX_OBJECTS};
 
@@ -265,17 +266,27 @@ pub struct CellAxis {
 
 impl CellAxis {
     /// The axis of a `frame_len`-pixel frame side on a `map_len`-cell map
-    /// side (both at least 1; 0 is taken as 1).
-    pub fn new(frame_len: u32, map_len: u32) -> Self {
+    /// side. Both are checked before anything is allocated: the frame side
+    /// as [`check_frame_size`] checks it (1 to `MAX_FRAME_SIDE`), the map
+    /// side as the configuration does (`MIN_MAP_SIZE..=MAX_MAP_SIZE`).
+    pub fn new(frame_len: u32, map_len: u32) -> Result<Self, AttentionError> {
+        check_frame_size(frame_len, 1)?;
+        if !(MIN_MAP_SIZE..=MAX_MAP_SIZE).contains(&map_len) {
+            return Err(AttentionError::MapSizeOutOfRange {
+                size: map_len,
+                min: MIN_MAP_SIZE,
+                max: MAX_MAP_SIZE,
+            });
+        }
         let mut axis = Self::default();
         footprints(
-            frame_len.max(1),
-            map_len.max(1),
+            frame_len,
+            map_len,
             &mut axis.lo,
             &mut axis.hi,
             &mut axis.cell_of,
         );
-        axis
+        Ok(axis)
     }
 
     /// For each cell, the frame pixels `[first, end)` whose cell it is
@@ -343,7 +354,7 @@ mod tests {
             (1, 512),
             (7, 64),
         ] {
-            let axis = CellAxis::new(n, m);
+            let axis = CellAxis::new(n, m).expect("valid sizes");
             let owned = axis.owned();
             assert_eq!(owned.len(), m as usize);
             let mut seen = vec![0u32; n as usize];
@@ -420,5 +431,23 @@ mod tests {
             .rebuild(&[ObjectInfo::still(BACKGROUND_ID, 1.0)])
             .is_err());
         assert_eq!((index.len(), index.dense_of(2)), (0, u));
+    }
+
+    #[test]
+    fn axes_refuse_sizes_out_of_range_before_allocating() {
+        for (n, m) in [
+            (0, 64),
+            (MAX_FRAME_SIDE + 1, 64),
+            (u32::MAX, 64),
+            (640, MIN_MAP_SIZE - 1),
+            (640, MAX_MAP_SIZE + 1),
+            (640, 0),
+            (u32::MAX, u32::MAX),
+        ] {
+            assert!(CellAxis::new(n, m).is_err(), "{n} {m}");
+        }
+        let widest = CellAxis::new(MAX_FRAME_SIDE, MIN_MAP_SIZE).expect("the largest side");
+        assert_eq!(widest.cell_of.len(), MAX_FRAME_SIDE as usize);
+        assert_eq!(CellAxis::new(1, MAX_MAP_SIZE).map(|a| a.lo.len()), Ok(512));
     }
 }

@@ -74,8 +74,8 @@ fn compare(
     // The map cell of a frame point (a peak is the centroid of an object's
     // pixels inside one cell, so it lies in that cell).
     let (ax, ay) = (
-        attention::CellAxis::new(width, map_size),
-        attention::CellAxis::new(height, map_size),
+        attention::CellAxis::new(width, map_size).expect("a valid frame side and map size"),
+        attention::CellAxis::new(height, map_size).expect("a valid frame side and map size"),
     );
     let cell_value = |p: [f32; 2]| {
         let x = (p[0].floor().max(0.0) as usize).min(width as usize - 1);

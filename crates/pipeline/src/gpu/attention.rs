@@ -227,7 +227,7 @@ impl GpuSaliency {
         self.index.rebuild(objects)?;
         let m = self.config.map_size;
         if self.grid != Some((w, h)) {
-            self.build_cell_tables(w, h, m);
+            self.build_cell_tables(w, h, m)?;
             self.grid = Some((w, h));
         }
         let n = self.index.len();
@@ -418,9 +418,10 @@ impl GpuSaliency {
 
     /// The frame-size tables: footprints and owned pixel ranges on both
     /// axes, each frame row's map row, and the CPU's magnification taps.
-    fn build_cell_tables(&mut self, w: u32, h: u32, m: u32) {
-        let x = CellAxis::new(w, m);
-        let y = CellAxis::new(h, m);
+    /// Sizes are checked (by [`CellAxis::new`]) before anything changes.
+    fn build_cell_tables(&mut self, w: u32, h: u32, m: u32) -> Result<(), AttentionError> {
+        let x = CellAxis::new(w, m)?;
+        let y = CellAxis::new(h, m)?;
         let t = &mut self.cell_tables;
         t.clear();
         let l = &mut self.layout;
@@ -454,6 +455,7 @@ impl GpuSaliency {
                 t.extend([lo as u32, hi as u32, (u - lo as f32).to_bits()]);
             }
         }
+        Ok(())
     }
 
     /// Encodes the passes on the frame `prepare` checked, submits them with

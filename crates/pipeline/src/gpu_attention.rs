@@ -112,6 +112,8 @@ pub struct GpuAttention {
     saliency: GpuSaliency,
     frame: Option<Uploaded>,
     tracker: AttentionTracker,
+    /// The packed colour words of the last upload (kept for the next).
+    words: Vec<u32>,
 }
 
 impl GpuAttention {
@@ -125,6 +127,7 @@ impl GpuAttention {
             saliency: GpuSaliency::new(config),
             frame: None,
             tracker,
+            words: Vec::new(),
         })
     }
 
@@ -174,24 +177,17 @@ impl GpuAttention {
         };
         // The cast's packing: RGB in bits 0-23, the hit flag (every pixel
         // of a CPU frame; its ids and depths say what is background) in 24.
-        let words: Vec<u8> = frame
-            .rgb
-            .chunks_exact(3)
-            .flat_map(|c| {
-                (u32::from(c[0]) | u32::from(c[1]) << 8 | u32::from(c[2]) << 16 | 1 << 24)
-                    .to_le_bytes()
-            })
-            .collect();
+        self.words.clear();
+        self.words.extend(
+            frame
+                .rgb
+                .chunks_exact(3)
+                .map(|c| u32::from(c[0]) | u32::from(c[1]) << 8 | u32::from(c[2]) << 16 | 1 << 24),
+        );
         let queue = &self.gpu.queue;
-        queue.write_buffer(&f.pixels, 0, &words);
-        let depth: Vec<u8> = frame
-            .depth_mm
-            .iter()
-            .flat_map(|d| d.to_le_bytes())
-            .collect();
-        queue.write_buffer(&f.depth, 0, &depth);
-        let ids: Vec<u8> = frame.object.iter().flat_map(|d| d.to_le_bytes()).collect();
-        queue.write_buffer(&f.ids, 0, &ids);
+        queue.write_buffer(&f.pixels, 0, bytemuck::cast_slice(&self.words));
+        queue.write_buffer(&f.depth, 0, bytemuck::cast_slice(frame.depth_mm));
+        queue.write_buffer(&f.ids, 0, bytemuck::cast_slice(frame.object));
         Ok(())
     }
 

@@ -11,20 +11,22 @@
 //! 256 objects);
 //! the `M²` map of `S_p` stays on the GPU unless asked for
 //! ([`GpuSaliency::read_saliency_map`], `4·M²` bytes: 16 KiB at 64², 1 MiB at
-//! 512²). Uploads per frame: the per-object table (ids, speeds) when it
-//! changed, the cell tables when the frame or map size did. Nothing is made
-//! before the first frame (the shader, the buffers); a renderer that runs
-//! no attention makes none of it.
+//! 512²). Uploads per frame: the uniform parameters (one 256-byte slot per
+//! pyramid level), the per-object table (ids, speeds) when it changed, the
+//! cell tables when the frame or map size did. Nothing is made before the
+//! first frame (the shader, the buffers); a renderer that runs no attention
+//! makes none of it.
 
+use attention::contrast::contrast_weight_of_max;
 use attention::measure::check_frame_size;
-use attention::pyramid::{texel_coordinate, PYRAMID_LEVELS};
+use attention::pyramid::{AxisTaps, PYRAMID_LEVELS};
 use attention::{
     AttentionConfig, AttentionError, CellAxis, FrameMeasure, ObjectIndex, ObjectInfo, ObjectMeasure,
 };
 use raycast::gpu::wgpu;
 use raycast::gpu::{read_words, storage_buffer, GpuError};
 
-use super::{level_layout, Kernels, Words, SLOT};
+use super::{dispatch_groups, level_layout, Kernels, Words, SLOT};
 
 /// Bytes of `AttParams` in `attention.wgsl`: 32 words, then 7 levels.
 const PARAMS_BYTES: u64 = 128 + 16 * PYRAMID_LEVELS as u64;
@@ -76,8 +78,6 @@ const O_PEAK_Y: usize = 14;
 /// Units of the fixed-point sums: depth in 1/256 mm, `S_p` in 2^-23.
 const DEPTH_UNIT_MM: f64 = 1.0 / 256.0;
 const SALIENCY_UNIT: f64 = 1.0 / 8_388_608.0;
-/// Ids below this get a direct lookup table (as the CPU's `IdLookup`).
-const DIRECT_LOOKUP_IDS: u32 = 1 << 16;
 /// Workgroup side of the 2-D entry points, and size of the 1-D ones.
 const GROUP_2D: u32 = 8;
 const GROUP_1D: u32 = 64;
@@ -125,7 +125,9 @@ struct Layout {
 }
 
 struct Buffers {
-    /// The frame buffers the bind group was made for.
+    /// The frame buffers the bind group was made for (handles: the bind
+    /// group holds the same buffers alive anyway, and wgpu compares
+    /// buffers only through a handle).
     frame: [wgpu::Buffer; 3],
     tables_words: u64,
     stats_words: u64,
@@ -156,12 +158,66 @@ pub(crate) struct GpuSaliency {
     measured: Option<(u32, u32)>,
 }
 
-/// `contrast::contrast_weight` from a read-back maximum.
-fn weight_of(max: f32) -> f32 {
-    if max > attention::contrast::MIN_CONTRAST && max.is_finite() {
-        1.0 / max
-    } else {
-        0.0
+impl Buffers {
+    /// Made for `frame`, with room for the tables, statistics and maps.
+    fn serves(&self, frame: [&wgpu::Buffer; 3], tables: u64, stats: u64, maps: u64) -> bool {
+        self.frame.iter().zip(frame).all(|(a, f)| a == f)
+            && self.tables_words >= tables
+            && self.stats_words >= stats
+            && self.maps_words >= maps
+    }
+
+    /// New buffers of these sizes (words) and their bind group over
+    /// `input`'s frame; nothing is kept on an error.
+    fn new(
+        kernels: &Kernels,
+        input: &SaliencyInput<'_>,
+        tables_words: u64,
+        stats_words: u64,
+        maps_words: u64,
+    ) -> Result<Self, GpuError> {
+        let device = input.device;
+        let max = input.max_binding;
+        use wgpu::BufferUsages as U;
+        let tables = storage_buffer(
+            device,
+            "attention tables",
+            4 * tables_words,
+            U::COPY_DST,
+            max,
+        )?;
+        let stats = storage_buffer(
+            device,
+            "attention object statistics",
+            4 * stats_words,
+            U::COPY_DST | U::COPY_SRC,
+            max,
+        )?;
+        let maps = storage_buffer(device, "attention maps", 4 * maps_words, U::COPY_SRC, max)?;
+        let params = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("attention params"),
+            size: SLOT * PYRAMID_LEVELS as u64,
+            usage: U::UNIFORM | U::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let group = kernels.bind(
+            device,
+            &params,
+            PARAMS_BYTES,
+            input.pixels,
+            &[input.depth, input.ids, &tables, &stats, &maps],
+        );
+        Ok(Self {
+            frame: [input.pixels, input.depth, input.ids].map(Clone::clone),
+            tables_words,
+            stats_words,
+            maps_words,
+            params,
+            tables,
+            stats,
+            maps,
+            group,
+        })
     }
 }
 
@@ -192,19 +248,14 @@ impl GpuSaliency {
     /// `w_f` of eq. 3.6 in `Feature::ALL` order, from the last frame's
     /// maxima (0 for switched-off or flat features).
     pub fn weights(&self) -> [f32; 5] {
-        let on = self.feature_flags();
+        let on = self.config.features.as_array();
         std::array::from_fn(|f| {
             if on[f] {
-                weight_of(self.maxima[f])
+                contrast_weight_of_max(self.maxima[f])
             } else {
                 0.0
             }
         })
-    }
-
-    fn feature_flags(&self) -> [bool; 5] {
-        let f = self.config.features;
-        [f.luminance, f.hue, f.depth, f.size, f.motion]
     }
 
     /// Decision 7 of the attention crate: whether `S_p` carried anything.
@@ -232,18 +283,11 @@ impl GpuSaliency {
         }
         let n = self.index.len();
         // The per-object table: sorted ids, speeds, the direct lookup.
-        let sorted = self.index.sorted_ids();
-        let max_id = sorted.last().copied().unwrap_or(0);
-        let direct_len = if n > 0 && max_id < DIRECT_LOOKUP_IDS {
-            max_id + 1
-        } else {
-            0
-        };
         self.tables.clear();
         self.tables.extend_from_slice(&self.cell_tables);
         let mut layout = self.layout;
         layout.t_sorted = self.tables.len() as u32;
-        self.tables.extend_from_slice(sorted);
+        self.tables.extend_from_slice(self.index.sorted_ids());
         layout.t_speed = self.tables.len() as u32;
         self.tables.extend(
             self.index
@@ -252,14 +296,9 @@ impl GpuSaliency {
                 .map(|&s| objects[s].speed_used().to_bits()),
         );
         layout.t_direct = self.tables.len() as u32;
-        layout.direct_len = direct_len;
-        if direct_len > 0 {
-            let start = self.tables.len();
-            self.tables.resize(start + direct_len as usize, u32::MAX);
-            for (d, &id) in sorted.iter().enumerate() {
-                self.tables[start + id as usize] = d as u32;
-            }
-        }
+        let direct = self.index.direct_table();
+        layout.direct_len = direct.map_or(0, |t| t.len() as u32);
+        self.tables.extend_from_slice(direct.unwrap_or_default());
         // Maps: the pyramids, the REDUCE scratch, contrast, S_p, B_s and B_m.
         let (levels, texels) = level_layout(m, m, PYRAMID_LEVELS);
         let plane = texels;
@@ -278,8 +317,9 @@ impl GpuSaliency {
         let tables_words = self.tables.len().max(1) as u64;
         let stats_words = (GLOBALS + REC * n.max(1)) as u64;
         let device = input.device;
-        let kernels = self.kernels.get_or_insert_with(|| {
-            Kernels::new(
+        let kernels = &*self.kernels.get_or_insert_with(|| {
+            // Only the packed colour words are read: no colour tables.
+            Kernels::without_colour_tables(
                 device,
                 "attention.wgsl",
                 include_str!("attention.wgsl"),
@@ -289,82 +329,38 @@ impl GpuSaliency {
             )
         });
         let frame = [input.pixels, input.depth, input.ids];
-        let stale = self.buffers.as_ref().is_none_or(|b| {
-            b.frame.iter().zip(frame).any(|(a, f)| a != f)
-                || b.tables_words < tables_words
-                || b.stats_words < stats_words
-                || b.maps_words < layout.m_total
-        });
-        if stale {
-            // Grow with headroom so a changing object list does not
-            // reallocate every frame.
-            let (tables_words, stats_words) = match &self.buffers {
-                Some(b) => (
-                    tables_words.max(b.tables_words),
-                    stats_words.max(b.stats_words),
-                ),
-                None => (tables_words, stats_words),
-            };
-            let maps_words = layout.m_total;
-            let max = input.max_binding;
-            use wgpu::BufferUsages as U;
-            let tables = storage_buffer(
-                device,
-                "attention tables",
-                4 * tables_words,
-                U::COPY_DST,
-                max,
-            )?;
-            let stats = storage_buffer(
-                device,
-                "attention object statistics",
-                4 * stats_words,
-                U::COPY_DST | U::COPY_SRC,
-                max,
-            )?;
-            let maps = storage_buffer(device, "attention maps", 4 * maps_words, U::COPY_SRC, max)?;
-            let params = device.create_buffer(&wgpu::BufferDescriptor {
-                label: Some("attention params"),
-                size: SLOT * PYRAMID_LEVELS as u64,
-                usage: U::UNIFORM | U::COPY_DST,
-                mapped_at_creation: false,
-            });
-            let group = kernels.bind(
-                device,
-                &params,
-                PARAMS_BYTES,
-                input.pixels,
-                &[input.depth, input.ids, &tables, &stats, &maps],
-            );
-            self.buffers = Some(Buffers {
-                frame: frame.map(Clone::clone),
-                tables_words,
-                stats_words,
-                maps_words,
-                params,
-                tables,
-                stats,
-                maps,
-                group,
-            });
-            self.uploaded_tables.clear();
-        }
-        let Some(b) = self.buffers.as_ref() else {
-            return Err(PrepareError::Gpu(GpuError::Readback(
-                "no attention buffers".into(),
-            )));
+        let b = match &mut self.buffers {
+            Some(b) if b.serves(frame, tables_words, stats_words, layout.m_total) => &*b,
+            held => {
+                // New buffers: for a new frame, or more room. The tables
+                // and statistics never shrink (keeping the larger of the
+                // old and new sizes), so an object list that shrinks and
+                // grows back does not reallocate.
+                let (tables_words, stats_words) =
+                    held.as_ref().map_or((tables_words, stats_words), |b| {
+                        (
+                            tables_words.max(b.tables_words),
+                            stats_words.max(b.stats_words),
+                        )
+                    });
+                let new = Buffers::new(kernels, input, tables_words, stats_words, layout.m_total)?;
+                // Nothing of the old tables is uploaded to the new ones.
+                self.uploaded_tables.clear();
+                &*held.insert(new)
+            }
         };
         if self.uploaded_tables != self.tables {
             input
                 .queue
-                .write_buffer(&b.tables, 0, &u32_bytes(&self.tables));
+                .write_buffer(&b.tables, 0, bytemuck::cast_slice(&self.tables));
             self.uploaded_tables.clone_from(&self.tables);
         }
         // One uniform slot per pyramid level (the rows/cols dispatches read
         // `level`); slot 0 serves every other dispatch.
         let cfg = &self.config;
-        let f = cfg.features;
-        let flags = [f.luminance, f.hue, f.depth, f.size, f.motion]
+        let flags = cfg
+            .features
+            .as_array()
             .iter()
             .enumerate()
             .fold(0u32, |acc, (i, &on)| acc | (u32::from(on) << i));
@@ -379,8 +375,8 @@ impl GpuSaliency {
                 .u(m)
                 .u(n as u32)
                 .u(flags)
-                .u(u32::from(direct_len > 0))
-                .u(direct_len)
+                .u(u32::from(direct.is_some()))
+                .u(layout.direct_len)
                 .u(level)
                 .f(near)
                 .f(inv_range)
@@ -443,16 +439,16 @@ impl GpuSaliency {
         l.t_oy0 = push(t, &first(&owned_y));
         l.t_oy1 = push(t, &end(&owned_y));
         l.t_celly = push(t, &y.cell_of);
-        // `pyramid::AxisTaps::fill` for levels 1-6 (the map is square).
+        // The magnification taps of levels 1-6 as contrast.rs makes them
+        // (`pyramid::AxisTaps`; the map is square: one table, both axes),
+        // interleaved: lower texel, upper texel, the upper one's weight.
         l.t_taps = t.len() as u32;
         let (levels, _) = level_layout(m, m, PYRAMID_LEVELS);
+        let mut taps = AxisTaps::default();
         for level in &levels[1..] {
-            let len = level[1] as usize;
-            for i in 0..m as usize {
-                let u = texel_coordinate(i, m as usize, len);
-                let lo = u.floor() as usize;
-                let hi = (lo + 1).min(len - 1);
-                t.extend([lo as u32, hi as u32, (u - lo as f32).to_bits()]);
+            taps.fill(m as usize, level[1] as usize);
+            for ((&lo, &hi), &frac) in taps.lo.iter().zip(&taps.hi).zip(&taps.frac) {
+                t.extend([lo, hi, frac.to_bits()]);
             }
         }
         Ok(())
@@ -481,26 +477,26 @@ impl GpuSaliency {
         let groups1 = |x: u32| [x.div_ceil(GROUP_1D), 1, 1];
         let stats_words = (GLOBALS + REC * n as usize) as u64;
         encoder.clear_buffer(&b.stats, 0, Some(4 * stats_words));
-        run(&mut encoder, &p[STATS], g, 0, groups2(m, h));
+        dispatch_groups(&mut encoder, &p[STATS], g, 0, groups2(m, h));
         if self.config.features.any_bottom_up() {
-            run(&mut encoder, &p[OBJECTS], g, 0, groups1(n));
-            run(&mut encoder, &p[CELLS], g, 0, groups2(m, m));
+            dispatch_groups(&mut encoder, &p[OBJECTS], g, 0, groups1(n));
+            dispatch_groups(&mut encoder, &p[CELLS], g, 0, groups2(m, m));
             let (levels, _) = level_layout(m, m, PYRAMID_LEVELS);
             for l in 0..PYRAMID_LEVELS - 1 {
                 let [_, _, src_h] = levels[l];
                 let [_, dst_w, dst_h] = levels[l + 1];
                 let [gx, gy, _] = groups2(dst_w, src_h);
-                run(&mut encoder, &p[ROWS], g, l as u32, [gx, gy, 6]);
+                dispatch_groups(&mut encoder, &p[ROWS], g, l as u32, [gx, gy, 6]);
                 let [gx, gy, _] = groups2(dst_w, dst_h);
-                run(&mut encoder, &p[COLS], g, l as u32, [gx, gy, 6]);
+                dispatch_groups(&mut encoder, &p[COLS], g, l as u32, [gx, gy, 6]);
             }
-            run(&mut encoder, &p[CONTRAST], g, 0, groups2(m, m));
-            run(&mut encoder, &p[COMBINE], g, 0, groups2(m, m));
+            dispatch_groups(&mut encoder, &p[CONTRAST], g, 0, groups2(m, m));
+            dispatch_groups(&mut encoder, &p[COMBINE], g, 0, groups2(m, m));
         }
-        run(&mut encoder, &p[NORMALISE], g, 0, groups2(m, m));
-        run(&mut encoder, &p[SALIENCY], g, 0, groups2(m, h));
-        run(&mut encoder, &p[PEAK], g, 0, groups2(m, h));
-        run(&mut encoder, &p[CENTROID], g, 0, groups1(n));
+        dispatch_groups(&mut encoder, &p[NORMALISE], g, 0, groups2(m, m));
+        dispatch_groups(&mut encoder, &p[SALIENCY], g, 0, groups2(m, h));
+        dispatch_groups(&mut encoder, &p[PEAK], g, 0, groups2(m, h));
+        dispatch_groups(&mut encoder, &p[CENTROID], g, 0, groups1(n));
         let (mut words, next) = read_words(
             input.device,
             input.queue,
@@ -600,29 +596,4 @@ pub enum PrepareError {
     Attention(#[from] AttentionError),
     #[error(transparent)]
     Gpu(#[from] GpuError),
-}
-
-/// One compute pass: `pipeline` over `groups` with the uniform slot `slot`;
-/// nothing for an empty grid.
-fn run(
-    encoder: &mut wgpu::CommandEncoder,
-    pipeline: &wgpu::ComputePipeline,
-    group: &wgpu::BindGroup,
-    slot: u32,
-    groups: [u32; 3],
-) {
-    if groups.contains(&0) {
-        return;
-    }
-    let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
-        label: Some("attention pass"),
-        timestamp_writes: None,
-    });
-    pass.set_pipeline(pipeline);
-    pass.set_bind_group(0, group, &[slot * SLOT as u32]);
-    pass.dispatch_workgroups(groups[0], groups[1], groups[2]);
-}
-
-fn u32_bytes(words: &[u32]) -> Vec<u8> {
-    words.iter().flat_map(|w| w.to_le_bytes()).collect()
 }

@@ -2,7 +2,8 @@
 // frame's buffers: the GPU twin of `attention::AttentionTracker`'s passes
 // (crates/attention/src/tracker.rs, pyramid.rs, contrast.rs, color.rs,
 // fast_math.rs), in the same order and with the same arithmetic in f32.
-// Appended to colour.wgsl (bindings 1-3; only `pixels` is read here). The
+// Appended to colour.wgsl, of which only `pixels` (binding 3) is read and
+// bound (`lut` and `thresholds` are left out of the layout). The
 // per-object results go to `stats` (u32 words, atomics) and are read back;
 // the finishing steps run on the CPU (`AttentionTracker::update_measured`).
 //

@@ -39,7 +39,7 @@ use raycast::gpu::wgpu;
 use raycast::gpu::{GpuError, GpuFrame};
 use raycast::Camera;
 
-use super::{dispatch, f32_bytes, Kernels, Words};
+use super::{dispatch, Kernels, Words};
 use crate::effects::depth_of_field::{coc_px, screen_of};
 use crate::effects::dof_splat::{
     kn_table, signed_coc_px, spiral, DepthOfFieldSplat, COC_STEPS_PER_PX, DELTA, MAX_COC_PX,
@@ -247,7 +247,7 @@ impl SplatFrame<'_> {
                 device,
                 &wgpu::util::BufferInitDescriptor {
                     label: Some("splat k_n table"),
-                    contents: &f32_bytes(kn_table()),
+                    contents: bytemuck::cast_slice(kn_table()),
                     usage: wgpu::BufferUsages::STORAGE,
                 },
             );

@@ -35,7 +35,9 @@
 //!   eq. 3.6, at most 100).
 //! - **Mean eye distance** (`x` of eq. 3.9, the focus of Lee §6.1): within
 //!   0.01 mm + 1e-5 of it. The GPU adds depths in 1/256 mm and counts a
-//!   depth above 2^30 mm (about 1074 km) as 2^30 mm.
+//!   depth above [`DEPTH_CAP_MM`] = 2^29 mm (about 537 km) as 2^29 mm, so
+//!   that the 64-bit sum of a frame's 2^26 pixels cannot wrap: an object
+//!   with such depths has the mean of its capped depths.
 //! - **Saliency peak**: the CPU's cell, unless the CPU's `S_p` at the
 //!   GPU's cell is within the tolerance of the CPU's peak.
 //! - **Ranking and attended object**: the CPU's, except where two of the
@@ -74,6 +76,12 @@ use crate::gpu::{GpuSaliency, PrepareError, SaliencyInput};
 /// The stated GPU–CPU tolerance of `S_p`, `Ŝ_o` and `S_o` (absolute; see
 /// the module docs).
 pub const SALIENCY_TOLERANCE: f32 = 1e-4;
+
+/// Eye distances above this (2^29 mm, about 537 km) count as this on the
+/// GPU: `MAX_FRAME_PIXELS` (2^26) pixels at this depth, in 1/256 mm, sum to
+/// 2^63, so the per-object 64-bit sum cannot wrap (asserted at compile
+/// time). 2^30 mm would reach 2^64; 2^30 − 1 is not an f32.
+pub const DEPTH_CAP_MM: f32 = (1u32 << 29) as f32;
 
 /// Why the GPU model could not run a frame.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]

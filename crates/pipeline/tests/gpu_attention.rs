@@ -31,8 +31,13 @@ use raycast::scene::Effect;
 use raycast::{Camera, Scene, SceneFile};
 
 const TOL: f32 = SALIENCY_TOLERANCE;
-/// Eye distances above this count as this on the GPU (module docs).
-const DEPTH_CAP_MM: f32 = 1_073_741_824.0;
+/// Eye distances above this (2^29 mm) count as this on the GPU (module
+/// docs).
+const DEPTH_CAP_MM: f32 = 536_870_912.0;
+// 2^26 pixels (the largest frame) at the cap, in 1/256 mm, stay below 2^64:
+// the GPU's 64-bit per-object depth sum cannot wrap.
+const _: () =
+    assert!(attention::frame::MAX_FRAME_PIXELS as u128 * DEPTH_CAP_MM as u128 * 256 < 1u128 << 64);
 
 fn gpu_model(config: AttentionConfig) -> GpuAttention {
     GpuAttention::new(config).unwrap_or_else(|e| {
@@ -146,7 +151,7 @@ fn compare(
             "{what}: object {} attention {c:?} vs {g:?}",
             c.id
         );
-        // The GPU counts eye distances above 2^30 mm as 2^30 mm (stated).
+        // The GPU counts eye distances above 2^29 mm as 2^29 mm (stated).
         let expected = c.distance_mm.min(DEPTH_CAP_MM);
         let dd = f64::from((expected - g.distance_mm).abs());
         assert!(
@@ -507,10 +512,44 @@ fn non_finite_and_negative_depths_agree_and_stay_finite() {
         &c,
         &objects,
     );
-    // Beyond the GPU's 2^30 mm cap: the distance is capped, the rest holds.
+    // Beyond the GPU's 2^29 mm cap: the distance is capped, the rest holds.
     let mut far = c.clone();
     far.rect([20, 80, 60, 110], 6, [250, 250, 0], f32::MAX);
     both_on("depth f32::MAX", AttentionConfig::default(), &far, &objects);
+}
+
+/// The depth cap on a small frame at huge depths: a depth above 2^29 mm
+/// counts as 2^29 mm, in the mean of an object's depths too, and one below
+/// it is summed exactly; the CPU path keeps the true mean.
+#[test]
+fn depths_beyond_the_cap_count_as_the_cap() {
+    assert_eq!(DEPTH_CAP_MM, pipeline::gpu_attention::DEPTH_CAP_MM);
+    let mut c = Canvas::new(96, 64, [100, 120, 140]);
+    // 1: every pixel at 1e9 mm (above 2^29 mm, below 2^30 mm).
+    c.rect([4, 4, 28, 28], 1, [220, 40, 40], 1e9);
+    // 2: half its pixels at f32::MAX, half at 1 m.
+    c.rect([36, 4, 60, 28], 2, [40, 220, 40], 1000.0);
+    c.rect([36, 16, 60, 28], 2, [40, 220, 40], f32::MAX);
+    // 3: every pixel at 4e8 mm, just below the cap (an f32 integer).
+    c.rect([68, 4, 92, 28], 3, [40, 40, 220], 4e8);
+    let objects = still([1, 2, 3]);
+    let config = AttentionConfig::default();
+    let mut cpu = AttentionTracker::new(config).expect("config");
+    let mut gpu = gpu_model(config);
+    let a = cpu
+        .update(&c.view(), &objects, CameraMotion::STATIC, 0.0)
+        .expect("cpu");
+    let b = gpu
+        .update(&c.view(), &objects, CameraMotion::STATIC, 0.0)
+        .expect("gpu");
+    let distance = |r: &Attention, id| r.get(id).map(|o| o.distance_mm);
+    assert_eq!(distance(&a, 1), Some(1e9), "the CPU keeps the true mean");
+    assert_eq!(distance(&b, 1), Some(DEPTH_CAP_MM), "capped at 2^29 mm");
+    let half = ((f64::from(DEPTH_CAP_MM) + 1000.0) / 2.0) as f32;
+    assert_eq!(distance(&b, 2), Some(half), "the mean of the capped depths");
+    assert_eq!(distance(&a, 3), Some(4e8));
+    assert_eq!(distance(&b, 3), Some(4e8), "below the cap: exact");
+    both_on("depths beyond the cap", config, &c, &objects);
 }
 
 #[test]

@@ -16,17 +16,34 @@
 //! cell tables when the frame or map size did. Nothing is made before the
 //! first frame (the shader, the buffers); a renderer that runs no attention
 //! makes none of it.
+//!
+//! # Fixed-point sums and their bounds
+//!
+//! The per-object sums are integers in `u32` words (64-bit ones as two
+//! words with a carry), so that they do not depend on the order in which
+//! invocations add them. What keeps each from wrapping is checked at
+//! compile time below:
+//! - the passes that walk frame rows add runs of one id inside one map
+//!   column: at most `⌈MAX_FRAME_SIDE / MIN_MAP_SIZE⌉` = [`MAX_RUN_PX`]
+//!   (256) pixels, whose `S_p` sum in units of 2^-23 stays below 2^32, as
+//!   do a peak cell's (at most 256 × 256 pixels) index sums;
+//! - a depth counts at most [`DEPTH_CAP_MM`] = 2^29 mm, in 1/256 mm: a
+//!   frame of `MAX_FRAME_PIXELS` = 2^26 pixels sums to at most 2^63, below
+//!   2^64. (2^30 mm would reach 2^64 exactly; 2^30 − 1 is no f32.)
 
 use attention::contrast::contrast_weight_of_max;
+use attention::frame::{MAX_FRAME_PIXELS, MAX_FRAME_SIDE};
 use attention::measure::check_frame_size;
 use attention::pyramid::{AxisTaps, PYRAMID_LEVELS};
 use attention::{
-    AttentionConfig, AttentionError, CellAxis, FrameMeasure, ObjectIndex, ObjectInfo, ObjectMeasure,
+    AttentionConfig, AttentionError, CellAxis, FrameMeasure, ObjectIndex, ObjectInfo,
+    ObjectMeasure, MIN_MAP_SIZE,
 };
 use raycast::gpu::wgpu;
 use raycast::gpu::{read_words, storage_buffer, GpuError};
 
 use super::{dispatch_groups, level_layout, Kernels, Words, SLOT};
+use crate::gpu_attention::DEPTH_CAP_MM;
 
 /// Bytes of `AttParams` in `attention.wgsl`: 32 words, then 7 levels.
 const PARAMS_BYTES: u64 = 128 + 16 * PYRAMID_LEVELS as u64;
@@ -75,12 +92,32 @@ const O_NOT_CELL: usize = 11;
 const O_PEAK_COUNT: usize = 12;
 const O_PEAK_X: usize = 13;
 const O_PEAK_Y: usize = 14;
-/// Units of the fixed-point sums: depth in 1/256 mm, `S_p` in 2^-23.
-const DEPTH_UNIT_MM: f64 = 1.0 / 256.0;
-const SALIENCY_UNIT: f64 = 1.0 / 8_388_608.0;
+/// Steps of the fixed-point sums (both handed to the shader as
+/// uniforms): depth in 1/256 mm, `S_p` in 2^-23.
+const DEPTH_STEPS_PER_MM: u32 = 256;
+const SALIENCY_STEPS: u32 = 1 << 23;
+const DEPTH_UNIT_MM: f64 = 1.0 / DEPTH_STEPS_PER_MM as f64;
+const SALIENCY_UNIT: f64 = 1.0 / SALIENCY_STEPS as f64;
 /// Workgroup side of the 2-D entry points, and size of the 1-D ones.
 const GROUP_2D: u32 = 8;
 const GROUP_1D: u32 = 64;
+
+/// The most pixels of one frame row in one map column: the longest run the
+/// row passes (`att_stats`, `att_saliency`) add at once, and the side of a
+/// map cell's footprint (`att_centroid`).
+const MAX_RUN_PX: u32 = 256;
+const _: () = assert!(MAX_FRAME_SIDE.div_ceil(MIN_MAP_SIZE) <= MAX_RUN_PX);
+// One run's S_p sum: at most MAX_RUN_PX pixels of S_p ≤ 1 (2^23 steps).
+const _: () = assert!(MAX_RUN_PX as u64 * SALIENCY_STEPS as u64 <= u32::MAX as u64);
+// One run's column index sum (`att_stats`), and a peak cell's index sums
+// (`att_centroid`: at most MAX_RUN_PX² pixels, indices below MAX_FRAME_SIDE).
+const _: () = assert!((MAX_RUN_PX as u64).pow(2) * MAX_FRAME_SIDE as u64 <= u32::MAX as u64);
+// The depth cap is an f32 integer, and 2^26 pixels at the cap, in 1/256 mm,
+// stay below 2^64 (the per-object sum cannot wrap).
+const _: () = assert!((DEPTH_CAP_MM as u64) as f32 == DEPTH_CAP_MM);
+const _: () = assert!(
+    MAX_FRAME_PIXELS as u128 * DEPTH_CAP_MM as u128 * DEPTH_STEPS_PER_MM as u128 <= 1u128 << 63
+);
 
 /// The frame buffers the passes read, on the device they live on.
 pub(crate) struct SaliencyInput<'a> {
@@ -381,7 +418,7 @@ impl GpuSaliency {
                 .f(near)
                 .f(inv_range)
                 .f((u64::from(w) * u64::from(h)) as f32)
-                .u(0)
+                .f(DEPTH_CAP_MM)
                 .u(layout.t_sorted)
                 .u(layout.t_direct)
                 .u(layout.t_speed)
@@ -401,7 +438,7 @@ impl GpuSaliency {
                 .u(layout.m_contrast)
                 .u(layout.m_sal)
                 .u(layout.m_objfeat)
-                .u(0);
+                .f(SALIENCY_STEPS as f32);
             for l in &levels {
                 words.u(l[0]).u(l[1]).u(l[2]).u(0);
             }

@@ -191,7 +191,8 @@ pub(crate) struct GpuSaliency {
     cell_tables: Vec<u32>,
     /// The last frame's contrast maxima (eq. 3.6) and the maximum of `S̄_p`.
     maxima: [f32; 6],
-    /// Width and height of the last frame measured.
+    /// Width and height of the last frame measured into the buffers now
+    /// held; `None` before, after new buffers and after a failed `measure`.
     measured: Option<(u32, u32)>,
 }
 
@@ -381,8 +382,10 @@ impl GpuSaliency {
                         )
                     });
                 let new = Buffers::new(kernels, input, tables_words, stats_words, layout.m_total)?;
-                // Nothing of the old tables is uploaded to the new ones.
+                // Nothing of the old buffers is left: no tables uploaded,
+                // no map measured.
                 self.uploaded_tables.clear();
+                self.measured = None;
                 &*held.insert(new)
             }
         };
@@ -500,6 +503,8 @@ impl GpuSaliency {
         input: &SaliencyInput<'_>,
         mut encoder: wgpu::CommandEncoder,
     ) -> Result<(FrameMeasure, wgpu::CommandEncoder), GpuError> {
+        // Until this frame is read back, the maps hold no finished frame.
+        self.measured = None;
         let (Some(kernels), Some(b)) = (self.kernels.as_ref(), self.buffers.as_ref()) else {
             return Err(GpuError::Readback(
                 "attention: measure before prepare".into(),
@@ -595,7 +600,9 @@ impl GpuSaliency {
     }
 
     /// The last frame's `S_p` map (`M²` values, row-major), read back: a
-    /// wait on the GPU and `4·M²` bytes. `None` before the first frame.
+    /// wait on the GPU and `4·M²` bytes. `None` unless a frame was measured
+    /// into the buffers now held (before the first frame, after `prepare`
+    /// made new buffers, after a failed `measure`).
     pub fn read_saliency_map(
         &self,
         device: &wgpu::Device,
@@ -633,4 +640,117 @@ pub enum PrepareError {
     Attention(#[from] AttentionError),
     #[error(transparent)]
     Gpu(#[from] GpuError),
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use raycast::gpu::{open_device, GpuDevice};
+
+    fn device() -> GpuDevice {
+        open_device().unwrap_or_else(|e| {
+            panic!("{e} — install Mesa's software Vulkan (Debian: mesa-vulkan-drivers)")
+        })
+    }
+
+    /// A `w`×`h` frame's colour, depth and id buffers: object 1 in the
+    /// top-left quarter on a background, every pixel a hit.
+    fn frame(gpu: &GpuDevice, w: u32, h: u32) -> [wgpu::Buffer; 3] {
+        let n = (w * h) as usize;
+        let mut colour = vec![0x0180_8080u32; n];
+        let mut ids = vec![attention::BACKGROUND_ID; n];
+        for y in 0..h / 2 {
+            for x in 0..w / 2 {
+                let i = (y * w + x) as usize;
+                colour[i] = 0x0120_20e0;
+                ids[i] = 1;
+            }
+        }
+        let depth = vec![1500.0f32; n];
+        let make = |what, bytes: &[u8]| {
+            let b = storage_buffer(
+                &gpu.device,
+                what,
+                bytes.len() as u64,
+                wgpu::BufferUsages::COPY_DST,
+                gpu.max_binding,
+            )
+            .expect("a small buffer");
+            gpu.queue.write_buffer(&b, 0, bytes);
+            b
+        };
+        [
+            make("test colour", bytemuck::cast_slice(&colour)),
+            make("test depth", bytemuck::cast_slice(&depth)),
+            make("test ids", bytemuck::cast_slice(&ids)),
+        ]
+    }
+
+    fn input<'a>(
+        gpu: &'a GpuDevice,
+        f: &'a [wgpu::Buffer; 3],
+        w: u32,
+        h: u32,
+    ) -> SaliencyInput<'a> {
+        SaliencyInput {
+            device: &gpu.device,
+            queue: &gpu.queue,
+            pixels: &f[0],
+            depth: &f[1],
+            ids: &f[2],
+            width: w,
+            height: h,
+            max_binding: gpu.max_binding,
+        }
+    }
+
+    fn encoder(gpu: &GpuDevice) -> wgpu::CommandEncoder {
+        gpu.device
+            .create_command_encoder(&wgpu::CommandEncoderDescriptor { label: None })
+    }
+
+    /// The `S_p` map read back is always the last frame measured into the
+    /// buffers held: none once `prepare` made new buffers (as for a new
+    /// frame) until a frame is measured into them, never their zeros.
+    #[test]
+    fn new_buffers_hold_no_map_until_a_frame_is_measured() {
+        let gpu = device();
+        let config = AttentionConfig::default();
+        let m = config.map_size as usize;
+        let objects = [ObjectInfo::still(1, 1.0)];
+        let mut s = GpuSaliency::new(config);
+        let map = |s: &GpuSaliency| {
+            s.read_saliency_map(&gpu.device, &gpu.queue)
+                .expect("read back")
+        };
+        assert_eq!(map(&s), None, "before any frame");
+        let a = frame(&gpu, 96, 64);
+        s.prepare(&input(&gpu, &a, 96, 64), &objects)
+            .expect("prepared");
+        assert_eq!(map(&s), None, "prepared, not measured");
+        let (measure, _) = s
+            .measure(&input(&gpu, &a, 96, 64), encoder(&gpu))
+            .expect("measured");
+        assert_eq!(measure.objects[0].pixel_count, 48 * 32);
+        let first = map(&s).expect("a map after a frame");
+        assert_eq!(first.len(), m * m);
+        assert!(first.iter().any(|&v| v > 0.0), "not the buffers' zeros");
+        // A refused object list leaves the buffers, and the map, alone.
+        let refused = s.prepare(
+            &input(&gpu, &a, 96, 64),
+            &[ObjectInfo::still(1, 1.0), ObjectInfo::still(1, 1.0)],
+        );
+        assert!(matches!(refused, Err(PrepareError::Attention(_))));
+        assert_eq!(map(&s).as_ref(), Some(&first));
+        // Another frame's buffers: new attention buffers, whose zeros must
+        // not be read as the last frame's map (a `measure` that failed
+        // after this `prepare` would leave just this).
+        let b = frame(&gpu, 80, 60);
+        s.prepare(&input(&gpu, &b, 80, 60), &objects)
+            .expect("prepared");
+        assert_eq!(map(&s), None, "new buffers, nothing measured into them");
+        s.measure(&input(&gpu, &b, 80, 60), encoder(&gpu))
+            .expect("measured");
+        assert!(map(&s).is_some_and(|v| v.len() == m * m && v.iter().any(|&v| v > 0.0)));
+    }
 }

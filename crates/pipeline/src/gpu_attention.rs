@@ -83,6 +83,16 @@ pub const SALIENCY_TOLERANCE: f32 = 1e-4;
 /// time). 2^30 mm would reach 2^64; 2^30 − 1 is not an f32.
 pub const DEPTH_CAP_MM: f32 = (1u32 << 29) as f32;
 
+/// How many GPU attention states (the shader and buffers' owner) this
+/// thread has made, renderers and [`GpuAttention`] alike: pay per use is
+/// tested with it (a renderer whose scene asks for no attention must leave
+/// it unchanged). Per thread, because tests run in parallel; a renderer
+/// makes the state on the thread that renders.
+#[doc(hidden)]
+pub fn states_made_on_this_thread() -> u64 {
+    crate::gpu::made_on_this_thread()
+}
+
 /// Why the GPU model could not run a frame.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum GpuAttentionError {

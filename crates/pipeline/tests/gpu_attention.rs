@@ -23,7 +23,7 @@ use attention::{
 use foveation::{Display, SamplingModel};
 use pipeline::effects::depth_of_field::DepthOfField;
 use pipeline::effects::{Pass, PassInput};
-use pipeline::gpu_attention::{GpuAttention, SALIENCY_TOLERANCE};
+use pipeline::gpu_attention::{states_made_on_this_thread, GpuAttention, SALIENCY_TOLERANCE};
 use pipeline::{BackendChoice, Method, Options, Renderer};
 use proptest::prelude::*;
 use raycast::gpu::GpuRenderer;
@@ -954,9 +954,12 @@ fn focal_depth(pass: &dyn Pass) -> Option<f64> {
 
 /// Pay per use: a scene that asks for no attention makes no GPU attention
 /// state and runs no attention pass, on either backend; the CPU backend
-/// keeps its CPU model.
+/// keeps its CPU model. Counted where the state is made
+/// (`states_made_on_this_thread`), wherever a renderer would keep it.
 #[test]
 fn attention_on_the_gpu_is_paid_per_use() {
+    let base = states_made_on_this_thread();
+    let made = || states_made_on_this_thread() - base;
     for effects in [
         "",
         "DepthOfField(pupil_mm: 8.0)",
@@ -967,6 +970,11 @@ fn attention_on_the_gpu_is_paid_per_use() {
             let mut r = renderer(&s, backend);
             r.render_at(GAZE, 0.0).expect("renders");
             r.render_at(GAZE, 0.1).expect("renders");
+            assert_eq!(
+                made(),
+                0,
+                "{effects:?} {backend:?}: GPU attention state made"
+            );
             assert!(!r.has_attention_buffers(), "{effects:?} {backend:?}");
             let text = r.explain().join("\n");
             assert!(
@@ -983,13 +991,20 @@ fn attention_on_the_gpu_is_paid_per_use() {
     let dof = r.depth_of_field().expect("a CPU pass");
     assert!(dof.attended_object().is_some());
     assert!(dof.attention().is_some_and(|a| !a.has_gpu_buffers()));
-    // The GPU backend names what it runs.
-    let r = renderer(&s, BackendChoice::Gpu);
+    assert_eq!(made(), 0, "the CPU backend makes no GPU attention state");
+    // The GPU backend names what it runs, and makes its state with the
+    // first frame, once.
+    let mut r = renderer(&s, BackendChoice::Gpu);
     let text = r.explain().join("\n");
     assert!(
         text.contains("Lee's attention model") && text.contains("on the GPU"),
         "{text}"
     );
+    assert_eq!(made(), 0, "nothing before the first frame");
+    r.render_at(GAZE, 0.0).expect("renders");
+    r.render_at(GAZE, 0.1).expect("renders");
+    assert_eq!(made(), 1, "one GPU attention state for the scene that asks");
+    assert!(r.has_attention_buffers());
 }
 
 /// Bad input is an error, checked before anything is sized from it, and

@@ -15,7 +15,7 @@
 //! pyramid level), the per-object table (ids, speeds) when it changed, the
 //! cell tables when the frame or map size did. Nothing is made before the
 //! first frame (the shader, the buffers); a renderer that runs no attention
-//! makes none of it.
+//! makes none of it ([`made_on_this_thread`] counts what is made).
 //!
 //! # Fixed-point sums and their bounds
 //!
@@ -30,6 +30,8 @@
 //! - a depth counts at most [`DEPTH_CAP_MM`] = 2^29 mm, in 1/256 mm: a
 //!   frame of `MAX_FRAME_PIXELS` = 2^26 pixels sums to at most 2^63, below
 //!   2^64. (2^30 mm would reach 2^64 exactly; 2^30 − 1 is no f32.)
+
+use std::cell::Cell;
 
 use attention::contrast::contrast_weight_of_max;
 use attention::frame::{MAX_FRAME_PIXELS, MAX_FRAME_SIDE};
@@ -118,6 +120,19 @@ const _: () = assert!((DEPTH_CAP_MM as u64) as f32 == DEPTH_CAP_MM);
 const _: () = assert!(
     MAX_FRAME_PIXELS as u128 * DEPTH_CAP_MM as u128 * DEPTH_STEPS_PER_MM as u128 <= 1u128 << 63
 );
+
+thread_local! {
+    /// [`GpuSaliency`] values made on this thread.
+    static MADE: Cell<u64> = const { Cell::new(0) };
+}
+
+/// How many [`GpuSaliency`] values (the GPU attention state) this thread
+/// has made: what pay per use is tested with. Per thread, because tests
+/// run in parallel and a renderer makes its state on the thread that
+/// renders.
+pub(crate) fn made_on_this_thread() -> u64 {
+    MADE.with(Cell::get)
+}
 
 /// The frame buffers the passes read, on the device they live on.
 pub(crate) struct SaliencyInput<'a> {
@@ -263,6 +278,7 @@ impl GpuSaliency {
     /// The state for `config` (checked by the caller's tracker); nothing on
     /// the GPU yet.
     pub fn new(config: AttentionConfig) -> Self {
+        MADE.with(|m| m.set(m.get() + 1));
         Self {
             config,
             kernels: None,

@@ -40,7 +40,7 @@ mod dof;
 mod image;
 mod splat;
 
-pub(crate) use attention::{GpuSaliency, PrepareError, SaliencyInput};
+pub(crate) use attention::{made_on_this_thread, GpuSaliency, PrepareError, SaliencyInput};
 pub(crate) use dof::{DofFrame, GpuDof};
 pub(crate) use image::{GpuImage, ImageFrame};
 pub(crate) use splat::{GpuSplat, SplatFrame};

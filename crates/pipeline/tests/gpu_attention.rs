@@ -1057,6 +1057,24 @@ fn bad_input_is_an_error_not_a_panic() {
         );
         assert_eq!(gpu.tracker().smoothed_attention(1), before, "{what}");
     }
+    // One object more than the model takes (its id table would be sized
+    // from the list).
+    let max = attention::frame::MAX_OBJECTS;
+    let too_many = still(0..=max as u32);
+    let r = gpu.update(&c.view(), &too_many, CameraMotion::STATIC, 0.0);
+    assert!(
+        matches!(
+            &r,
+            Err(GpuAttentionError::Attention(AttentionError::TooManyObjects { count, max: m }))
+                if *count == max + 1 && *m == max
+        ),
+        "too many objects: {r:?}"
+    );
+    assert_eq!(
+        gpu.tracker().smoothed_attention(1),
+        before,
+        "too many objects"
+    );
     let again = gpu
         .update(&c.view(), &objects, CameraMotion::STATIC, 0.0)
         .expect("frame after errors");

@@ -58,9 +58,15 @@ impl Features {
         }
     }
 
+    /// The five bottom-up switches in `Feature::ALL` order: luminance,
+    /// hue, depth, size, motion.
+    pub const fn as_array(&self) -> [bool; 5] {
+        [self.luminance, self.hue, self.depth, self.size, self.motion]
+    }
+
     /// Any bottom-up feature on.
     pub fn any_bottom_up(&self) -> bool {
-        self.luminance || self.hue || self.depth || self.size || self.motion
+        self.as_array().contains(&true)
     }
 
     /// Any top-down context on.
@@ -219,5 +225,33 @@ impl AttentionConfig {
             return invalid("attention_threshold", "use a value in (0, 1]");
         }
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::tracker::Feature;
+
+    #[test]
+    fn the_feature_array_is_in_feature_order() {
+        for (i, feature) in Feature::ALL.iter().enumerate() {
+            let mut f = Features::NONE;
+            match feature {
+                Feature::Luminance => f.luminance = true,
+                Feature::Hue => f.hue = true,
+                Feature::Depth => f.depth = true,
+                Feature::Size => f.size = true,
+                Feature::Motion => f.motion = true,
+            }
+            let on = f.as_array();
+            assert!(
+                on[i] && on.iter().filter(|&&b| b).count() == 1,
+                "{feature:?}"
+            );
+            assert!(f.any_bottom_up());
+        }
+        assert_eq!(Features::ALL.as_array(), [true; 5]);
+        assert!(!Features::lee_groups(false, false, true).any_bottom_up());
     }
 }

@@ -228,6 +228,13 @@ pub fn contrast_weight(contrast: &[f32]) -> f32 {
         .iter()
         .copied()
         .fold(0.0f32, |m, v| if v > m { v } else { m });
+    contrast_weight_of_max(max)
+}
+
+/// `w_f` (eq. 3.6) from a contrast map's maximum (NaN entries skipped, as
+/// [`contrast_weight`] does): `1 / max`, or 0 when `max` is at or below
+/// [`MIN_CONTRAST`] or not finite.
+pub fn contrast_weight_of_max(max: f32) -> f32 {
     if max > MIN_CONTRAST && max.is_finite() {
         1.0 / max
     } else {
@@ -265,4 +272,32 @@ pub fn combine(contrasts: &[(&[f32], f32)], out: &mut [f32]) -> bool {
     out.par_iter_mut()
         .for_each(|o| *o = (*o * inv).clamp(0.0, 1.0));
     true
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_weight_of_a_map_is_the_weight_of_its_maximum() {
+        for map in [
+            &[0.0f32, 0.25, 0.5][..],
+            &[f32::NAN, 0.2, 0.1],
+            &[0.0; 4],
+            &[MIN_CONTRAST, 0.0],
+            &[0.0, f32::INFINITY],
+            &[],
+        ] {
+            let max = map
+                .iter()
+                .copied()
+                .filter(|v| !v.is_nan())
+                .fold(0.0f32, f32::max);
+            assert_eq!(contrast_weight(map), contrast_weight_of_max(max), "{map:?}");
+        }
+        assert_eq!(contrast_weight_of_max(0.5), 2.0);
+        assert_eq!(contrast_weight_of_max(MIN_CONTRAST), 0.0);
+        assert_eq!(contrast_weight_of_max(f32::NAN), 0.0);
+        assert_eq!(contrast_weight_of_max(f32::INFINITY), 0.0);
+    }
 }

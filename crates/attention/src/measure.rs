@@ -11,6 +11,7 @@
 //! to agree on which pixel belongs to which object and map cell
 //! ([`ObjectIndex`], [`CellAxis`]).
 
+use crate::config::{MAX_MAP_SIZE, MIN_MAP_SIZE};
 use crate::error::AttentionError;
 use crate::frame::{ObjectInfo, BACKGROUND_ID, MAX_FRAME_PIXELS, MAX_FRAME_SIDE, MAX_OBJECTS};
 
@@ -131,14 +132,28 @@ pub fn check_frame_size(width: u32, height: u32) -> Result<u64, AttentionError> 
 
 /// The object list sorted by id: dense index `d` is the object of rank `d`
 /// in id order, which is the order in which the tracker (and a GPU
-/// implementation) keeps per-object accumulators.
+/// implementation) keeps per-object accumulators; with the id → dense
+/// index lookup both use ([`ObjectIndex::dense_of`],
+/// [`ObjectIndex::direct_table`]).
 #[derive(Clone, Debug, Default)]
 pub struct ObjectIndex {
     sorted_ids: Vec<u32>,
     source: Vec<usize>,
+    /// `direct[id]` is the dense index of `id` (or [`ObjectIndex::UNLISTED`])
+    /// when every id is below [`ObjectIndex::DIRECT_LOOKUP_IDS`]; empty and
+    /// unused otherwise.
+    direct: Vec<u32>,
+    use_direct: bool,
 }
 
 impl ObjectIndex {
+    /// Ids below this (all of them) get a direct lookup table, at most
+    /// 2^16 words; a list with a larger id is binary-searched.
+    pub const DIRECT_LOOKUP_IDS: u32 = 1 << 16;
+    /// The dense index of an id the list does not have (and of
+    /// [`BACKGROUND_ID`]).
+    pub const UNLISTED: u32 = u32::MAX;
+
     /// An index of `objects`; refuses more than `MAX_OBJECTS`, the
     /// background id and duplicate ids.
     pub fn new(objects: &[ObjectInfo]) -> Result<Self, AttentionError> {
@@ -151,6 +166,8 @@ impl ObjectIndex {
     pub fn rebuild(&mut self, objects: &[ObjectInfo]) -> Result<(), AttentionError> {
         self.sorted_ids.clear();
         self.source.clear();
+        self.direct.clear();
+        self.use_direct = false;
         if objects.len() > MAX_OBJECTS {
             return Err(AttentionError::TooManyObjects {
                 count: objects.len(),
@@ -174,6 +191,15 @@ impl ObjectIndex {
             self.source.clear();
             return Err(e);
         }
+        // The direct table: ids are sorted, so the last is the largest.
+        let len = self.sorted_ids.last().map_or(0, |&max| max as usize + 1);
+        self.use_direct = len <= Self::DIRECT_LOOKUP_IDS as usize;
+        if self.use_direct {
+            self.direct.resize(len, Self::UNLISTED);
+            for (d, &id) in self.sorted_ids.iter().enumerate() {
+                self.direct[id as usize] = d as u32;
+            }
+        }
         Ok(())
     }
 
@@ -182,14 +208,34 @@ impl ObjectIndex {
         &self.sorted_ids
     }
 
-    /// The list position of dense index `d` (`None` past the end).
-    pub fn source(&self, d: usize) -> Option<usize> {
-        self.source.get(d).copied()
-    }
-
     /// List positions in dense order.
     pub fn sources(&self) -> &[usize] {
         &self.source
+    }
+
+    /// The direct lookup table (`table[id]` is the dense index of `id`, or
+    /// [`ObjectIndex::UNLISTED`]; ids at or past its end are unlisted), or
+    /// `None` when an id reaches [`ObjectIndex::DIRECT_LOOKUP_IDS`] and
+    /// lookups search [`ObjectIndex::sorted_ids`]. Empty for an empty list.
+    pub fn direct_table(&self) -> Option<&[u32]> {
+        self.use_direct.then_some(self.direct.as_slice())
+    }
+
+    /// The dense index of `id`, or [`ObjectIndex::UNLISTED`] (also for
+    /// [`BACKGROUND_ID`], which no list holds).
+    #[inline]
+    pub fn dense_of(&self, id: u32) -> u32 {
+        if self.use_direct {
+            self.direct
+                .get(id as usize)
+                .copied()
+                .unwrap_or(Self::UNLISTED)
+        } else {
+            match self.sorted_ids.binary_search(&id) {
+                Ok(d) => d as u32,
+                Err(_) => Self::UNLISTED,
+            }
+        }
     }
 
     /// Objects indexed.
@@ -220,17 +266,27 @@ pub struct CellAxis {
 
 impl CellAxis {
     /// The axis of a `frame_len`-pixel frame side on a `map_len`-cell map
-    /// side (both at least 1; 0 is taken as 1).
-    pub fn new(frame_len: u32, map_len: u32) -> Self {
+    /// side. Both are checked before anything is allocated: the frame side
+    /// as [`check_frame_size`] checks it (1 to `MAX_FRAME_SIDE`), the map
+    /// side as the configuration does (`MIN_MAP_SIZE..=MAX_MAP_SIZE`).
+    pub fn new(frame_len: u32, map_len: u32) -> Result<Self, AttentionError> {
+        check_frame_size(frame_len, 1)?;
+        if !(MIN_MAP_SIZE..=MAX_MAP_SIZE).contains(&map_len) {
+            return Err(AttentionError::MapSizeOutOfRange {
+                size: map_len,
+                min: MIN_MAP_SIZE,
+                max: MAX_MAP_SIZE,
+            });
+        }
         let mut axis = Self::default();
         footprints(
-            frame_len.max(1),
-            map_len.max(1),
+            frame_len,
+            map_len,
             &mut axis.lo,
             &mut axis.hi,
             &mut axis.cell_of,
         );
-        axis
+        Ok(axis)
     }
 
     /// For each cell, the frame pixels `[first, end)` whose cell it is
@@ -298,7 +354,7 @@ mod tests {
             (1, 512),
             (7, 64),
         ] {
-            let axis = CellAxis::new(n, m);
+            let axis = CellAxis::new(n, m).expect("valid sizes");
             let owned = axis.owned();
             assert_eq!(owned.len(), m as usize);
             let mut seen = vec![0u32; n as usize];
@@ -329,5 +385,69 @@ mod tests {
         let index = ObjectIndex::new(&[ObjectInfo::still(9, 1.0), a]).expect("valid");
         assert_eq!(index.sorted_ids(), &[3, 9]);
         assert_eq!(index.sources(), &[1, 0]);
+    }
+
+    #[test]
+    fn lookups_find_listed_ids_through_the_table_and_the_search() {
+        let u = ObjectIndex::UNLISTED;
+        let small = ObjectIndex::new(&[
+            ObjectInfo::still(7, 1.0),
+            ObjectInfo::still(2, 1.0),
+            ObjectInfo::still(4, 1.0),
+        ])
+        .expect("valid");
+        let table = small.direct_table().expect("small ids: a table");
+        assert_eq!(table, &[u, u, 0, u, 1, u, u, 2]);
+        let large_id = ObjectIndex::DIRECT_LOOKUP_IDS;
+        let large =
+            ObjectIndex::new(&[ObjectInfo::still(large_id, 1.0), ObjectInfo::still(2, 1.0)])
+                .expect("valid");
+        assert_eq!(large.direct_table(), None, "an id past the table");
+        let just_fits = ObjectIndex::new(&[ObjectInfo::still(large_id - 1, 1.0)]).expect("valid");
+        assert_eq!(
+            just_fits.direct_table().map(<[u32]>::len),
+            Some(large_id as usize)
+        );
+        let empty = ObjectIndex::new(&[]).expect("valid");
+        assert_eq!(empty.direct_table(), Some(&[][..]));
+        for (index, listed) in [
+            (&small, &[(2, 0), (4, 1), (7, 2)][..]),
+            (&large, &[(2, 0), (large_id, 1)][..]),
+            (&just_fits, &[(large_id - 1, 0)][..]),
+            (&empty, &[][..]),
+        ] {
+            for &(id, d) in listed {
+                assert_eq!(index.dense_of(id), d, "{id}");
+            }
+            for id in [0, 3, 5, 8, 1000, large_id + 1, BACKGROUND_ID] {
+                if listed.iter().all(|&(l, _)| l != id) {
+                    assert_eq!(index.dense_of(id), u, "{id}");
+                }
+            }
+        }
+        // A refused list leaves no table behind.
+        let mut index = small.clone();
+        assert!(index
+            .rebuild(&[ObjectInfo::still(BACKGROUND_ID, 1.0)])
+            .is_err());
+        assert_eq!((index.len(), index.dense_of(2)), (0, u));
+    }
+
+    #[test]
+    fn axes_refuse_sizes_out_of_range_before_allocating() {
+        for (n, m) in [
+            (0, 64),
+            (MAX_FRAME_SIDE + 1, 64),
+            (u32::MAX, 64),
+            (640, MIN_MAP_SIZE - 1),
+            (640, MAX_MAP_SIZE + 1),
+            (640, 0),
+            (u32::MAX, u32::MAX),
+        ] {
+            assert!(CellAxis::new(n, m).is_err(), "{n} {m}");
+        }
+        let widest = CellAxis::new(MAX_FRAME_SIDE, MIN_MAP_SIZE).expect("the largest side");
+        assert_eq!(widest.cell_of.len(), MAX_FRAME_SIDE as usize);
+        assert_eq!(CellAxis::new(1, MAX_MAP_SIZE).map(|a| a.lo.len()), Ok(512));
     }
 }

@@ -137,16 +137,26 @@ pub fn texel_coordinate(i: usize, base_len: usize, level_len: usize) -> f32 {
 }
 
 /// Precomputed bilinear taps along one axis: lower texel, upper texel and
-/// the weight of the upper one.
-#[derive(Clone, Debug, Default)]
-pub(crate) struct AxisTaps {
+/// the weight of the upper one, for each level-0 index (the
+/// magnification of [`crate::contrast::CentreSurround`]; a GPU
+/// implementation uploads the same taps).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct AxisTaps {
+    /// The lower texel of each level-0 index.
     pub lo: Vec<u32>,
+    /// The upper texel (the lower one at the last texel).
     pub hi: Vec<u32>,
+    /// The upper texel's weight, [0, 1).
     pub frac: Vec<f32>,
 }
 
 impl AxisTaps {
+    /// The taps of a level of `level_len` texels (at least 1) sampled at
+    /// each of `base_len` level-0 indices ([`texel_coordinate`]). Both
+    /// lengths are the caller's (map sides, not frame sizes): this
+    /// allocates `base_len` entries per table.
     pub fn fill(&mut self, base_len: usize, level_len: usize) {
+        let level_len = level_len.max(1);
         self.lo.clear();
         self.hi.clear();
         self.frac.clear();

@@ -54,12 +54,10 @@ const CH_S: usize = 4;
 const CH_M: usize = 5;
 const CHANNELS: usize = 6;
 
-const NO_OBJECT: u32 = u32::MAX;
+const NO_OBJECT: u32 = ObjectIndex::UNLISTED;
 /// Row blocks of the per-pixel passes; fixed so that sums do not depend on
 /// the thread count.
 const PIXEL_BLOCKS: usize = 32;
-/// Ids below this use a direct lookup table; others a binary search.
-const DIRECT_LOOKUP_IDS: u32 = 1 << 16;
 
 /// One object's result for a frame.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -311,51 +309,15 @@ struct CellObject {
     sum_dy: u32,
 }
 
-/// Id → dense index (rank in id order).
-#[derive(Clone, Debug, Default)]
-struct IdLookup {
-    direct: Vec<u32>,
-    sorted: Vec<u32>,
-    use_direct: bool,
-}
-
-impl IdLookup {
-    fn rebuild(&mut self, sorted_ids: &[u32]) {
-        self.sorted.clear();
-        self.sorted.extend_from_slice(sorted_ids);
-        let max = sorted_ids.last().copied().unwrap_or(0);
-        self.use_direct = max < DIRECT_LOOKUP_IDS;
-        if self.use_direct {
-            self.direct.clear();
-            self.direct.resize(max as usize + 1, NO_OBJECT);
-            for (d, &id) in sorted_ids.iter().enumerate() {
-                self.direct[id as usize] = d as u32;
-            }
-        }
-    }
-
-    #[inline]
-    fn get(&self, id: u32) -> u32 {
-        if self.use_direct {
-            self.direct.get(id as usize).copied().unwrap_or(NO_OBJECT)
-        } else {
-            match self.sorted.binary_search(&id) {
-                Ok(d) => d as u32,
-                Err(_) => NO_OBJECT,
-            }
-        }
-    }
-}
-
 /// Remembers the last lookup: ids come in long runs along a row.
 struct RunCache<'a> {
-    lookup: &'a IdLookup,
+    lookup: &'a ObjectIndex,
     id: u32,
     dense: u32,
 }
 
 impl<'a> RunCache<'a> {
-    fn new(lookup: &'a IdLookup) -> Self {
+    fn new(lookup: &'a ObjectIndex) -> Self {
         Self {
             lookup,
             id: BACKGROUND_ID,
@@ -370,7 +332,7 @@ impl<'a> RunCache<'a> {
             self.dense = if id == BACKGROUND_ID {
                 NO_OBJECT
             } else {
-                self.lookup.get(id)
+                self.lookup.dense_of(id)
             };
         }
         self.dense
@@ -422,7 +384,6 @@ pub struct AttentionTracker {
     frame_index: u64,
     states: HashMap<u32, ObjectState>,
     index: ObjectIndex,
-    lookup: IdLookup,
     /// This frame's measured statistics per object, dense order.
     measures: Vec<ObjectMeasure>,
     objects: Vec<FrameObject>,
@@ -451,7 +412,6 @@ impl AttentionTracker {
             frame_index: 0,
             states: HashMap::new(),
             index: ObjectIndex::default(),
-            lookup: IdLookup::default(),
             measures: Vec::new(),
             objects: Vec::new(),
             blocks: vec![PixelBlock::default(); PIXEL_BLOCKS],
@@ -851,7 +811,6 @@ impl AttentionTracker {
     /// the background id and overlong lists. Touches no history.
     fn index_objects(&mut self, objects: &[ObjectInfo]) -> Result<(), AttentionError> {
         self.index.rebuild(objects)?;
-        self.lookup.rebuild(self.index.sorted_ids());
         self.objects.clear();
         self.objects
             .extend(self.index.sources().iter().map(|&i| FrameObject {
@@ -881,7 +840,7 @@ impl AttentionTracker {
         let f = self.config.features;
         let m = self.config.map_size as usize;
         let grid = &self.grid;
-        let lookup = &self.lookup;
+        let lookup = &self.index;
         let objects = &self.objects;
         let w = frame.width as usize;
         let near = self.config.depth_near_mm;
@@ -1051,7 +1010,7 @@ impl AttentionTracker {
     /// object.
     fn object_statistics(&mut self, frame: &FrameView) {
         let (w, h) = (frame.width as usize, frame.height as usize);
-        let lookup = &self.lookup;
+        let lookup = &self.index;
         let blocks = self.blocks.len();
         self.blocks
             .par_iter_mut()
@@ -1091,7 +1050,7 @@ impl AttentionTracker {
         let f = self.config.features;
         let m = self.config.map_size;
         let grid = &self.grid;
-        let lookup = &self.lookup;
+        let lookup = &self.index;
         let objects = &self.objects;
         let w = frame.width as usize;
         let near = self.config.depth_near_mm;
@@ -1188,8 +1147,7 @@ impl AttentionTracker {
 
     /// Eq. 3.4 per enabled feature, and the weights of eq. 3.6.
     fn contrast_maps(&mut self) {
-        let f = self.config.features;
-        let on = [f.luminance, f.hue, f.depth, f.size, f.motion];
+        let on = self.config.features.as_array();
         for (i, feature) in Feature::ALL.iter().enumerate() {
             let out = &mut self.contrast[i];
             if !on[i] {
@@ -1220,7 +1178,7 @@ impl AttentionTracker {
     fn object_saliency(&mut self, frame: &FrameView) {
         let (w, h) = (frame.width as usize, frame.height as usize);
         let m = self.config.map_size;
-        let lookup = &self.lookup;
+        let lookup = &self.index;
         let grid = &self.grid;
         let saliency = &self.saliency;
         let blocks = self.blocks.len();
@@ -1297,8 +1255,8 @@ fn finite_depth_sum(depth: &[f32]) -> (f64, u64) {
 }
 
 fn channel_flags(config: &AttentionConfig) -> [bool; CHANNELS] {
-    let f = config.features;
-    [f.luminance, f.hue, f.hue, f.depth, f.size, f.motion]
+    let [luminance, hue, depth, size, motion] = config.features.as_array();
+    [luminance, hue, hue, depth, size, motion]
 }
 
 #[cfg(test)]

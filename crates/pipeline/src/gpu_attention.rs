@@ -35,7 +35,9 @@
 //!   eq. 3.6, at most 100).
 //! - **Mean eye distance** (`x` of eq. 3.9, the focus of Lee §6.1): within
 //!   0.01 mm + 1e-5 of it. The GPU adds depths in 1/256 mm and counts a
-//!   depth above 2^30 mm (about 1074 km) as 2^30 mm.
+//!   depth above [`DEPTH_CAP_MM`] = 2^29 mm (about 537 km) as 2^29 mm, so
+//!   that the 64-bit sum of a frame's 2^26 pixels cannot wrap: an object
+//!   with such depths has the mean of its capped depths.
 //! - **Saliency peak**: the CPU's cell, unless the CPU's `S_p` at the
 //!   GPU's cell is within the tolerance of the CPU's peak.
 //! - **Ranking and attended object**: the CPU's, except where two of the
@@ -75,6 +77,22 @@ use crate::gpu::{GpuSaliency, PrepareError, SaliencyInput};
 /// the module docs).
 pub const SALIENCY_TOLERANCE: f32 = 1e-4;
 
+/// Eye distances above this (2^29 mm, about 537 km) count as this on the
+/// GPU: `MAX_FRAME_PIXELS` (2^26) pixels at this depth, in 1/256 mm, sum to
+/// 2^63, so the per-object 64-bit sum cannot wrap (asserted at compile
+/// time). 2^30 mm would reach 2^64; 2^30 − 1 is not an f32.
+pub const DEPTH_CAP_MM: f32 = (1u32 << 29) as f32;
+
+/// How many GPU attention states (the shader and buffers' owner) this
+/// thread has made, renderers and [`GpuAttention`] alike: pay per use is
+/// tested with it (a renderer whose scene asks for no attention must leave
+/// it unchanged). Per thread, because tests run in parallel; a renderer
+/// makes the state on the thread that renders.
+#[doc(hidden)]
+pub fn states_made_on_this_thread() -> u64 {
+    crate::gpu::made_on_this_thread()
+}
+
 /// Why the GPU model could not run a frame.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum GpuAttentionError {
@@ -112,6 +130,8 @@ pub struct GpuAttention {
     saliency: GpuSaliency,
     frame: Option<Uploaded>,
     tracker: AttentionTracker,
+    /// The packed colour words of the last upload (kept for the next).
+    words: Vec<u32>,
 }
 
 impl GpuAttention {
@@ -125,6 +145,7 @@ impl GpuAttention {
             saliency: GpuSaliency::new(config),
             frame: None,
             tracker,
+            words: Vec::new(),
         })
     }
 
@@ -174,24 +195,17 @@ impl GpuAttention {
         };
         // The cast's packing: RGB in bits 0-23, the hit flag (every pixel
         // of a CPU frame; its ids and depths say what is background) in 24.
-        let words: Vec<u8> = frame
-            .rgb
-            .chunks_exact(3)
-            .flat_map(|c| {
-                (u32::from(c[0]) | u32::from(c[1]) << 8 | u32::from(c[2]) << 16 | 1 << 24)
-                    .to_le_bytes()
-            })
-            .collect();
+        self.words.clear();
+        self.words.extend(
+            frame
+                .rgb
+                .chunks_exact(3)
+                .map(|c| u32::from(c[0]) | u32::from(c[1]) << 8 | u32::from(c[2]) << 16 | 1 << 24),
+        );
         let queue = &self.gpu.queue;
-        queue.write_buffer(&f.pixels, 0, &words);
-        let depth: Vec<u8> = frame
-            .depth_mm
-            .iter()
-            .flat_map(|d| d.to_le_bytes())
-            .collect();
-        queue.write_buffer(&f.depth, 0, &depth);
-        let ids: Vec<u8> = frame.object.iter().flat_map(|d| d.to_le_bytes()).collect();
-        queue.write_buffer(&f.ids, 0, &ids);
+        queue.write_buffer(&f.pixels, 0, bytemuck::cast_slice(&self.words));
+        queue.write_buffer(&f.depth, 0, bytemuck::cast_slice(frame.depth_mm));
+        queue.write_buffer(&f.ids, 0, bytemuck::cast_slice(frame.object));
         Ok(())
     }
 

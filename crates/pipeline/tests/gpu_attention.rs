@@ -23,7 +23,7 @@ use attention::{
 use foveation::{Display, SamplingModel};
 use pipeline::effects::depth_of_field::DepthOfField;
 use pipeline::effects::{Pass, PassInput};
-use pipeline::gpu_attention::{GpuAttention, SALIENCY_TOLERANCE};
+use pipeline::gpu_attention::{states_made_on_this_thread, GpuAttention, SALIENCY_TOLERANCE};
 use pipeline::{BackendChoice, Method, Options, Renderer};
 use proptest::prelude::*;
 use raycast::gpu::GpuRenderer;
@@ -31,8 +31,13 @@ use raycast::scene::Effect;
 use raycast::{Camera, Scene, SceneFile};
 
 const TOL: f32 = SALIENCY_TOLERANCE;
-/// Eye distances above this count as this on the GPU (module docs).
-const DEPTH_CAP_MM: f32 = 1_073_741_824.0;
+/// Eye distances above this (2^29 mm) count as this on the GPU (module
+/// docs).
+const DEPTH_CAP_MM: f32 = 536_870_912.0;
+// 2^26 pixels (the largest frame) at the cap, in 1/256 mm, stay below 2^64:
+// the GPU's 64-bit per-object depth sum cannot wrap.
+const _: () =
+    assert!(attention::frame::MAX_FRAME_PIXELS as u128 * DEPTH_CAP_MM as u128 * 256 < 1u128 << 64);
 
 fn gpu_model(config: AttentionConfig) -> GpuAttention {
     GpuAttention::new(config).unwrap_or_else(|e| {
@@ -60,22 +65,40 @@ impl Worst {
     }
 }
 
+/// The mean eye distance the GPU finds for object `id` when one of its
+/// finite depths is above the cap: the mean of its finite depths (negative
+/// as 0), each capped. `None` when none is above the cap: the CPU's mean
+/// is then what the GPU must find.
+fn capped_mean_mm(frame: &FrameView<'_>, id: u32) -> Option<f32> {
+    let (mut above, mut sum, mut count) = (false, 0.0f64, 0u64);
+    for (&o, &z) in frame.object.iter().zip(frame.depth_mm) {
+        if o == id && z.is_finite() {
+            above |= z > DEPTH_CAP_MM;
+            sum += f64::from(z.clamp(0.0, DEPTH_CAP_MM));
+            count += 1;
+        }
+    }
+    (above && count > 0).then(|| (sum / count as f64) as f32)
+}
+
 /// Checks one frame's results of both paths against the stated tolerance
 /// and returns the differences. `cpu_map` is the CPU's `S_p`.
 fn compare(
     what: &str,
+    frame: &FrameView<'_>,
     cpu: &Attention,
     gpu: &Attention,
     (cpu_map, gpu_map): (&[f32], &[f32]),
-    (width, height, map_size): (u32, u32, u32),
+    map_size: u32,
     threshold: f32,
 ) -> Worst {
+    let (width, height) = (frame.width, frame.height);
     let mut worst = Worst::default();
     // The map cell of a frame point (a peak is the centroid of an object's
     // pixels inside one cell, so it lies in that cell).
     let (ax, ay) = (
-        attention::CellAxis::new(width, map_size),
-        attention::CellAxis::new(height, map_size),
+        attention::CellAxis::new(width, map_size).expect("a valid frame side and map size"),
+        attention::CellAxis::new(height, map_size).expect("a valid frame side and map size"),
     );
     let cell_value = |p: [f32; 2]| {
         let x = (p[0].floor().max(0.0) as usize).min(width as usize - 1);
@@ -146,13 +169,13 @@ fn compare(
             "{what}: object {} attention {c:?} vs {g:?}",
             c.id
         );
-        // The GPU counts eye distances above 2^30 mm as 2^30 mm (stated).
-        let expected = c.distance_mm.min(DEPTH_CAP_MM);
+        // The GPU counts eye distances above 2^29 mm as 2^29 mm (stated):
+        // where the object has such depths, the mean of its capped depths.
+        let expected = capped_mean_mm(frame, c.id).unwrap_or(c.distance_mm);
         let dd = f64::from((expected - g.distance_mm).abs());
         assert!(
-            c.distance_mm > DEPTH_CAP_MM && g.distance_mm <= DEPTH_CAP_MM
-                || dd <= 0.01 + 1e-5 * f64::from(expected.abs()),
-            "{what}: object {} distance {} vs {}",
+            dd <= 0.01 + 1e-5 * f64::from(expected.abs()),
+            "{what}: object {} distance CPU {} (expected on the GPU {expected}) vs GPU {}",
             c.id,
             c.distance_mm,
             g.distance_mm
@@ -224,10 +247,11 @@ fn run_both(
         let map = gpu.saliency_map().expect("read").expect("a frame ran");
         let w = compare(
             &format!("{what}, frame {k}"),
+            frame,
             &a,
             &b,
             (cpu.maps().pixel_saliency(), &map),
-            (frame.width, frame.height, config.map_size),
+            config.map_size,
             config.attention_threshold,
         );
         let cw = cpu.maps().weights();
@@ -507,10 +531,44 @@ fn non_finite_and_negative_depths_agree_and_stay_finite() {
         &c,
         &objects,
     );
-    // Beyond the GPU's 2^30 mm cap: the distance is capped, the rest holds.
+    // Beyond the GPU's 2^29 mm cap: the distance is capped, the rest holds.
     let mut far = c.clone();
     far.rect([20, 80, 60, 110], 6, [250, 250, 0], f32::MAX);
     both_on("depth f32::MAX", AttentionConfig::default(), &far, &objects);
+}
+
+/// The depth cap on a small frame at huge depths: a depth above 2^29 mm
+/// counts as 2^29 mm, in the mean of an object's depths too, and one below
+/// it is summed exactly; the CPU path keeps the true mean.
+#[test]
+fn depths_beyond_the_cap_count_as_the_cap() {
+    assert_eq!(DEPTH_CAP_MM, pipeline::gpu_attention::DEPTH_CAP_MM);
+    let mut c = Canvas::new(96, 64, [100, 120, 140]);
+    // 1: every pixel at 1e9 mm (above 2^29 mm, below 2^30 mm).
+    c.rect([4, 4, 28, 28], 1, [220, 40, 40], 1e9);
+    // 2: half its pixels at f32::MAX, half at 1 m.
+    c.rect([36, 4, 60, 28], 2, [40, 220, 40], 1000.0);
+    c.rect([36, 16, 60, 28], 2, [40, 220, 40], f32::MAX);
+    // 3: every pixel at 4e8 mm, just below the cap (an f32 integer).
+    c.rect([68, 4, 92, 28], 3, [40, 40, 220], 4e8);
+    let objects = still([1, 2, 3]);
+    let config = AttentionConfig::default();
+    let mut cpu = AttentionTracker::new(config).expect("config");
+    let mut gpu = gpu_model(config);
+    let a = cpu
+        .update(&c.view(), &objects, CameraMotion::STATIC, 0.0)
+        .expect("cpu");
+    let b = gpu
+        .update(&c.view(), &objects, CameraMotion::STATIC, 0.0)
+        .expect("gpu");
+    let distance = |r: &Attention, id| r.get(id).map(|o| o.distance_mm);
+    assert_eq!(distance(&a, 1), Some(1e9), "the CPU keeps the true mean");
+    assert_eq!(distance(&b, 1), Some(DEPTH_CAP_MM), "capped at 2^29 mm");
+    let half = ((f64::from(DEPTH_CAP_MM) + 1000.0) / 2.0) as f32;
+    assert_eq!(distance(&b, 2), Some(half), "the mean of the capped depths");
+    assert_eq!(distance(&a, 3), Some(4e8));
+    assert_eq!(distance(&b, 3), Some(4e8), "below the cap: exact");
+    both_on("depths beyond the cap", config, &c, &objects);
 }
 
 #[test]
@@ -896,9 +954,12 @@ fn focal_depth(pass: &dyn Pass) -> Option<f64> {
 
 /// Pay per use: a scene that asks for no attention makes no GPU attention
 /// state and runs no attention pass, on either backend; the CPU backend
-/// keeps its CPU model.
+/// keeps its CPU model. Counted where the state is made
+/// (`states_made_on_this_thread`), wherever a renderer would keep it.
 #[test]
 fn attention_on_the_gpu_is_paid_per_use() {
+    let base = states_made_on_this_thread();
+    let made = || states_made_on_this_thread() - base;
     for effects in [
         "",
         "DepthOfField(pupil_mm: 8.0)",
@@ -909,6 +970,11 @@ fn attention_on_the_gpu_is_paid_per_use() {
             let mut r = renderer(&s, backend);
             r.render_at(GAZE, 0.0).expect("renders");
             r.render_at(GAZE, 0.1).expect("renders");
+            assert_eq!(
+                made(),
+                0,
+                "{effects:?} {backend:?}: GPU attention state made"
+            );
             assert!(!r.has_attention_buffers(), "{effects:?} {backend:?}");
             let text = r.explain().join("\n");
             assert!(
@@ -925,13 +991,20 @@ fn attention_on_the_gpu_is_paid_per_use() {
     let dof = r.depth_of_field().expect("a CPU pass");
     assert!(dof.attended_object().is_some());
     assert!(dof.attention().is_some_and(|a| !a.has_gpu_buffers()));
-    // The GPU backend names what it runs.
-    let r = renderer(&s, BackendChoice::Gpu);
+    assert_eq!(made(), 0, "the CPU backend makes no GPU attention state");
+    // The GPU backend names what it runs, and makes its state with the
+    // first frame, once.
+    let mut r = renderer(&s, BackendChoice::Gpu);
     let text = r.explain().join("\n");
     assert!(
         text.contains("Lee's attention model") && text.contains("on the GPU"),
         "{text}"
     );
+    assert_eq!(made(), 0, "nothing before the first frame");
+    r.render_at(GAZE, 0.0).expect("renders");
+    r.render_at(GAZE, 0.1).expect("renders");
+    assert_eq!(made(), 1, "one GPU attention state for the scene that asks");
+    assert!(r.has_attention_buffers());
 }
 
 /// Bad input is an error, checked before anything is sized from it, and
@@ -984,6 +1057,24 @@ fn bad_input_is_an_error_not_a_panic() {
         );
         assert_eq!(gpu.tracker().smoothed_attention(1), before, "{what}");
     }
+    // One object more than the model takes (its id table would be sized
+    // from the list).
+    let max = attention::frame::MAX_OBJECTS;
+    let too_many = still(0..=max as u32);
+    let r = gpu.update(&c.view(), &too_many, CameraMotion::STATIC, 0.0);
+    assert!(
+        matches!(
+            &r,
+            Err(GpuAttentionError::Attention(AttentionError::TooManyObjects { count, max: m }))
+                if *count == max + 1 && *m == max
+        ),
+        "too many objects: {r:?}"
+    );
+    assert_eq!(
+        gpu.tracker().smoothed_attention(1),
+        before,
+        "too many objects"
+    );
     let again = gpu
         .update(&c.view(), &objects, CameraMotion::STATIC, 0.0)
         .expect("frame after errors");

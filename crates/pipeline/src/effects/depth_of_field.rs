@@ -139,7 +139,7 @@ pub struct DofMaps<'a> {
 pub const ATTENTION_MAP_SIZE: u32 = 64;
 
 /// `focus: Attention`'s model.
-type AttentionFocus = crate::frame_attention::FrameAttention;
+type AttentionModel = crate::frame_attention::FrameAttention;
 
 /// One level, row-major: linear RGB, and the depth (Z) and degree of
 /// blur (B, σ in px) mips of eq. 4.9.
@@ -227,7 +227,7 @@ impl DepthOfField {
 
     /// Whether the pass holds an attention model (only `focus: Attention`).
     pub fn has_attention_model(&self) -> bool {
-        self.focuser.has_attention_model()
+        self.attention().is_some()
     }
 
     /// The pass refocusing as `refocus` says (default `Instant`).
@@ -322,14 +322,14 @@ pub(crate) struct Focuser {
     /// How the focal depth follows the focus target.
     pub(crate) refocus: Refocus,
     /// Lee's attention model, for `focus: Attention` only.
-    attention: Option<Box<AttentionFocus>>,
+    attention: Option<Box<AttentionModel>>,
 }
 
 impl Focuser {
     pub(crate) fn new(focus: DofFocus) -> Self {
         Self {
             attention: if focus == DofFocus::Attention {
-                AttentionFocus::new(ATTENTION_MAP_SIZE).ok().map(Box::new)
+                AttentionModel::new(ATTENTION_MAP_SIZE).ok().map(Box::new)
             } else {
                 None
             },
@@ -341,17 +341,13 @@ impl Focuser {
         self.attention.as_ref().and_then(|a| a.attended())
     }
 
-    pub(crate) fn has_attention_model(&self) -> bool {
-        self.attention.is_some()
-    }
-
     /// `focus: Attention`'s model, for a pass whose focus search runs
     /// elsewhere (the GPU path); `None` for other focuses.
-    pub(crate) fn attention_model(&mut self) -> Option<&mut AttentionFocus> {
+    pub(crate) fn attention_model(&mut self) -> Option<&mut AttentionModel> {
         self.attention.as_deref_mut()
     }
 
-    pub(crate) fn attention(&self) -> Option<&AttentionFocus> {
+    pub(crate) fn attention(&self) -> Option<&AttentionModel> {
         self.attention.as_deref()
     }
 

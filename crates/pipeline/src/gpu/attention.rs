@@ -11,20 +11,41 @@
 //! 256 objects);
 //! the `M²` map of `S_p` stays on the GPU unless asked for
 //! ([`GpuSaliency::read_saliency_map`], `4·M²` bytes: 16 KiB at 64², 1 MiB at
-//! 512²). Uploads per frame: the per-object table (ids, speeds) when it
-//! changed, the cell tables when the frame or map size did. Nothing is made
-//! before the first frame (the shader, the buffers); a renderer that runs
-//! no attention makes none of it.
+//! 512²). Uploads per frame: the uniform parameters (one 256-byte slot per
+//! pyramid level), the per-object table (ids, speeds) when it changed, the
+//! cell tables when the frame or map size did. Nothing is made before the
+//! first frame (the shader, the buffers); a renderer that runs no attention
+//! makes none of it ([`made_on_this_thread`] counts what is made).
+//!
+//! # Fixed-point sums and their bounds
+//!
+//! The per-object sums are integers in `u32` words (64-bit ones as two
+//! words with a carry), so that they do not depend on the order in which
+//! invocations add them. What keeps each from wrapping is checked at
+//! compile time below:
+//! - the passes that walk frame rows add runs of one id inside one map
+//!   column: at most `⌈MAX_FRAME_SIDE / MIN_MAP_SIZE⌉` = [`MAX_RUN_PX`]
+//!   (256) pixels, whose `S_p` sum in units of 2^-23 stays below 2^32, as
+//!   do a peak cell's (at most 256 × 256 pixels) index sums;
+//! - a depth counts at most [`DEPTH_CAP_MM`] = 2^29 mm, in 1/256 mm: a
+//!   frame of `MAX_FRAME_PIXELS` = 2^26 pixels sums to at most 2^63, below
+//!   2^64. (2^30 mm would reach 2^64 exactly; 2^30 − 1 is no f32.)
 
+use std::cell::Cell;
+
+use attention::contrast::contrast_weight_of_max;
+use attention::frame::{MAX_FRAME_PIXELS, MAX_FRAME_SIDE};
 use attention::measure::check_frame_size;
-use attention::pyramid::{texel_coordinate, PYRAMID_LEVELS};
+use attention::pyramid::{AxisTaps, PYRAMID_LEVELS};
 use attention::{
-    AttentionConfig, AttentionError, CellAxis, FrameMeasure, ObjectIndex, ObjectInfo, ObjectMeasure,
+    AttentionConfig, AttentionError, CellAxis, FrameMeasure, ObjectIndex, ObjectInfo,
+    ObjectMeasure, MIN_MAP_SIZE,
 };
 use raycast::gpu::wgpu;
 use raycast::gpu::{read_words, storage_buffer, GpuError};
 
-use super::{level_layout, Kernels, Words, SLOT};
+use super::{dispatch_groups, level_layout, Kernels, Words, SLOT};
+use crate::gpu_attention::DEPTH_CAP_MM;
 
 /// Bytes of `AttParams` in `attention.wgsl`: 32 words, then 7 levels.
 const PARAMS_BYTES: u64 = 128 + 16 * PYRAMID_LEVELS as u64;
@@ -73,14 +94,45 @@ const O_NOT_CELL: usize = 11;
 const O_PEAK_COUNT: usize = 12;
 const O_PEAK_X: usize = 13;
 const O_PEAK_Y: usize = 14;
-/// Units of the fixed-point sums: depth in 1/256 mm, `S_p` in 2^-23.
-const DEPTH_UNIT_MM: f64 = 1.0 / 256.0;
-const SALIENCY_UNIT: f64 = 1.0 / 8_388_608.0;
-/// Ids below this get a direct lookup table (as the CPU's `IdLookup`).
-const DIRECT_LOOKUP_IDS: u32 = 1 << 16;
+/// Steps of the fixed-point sums (both handed to the shader as
+/// uniforms): depth in 1/256 mm, `S_p` in 2^-23.
+const DEPTH_STEPS_PER_MM: u32 = 256;
+const SALIENCY_STEPS: u32 = 1 << 23;
+const DEPTH_UNIT_MM: f64 = 1.0 / DEPTH_STEPS_PER_MM as f64;
+const SALIENCY_UNIT: f64 = 1.0 / SALIENCY_STEPS as f64;
 /// Workgroup side of the 2-D entry points, and size of the 1-D ones.
 const GROUP_2D: u32 = 8;
 const GROUP_1D: u32 = 64;
+
+/// The most pixels of one frame row in one map column: the longest run the
+/// row passes (`att_stats`, `att_saliency`) add at once, and the side of a
+/// map cell's footprint (`att_centroid`).
+const MAX_RUN_PX: u32 = 256;
+const _: () = assert!(MAX_FRAME_SIDE.div_ceil(MIN_MAP_SIZE) <= MAX_RUN_PX);
+// One run's S_p sum: at most MAX_RUN_PX pixels of S_p ≤ 1 (2^23 steps).
+const _: () = assert!(MAX_RUN_PX as u64 * SALIENCY_STEPS as u64 <= u32::MAX as u64);
+// One run's column index sum (`att_stats`), and a peak cell's index sums
+// (`att_centroid`: at most MAX_RUN_PX² pixels, indices below MAX_FRAME_SIDE).
+const _: () = assert!((MAX_RUN_PX as u64).pow(2) * MAX_FRAME_SIDE as u64 <= u32::MAX as u64);
+// The depth cap is an f32 integer, and 2^26 pixels at the cap, in 1/256 mm,
+// stay below 2^64 (the per-object sum cannot wrap).
+const _: () = assert!((DEPTH_CAP_MM as u64) as f32 == DEPTH_CAP_MM);
+const _: () = assert!(
+    MAX_FRAME_PIXELS as u128 * DEPTH_CAP_MM as u128 * DEPTH_STEPS_PER_MM as u128 <= 1u128 << 63
+);
+
+thread_local! {
+    /// [`GpuSaliency`] values made on this thread.
+    static MADE: Cell<u64> = const { Cell::new(0) };
+}
+
+/// How many [`GpuSaliency`] values (the GPU attention state) this thread
+/// has made: what pay per use is tested with. Per thread, because tests
+/// run in parallel and a renderer makes its state on the thread that
+/// renders.
+pub(crate) fn made_on_this_thread() -> u64 {
+    MADE.with(Cell::get)
+}
 
 /// The frame buffers the passes read, on the device they live on.
 pub(crate) struct SaliencyInput<'a> {
@@ -125,7 +177,9 @@ struct Layout {
 }
 
 struct Buffers {
-    /// The frame buffers the bind group was made for.
+    /// The frame buffers the bind group was made for (handles: the bind
+    /// group holds the same buffers alive anyway, and wgpu compares
+    /// buffers only through a handle).
     frame: [wgpu::Buffer; 3],
     tables_words: u64,
     stats_words: u64,
@@ -152,16 +206,71 @@ pub(crate) struct GpuSaliency {
     cell_tables: Vec<u32>,
     /// The last frame's contrast maxima (eq. 3.6) and the maximum of `S̄_p`.
     maxima: [f32; 6],
-    /// Width and height of the last frame measured.
+    /// Width and height of the last frame measured into the buffers now
+    /// held; `None` before, after new buffers and after a failed `measure`.
     measured: Option<(u32, u32)>,
 }
 
-/// `contrast::contrast_weight` from a read-back maximum.
-fn weight_of(max: f32) -> f32 {
-    if max > attention::contrast::MIN_CONTRAST && max.is_finite() {
-        1.0 / max
-    } else {
-        0.0
+impl Buffers {
+    /// Made for `frame`, with room for the tables, statistics and maps.
+    fn serves(&self, frame: [&wgpu::Buffer; 3], tables: u64, stats: u64, maps: u64) -> bool {
+        self.frame.iter().zip(frame).all(|(a, f)| a == f)
+            && self.tables_words >= tables
+            && self.stats_words >= stats
+            && self.maps_words >= maps
+    }
+
+    /// New buffers of these sizes (words) and their bind group over
+    /// `input`'s frame; nothing is kept on an error.
+    fn new(
+        kernels: &Kernels,
+        input: &SaliencyInput<'_>,
+        tables_words: u64,
+        stats_words: u64,
+        maps_words: u64,
+    ) -> Result<Self, GpuError> {
+        let device = input.device;
+        let max = input.max_binding;
+        use wgpu::BufferUsages as U;
+        let tables = storage_buffer(
+            device,
+            "attention tables",
+            4 * tables_words,
+            U::COPY_DST,
+            max,
+        )?;
+        let stats = storage_buffer(
+            device,
+            "attention object statistics",
+            4 * stats_words,
+            U::COPY_DST | U::COPY_SRC,
+            max,
+        )?;
+        let maps = storage_buffer(device, "attention maps", 4 * maps_words, U::COPY_SRC, max)?;
+        let params = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("attention params"),
+            size: SLOT * PYRAMID_LEVELS as u64,
+            usage: U::UNIFORM | U::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let group = kernels.bind(
+            device,
+            &params,
+            PARAMS_BYTES,
+            input.pixels,
+            &[input.depth, input.ids, &tables, &stats, &maps],
+        );
+        Ok(Self {
+            frame: [input.pixels, input.depth, input.ids].map(Clone::clone),
+            tables_words,
+            stats_words,
+            maps_words,
+            params,
+            tables,
+            stats,
+            maps,
+            group,
+        })
     }
 }
 
@@ -169,6 +278,7 @@ impl GpuSaliency {
     /// The state for `config` (checked by the caller's tracker); nothing on
     /// the GPU yet.
     pub fn new(config: AttentionConfig) -> Self {
+        MADE.with(|m| m.set(m.get() + 1));
         Self {
             config,
             kernels: None,
@@ -192,19 +302,14 @@ impl GpuSaliency {
     /// `w_f` of eq. 3.6 in `Feature::ALL` order, from the last frame's
     /// maxima (0 for switched-off or flat features).
     pub fn weights(&self) -> [f32; 5] {
-        let on = self.feature_flags();
+        let on = self.config.features.as_array();
         std::array::from_fn(|f| {
             if on[f] {
-                weight_of(self.maxima[f])
+                contrast_weight_of_max(self.maxima[f])
             } else {
                 0.0
             }
         })
-    }
-
-    fn feature_flags(&self) -> [bool; 5] {
-        let f = self.config.features;
-        [f.luminance, f.hue, f.depth, f.size, f.motion]
     }
 
     /// Decision 7 of the attention crate: whether `S_p` carried anything.
@@ -227,23 +332,16 @@ impl GpuSaliency {
         self.index.rebuild(objects)?;
         let m = self.config.map_size;
         if self.grid != Some((w, h)) {
-            self.build_cell_tables(w, h, m);
+            self.build_cell_tables(w, h, m)?;
             self.grid = Some((w, h));
         }
         let n = self.index.len();
         // The per-object table: sorted ids, speeds, the direct lookup.
-        let sorted = self.index.sorted_ids();
-        let max_id = sorted.last().copied().unwrap_or(0);
-        let direct_len = if n > 0 && max_id < DIRECT_LOOKUP_IDS {
-            max_id + 1
-        } else {
-            0
-        };
         self.tables.clear();
         self.tables.extend_from_slice(&self.cell_tables);
         let mut layout = self.layout;
         layout.t_sorted = self.tables.len() as u32;
-        self.tables.extend_from_slice(sorted);
+        self.tables.extend_from_slice(self.index.sorted_ids());
         layout.t_speed = self.tables.len() as u32;
         self.tables.extend(
             self.index
@@ -252,14 +350,9 @@ impl GpuSaliency {
                 .map(|&s| objects[s].speed_used().to_bits()),
         );
         layout.t_direct = self.tables.len() as u32;
-        layout.direct_len = direct_len;
-        if direct_len > 0 {
-            let start = self.tables.len();
-            self.tables.resize(start + direct_len as usize, u32::MAX);
-            for (d, &id) in sorted.iter().enumerate() {
-                self.tables[start + id as usize] = d as u32;
-            }
-        }
+        let direct = self.index.direct_table();
+        layout.direct_len = direct.map_or(0, |t| t.len() as u32);
+        self.tables.extend_from_slice(direct.unwrap_or_default());
         // Maps: the pyramids, the REDUCE scratch, contrast, S_p, B_s and B_m.
         let (levels, texels) = level_layout(m, m, PYRAMID_LEVELS);
         let plane = texels;
@@ -278,8 +371,9 @@ impl GpuSaliency {
         let tables_words = self.tables.len().max(1) as u64;
         let stats_words = (GLOBALS + REC * n.max(1)) as u64;
         let device = input.device;
-        let kernels = self.kernels.get_or_insert_with(|| {
-            Kernels::new(
+        let kernels = &*self.kernels.get_or_insert_with(|| {
+            // Only the packed colour words are read: no colour tables.
+            Kernels::without_colour_tables(
                 device,
                 "attention.wgsl",
                 include_str!("attention.wgsl"),
@@ -289,82 +383,40 @@ impl GpuSaliency {
             )
         });
         let frame = [input.pixels, input.depth, input.ids];
-        let stale = self.buffers.as_ref().is_none_or(|b| {
-            b.frame.iter().zip(frame).any(|(a, f)| a != f)
-                || b.tables_words < tables_words
-                || b.stats_words < stats_words
-                || b.maps_words < layout.m_total
-        });
-        if stale {
-            // Grow with headroom so a changing object list does not
-            // reallocate every frame.
-            let (tables_words, stats_words) = match &self.buffers {
-                Some(b) => (
-                    tables_words.max(b.tables_words),
-                    stats_words.max(b.stats_words),
-                ),
-                None => (tables_words, stats_words),
-            };
-            let maps_words = layout.m_total;
-            let max = input.max_binding;
-            use wgpu::BufferUsages as U;
-            let tables = storage_buffer(
-                device,
-                "attention tables",
-                4 * tables_words,
-                U::COPY_DST,
-                max,
-            )?;
-            let stats = storage_buffer(
-                device,
-                "attention object statistics",
-                4 * stats_words,
-                U::COPY_DST | U::COPY_SRC,
-                max,
-            )?;
-            let maps = storage_buffer(device, "attention maps", 4 * maps_words, U::COPY_SRC, max)?;
-            let params = device.create_buffer(&wgpu::BufferDescriptor {
-                label: Some("attention params"),
-                size: SLOT * PYRAMID_LEVELS as u64,
-                usage: U::UNIFORM | U::COPY_DST,
-                mapped_at_creation: false,
-            });
-            let group = kernels.bind(
-                device,
-                &params,
-                PARAMS_BYTES,
-                input.pixels,
-                &[input.depth, input.ids, &tables, &stats, &maps],
-            );
-            self.buffers = Some(Buffers {
-                frame: frame.map(Clone::clone),
-                tables_words,
-                stats_words,
-                maps_words,
-                params,
-                tables,
-                stats,
-                maps,
-                group,
-            });
-            self.uploaded_tables.clear();
-        }
-        let Some(b) = self.buffers.as_ref() else {
-            return Err(PrepareError::Gpu(GpuError::Readback(
-                "no attention buffers".into(),
-            )));
+        let b = match &mut self.buffers {
+            Some(b) if b.serves(frame, tables_words, stats_words, layout.m_total) => &*b,
+            held => {
+                // New buffers: for a new frame, or more room. The tables
+                // and statistics never shrink (keeping the larger of the
+                // old and new sizes), so an object list that shrinks and
+                // grows back does not reallocate.
+                let (tables_words, stats_words) =
+                    held.as_ref().map_or((tables_words, stats_words), |b| {
+                        (
+                            tables_words.max(b.tables_words),
+                            stats_words.max(b.stats_words),
+                        )
+                    });
+                let new = Buffers::new(kernels, input, tables_words, stats_words, layout.m_total)?;
+                // Nothing of the old buffers is left: no tables uploaded,
+                // no map measured.
+                self.uploaded_tables.clear();
+                self.measured = None;
+                &*held.insert(new)
+            }
         };
         if self.uploaded_tables != self.tables {
             input
                 .queue
-                .write_buffer(&b.tables, 0, &u32_bytes(&self.tables));
+                .write_buffer(&b.tables, 0, bytemuck::cast_slice(&self.tables));
             self.uploaded_tables.clone_from(&self.tables);
         }
         // One uniform slot per pyramid level (the rows/cols dispatches read
         // `level`); slot 0 serves every other dispatch.
         let cfg = &self.config;
-        let f = cfg.features;
-        let flags = [f.luminance, f.hue, f.depth, f.size, f.motion]
+        let flags = cfg
+            .features
+            .as_array()
             .iter()
             .enumerate()
             .fold(0u32, |acc, (i, &on)| acc | (u32::from(on) << i));
@@ -379,13 +431,13 @@ impl GpuSaliency {
                 .u(m)
                 .u(n as u32)
                 .u(flags)
-                .u(u32::from(direct_len > 0))
-                .u(direct_len)
+                .u(u32::from(direct.is_some()))
+                .u(layout.direct_len)
                 .u(level)
                 .f(near)
                 .f(inv_range)
                 .f((u64::from(w) * u64::from(h)) as f32)
-                .u(0)
+                .f(DEPTH_CAP_MM)
                 .u(layout.t_sorted)
                 .u(layout.t_direct)
                 .u(layout.t_speed)
@@ -405,7 +457,7 @@ impl GpuSaliency {
                 .u(layout.m_contrast)
                 .u(layout.m_sal)
                 .u(layout.m_objfeat)
-                .u(0);
+                .f(SALIENCY_STEPS as f32);
             for l in &levels {
                 words.u(l[0]).u(l[1]).u(l[2]).u(0);
             }
@@ -418,9 +470,10 @@ impl GpuSaliency {
 
     /// The frame-size tables: footprints and owned pixel ranges on both
     /// axes, each frame row's map row, and the CPU's magnification taps.
-    fn build_cell_tables(&mut self, w: u32, h: u32, m: u32) {
-        let x = CellAxis::new(w, m);
-        let y = CellAxis::new(h, m);
+    /// Sizes are checked (by [`CellAxis::new`]) before anything changes.
+    fn build_cell_tables(&mut self, w: u32, h: u32, m: u32) -> Result<(), AttentionError> {
+        let x = CellAxis::new(w, m)?;
+        let y = CellAxis::new(h, m)?;
         let t = &mut self.cell_tables;
         t.clear();
         let l = &mut self.layout;
@@ -442,18 +495,19 @@ impl GpuSaliency {
         l.t_oy0 = push(t, &first(&owned_y));
         l.t_oy1 = push(t, &end(&owned_y));
         l.t_celly = push(t, &y.cell_of);
-        // `pyramid::AxisTaps::fill` for levels 1-6 (the map is square).
+        // The magnification taps of levels 1-6 as contrast.rs makes them
+        // (`pyramid::AxisTaps`; the map is square: one table, both axes),
+        // interleaved: lower texel, upper texel, the upper one's weight.
         l.t_taps = t.len() as u32;
         let (levels, _) = level_layout(m, m, PYRAMID_LEVELS);
+        let mut taps = AxisTaps::default();
         for level in &levels[1..] {
-            let len = level[1] as usize;
-            for i in 0..m as usize {
-                let u = texel_coordinate(i, m as usize, len);
-                let lo = u.floor() as usize;
-                let hi = (lo + 1).min(len - 1);
-                t.extend([lo as u32, hi as u32, (u - lo as f32).to_bits()]);
+            taps.fill(m as usize, level[1] as usize);
+            for ((&lo, &hi), &frac) in taps.lo.iter().zip(&taps.hi).zip(&taps.frac) {
+                t.extend([lo, hi, frac.to_bits()]);
             }
         }
+        Ok(())
     }
 
     /// Encodes the passes on the frame `prepare` checked, submits them with
@@ -465,6 +519,8 @@ impl GpuSaliency {
         input: &SaliencyInput<'_>,
         mut encoder: wgpu::CommandEncoder,
     ) -> Result<(FrameMeasure, wgpu::CommandEncoder), GpuError> {
+        // Until this frame is read back, the maps hold no finished frame.
+        self.measured = None;
         let (Some(kernels), Some(b)) = (self.kernels.as_ref(), self.buffers.as_ref()) else {
             return Err(GpuError::Readback(
                 "attention: measure before prepare".into(),
@@ -479,26 +535,26 @@ impl GpuSaliency {
         let groups1 = |x: u32| [x.div_ceil(GROUP_1D), 1, 1];
         let stats_words = (GLOBALS + REC * n as usize) as u64;
         encoder.clear_buffer(&b.stats, 0, Some(4 * stats_words));
-        run(&mut encoder, &p[STATS], g, 0, groups2(m, h));
+        dispatch_groups(&mut encoder, &p[STATS], g, 0, groups2(m, h));
         if self.config.features.any_bottom_up() {
-            run(&mut encoder, &p[OBJECTS], g, 0, groups1(n));
-            run(&mut encoder, &p[CELLS], g, 0, groups2(m, m));
+            dispatch_groups(&mut encoder, &p[OBJECTS], g, 0, groups1(n));
+            dispatch_groups(&mut encoder, &p[CELLS], g, 0, groups2(m, m));
             let (levels, _) = level_layout(m, m, PYRAMID_LEVELS);
             for l in 0..PYRAMID_LEVELS - 1 {
                 let [_, _, src_h] = levels[l];
                 let [_, dst_w, dst_h] = levels[l + 1];
                 let [gx, gy, _] = groups2(dst_w, src_h);
-                run(&mut encoder, &p[ROWS], g, l as u32, [gx, gy, 6]);
+                dispatch_groups(&mut encoder, &p[ROWS], g, l as u32, [gx, gy, 6]);
                 let [gx, gy, _] = groups2(dst_w, dst_h);
-                run(&mut encoder, &p[COLS], g, l as u32, [gx, gy, 6]);
+                dispatch_groups(&mut encoder, &p[COLS], g, l as u32, [gx, gy, 6]);
             }
-            run(&mut encoder, &p[CONTRAST], g, 0, groups2(m, m));
-            run(&mut encoder, &p[COMBINE], g, 0, groups2(m, m));
+            dispatch_groups(&mut encoder, &p[CONTRAST], g, 0, groups2(m, m));
+            dispatch_groups(&mut encoder, &p[COMBINE], g, 0, groups2(m, m));
         }
-        run(&mut encoder, &p[NORMALISE], g, 0, groups2(m, m));
-        run(&mut encoder, &p[SALIENCY], g, 0, groups2(m, h));
-        run(&mut encoder, &p[PEAK], g, 0, groups2(m, h));
-        run(&mut encoder, &p[CENTROID], g, 0, groups1(n));
+        dispatch_groups(&mut encoder, &p[NORMALISE], g, 0, groups2(m, m));
+        dispatch_groups(&mut encoder, &p[SALIENCY], g, 0, groups2(m, h));
+        dispatch_groups(&mut encoder, &p[PEAK], g, 0, groups2(m, h));
+        dispatch_groups(&mut encoder, &p[CENTROID], g, 0, groups1(n));
         let (mut words, next) = read_words(
             input.device,
             input.queue,
@@ -560,7 +616,9 @@ impl GpuSaliency {
     }
 
     /// The last frame's `S_p` map (`M²` values, row-major), read back: a
-    /// wait on the GPU and `4·M²` bytes. `None` before the first frame.
+    /// wait on the GPU and `4·M²` bytes. `None` unless a frame was measured
+    /// into the buffers now held (before the first frame, after `prepare`
+    /// made new buffers, after a failed `measure`).
     pub fn read_saliency_map(
         &self,
         device: &wgpu::Device,
@@ -600,27 +658,115 @@ pub enum PrepareError {
     Gpu(#[from] GpuError),
 }
 
-/// One compute pass: `pipeline` over `groups` with the uniform slot `slot`;
-/// nothing for an empty grid.
-fn run(
-    encoder: &mut wgpu::CommandEncoder,
-    pipeline: &wgpu::ComputePipeline,
-    group: &wgpu::BindGroup,
-    slot: u32,
-    groups: [u32; 3],
-) {
-    if groups.contains(&0) {
-        return;
-    }
-    let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
-        label: Some("attention pass"),
-        timestamp_writes: None,
-    });
-    pass.set_pipeline(pipeline);
-    pass.set_bind_group(0, group, &[slot * SLOT as u32]);
-    pass.dispatch_workgroups(groups[0], groups[1], groups[2]);
-}
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use raycast::gpu::{open_device, GpuDevice};
 
-fn u32_bytes(words: &[u32]) -> Vec<u8> {
-    words.iter().flat_map(|w| w.to_le_bytes()).collect()
+    fn device() -> GpuDevice {
+        open_device().unwrap_or_else(|e| {
+            panic!("{e} — install Mesa's software Vulkan (Debian: mesa-vulkan-drivers)")
+        })
+    }
+
+    /// A `w`×`h` frame's colour, depth and id buffers: object 1 in the
+    /// top-left quarter on a background, every pixel a hit.
+    fn frame(gpu: &GpuDevice, w: u32, h: u32) -> [wgpu::Buffer; 3] {
+        let n = (w * h) as usize;
+        let mut colour = vec![0x0180_8080u32; n];
+        let mut ids = vec![attention::BACKGROUND_ID; n];
+        for y in 0..h / 2 {
+            for x in 0..w / 2 {
+                let i = (y * w + x) as usize;
+                colour[i] = 0x0120_20e0;
+                ids[i] = 1;
+            }
+        }
+        let depth = vec![1500.0f32; n];
+        let make = |what, bytes: &[u8]| {
+            let b = storage_buffer(
+                &gpu.device,
+                what,
+                bytes.len() as u64,
+                wgpu::BufferUsages::COPY_DST,
+                gpu.max_binding,
+            )
+            .expect("a small buffer");
+            gpu.queue.write_buffer(&b, 0, bytes);
+            b
+        };
+        [
+            make("test colour", bytemuck::cast_slice(&colour)),
+            make("test depth", bytemuck::cast_slice(&depth)),
+            make("test ids", bytemuck::cast_slice(&ids)),
+        ]
+    }
+
+    fn input<'a>(
+        gpu: &'a GpuDevice,
+        f: &'a [wgpu::Buffer; 3],
+        w: u32,
+        h: u32,
+    ) -> SaliencyInput<'a> {
+        SaliencyInput {
+            device: &gpu.device,
+            queue: &gpu.queue,
+            pixels: &f[0],
+            depth: &f[1],
+            ids: &f[2],
+            width: w,
+            height: h,
+            max_binding: gpu.max_binding,
+        }
+    }
+
+    fn encoder(gpu: &GpuDevice) -> wgpu::CommandEncoder {
+        gpu.device
+            .create_command_encoder(&wgpu::CommandEncoderDescriptor { label: None })
+    }
+
+    /// The `S_p` map read back is always the last frame measured into the
+    /// buffers held: none once `prepare` made new buffers (as for a new
+    /// frame) until a frame is measured into them, never their zeros.
+    #[test]
+    fn new_buffers_hold_no_map_until_a_frame_is_measured() {
+        let gpu = device();
+        let config = AttentionConfig::default();
+        let m = config.map_size as usize;
+        let objects = [ObjectInfo::still(1, 1.0)];
+        let mut s = GpuSaliency::new(config);
+        let map = |s: &GpuSaliency| {
+            s.read_saliency_map(&gpu.device, &gpu.queue)
+                .expect("read back")
+        };
+        assert_eq!(map(&s), None, "before any frame");
+        let a = frame(&gpu, 96, 64);
+        s.prepare(&input(&gpu, &a, 96, 64), &objects)
+            .expect("prepared");
+        assert_eq!(map(&s), None, "prepared, not measured");
+        let (measure, _) = s
+            .measure(&input(&gpu, &a, 96, 64), encoder(&gpu))
+            .expect("measured");
+        assert_eq!(measure.objects[0].pixel_count, 48 * 32);
+        let first = map(&s).expect("a map after a frame");
+        assert_eq!(first.len(), m * m);
+        assert!(first.iter().any(|&v| v > 0.0), "not the buffers' zeros");
+        // A refused object list leaves the buffers, and the map, alone.
+        let refused = s.prepare(
+            &input(&gpu, &a, 96, 64),
+            &[ObjectInfo::still(1, 1.0), ObjectInfo::still(1, 1.0)],
+        );
+        assert!(matches!(refused, Err(PrepareError::Attention(_))));
+        assert_eq!(map(&s).as_ref(), Some(&first));
+        // Another frame's buffers: new attention buffers, whose zeros must
+        // not be read as the last frame's map (a `measure` that failed
+        // after this `prepare` would leave just this).
+        let b = frame(&gpu, 80, 60);
+        s.prepare(&input(&gpu, &b, 80, 60), &objects)
+            .expect("prepared");
+        assert_eq!(map(&s), None, "new buffers, nothing measured into them");
+        s.measure(&input(&gpu, &b, 80, 60), encoder(&gpu))
+            .expect("measured");
+        assert!(map(&s).is_some_and(|v| v.len() == m * m && v.iter().any(|&v| v > 0.0)));
+    }
 }

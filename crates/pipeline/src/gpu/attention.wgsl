@@ -2,7 +2,8 @@
 // frame's buffers: the GPU twin of `attention::AttentionTracker`'s passes
 // (crates/attention/src/tracker.rs, pyramid.rs, contrast.rs, color.rs,
 // fast_math.rs), in the same order and with the same arithmetic in f32.
-// Appended to colour.wgsl (bindings 1-3; only `pixels` is read here). The
+// Appended to colour.wgsl, of which only `pixels` (binding 3) is read and
+// bound (`lut` and `thresholds` are left out of the layout). The
 // per-object results go to `stats` (u32 words, atomics) and are read back;
 // the finishing steps run on the CPU (`AttentionTracker::update_measured`).
 //
@@ -50,7 +51,8 @@ struct AttParams {
     near_mm: f32,
     inv_range: f32,
     total_px: f32,
-    pad0: u32,
+    // Eye distances above this count as this (2^29 mm; see `depth_fixed`).
+    depth_cap_mm: f32,
     t_sorted: u32,
     t_direct: u32,
     t_speed: u32,
@@ -70,7 +72,8 @@ struct AttParams {
     m_contrast: u32,
     m_sal: u32,
     m_objfeat: u32,
-    pad1: u32,
+    // Steps of the fixed-point S_p sums per unit (2^23).
+    sal_scale: f32,
     levels: array<LevelDesc, 7>,
 }
 
@@ -102,9 +105,11 @@ const O_PEAK_COUNT: u32 = 12u;
 const O_PEAK_X: u32 = 13u;
 const O_PEAK_Y: u32 = 14u;
 
-// S_p in fixed point: 2^23 units (a run is at most 256 pixels, so one
-// run's sum stays below 2^31).
-const SAL_SCALE: f32 = 8388608.0;
+// S_p is summed in fixed point, `params.sal_scale` (2^23) steps per unit.
+// Every per-row pass adds runs inside one map column: at most
+// ceil(MAX_FRAME_SIDE / MIN_MAP_SIZE) = 256 pixels (`MAX_RUN_PX`, checked at
+// compile time in attention.rs), so one run's S_p sum is at most 2^31, its
+// column index sum below 2^22.
 
 fn obj(d: u32, field: u32) -> u32 {
     return GLOBALS + d * REC + field;
@@ -176,10 +181,11 @@ fn dense_of(id: u32) -> u32 {
 }
 
 // A finite eye distance (negative as 0) in 1/256 mm, rounded, as (lo, hi);
-// distances above 2^30 mm count as 2^30 mm, so 2^26 pixels cannot
-// overflow 64 bits.
+// distances above `params.depth_cap_mm` (2^29 mm) count as 2^29 mm, so a
+// value is at most 2^37 (an exact f32) and 2^26 pixels sum to at most 2^63:
+// the 64-bit sum cannot wrap (checked at compile time in attention.rs).
 fn depth_fixed(bits: u32) -> vec2<u32> {
-    let z = min(max(bitcast<f32>(bits), 0.0), 1073741824.0);
+    let z = min(max(bitcast<f32>(bits), 0.0), params.depth_cap_mm);
     let v = floor(z * 256.0 + 0.5);
     let hi = floor(v * 2.3283064365386963e-10);
     let lo = v - hi * 4294967296.0;
@@ -665,7 +671,7 @@ fn flush_saliency(d: u32, count: u32, value: f32) {
     if (d == NONE || count == 0u) {
         return;
     }
-    let q = u32(round(value * SAL_SCALE));
+    let q = u32(round(value * params.sal_scale));
     add64(obj(d, O_SAL), q * count, 0u);
     atomicMax(&stats[obj(d, O_BEST)], bitcast<u32>(value));
 }
@@ -727,7 +733,8 @@ fn att_peak(@builtin(global_invocation_id) gid: vec3<u32>) {
 }
 
 // The object's pixels inside its peak cell: count and index sums (one
-// thread per object; a cell holds at most 256 x 256 frame pixels).
+// thread per object; a cell holds at most 256 x 256 frame pixels, whose
+// index sums stay below 2^30).
 @compute @workgroup_size(64)
 fn att_centroid(@builtin(global_invocation_id) gid: vec3<u32>) {
     let d = gid.x;

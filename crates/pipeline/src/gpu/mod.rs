@@ -40,7 +40,7 @@ mod dof;
 mod image;
 mod splat;
 
-pub(crate) use attention::{GpuSaliency, PrepareError, SaliencyInput};
+pub(crate) use attention::{made_on_this_thread, GpuSaliency, PrepareError, SaliencyInput};
 pub(crate) use dof::{DofFrame, GpuDof};
 pub(crate) use image::{GpuImage, ImageFrame};
 pub(crate) use splat::{GpuSplat, SplatFrame};
@@ -80,8 +80,10 @@ fn encode_thresholds() -> [f32; 255] {
 pub(super) struct Kernels {
     pub layout: wgpu::BindGroupLayout,
     pub pipelines: Vec<wgpu::ComputePipeline>,
-    pub lut: wgpu::Buffer,
-    pub thresholds: wgpu::Buffer,
+    /// `colour.wgsl`'s `lut` and `thresholds` (bindings 1 and 2), for
+    /// shaders that decode or encode colour; `None` for one that only reads
+    /// the packed words (the bindings are then left out of the layout).
+    pub colour_tables: Option<[wgpu::Buffer; 2]>,
 }
 
 impl Kernels {
@@ -95,6 +97,31 @@ impl Kernels {
         extra: &[bool],
         params_bytes: u64,
     ) -> Self {
+        Self::build(device, label, source, entries, extra, params_bytes, true)
+    }
+
+    /// [`Kernels::new`] for a shader none of whose entry points decodes or
+    /// encodes colour: no colour tables are made or bound.
+    pub fn without_colour_tables(
+        device: &wgpu::Device,
+        label: &str,
+        source: &str,
+        entries: &[&str],
+        extra: &[bool],
+        params_bytes: u64,
+    ) -> Self {
+        Self::build(device, label, source, entries, extra, params_bytes, false)
+    }
+
+    fn build(
+        device: &wgpu::Device,
+        label: &str,
+        source: &str,
+        entries: &[&str],
+        extra: &[bool],
+        params_bytes: u64,
+        colour_tables: bool,
+    ) -> Self {
         let storage = |binding, read_only| wgpu::BindGroupLayoutEntry {
             binding,
             visibility: wgpu::ShaderStages::COMPUTE,
@@ -105,21 +132,20 @@ impl Kernels {
             },
             count: None,
         };
-        let mut layout_entries = vec![
-            wgpu::BindGroupLayoutEntry {
-                binding: 0,
-                visibility: wgpu::ShaderStages::COMPUTE,
-                ty: wgpu::BindingType::Buffer {
-                    ty: wgpu::BufferBindingType::Uniform,
-                    has_dynamic_offset: true,
-                    min_binding_size: wgpu::BufferSize::new(params_bytes),
-                },
-                count: None,
+        let mut layout_entries = vec![wgpu::BindGroupLayoutEntry {
+            binding: 0,
+            visibility: wgpu::ShaderStages::COMPUTE,
+            ty: wgpu::BindingType::Buffer {
+                ty: wgpu::BufferBindingType::Uniform,
+                has_dynamic_offset: true,
+                min_binding_size: wgpu::BufferSize::new(params_bytes),
             },
-            storage(1, true),
-            storage(2, true),
-            storage(3, false),
-        ];
+            count: None,
+        }];
+        if colour_tables {
+            layout_entries.extend([storage(1, true), storage(2, true)]);
+        }
+        layout_entries.push(storage(3, false));
         for (k, &read_only) in extra.iter().enumerate() {
             layout_entries.push(storage(4 + k as u32, read_only));
         }
@@ -156,7 +182,7 @@ impl Kernels {
                 device,
                 &wgpu::util::BufferInitDescriptor {
                     label: Some(what),
-                    contents: &f32_bytes(words),
+                    contents: bytemuck::cast_slice(words),
                     usage: wgpu::BufferUsages::STORAGE,
                 },
             )
@@ -164,8 +190,12 @@ impl Kernels {
         Self {
             layout,
             pipelines,
-            lut: table("decode table", colour::decode_lut()),
-            thresholds: table("encode thresholds", &encode_thresholds()),
+            colour_tables: colour_tables.then(|| {
+                [
+                    table("decode table", colour::decode_lut()),
+                    table("encode thresholds", &encode_thresholds()),
+                ]
+            }),
         }
     }
 
@@ -179,28 +209,30 @@ impl Kernels {
         pixels: &wgpu::Buffer,
         extra: &[&wgpu::Buffer],
     ) -> wgpu::BindGroup {
-        let mut entries = vec![
-            wgpu::BindGroupEntry {
-                binding: 0,
-                resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
-                    buffer: params,
-                    offset: 0,
-                    size: wgpu::BufferSize::new(params_bytes),
-                }),
-            },
-            wgpu::BindGroupEntry {
-                binding: 1,
-                resource: self.lut.as_entire_binding(),
-            },
-            wgpu::BindGroupEntry {
-                binding: 2,
-                resource: self.thresholds.as_entire_binding(),
-            },
-            wgpu::BindGroupEntry {
-                binding: 3,
-                resource: pixels.as_entire_binding(),
-            },
-        ];
+        let mut entries = vec![wgpu::BindGroupEntry {
+            binding: 0,
+            resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
+                buffer: params,
+                offset: 0,
+                size: wgpu::BufferSize::new(params_bytes),
+            }),
+        }];
+        if let Some([lut, thresholds]) = &self.colour_tables {
+            entries.extend([
+                wgpu::BindGroupEntry {
+                    binding: 1,
+                    resource: lut.as_entire_binding(),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 2,
+                    resource: thresholds.as_entire_binding(),
+                },
+            ]);
+        }
+        entries.push(wgpu::BindGroupEntry {
+            binding: 3,
+            resource: pixels.as_entire_binding(),
+        });
         for (k, b) in extra.iter().enumerate() {
             entries.push(wgpu::BindGroupEntry {
                 binding: 4 + k as u32,
@@ -215,8 +247,8 @@ impl Kernels {
     }
 }
 
-/// One compute pass: `pipeline` over `groups` workgroups of 8×8 with the
-/// uniform slot `slot`.
+/// One compute pass: `pipeline` over a `w`×`h` grid in workgroups of 8×8
+/// with the uniform slot `slot`.
 pub(super) fn dispatch(
     encoder: &mut wgpu::CommandEncoder,
     pipeline: &wgpu::ComputePipeline,
@@ -224,18 +256,34 @@ pub(super) fn dispatch(
     slot: u32,
     (w, h): (u32, u32),
 ) {
+    dispatch_groups(
+        encoder,
+        pipeline,
+        group,
+        slot,
+        [w.div_ceil(8), h.div_ceil(8), 1],
+    );
+}
+
+/// One compute pass: `pipeline` over `groups` workgroups (x, y, z) with
+/// the uniform slot `slot`; nothing for an empty grid.
+pub(super) fn dispatch_groups(
+    encoder: &mut wgpu::CommandEncoder,
+    pipeline: &wgpu::ComputePipeline,
+    group: &wgpu::BindGroup,
+    slot: u32,
+    groups: [u32; 3],
+) {
+    if groups.contains(&0) {
+        return;
+    }
     let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
         label: Some("post pass"),
         timestamp_writes: None,
     });
     pass.set_pipeline(pipeline);
     pass.set_bind_group(0, group, &[slot * SLOT as u32]);
-    pass.dispatch_workgroups(w.div_ceil(8), h.div_ceil(8), 1);
-}
-
-/// Little-endian bytes of f32 words.
-fn f32_bytes(words: &[f32]) -> Vec<u8> {
-    words.iter().flat_map(|w| w.to_le_bytes()).collect()
+    pass.dispatch_workgroups(groups[0], groups[1], groups[2]);
 }
 
 /// A uniform block written word by word (u32 or f32, 4 bytes each).

@@ -6,8 +6,10 @@
 //!    `Vergence` without a vergence depth) the 9×9 gaze window of depth and
 //!    hit flags is read back, its median and the refocusing dynamics run on
 //!    the CPU ([`DepthOfFieldSplat::focus_with`], the CPU pass's
-//!    `Focuser`); `Attention` never comes here (the renderer keeps it on
-//!    the CPU).
+//!    `Focuser`); for `focus: Attention` Lee's attention model runs its
+//!    per-pixel part on the frame's colour, depth and id buffers
+//!    ([`super::attention`], one read-back of per-object statistics) and
+//!    the CPU tracker finishes it, as for the ch. 4 pass.
 //! 2. **V** (`splat_visible`): the decoded colour and the signed CoC per
 //!    pixel, in f32 from a few uniforms the CPU derives in f64 (the CoC
 //!    constant, the focus as two f32, the exact f32 thresholds of "in
@@ -39,7 +41,7 @@ use raycast::gpu::wgpu;
 use raycast::gpu::{GpuError, GpuFrame};
 use raycast::Camera;
 
-use super::{dispatch, f32_bytes, Kernels, Words};
+use super::{dispatch, Kernels, Words};
 use crate::effects::depth_of_field::{coc_px, screen_of};
 use crate::effects::dof_splat::{
     kn_table, signed_coc_px, spiral, DepthOfFieldSplat, COC_STEPS_PER_PX, DELTA, MAX_COC_PX,
@@ -247,7 +249,7 @@ impl SplatFrame<'_> {
                 device,
                 &wgpu::util::BufferInitDescriptor {
                     label: Some("splat k_n table"),
-                    contents: &f32_bytes(kn_table()),
+                    contents: bytemuck::cast_slice(kn_table()),
                     usage: wgpu::BufferUsages::STORAGE,
                 },
             );

@@ -43,4 +43,4 @@ pub mod ulod;
 pub use backend::BackendChoice;
 pub use method::Method;
 pub use model::sampling_model;
-pub use renderer::{Options, RenderError, Renderer};
+pub use renderer::{Options, RenderError, Renderer, EYE_DISTANCE_RANGE_MM, EYE_DISTANCE_STEP};

@@ -75,6 +75,16 @@ impl Default for Options {
     }
 }
 
+/// Eye distances (mm) a measured eye position may set
+/// ([`Renderer::set_eye_distance_mm`]): a head 10 cm to 3 m from the
+/// screen; others are not plausible measurements and are ignored.
+pub const EYE_DISTANCE_RANGE_MM: std::ops::RangeInclusive<f64> = 100.0..=3000.0;
+
+/// How far (relative) a measured eye distance must move from the one the
+/// sampling model has before the model follows it: 1 % (6 mm at 60 cm),
+/// so the tracker's noise does not make every frame's mask new.
+pub const EYE_DISTANCE_STEP: f64 = 0.01;
+
 /// `Method::Ulod`'s levels (`ULOD5`, Lee's largest set) and attention map size.
 pub const ULOD_LEVELS: usize = 5;
 pub const ULOD_MAP_SIZE: u32 = 64;
@@ -86,7 +96,12 @@ pub struct Renderer<'s> {
     /// `None` for a static scene, which is rendered as it was built.
     posed: Option<Scene>,
     camera: Camera,
+    /// The sampling model the masks are built from: `nominal`, or
+    /// `nominal` with a measured eye distance
+    /// ([`Renderer::set_eye_distance_mm`]).
     model: SamplingModel,
+    /// The model the renderer was made with (the display file's eye).
+    nominal: SamplingModel,
     settings: Settings,
     method: Method,
     backend: Backend,
@@ -248,6 +263,7 @@ impl<'s> Renderer<'s> {
             posed: None,
             camera,
             model,
+            nominal: model,
             settings,
             method,
             backend,
@@ -282,6 +298,40 @@ impl<'s> Renderer<'s> {
     /// a new call has none (falls back to the gaze's depth).
     pub fn set_vergence_mm(&mut self, depth_mm: Option<f64>) {
         self.vergence_mm = depth_mm.filter(|d| d.is_finite() && *d > 0.0);
+    }
+
+    /// The eye's measured distance from the screen (mm) for the next
+    /// frames' ray masks (Murphy 2007 §8.2.2, "dynamic ray mask
+    /// generation"): a nearer eye sees each pixel under a larger angle and
+    /// needs more rays, a farther one fewer. The sampling model takes the
+    /// distance when it differs by more than [`EYE_DISTANCE_STEP`] from
+    /// the model's; `None` (no measurement) returns to the display file's
+    /// distance; a distance outside [`EYE_DISTANCE_RANGE_MM`] or not finite
+    /// is ignored. Only the masks follow: the camera, and so the picture,
+    /// stay the display file's (the stimulus does not move with the head).
+    /// Returns whether the model changed (the next mask is new).
+    pub fn set_eye_distance_mm(&mut self, distance_mm: Option<f64>) -> bool {
+        let target = match distance_mm {
+            None => self.nominal,
+            Some(d) if d.is_finite() && EYE_DISTANCE_RANGE_MM.contains(&d) => {
+                let now = self.model.geometry.eye_distance_mm;
+                if (d - now).abs() <= EYE_DISTANCE_STEP * now {
+                    return false;
+                }
+                let mut m = self.nominal;
+                m.geometry.eye_distance_mm = d;
+                m
+            }
+            Some(_) => return false,
+        };
+        let changed = target != self.model;
+        self.model = target;
+        changed
+    }
+
+    /// The eye distance (mm) the ray masks are built for.
+    pub fn eye_distance_mm(&self) -> f64 {
+        self.model.geometry.eye_distance_mm
     }
 
     /// Gives a frame back for the next one to reuse its buffers: a loop

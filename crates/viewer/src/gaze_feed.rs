@@ -40,6 +40,11 @@ pub enum TrackerMsg {
         /// source), the sample has both valid and both map onto the
         /// screen's neighbourhood (for vergence); `None` otherwise.
         eyes_px: Option<[[f64; 2]; 2]>,
+        /// The eyes' distance from the screen plane (mm): the mean z of the
+        /// eye positions the device reports (HID trackers; the tracker sits
+        /// in the screen plane), when plausible
+        /// ([`pipeline::EYE_DISTANCE_RANGE_MM`]); `None` otherwise.
+        eye_distance_mm: Option<f64>,
     },
     /// A status line (disconnect, reconnect, end of recording); empty when
     /// the tracker is streaming again.
@@ -267,6 +272,7 @@ fn tracker_thread(mut open: Opener, ctx: ThreadCtx) {
                         raw,
                         gaze_px,
                         eyes_px,
+                        eye_distance_mm: eye_distance_mm(&s),
                     });
                     let due = far_reported
                         .is_none_or(|(t, n)| n != far && t.elapsed() >= FAR_REPORT_EVERY);
@@ -678,9 +684,50 @@ pub fn interrupted() -> bool {
     INTERRUPTED.load(Ordering::SeqCst)
 }
 
+/// The eyes' distance from the screen (mm) in a sample: the mean z of its
+/// valid eye positions (µm in the tracker's frame, whose z is the distance
+/// from the tracker, mounted in the screen plane), when it lies in
+/// [`pipeline::EYE_DISTANCE_RANGE_MM`].
+pub fn eye_distance_mm(s: &tracker_hal::GazeSample) -> Option<f64> {
+    let (sum, n) = s
+        .eye_position_um
+        .iter()
+        .flatten()
+        .map(|p| p[2] / 1000.0)
+        .filter(|z| z.is_finite())
+        .fold((0.0, 0u32), |(s, n), z| (s + z, n + 1));
+    let d = sum / f64::from(n.max(1));
+    (n > 0 && pipeline::EYE_DISTANCE_RANGE_MM.contains(&d)).then_some(d)
+}
+
 #[cfg(test)]
 mod tests {
-    use super::plausible;
+    use super::{eye_distance_mm, plausible};
+
+    #[test]
+    fn the_eye_distance_is_the_mean_z_of_the_valid_eyes_when_plausible() {
+        let sample = |l: Option<[f64; 3]>, r: Option<[f64; 3]>| tracker_hal::GazeSample {
+            seq: 0,
+            device_time_us: None,
+            host_time_us: 0,
+            left: tracker_hal::EyeSample::MISSING,
+            right: tracker_hal::EyeSample::MISSING,
+            combined: None,
+            eye_position_um: [l, r],
+        };
+        let at = |z: f64| Some([30_000.0, -5_000.0, z]);
+        assert_eq!(eye_distance_mm(&sample(at(600e3), at(620e3))), Some(610.0));
+        assert_eq!(eye_distance_mm(&sample(None, at(620e3))), Some(620.0));
+        assert_eq!(
+            eye_distance_mm(&sample(at(f64::NAN), at(620e3))),
+            Some(620.0)
+        );
+        assert_eq!(eye_distance_mm(&sample(None, None)), None);
+        assert_eq!(eye_distance_mm(&sample(at(f64::NAN), None)), None);
+        for z in [0.0, -600e3, 50e3, 5e6, f64::INFINITY] {
+            assert_eq!(eye_distance_mm(&sample(at(z), None)), None, "{z}");
+        }
+    }
 
     /// Mapped gaze that is not finite or more than one screen diagonal
     /// outside the screen is not a gaze (a 1e7-px POR used to reach the

@@ -67,10 +67,24 @@ pub struct LiveOptions {
     /// The hybrid method's gaze tolerance, degrees
     /// (`foveation::SamplingModel::gaze_tolerance_deg`).
     pub gaze_tolerance_deg: f64,
+    /// Whether the ray masks follow the eye distance the tracker measures.
+    pub eye_distance: EyeDistance,
     /// Fullscreen on the current monitor.
     pub fullscreen: bool,
     /// Fullscreen on this monitor (0-based).
     pub monitor: Option<usize>,
+}
+
+/// `--eye-distance`: which eye-to-screen distance the ray masks are built
+/// for.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, clap::ValueEnum)]
+pub enum EyeDistance {
+    /// The tracker's measured distance when its samples carry eye positions
+    /// (HID trackers), else the display file's.
+    #[default]
+    Measured,
+    /// Always the display file's.
+    Fixed,
 }
 
 /// Why a live session ended in failure.
@@ -156,6 +170,9 @@ struct Viewer<'a> {
     attention: Option<pipeline::frame_attention::FrameAttention>,
     /// Both eyes' points of the gaze in use, when its sample had both.
     eyes_px: Option<[[f64; 2]; 2]>,
+    /// The last measured eye distance (mm), kept through samples without
+    /// one (blinks); `None` until one arrives.
+    eye_distance_mm: Option<f64>,
     /// Host arrival of the gaze in use, and whether a frame has shown it.
     gaze_host_us: Option<u64>,
     gaze_shown: bool,
@@ -221,6 +238,9 @@ pub struct Newest {
     pub host_us: u64,
     /// Both eyes' points (screen px) when that sample had both.
     pub eyes_px: Option<[[f64; 2]; 2]>,
+    /// The eyes' measured distance from the screen (mm), when the sample
+    /// had eye positions.
+    pub eye_distance_mm: Option<f64>,
 }
 
 /// Drains `rx` to its newest valid gaze; returns it with its host arrival
@@ -236,6 +256,7 @@ pub fn drain_newest(
                 host_us,
                 gaze_px,
                 eyes_px,
+                eye_distance_mm,
                 ..
             } => {
                 if let Some(g) = gaze_px.filter(|g| g[0].is_finite() && g[1].is_finite()) {
@@ -243,6 +264,7 @@ pub fn drain_newest(
                         gaze_px: g,
                         host_us,
                         eyes_px,
+                        eye_distance_mm,
                     });
                 }
             }
@@ -268,6 +290,9 @@ impl Viewer<'_> {
         }) {
             self.gaze = n.gaze_px;
             self.eyes_px = n.eyes_px;
+            if n.eye_distance_mm.is_some() {
+                self.eye_distance_mm = n.eye_distance_mm;
+            }
             self.gaze_host_us = Some(n.host_us);
             self.gaze_shown = false;
         }
@@ -285,6 +310,15 @@ impl Viewer<'_> {
             .eyes_px
             .and_then(|e| vergence_mm(self.renderer.camera(), e));
         self.renderer.set_vergence_mm(vergence);
+        if self.opts.eye_distance == EyeDistance::Measured
+            && self.renderer.set_eye_distance_mm(self.eye_distance_mm)
+        {
+            let line = format!(
+                "eye distance {:.0} mm (measured): ray masks built for it",
+                self.renderer.eye_distance_mm()
+            );
+            self.say(&line);
+        }
         let (mut frame, stats) = self.renderer.render(gaze).map_err(|e| e.to_string())?;
         if let Some(a) = &mut self.attention {
             let t = self.started.elapsed().as_secs_f64();
@@ -529,6 +563,7 @@ pub fn run(opts: &LiveOptions, out: &mut dyn Write) -> Result<(), LiveError> {
         gaze: geometry.centre_px(),
         attention,
         eyes_px: None,
+        eye_distance_mm: None,
         gaze_host_us: None,
         gaze_shown: false,
         status: String::new(),
@@ -622,6 +657,7 @@ mod tests {
                 raw: Some(g),
                 gaze_px: Some(g),
                 eyes_px: None,
+                eye_distance_mm: None,
             })
             .expect("send");
         }
@@ -633,6 +669,7 @@ mod tests {
                 raw: None,
                 gaze_px: bad,
                 eyes_px: None,
+                eye_distance_mm: None,
             })
             .expect("send");
         }
@@ -643,7 +680,8 @@ mod tests {
             Some(Newest {
                 gaze_px: [999.0, 1998.0],
                 host_us: 999,
-                eyes_px: None
+                eyes_px: None,
+                eye_distance_mm: None,
             })
         );
         assert_eq!(statuses, vec!["lost".to_string()]);

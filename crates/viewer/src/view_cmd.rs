@@ -55,6 +55,12 @@ pub struct ViewArgs {
     #[arg(long, value_name = "DEG", default_value_t = crate::args::LIVE_GAZE_TOLERANCE_DEG,
           value_parser = crate::args::parse_gaze_tolerance)]
     pub gaze_tolerance: f64,
+    /// Hybrid and image methods: build the ray masks for the eye distance
+    /// the tracker measures (HID trackers report eye positions; others keep
+    /// the display file's), or always for the display file's (`fixed`).
+    /// The picture itself is drawn for the display file's eye either way.
+    #[arg(long, value_enum, default_value = "measured")]
+    pub eye_distance: crate::live::EyeDistance,
     /// Fullscreen on the current monitor.
     #[arg(long)]
     pub fullscreen: bool,
@@ -83,6 +89,7 @@ impl ViewArgs {
             method: self.method,
             model: self.model.into(),
             gaze_tolerance_deg: self.gaze_tolerance,
+            eye_distance: self.eye_distance,
             fullscreen: self.fullscreen,
             monitor: self.monitor,
         }

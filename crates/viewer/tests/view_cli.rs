@@ -551,3 +551,46 @@ fn a_fixation_within_the_gaze_tolerance_keeps_its_frame_and_bad_tolerances_are_r
         assert!(err.contains("--gaze-tolerance"), "{bad}: {err}");
     }
 }
+
+#[test]
+fn masks_follow_the_eye_distance_a_hid_tracker_measures_unless_fixed() {
+    let x = Xvfb::start();
+    let run = |extra: &[&str]| {
+        let mut c = windowed(&x);
+        c.args([
+            "view",
+            "--scene",
+            "config/scenes/bunny.ron",
+            "--display",
+            "config/displays/tobii-et1750-17in.ron",
+            "--backend",
+            "cpu",
+            "--replay",
+            "tests/data/tobii-hid-50hz.gzrec",
+            "--frames",
+            "3",
+        ])
+        .args(extra);
+        String::from_utf8_lossy(&c.succeed().stdout).to_string()
+    };
+    // The simulated Tobii's eyes are about 600 mm from the screen; the
+    // display file says 540.
+    let measured = run(&[]);
+    let line = measured
+        .lines()
+        .find(|l| l.starts_with("eye distance "))
+        .unwrap_or_else(|| panic!("no eye distance line: {measured}"));
+    let mm: f64 = line["eye distance ".len()..]
+        .split_whitespace()
+        .next()
+        .and_then(|v| v.parse().ok())
+        .unwrap_or_else(|| panic!("{line}"));
+    assert!((560.0..=650.0).contains(&mm), "{line}");
+    let fixed = run(&["--eye-distance", "fixed"]);
+    assert!(!fixed.contains("eye distance "), "{fixed}");
+    // A mouse reports no eye positions: the display file's distance.
+    let mouse = view(&x)
+        .args(["--replay", "tests/data/mouse-120hz.gzrec", "--frames", "2"])
+        .succeed();
+    assert!(!String::from_utf8_lossy(&mouse.stdout).contains("eye distance "));
+}

@@ -304,3 +304,60 @@ fn non_finite_por_and_bad_contrast_are_errors_not_panics() {
         "max_spacing_px"
     );
 }
+
+/// Rebuilding a mask in place (what a renderer does frame after frame)
+/// gives exactly the mask a fresh build gives, whatever gazes came before.
+#[test]
+fn a_mask_rebuilt_in_place_is_the_mask_built_afresh() {
+    for d in common::displays() {
+        let m = common::model(&d, 1.0);
+        let [w, h] = m.geometry.size_px();
+        let gazes = [
+            [0.5 * w, 0.5 * h],
+            [0.5 * w + 0.4, 0.5 * h + 0.2],
+            [0.1 * w, 0.8 * h],
+            [-0.5 * w, 0.3 * h],
+            [0.5 * w, 0.5 * h],
+            [w, 0.0],
+        ];
+        for layout in [Layout::Nyquist, Layout::Seed] {
+            let mut kept = mask::build(&m, layout, gazes[2]).expect("mask");
+            for g in gazes {
+                mask::rebuild(&mut kept, &m, layout, g).expect("rebuild");
+                let fresh = mask::build(&m, layout, g).expect("mask");
+                assert_eq!(kept.vertices, fresh.vertices, "{} {g:?}", d.name);
+                assert_eq!(kept.cells, fresh.cells, "{} {g:?}", d.name);
+                assert_eq!(kept.fovea, fresh.fovea, "{} {g:?}", d.name);
+            }
+        }
+    }
+}
+
+/// Every mesh vertex is a ring point: at one of the rings' radii from the
+/// POR and at a whole multiple of that ring's angular step (to 10⁻³ px;
+/// the points are stored in f32).
+#[test]
+fn every_mesh_vertex_sits_on_its_ring_at_a_whole_step() {
+    let d = &common::displays()[0];
+    let m = common::model(d, 1.0);
+    for gaze in [[640.0, 512.0], [300.0, 700.0]] {
+        let k = mask::build(&m, Layout::Nyquist, gaze).expect("mask");
+        for v in &k.vertices {
+            let (dx, dy) = (f64::from(v[0]) - k.por_px[0], f64::from(v[1]) - k.por_px[1]);
+            let r = dx.hypot(dy);
+            let ring = k
+                .rings
+                .iter()
+                .find(|ring| (ring.radius_px - r).abs() < 0.01)
+                .unwrap_or_else(|| panic!("vertex {v:?} at {r} px is on no ring"));
+            let step = std::f64::consts::TAU / f64::from(ring.points_per_turn);
+            let turns = dy.atan2(dx).rem_euclid(std::f64::consts::TAU) / step;
+            let off_px = (turns - turns.round()).abs() * step * r;
+            assert!(
+                off_px < 1e-3,
+                "vertex {v:?}: {off_px} px from a point of the ring of {} at {r}",
+                ring.points_per_turn
+            );
+        }
+    }
+}

@@ -689,7 +689,12 @@ impl RingSlots {
         if let Some(id) = self.lookup(i) {
             return id;
         }
-        let unit = if self.last_index.wrapping_add(1) == i {
+        // Rotate the previous point only when there is one on this ring
+        // (`last_index` is `usize::MAX` after a reset: a wrapping `+ 1`
+        // would take point 0 for its successor and rotate a stale unit
+        // vector, putting point 0 of a ring walked from index 0 at a wrong
+        // angle).
+        let unit = if self.last_index != usize::MAX && self.last_index + 1 == i {
             let [c, s] = self.last_unit;
             [
                 c * self.step[0] - s * self.step[1],
@@ -864,6 +869,23 @@ mod tests {
                 eccentricity_deg: 0.0,
                 ppd: 1.0,
             },
+        }
+    }
+
+    #[test]
+    fn point_zero_of_a_ring_is_at_angle_zero_whatever_came_before() {
+        let mut s = RingSlots::new();
+        let mut v = Vec::new();
+        for (n, r) in [(16, 10.0), (32, 20.0), (16, 30.0)] {
+            let mut ring = ring(n);
+            ring.radius_px = r;
+            s.reset(&ring);
+            let a = s.vertex(0, [100.0, 50.0], &mut v) as usize;
+            let b = s.vertex(1, [100.0, 50.0], &mut v) as usize;
+            assert_eq!(v[a], [(100.0 + r) as f32, 50.0], "ring of {n} at {r}");
+            let step = TAU / f64::from(n);
+            let want = [100.0 + r * step.cos(), 50.0 + r * step.sin()].map(|x| x as f32);
+            assert!((v[b][0] - want[0]).abs() < 1e-4 && (v[b][1] - want[1]).abs() < 1e-4);
         }
     }
 

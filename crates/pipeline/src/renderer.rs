@@ -819,7 +819,7 @@ impl<'s> Renderer<'s> {
                 let tolerance = self.model.gaze_tolerance_deg;
                 out.push(if tolerance > 0.0 {
                     format!(
-                        "gaze tolerance {tolerance}°: masks dense enough for any gaze within                          {tolerance}° of theirs; a mask is kept while the gaze stays within it{}",
+                        "gaze tolerance {tolerance}°: masks dense enough for any gaze within {tolerance}° of theirs; a mask is kept while the gaze stays within it{}",
                         if self.scratch.reuse() && matches!(backend, Backend::Cpu) {
                             " (its vertex rays, cells and owners kept; a second frame in a row copied)"
                         } else {

@@ -162,6 +162,7 @@ pub fn run(args: &DemoArgs, out: &mut dyn Write) -> Result<(), String> {
     let (w, h) = (g.width_px as usize, g.height_px as usize);
     let mut frames = Vec::with_capacity(gazes.len());
     let (mut rays, mut ms) = (0u64, 0.0f64);
+    let (mut new_masks, mut copied) = (0u32, 0u32);
     for (k, &gaze) in gazes.iter().enumerate() {
         let (frame, stats) = renderer.render(gaze).map_err(|e| e.to_string())?;
         let model = renderer
@@ -185,6 +186,12 @@ pub fn run(args: &DemoArgs, out: &mut dyn Write) -> Result<(), String> {
         }
         rays += stats.rays_total;
         ms += stats.time_ms;
+        let reuse = renderer.reuse_stats();
+        if reuse.frame_reused {
+            copied += 1;
+        } else if stats.rays_mask > 0 && !reuse.mask_reused {
+            new_masks += 1;
+        }
         frames.push(half_size(&frame.rgb, w, h));
         renderer.recycle(frame);
     }
@@ -225,7 +232,7 @@ pub fn run(args: &DemoArgs, out: &mut dyn Write) -> Result<(), String> {
     line(
         out,
         format!(
-            "{} frames on cpu ({} threads): mean {:.0} rays ({:.1} % of {}x{}), mean {:.1} ms; wrote {} and {}",
+            "{} frames on cpu ({} threads): mean {:.0} rays ({:.1} % of {}x{}), mean {:.1} ms ({new_masks} drew a new ray mask, {copied} were the last frame copied: gaze tolerance {}°); wrote {} and {}",
             gazes.len(),
             rayon::current_num_threads(),
             rays as f64 / n,
@@ -233,6 +240,7 @@ pub fn run(args: &DemoArgs, out: &mut dyn Write) -> Result<(), String> {
             w,
             h,
             ms / n,
+            args.gaze_tolerance,
             anim.display(),
             sheet_path.display()
         ),

@@ -72,7 +72,9 @@
 //! a second one in a row, with the same scene, shading inputs, camera,
 //! settings and surface flag, is the last one copied
 //! ([`ReuseStats::frame_reused`]). Only frames drawn with a kept mask are
-//! kept for copying, so a saccade's frames do not pay for the copy.
+//! kept for copying, so a saccade's frames do not pay for the copy; the
+//! kept frame is one frame more of memory (5 bytes a pixel, 25 with the
+//! surface buffers), made by the first frame drawn with a kept mask.
 //!
 //! **Off by default** ([`Scratch::default`]), although it is bit-identical
 //! and never measurably slower: with it on, a repeated gaze (what

@@ -499,11 +499,12 @@ fn the_attention_source_moves_the_gaze_to_an_object_and_records_it() {
 #[test]
 fn a_fixation_within_the_gaze_tolerance_keeps_its_frame_and_bad_tolerances_are_refused() {
     let x = Xvfb::start();
-    // The recording's first frames fixate (mouse jitter of a few pixels):
-    // within the live default of 0.5° (about 18 px here) the mask is kept
-    // and, after one frame drawn with it, the frame is copied.
+    // The recording fixates for 200–500 ms at a time (mouse jitter of a
+    // few pixels): within the live default of 0.5° (about 18 px here) the
+    // mask is kept and, after one frame drawn with it, the frame is copied.
+    // 24 frames span several fixations, however slow the machine.
     let out = view(&x)
-        .args(["--replay", "tests/data/mouse-120hz.gzrec", "--frames", "12"])
+        .args(["--replay", "tests/data/mouse-120hz.gzrec", "--frames", "24"])
         .succeed();
     let text = String::from_utf8_lossy(&out.stdout);
     assert!(text.contains("copied the last frame (mask kept)"), "{text}");

@@ -11,19 +11,7 @@ use proptest::prelude::*;
 
 #[test]
 fn no_tolerance_is_the_mask_of_the_csf_alone() {
-    for d in displays() {
-        let plain = model(&d, 1.0);
-        let zero = plain.with_gaze_tolerance_deg(0.0).expect("0 is none");
-        for por in [[300.0, 200.0], [0.0, 0.0], [-500.0, 40.0]] {
-            for layout in [Layout::Nyquist, Layout::Seed] {
-                let a = mask::build(&plain, layout, por).expect("mask");
-                let b = mask::build(&zero, layout, por).expect("mask");
-                assert_eq!(a.fovea, b.fovea);
-                assert_eq!(a.vertices, b.vertices);
-                assert_eq!(a.cells, b.cells);
-            }
-        }
-    }
+    common::assert_same_masks(|m| m.with_gaze_tolerance_deg(0.0).expect("0 is none"));
 }
 
 #[test]

@@ -546,3 +546,46 @@ fn passes_follow_the_scene_effects() {
     // entry, where the method is chosen (crates/pipeline/tests/pipeline.rs).
     assert!(g.has_foveated_buffers());
 }
+
+/// A mask the GPU already holds (the same generation, kept within the gaze
+/// tolerance) is neither rasterised into owners again nor uploaded, and
+/// its frame is the one the upload gave; a new generation uploads again.
+#[test]
+fn a_kept_mask_is_not_uploaded_again_and_renders_the_same_frame() {
+    let scene = load("search-task");
+    let d = display(320, 256);
+    let geo = d.geometry().expect("geometry");
+    let model = SamplingModel::new(geo, GeislerPerry::default(), 1.0, 17.0)
+        .expect("model")
+        .with_gaze_tolerance_deg(1.0)
+        .expect("tolerance");
+    let cam = Camera::new(&geo);
+    let triggers = Triggers::from_scene(&scene);
+    let mut g = gpu(&scene);
+    let mut scratch = raycast::render::Scratch::default();
+    let mut frame_at = |g: &mut GpuRenderer, gaze: [f64; 2]| {
+        let (kept, generation) = scratch
+            .mask_for(&model, Layout::Nyquist, gaze)
+            .expect("mask");
+        let mask = scratch.mask().expect("a mask");
+        let (frame, _) = g
+            .render_foveated_kept(&cam, mask, Some(generation), &triggers, None)
+            .expect("gpu renders");
+        (frame, kept, g.mask_upload_bytes())
+    };
+    let (first, kept, bytes) = frame_at(&mut g, [150.0, 120.0]);
+    assert!(!kept && bytes >= 4 * 320 * 256, "{bytes} bytes");
+    // Half a degree away: within the tolerance.
+    let (second, kept, bytes) = frame_at(&mut g, [155.0, 122.0]);
+    assert!(kept, "within 1°");
+    assert_eq!(bytes, 0);
+    assert!(first == second, "the kept mask's frame");
+    // Far away: a new mask, uploaded.
+    let (_, kept, bytes) = frame_at(&mut g, [20.0, 230.0]);
+    assert!(!kept && bytes > 0);
+    // Without a generation the upload always happens.
+    let mask = foveation::mask::build(&model, Layout::Nyquist, [20.0, 230.0]).expect("mask");
+    g.render_foveated(&cam, &mask, &triggers)
+        .expect("gpu renders");
+    assert!(g.mask_upload_bytes() > 0);
+}

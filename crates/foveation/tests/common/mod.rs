@@ -141,3 +141,24 @@ impl PointIndex {
         best
     }
 }
+
+/// Asserts that `plain` and `other` build the same masks (fovea, vertices,
+/// cells) on every shipped display, for PORs at, near and off the screen,
+/// in both layouts; `other` is `plain` with a setting that should change
+/// nothing (`with(model)`).
+pub fn assert_same_masks(with: impl Fn(SamplingModel) -> SamplingModel) {
+    use foveation::mask::{self, Layout};
+    for d in displays() {
+        let plain = model(&d, 1.0);
+        let other = with(plain);
+        for por in [[300.0, 200.0], [0.0, 0.0], [-500.0, 40.0]] {
+            for layout in [Layout::Nyquist, Layout::Seed] {
+                let a = mask::build(&plain, layout, por).expect("mask");
+                let b = mask::build(&other, layout, por).expect("mask");
+                assert_eq!(a.fovea, b.fovea, "{}: fovea", d.name);
+                assert_eq!(a.vertices, b.vertices, "{}: vertices", d.name);
+                assert_eq!(a.cells, b.cells, "{}: cells", d.name);
+            }
+        }
+    }
+}

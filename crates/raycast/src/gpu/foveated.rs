@@ -188,7 +188,6 @@ impl GpuRenderer {
         } else {
             Vec::new()
         };
-        self.uploaded_mask = key;
         self.mask_upload_bytes = if upload {
             (std::mem::size_of_val(&mask.vertices[..])
                 + std::mem::size_of_val(&mask.cells[..])
@@ -227,6 +226,9 @@ impl GpuRenderer {
         if !owner.is_empty() {
             queue.write_buffer(&ft.owner, 0, bytemuck::cast_slice(&owner));
         }
+        // Only now does the GPU hold this mask (an error above uploaded
+        // nothing, and the next frame must upload it).
+        self.uploaded_mask = key;
         queue.write_buffer(&ft.counters, 0, &[0u8; 16]);
         let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
             label: Some("foveated frame"),

@@ -42,8 +42,9 @@ pub struct ReuseStats {
     /// The cache was emptied at the start of the frame (its first frame, or
     /// the scene, camera or triangle test changed).
     pub invalidated: bool,
-    /// The mask was bit-identical to the last frame's: its vertex rays,
-    /// classification, margin and pixel owners were kept, not redone.
+    /// The mask was kept from the last frame (the same gaze, or one within
+    /// the model's gaze tolerance): its vertex rays, classification, margin
+    /// and pixel owners were kept, not redone.
     pub mask_reused: bool,
     /// The whole frame was the last one's, copied: the mask was kept for
     /// a second frame in a row with nothing else changed (the same scene,

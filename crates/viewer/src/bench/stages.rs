@@ -114,6 +114,7 @@ pub fn run(args: &StagesArgs, out: &mut dyn Write) -> Result<(), String> {
     let io = |e: std::io::Error| e.to_string();
     let mut header_written = false;
     let mut adapter = None;
+    let mut timed = false;
     for scene_path in &args.scene {
         let scene = load_scene(scene_path)?;
         for display_path in &args.display {
@@ -145,6 +146,7 @@ pub fn run(args: &StagesArgs, out: &mut dyn Write) -> Result<(), String> {
                 b.push(frame(&mut fov, gaze)?);
             }
             let (f, v) = (medians(&a, args.backend), medians(&b, args.backend));
+            timed |= !v.stages.is_empty();
             if !header_written {
                 let names: Vec<&str> = v.stages.iter().map(|s| s.0).collect();
                 writeln!(
@@ -181,8 +183,13 @@ pub fn run(args: &StagesArgs, out: &mut dyn Write) -> Result<(), String> {
         }
         (StagesBackend::Gpu, a) => writeln!(
             out,
-            "\ngpu: {} (stages from timestamp queries; none when the adapter has none)",
-            a.unwrap_or_else(|| "unknown adapter".into())
+            "\ngpu: {}; {}",
+            a.unwrap_or_else(|| "unknown adapter".into()),
+            if timed {
+                "stage times from the adapter's timestamp queries"
+            } else {
+                "the adapter has no timestamp queries: no stage times"
+            }
         )
         .map_err(io)?,
     }

@@ -1,11 +1,14 @@
 //! The sample CSV written by `gazecast replay` and by the simulator's
-//! expected outputs.
+//! expected outputs. Each row has the sample's three times
+//! ([`crate::timing`]): `device_time_us` (the tracker's clock, as
+//! decoded), `host_time_us` (host arrival), `mapped_time_us` (the device
+//! time on the host clock) and `time_order` ([`crate::timing::TimeOrder::name`]).
 
 use crate::sample::GazeSample;
 
 /// The header line, exactly.
 pub const CSV_HEADER: &str =
-    "seq,device_time_us,host_time_us,left_x,left_y,left_valid,right_x,right_y,right_valid,gaze_x,gaze_y,gaze_valid";
+    "seq,device_time_us,host_time_us,mapped_time_us,time_order,left_x,left_y,left_valid,right_x,right_y,right_valid,gaze_x,gaze_y,gaze_valid";
 
 /// One row. `map` converts tracker units to the output units (identity for
 /// `--raw`). Missing eyes and gaze have empty coordinates and valid = 0.
@@ -16,10 +19,12 @@ pub fn csv_row(s: &GazeSample, map: &dyn Fn([f64; 2]) -> Option<[f64; 2]>) -> St
     };
     let device = s.device_time_us.map(|t| t.to_string()).unwrap_or_default();
     format!(
-        "{},{},{},{},{},{}",
+        "{},{},{},{},{},{},{},{}",
         s.seq,
         device,
         s.host_time_us,
+        s.mapped_time_us,
+        s.time_order.name(),
         point(s.left.position),
         point(s.right.position),
         point(s.gaze())
@@ -29,11 +34,13 @@ pub fn csv_row(s: &GazeSample, map: &dyn Fn([f64; 2]) -> Option<[f64; 2]>) -> St
 /// Most rows [`parse_gaze`] reads: 10 million samples (a day at 120 Hz).
 pub const MAX_ROWS: usize = 10_000_000;
 
-/// One row of a sample CSV as an analysis reads it: the host time and the
+/// One row of a sample CSV as an analysis reads it: its time and the
 /// combined gaze (screen px), `None` where the row says it is invalid.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct GazeRow {
-    pub host_time_us: u64,
+    /// The mapped device time (host clock, µs; `mapped_time_us`), or the
+    /// arrival time (`host_time_us`) in a CSV without mapped times.
+    pub time_us: u64,
     pub gaze: Option<[f64; 2]>,
 }
 
@@ -56,8 +63,10 @@ pub struct CsvError {
 }
 
 /// Reads the CSV [`csv_row`] writes (the header [`CSV_HEADER`] first; the
-/// columns are found by name, so extra columns are allowed). Host times must
-/// not go backwards; a valid gaze must be finite. At most [`MAX_ROWS`] rows.
+/// columns are found by name, so extra columns are allowed). The time is
+/// `mapped_time_us` where the header has it, else `host_time_us`; times
+/// must not go backwards; a valid gaze must be finite. At most
+/// [`MAX_ROWS`] rows.
 pub fn parse_gaze(text: &str) -> Result<GazeCsv, CsvError> {
     let err = |line: usize, field: &str, message: String| CsvError {
         line,
@@ -66,6 +75,7 @@ pub fn parse_gaze(text: &str) -> Result<GazeCsv, CsvError> {
     };
     let mut out = GazeCsv::default();
     let mut columns: Option<[usize; 4]> = None;
+    let mut time_field = "host_time_us";
     let mut width = 0;
     for (i, raw) in text.lines().enumerate() {
         let line = i + 1;
@@ -88,12 +98,14 @@ pub fn parse_gaze(text: &str) -> Result<GazeCsv, CsvError> {
                     )
                 })
             };
-            columns = Some([
-                find("host_time_us")?,
-                find("gaze_x")?,
-                find("gaze_y")?,
-                find("gaze_valid")?,
-            ]);
+            let time = match cells.iter().position(|c| *c == "mapped_time_us") {
+                Some(k) => {
+                    time_field = "mapped_time_us";
+                    k
+                }
+                None => find("host_time_us")?,
+            };
+            columns = Some([time, find("gaze_x")?, find("gaze_y")?, find("gaze_valid")?]);
             width = cells.len();
             continue;
         };
@@ -107,19 +119,19 @@ pub fn parse_gaze(text: &str) -> Result<GazeCsv, CsvError> {
         if out.rows.len() >= MAX_ROWS {
             return Err(err(line, "row", format!("more than {MAX_ROWS} rows")));
         }
-        let host_time_us: u64 = cells[t].parse().map_err(|_| {
+        let time_us: u64 = cells[t].parse().map_err(|_| {
             err(
                 line,
-                "host_time_us",
+                time_field,
                 format!("`{}` is not a whole number of µs", cells[t]),
             )
         })?;
         if let Some(last) = out.rows.last() {
-            if host_time_us < last.host_time_us {
+            if time_us < last.time_us {
                 return Err(err(
                     line,
-                    "host_time_us",
-                    format!("{host_time_us} goes back from {}", last.host_time_us),
+                    time_field,
+                    format!("{time_us} goes back from {}", last.time_us),
                 ));
             }
         }
@@ -140,7 +152,7 @@ pub fn parse_gaze(text: &str) -> Result<GazeCsv, CsvError> {
         } else {
             None
         };
-        out.rows.push(GazeRow { host_time_us, gaze });
+        out.rows.push(GazeRow { time_us, gaze });
     }
     if columns.is_none() {
         return Err(err(
@@ -158,33 +170,38 @@ mod tests {
 
     #[test]
     fn reads_back_what_it_writes_and_names_bad_lines() {
-        let text =
-            format!("# synthetic\n{CSV_HEADER}\n0,,100,,,0,,,0,10.5,20,1\n1,,200,,,0,,,0,,,0\n");
+        let text = format!(
+            "# synthetic\n{CSV_HEADER}\n0,,100,90,first,,,0,,,0,10.5,20,1\n1,,200,190,ok,,,0,,,0,,,0\n"
+        );
         let csv = parse_gaze(&text).expect("parses");
         assert_eq!(csv.notes, vec!["synthetic".to_string()]);
         assert_eq!(
             csv.rows,
             vec![
                 GazeRow {
-                    host_time_us: 100,
+                    time_us: 90,
                     gaze: Some([10.5, 20.0])
                 },
                 GazeRow {
-                    host_time_us: 200,
+                    time_us: 190,
                     gaze: None
                 }
             ]
         );
-        let back = format!("{CSV_HEADER}\n0,,100,,,0,,,0,1,2,1\n1,,50,,,0,,,0,1,2,1\n");
+        let back =
+            format!("{CSV_HEADER}\n0,,100,100,ok,,,0,,,0,1,2,1\n1,,50,50,ok,,,0,,,0,1,2,1\n");
         let e = parse_gaze(&back).unwrap_err();
-        assert_eq!((e.line, e.field.as_str()), (3, "host_time_us"));
-        let nan = format!("{CSV_HEADER}\n0,,100,,,0,,,0,NaN,2,1\n");
+        assert_eq!((e.line, e.field.as_str()), (3, "mapped_time_us"));
+        // A CSV of an earlier version (no mapped times): arrival times.
+        let old = "seq,device_time_us,host_time_us,gaze_x,gaze_y,gaze_valid\n0,,100,1,2,1\n";
+        assert_eq!(parse_gaze(old).expect("old").rows[0].time_us, 100);
+        let nan = format!("{CSV_HEADER}\n0,,100,100,ok,,,0,,,0,NaN,2,1\n");
         assert_eq!(parse_gaze(&nan).unwrap_err().field, "gaze_x");
         let short = format!("{CSV_HEADER}\n0,,100,1,2,1\n");
         assert_eq!(parse_gaze(&short).unwrap_err().line, 2);
         assert_eq!(parse_gaze("").unwrap_err().field, "header");
         assert_eq!(parse_gaze("a,b\n").unwrap_err().field, "host_time_us");
-        let flag = format!("{CSV_HEADER}\n0,,100,,,0,,,0,1,2,yes\n");
+        let flag = format!("{CSV_HEADER}\n0,,100,100,ok,,,0,,,0,1,2,yes\n");
         assert_eq!(parse_gaze(&flag).unwrap_err().field, "gaze_valid");
     }
 }

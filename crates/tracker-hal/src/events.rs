@@ -6,6 +6,8 @@
 use screen_geometry::ScreenGeometry;
 use serde::Serialize;
 
+use crate::timing::TimeOrder;
+
 /// A 3-D gaze point from the two eyes' points in the near view plane
 /// (Murphy & Duchowski eqs. 1–3): `s = b / (x_l − x_r + b)`,
 /// `g = (1 − s)·h + s·((x_l + x_r)/2, (y_l + y_r)/2, f)`.
@@ -72,11 +74,76 @@ pub enum EventKind {
     Lost,
 }
 
+/// An eye-movement event. Its extent is computed on the **device clock**
+/// (the tracker's own sample times: a busy host cannot change it) and
+/// reported on both clocks: `start_us`/`end_us` are the mapped device
+/// times (host clock, [`crate::timing`]) of its first and last sample,
+/// `start_device_us`/`end_device_us` the device times.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct Event {
     pub kind: EventKind,
+    /// Mapped device time (host monotonic clock, µs) of the first sample.
     pub start_us: u64,
+    /// Mapped device time of the last sample.
     pub end_us: u64,
+    /// Device time (tracker clock, µs) of the first sample.
+    pub start_device_us: u64,
+    /// Device time of the last sample.
+    pub end_device_us: u64,
+    /// The clock segment (a device clock reset starts a new one).
+    pub segment: u32,
+    /// Index of the first and last sample in the classified slice (for a
+    /// blink or loss: the valid samples before and after the gap).
+    pub first: usize,
+    pub last: usize,
+}
+
+/// One sample as the classifier needs it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct TimedGaze {
+    /// Device time (µs, tracker clock); the mapped time for a sample that
+    /// has none ([`TimeOrder::NoDeviceTime`]).
+    pub device_us: u64,
+    /// Mapped device time (µs, host monotonic clock).
+    pub mapped_us: u64,
+    pub order: TimeOrder,
+    pub segment: u32,
+    /// Gaze in px, `None` when invalid.
+    pub gaze: Option<[f64; 2]>,
+}
+
+impl TimedGaze {
+    /// From a mapped [`crate::GazeSample`] and the gaze it gave.
+    pub fn of(s: &crate::GazeSample, gaze: Option<[f64; 2]>) -> Self {
+        Self {
+            device_us: s.device_time_us.unwrap_or(s.mapped_time_us),
+            mapped_us: s.mapped_time_us,
+            order: s.time_order,
+            segment: s.clock_segment,
+            gaze,
+        }
+    }
+
+    /// A sample on an ideal clock (device = mapped), for tests and synthetic
+    /// streams.
+    pub fn ideal(t_us: u64, gaze: Option<[f64; 2]>) -> Self {
+        Self {
+            device_us: t_us,
+            mapped_us: t_us,
+            order: TimeOrder::Increasing,
+            segment: 0,
+            gaze,
+        }
+    }
+}
+
+/// What [`classify`] found.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Classification {
+    pub events: Vec<Event>,
+    /// Samples left out because their device time did not increase
+    /// (repeated or backwards: no velocity can be computed over them).
+    pub non_increasing: usize,
 }
 
 /// I-VT settings.
@@ -88,8 +155,8 @@ pub struct IvtConfig {
     /// ones are tracking loss; shorter ones are ignored.
     pub min_blink_us: u64,
     pub max_blink_us: u64,
-    /// A time step longer than this between samples counts as missing data
-    /// (a HID tracker sends nothing while it sees no eyes).
+    /// A device-time step longer than this between samples counts as
+    /// missing data (a HID tracker sends nothing while it sees no eyes).
     pub max_sample_gap_us: u64,
 }
 
@@ -104,125 +171,172 @@ impl Default for IvtConfig {
     }
 }
 
-/// Classifies samples (time, gaze in px or `None`) into fixations,
-/// saccades, blinks and losses. Angles from the display geometry.
+/// Classifies samples into fixations, saccades, blinks and losses (I-VT,
+/// Salvucci & Goldberg 2000): the velocity of each sample is the angle
+/// from the previous valid sample (display geometry) over their
+/// **device-time** interval. A sample whose device time does not increase
+/// is left out and counted (never a velocity of 0 or ∞); a device-time step
+/// above `max_sample_gap_us`, an invalid stretch or a clock segment change
+/// ends the current event (gaps of blink length become blinks).
 pub fn classify(
-    samples: &[(u64, Option<[f64; 2]>)],
+    samples: &[TimedGaze],
     geometry: &ScreenGeometry,
     config: &IvtConfig,
-) -> Vec<Event> {
+) -> Classification {
     #[derive(PartialEq, Clone, Copy)]
     enum State {
         Fix,
         Sac,
     }
+    struct Run {
+        /// (index, position, velocity)
+        items: Vec<(usize, [f64; 2], f64)>,
+        state: Option<State>,
+    }
     let mut events = Vec::new();
-    let mut run: Vec<(u64, [f64; 2], f64)> = Vec::new(); // (t, p, velocity)
-    let mut state: Option<State> = None;
-    let mut missing_since: Option<u64> = None;
-    let mut last: Option<(u64, [f64; 2])> = None;
-    let close_run =
-        |run: &mut Vec<(u64, [f64; 2], f64)>, state: Option<State>, events: &mut Vec<Event>| {
-            if let (Some(s), Some(first), Some(lastp)) = (state, run.first(), run.last()) {
-                let kind = match s {
-                    State::Fix => {
-                        let n = run.len() as f64;
-                        EventKind::Fixation {
-                            centroid_px: [
-                                run.iter().map(|r| r.1[0]).sum::<f64>() / n,
-                                run.iter().map(|r| r.1[1]).sum::<f64>() / n,
-                            ],
-                        }
+    let mut non_increasing = 0;
+    let mut run = Run {
+        items: Vec::new(),
+        state: None,
+    };
+    // Index of the last valid sample before the current missing stretch.
+    let mut missing_since: Option<usize> = None;
+    let mut last: Option<usize> = None;
+    let event = |kind: EventKind, a: usize, b: usize| Event {
+        kind,
+        start_us: samples[a].mapped_us,
+        end_us: samples[b].mapped_us,
+        start_device_us: samples[a].device_us,
+        end_device_us: samples[b].device_us,
+        segment: samples[a].segment,
+        first: a,
+        last: b,
+    };
+    let close_run = |run: &mut Run, events: &mut Vec<Event>| {
+        if let (Some(s), Some(first), Some(lastp)) =
+            (run.state, run.items.first(), run.items.last())
+        {
+            let kind = match s {
+                State::Fix => {
+                    let n = run.items.len() as f64;
+                    EventKind::Fixation {
+                        centroid_px: [
+                            run.items.iter().map(|r| r.1[0]).sum::<f64>() / n,
+                            run.items.iter().map(|r| r.1[1]).sum::<f64>() / n,
+                        ],
                     }
-                    State::Sac => EventKind::Saccade {
-                        amplitude_deg: geometry.eccentricity_deg(first.1, lastp.1),
-                        peak_deg_s: run.iter().map(|r| r.2).fold(0.0, f64::max),
-                    },
-                };
-                events.push(Event {
-                    kind,
-                    start_us: first.0,
-                    end_us: lastp.0,
-                });
-            }
-            run.clear();
-        };
-    let close_gap = |from: u64, to: u64, events: &mut Vec<Event>| {
-        let d = to.saturating_sub(from);
-        if d >= config.min_blink_us {
-            events.push(Event {
-                kind: if d <= config.max_blink_us {
-                    EventKind::Blink
-                } else {
-                    EventKind::Lost
+                }
+                State::Sac => EventKind::Saccade {
+                    amplitude_deg: geometry.eccentricity_deg(first.1, lastp.1),
+                    peak_deg_s: run.items.iter().map(|r| r.2).fold(0.0, f64::max),
                 },
-                start_us: from,
-                end_us: to,
-            });
+            };
+            events.push(event(kind, first.0, lastp.0));
+        }
+        run.items.clear();
+        run.state = None;
+    };
+    let close_gap = |from: usize, to: usize, events: &mut Vec<Event>| {
+        if samples[from].segment != samples[to].segment {
+            return; // a clock reset: the gap's length is unknown
+        }
+        let d = samples[to]
+            .device_us
+            .saturating_sub(samples[from].device_us);
+        if d >= config.min_blink_us {
+            let kind = if d <= config.max_blink_us {
+                EventKind::Blink
+            } else {
+                EventKind::Lost
+            };
+            events.push(event(kind, from, to));
         }
     };
-    for &(t, p) in samples {
-        let p = p.filter(|p| p[0].is_finite() && p[1].is_finite());
+    for (i, s) in samples.iter().enumerate() {
+        if !s.order.is_timed() {
+            non_increasing += 1;
+            continue;
+        }
+        let p = s.gaze.filter(|p| p[0].is_finite() && p[1].is_finite());
         match p {
             None => {
                 if missing_since.is_none() {
-                    close_run(&mut run, state, &mut events);
-                    state = None;
-                    missing_since = Some(last.map_or(t, |l| l.0));
+                    close_run(&mut run, &mut events);
+                    missing_since = Some(last.unwrap_or(i));
                 }
             }
             Some(p) => {
+                let new_segment = last.is_some_and(|l| samples[l].segment != s.segment);
                 let gap_start = match (missing_since.take(), last) {
                     (Some(m), _) => Some(m),
-                    (None, Some((lt, _))) if t.saturating_sub(lt) > config.max_sample_gap_us => {
-                        close_run(&mut run, state, &mut events);
-                        state = None;
-                        Some(lt)
+                    (None, Some(l))
+                        if new_segment
+                            || s.device_us.saturating_sub(samples[l].device_us)
+                                > config.max_sample_gap_us =>
+                    {
+                        close_run(&mut run, &mut events);
+                        Some(l)
                     }
                     _ => None,
                 };
                 if let Some(g) = gap_start {
-                    close_gap(g, t, &mut events);
+                    close_gap(g, i, &mut events);
                     last = None;
                 }
                 let v = match last {
-                    Some((lt, lp)) if t > lt => {
-                        geometry.eccentricity_deg(lp, p) / ((t - lt) as f64 * 1e-6)
+                    Some(l) if s.device_us > samples[l].device_us => {
+                        let lp = samples[l].gaze.unwrap_or(p);
+                        geometry.eccentricity_deg(lp, p)
+                            / ((s.device_us - samples[l].device_us) as f64 * 1e-6)
                     }
-                    _ => 0.0,
+                    Some(_) => {
+                        // Not later on the device clock than the previous
+                        // valid sample (after a reset within a segment):
+                        // no velocity; left out.
+                        non_increasing += 1;
+                        continue;
+                    }
+                    None => 0.0,
                 };
-                let s = if v > config.velocity_deg_s {
+                let st = if v > config.velocity_deg_s {
                     State::Sac
                 } else {
                     State::Fix
                 };
-                if state != Some(s) {
-                    close_run(&mut run, state, &mut events);
-                    state = Some(s);
+                if run.state != Some(st) {
+                    close_run(&mut run, &mut events);
+                    run.state = Some(st);
                 }
-                run.push((t, p, v));
-                last = Some((t, p));
+                run.items.push((i, p, v));
+                last = Some(i);
             }
         }
     }
-    close_run(&mut run, state, &mut events);
-    if let (Some(m), Some(&(t, _))) = (missing_since, samples.last()) {
-        close_gap(m, t, &mut events);
+    close_run(&mut run, &mut events);
+    if let (Some(m), Some(end)) = (
+        missing_since,
+        samples.iter().rposition(|s| s.order.is_timed()),
+    ) {
+        close_gap(m, end, &mut events);
     }
-    events
+    Classification {
+        events,
+        non_increasing,
+    }
 }
 
 /// Murphy 2007 §7.3: "the centroid of all congruent fixations determines
 /// the mean fixation coordinates". Tracker noise above the I-VT threshold
 /// (0.15° of jitter at 120 Hz is about 25°/s between samples) splits one
 /// fixation into fragments joined by tiny "saccades"; this joins each
-/// fixation to the previous one when only saccades lie between them, the
-/// gap is at most `max_gap_us` and the centroids are at most
+/// fixation to the previous one when only saccades lie between them, both
+/// are in the same clock segment, the gap between them is at most
+/// `max_gap_us` of device time and the centroids are at most
 /// `max_distance_deg` apart. The joined centroid is the duration-weighted
-/// mean (each fragment weighted by its duration plus 1 ms, so a one-sample
-/// fragment counts); the saccades in between are dropped. Blinks and
-/// losses are never bridged. Chosen here (the seed gives no numbers): see
-/// the callers.
+/// mean (each fragment weighted by its device-time duration plus 1 ms, so
+/// a one-sample fragment counts); the saccades in between are dropped.
+/// Blinks and losses are never bridged. Chosen here (the seed gives no
+/// numbers): see the callers.
 pub fn merge_congruent_fixations(
     events: &[Event],
     geometry: &ScreenGeometry,
@@ -237,16 +351,23 @@ pub fn merge_congruent_fixations(
                 .rposition(|o| !matches!(o.kind, EventKind::Saccade { .. }));
             if let Some(i) = last_fix {
                 if let EventKind::Fixation { centroid_px: c0 } = out[i].kind {
+                    let o = out[i];
                     let close = geometry.eccentricity_deg(c0, centroid_px) <= max_distance_deg;
-                    let soon = e.start_us.saturating_sub(out[i].end_us) <= max_gap_us;
+                    let soon = o.segment == e.segment
+                        && e.start_device_us.saturating_sub(o.end_device_us) <= max_gap_us;
                     if close && soon {
-                        let w0 = (out[i].end_us.saturating_sub(out[i].start_us) + 1000) as f64;
-                        let w1 = (e.end_us.saturating_sub(e.start_us) + 1000) as f64;
+                        let w0 = (o.end_device_us.saturating_sub(o.start_device_us) + 1000) as f64;
+                        let w1 = (e.end_device_us.saturating_sub(e.start_device_us) + 1000) as f64;
                         let mix = |a: f64, b: f64| (a * w0 + b * w1) / (w0 + w1);
+                        let later = e.end_device_us >= o.end_device_us;
                         out[i].kind = EventKind::Fixation {
                             centroid_px: [mix(c0[0], centroid_px[0]), mix(c0[1], centroid_px[1])],
                         };
-                        out[i].end_us = e.end_us.max(out[i].end_us);
+                        if later {
+                            out[i].end_us = e.end_us;
+                            out[i].end_device_us = e.end_device_us;
+                            out[i].last = e.last;
+                        }
                         out.truncate(i + 1);
                         continue;
                     }
@@ -397,8 +518,8 @@ mod tests {
         // fixation 300 ms, a 150 ms blink, fixation 200 ms.
         let mut s = Vec::new();
         let mut t = 0u64;
-        let push = |s: &mut Vec<(u64, Option<[f64; 2]>)>, p: Option<[f64; 2]>, t: &mut u64| {
-            s.push((*t, p));
+        let push = |s: &mut Vec<TimedGaze>, p: Option<[f64; 2]>, t: &mut u64| {
+            s.push(TimedGaze::ideal(*t, p));
             *t += 4_000;
         };
         for _ in 0..75 {
@@ -416,7 +537,7 @@ mod tests {
         for _ in 0..50 {
             push(&mut s, Some([900.0, 500.0]), &mut t);
         }
-        let e = classify(&s, &geometry(), &IvtConfig::default());
+        let e = classify(&s, &geometry(), &IvtConfig::default()).events;
         let kinds: Vec<&str> = e
             .iter()
             .map(|e| match e.kind {
@@ -443,26 +564,36 @@ mod tests {
     #[test]
     fn congruent_fixations_merge_and_real_saccades_stay() {
         let g = geometry();
-        let fix = |t0: u64, t1: u64, x: f64| Event {
-            kind: EventKind::Fixation {
-                centroid_px: [x, 300.0],
-            },
+        let ev = |kind: EventKind, t0: u64, t1: u64| Event {
+            kind,
             start_us: t0,
             end_us: t1,
+            start_device_us: t0,
+            end_device_us: t1,
+            segment: 0,
+            first: 0,
+            last: 0,
         };
-        let sac = |t0: u64, t1: u64| Event {
-            kind: EventKind::Saccade {
-                amplitude_deg: 0.3,
-                peak_deg_s: 30.0,
-            },
-            start_us: t0,
-            end_us: t1,
+        let fix = |t0: u64, t1: u64, x: f64| {
+            ev(
+                EventKind::Fixation {
+                    centroid_px: [x, 300.0],
+                },
+                t0,
+                t1,
+            )
         };
-        let blink = Event {
-            kind: EventKind::Blink,
-            start_us: 700_000,
-            end_us: 800_000,
+        let sac = |t0: u64, t1: u64| {
+            ev(
+                EventKind::Saccade {
+                    amplitude_deg: 0.3,
+                    peak_deg_s: 30.0,
+                },
+                t0,
+                t1,
+            )
         };
+        let blink = ev(EventKind::Blink, 700_000, 800_000);
         let events = vec![
             fix(0, 99_000, 100.0),
             sac(99_000, 108_000),
@@ -493,12 +624,89 @@ mod tests {
     #[test]
     fn a_silent_gap_is_missing_data() {
         // A HID tracker sends nothing during a blink: a 120 ms hole.
-        let mut s: Vec<(u64, Option<[f64; 2]>)> = (0..50)
-            .map(|i| (i * 20_000, Some([500.0, 500.0])))
+        let mut s: Vec<TimedGaze> = (0..50)
+            .map(|i| TimedGaze::ideal(i * 20_000, Some([500.0, 500.0])))
             .collect();
-        s.retain(|(t, _)| !(400_000..520_000).contains(t));
-        let e = classify(&s, &geometry(), &IvtConfig::default());
+        s.retain(|t| !(400_000..520_000).contains(&t.device_us));
+        let e = classify(&s, &geometry(), &IvtConfig::default()).events;
         assert!(e.iter().any(|e| e.kind == EventKind::Blink), "{e:?}");
+    }
+
+    /// Samples whose device time repeats or goes back are left out and
+    /// counted: six samples of a saccade with one device time used to get
+    /// velocity 0 and become a "fixation".
+    #[test]
+    fn equal_device_times_never_make_a_velocity() {
+        let g = geometry();
+        let mut s: Vec<TimedGaze> = (0..30)
+            .map(|i| TimedGaze::ideal(i * 8_333, Some([300.0, 500.0])))
+            .collect();
+        // A saccade 8.3 ms apart on the tracker, then the same positions
+        // again with a repeated device time (a duplicated burst).
+        for k in 0..6u64 {
+            s.push(TimedGaze::ideal(
+                (30 + k) * 8_333,
+                Some([330.0 + 30.0 * k as f64, 500.0]),
+            ));
+        }
+        for k in 0..6u64 {
+            let mut t = TimedGaze::ideal((35) * 8_333, Some([330.0 + 30.0 * k as f64, 500.0]));
+            t.order = if k == 0 {
+                TimeOrder::Repeated
+            } else {
+                TimeOrder::Backwards
+            };
+            s.push(t);
+        }
+        for i in 36..70 {
+            s.push(TimedGaze::ideal(i * 8_333, Some([480.0, 500.0])));
+        }
+        let c = classify(&s, &g, &IvtConfig::default());
+        assert_eq!(c.non_increasing, 6);
+        let kinds: Vec<_> = c
+            .events
+            .iter()
+            .map(|e| matches!(e.kind, EventKind::Fixation { .. }))
+            .collect();
+        assert_eq!(kinds, [true, false, true], "{:?}", c.events);
+    }
+
+    proptest! {
+        /// The events depend on the device times only: the mapped times
+        /// (which a busy host perturbs) change the reported host times of an
+        /// event, never which samples it holds.
+        #[test]
+        fn events_do_not_depend_on_the_mapped_times(
+            seed in any::<u64>(),
+            lag in proptest::collection::vec(0u64..200_000, 300),
+        ) {
+            let g = geometry();
+            let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+            let mut pos = [640.0, 512.0];
+            let s: Vec<TimedGaze> = (0..300u64)
+                .map(|i| {
+                    if rng.random::<f64>() < 0.05 {
+                        pos = [rng.random_range(0.0..1280.0), rng.random_range(0.0..1024.0)];
+                    }
+                    let p = (rng.random::<f64>() > 0.03)
+                        .then(|| [pos[0] + rng.random_range(-3.0..3.0), pos[1]]);
+                    TimedGaze::ideal(i * 8_333, p)
+                })
+                .collect();
+            let mut shifted = s.clone();
+            let mut acc = 0;
+            for (t, l) in shifted.iter_mut().zip(&lag) {
+                acc += l / 100;
+                t.mapped_us = t.device_us + 1_000_000 + acc;
+            }
+            let a = classify(&s, &g, &IvtConfig::default()).events;
+            let b = classify(&shifted, &g, &IvtConfig::default()).events;
+            let key = |e: &Event| (e.first, e.last, e.start_device_us, e.end_device_us);
+            prop_assert_eq!(a.iter().map(key).collect::<Vec<_>>(), b.iter().map(key).collect::<Vec<_>>());
+            for x in &b {
+                prop_assert_eq!(x.start_us, shifted[x.first].mapped_us);
+            }
+        }
     }
 
     #[test]

@@ -10,6 +10,15 @@ pub(crate) struct Framing {
     pub stats: DecodeStats,
     /// False after bytes were dropped, until the next good record.
     synced: bool,
+    /// Records the dropped bytes held, for decoders that count lost
+    /// records: each run of dropped bytes is a piece of at least one
+    /// record and counts ⌈run ÷ `record_len`⌉ records — or, for line
+    /// records (`line_records`, where a run is one whole bad line of
+    /// varying length), max(1, round(run ÷ `record_len`)).
+    pub lost_records: u64,
+    /// The typical record length the decoder expects (bytes; ≥ 1).
+    pub record_len: usize,
+    pub line_records: bool,
 }
 
 impl Framing {
@@ -18,6 +27,9 @@ impl Framing {
             buf: Vec::with_capacity(256),
             stats: DecodeStats::default(),
             synced: true,
+            lost_records: 0,
+            record_len: 1,
+            line_records: false,
         }
     }
 
@@ -30,6 +42,14 @@ impl Framing {
     /// Counts `n` skipped bytes (one resync per run of garbage).
     pub fn drop_bytes(&mut self, n: usize) {
         self.stats.dropped_bytes += n as u64;
+        if n > 0 {
+            let len = self.record_len.max(1);
+            self.lost_records += if self.line_records {
+                ((n as f64 / len as f64).round() as u64).max(1)
+            } else {
+                n.div_ceil(len) as u64
+            };
+        }
         if self.synced && n > 0 {
             self.stats.resyncs += 1;
             self.synced = false;

@@ -15,10 +15,23 @@
 //!   configurable: 0x84/0x88 in some set-ups, 0x80/0x81 in others); bytes
 //!   0–127 are logged by the device as sync markers ([`marker_byte`]).
 //!
-//! **Timestamps.** ISCAN sends none. The driver derives one: the host arrival
-//! time of the chunk holding the record's last byte, minus the record's wire
-//! time (bytes × 10 bits ÷ baud). It is stored as `device_time_us` and is
-//! only as good as the host's read latency.
+//! **Timestamps.** ISCAN sends none, but it sends one record per video
+//! field at a fixed rate ([`IscanConfig::rate_hz`], 60 Hz in the seed's
+//! set-up). The driver's device clock counts records: record *k* of a
+//! connection has device time `round(k × 10⁶ / rate_hz)` µs, 0 at the
+//! connection's first record ([`DeviceClock::Counter`]). A
+//! resynchronisation adds the records its dropped bytes held: each run of
+//! dropped bytes (a truncated record, a record whose header was lost or
+//! corrupted) counts ⌈run ÷ record length⌉ records; in ASCII each bad
+//! line counts max(1, round(its length ÷ the mean length of the lines
+//! decoded so far)) (two lines merge when a line end is lost). What this
+//! cannot see: a record lost whole, without one of its
+//! bytes arriving (the next record's time is then one period early), and
+//! noise bytes on an idle line (counted as one lost record). The
+//! derivation never looks at arrival times, so a busy host cannot change
+//! it; the mapping onto the
+//! host clock (and a measured drift that says `rate_hz` is wrong) is the
+//! driver's clock model ([`crate::timing`]).
 //!
 //! **Validity.** A position outside the frame (`[0, width) × [0, height)`) is
 //! reported as a missing eye and counted as an invalid value: never clamped.
@@ -40,6 +53,7 @@ use crate::error::{Error, ErrorKind, Result};
 use crate::framing::Framing;
 use crate::sample::{DecodeStats, EyeSample, GazeSample};
 use crate::source::Decoder;
+use crate::timing::DeviceClock;
 
 /// The binary record header.
 pub const HEADER: [u8; 2] = [0x44, 0x44];
@@ -81,6 +95,11 @@ pub struct IscanConfig {
     /// Serial speed, bits per second (19200 in the seed's set-up).
     #[serde(default = "default_baud")]
     pub baud: u32,
+    /// Records per second the tracker sends (its video field rate: 60 in
+    /// the seed's set-up; RK-726 systems also run at 120 and 240). The
+    /// device clock counts records at this rate.
+    #[serde(default = "default_rate")]
+    pub rate_hz: f64,
     /// Serial device, e.g. `/dev/ttyUSB0` (used by `record` and the viewer).
     #[serde(default)]
     pub port: Option<String>,
@@ -98,6 +117,12 @@ fn default_frame() -> (f64, f64) {
 fn default_baud() -> u32 {
     19_200
 }
+fn default_rate() -> f64 {
+    60.0
+}
+
+/// The highest record rate accepted (Hz).
+pub const MAX_RATE_HZ: f64 = 2_000.0;
 fn default_start() -> u8 {
     0x84
 }
@@ -114,6 +139,7 @@ impl IscanConfig {
             parameters: vec![LeftPorH, LeftPorV, RightPorH, RightPorV],
             frame: default_frame(),
             baud: default_baud(),
+            rate_hz: default_rate(),
             port: None,
             start_command: default_start(),
             stop_command: default_stop(),
@@ -138,6 +164,15 @@ impl IscanConfig {
         if self.baud == 0 {
             return Err(("baud", "must be positive".into()));
         }
+        if !(self.rate_hz.is_finite() && self.rate_hz > 0.0 && self.rate_hz <= MAX_RATE_HZ) {
+            return Err((
+                "rate_hz",
+                format!(
+                    "{} must be a rate above 0 and at most {MAX_RATE_HZ} Hz",
+                    self.rate_hz
+                ),
+            ));
+        }
         for (field, b) in [
             ("start_command", self.start_command),
             ("stop_command", self.stop_command),
@@ -155,6 +190,11 @@ impl IscanConfig {
     /// Bytes of one record on the wire.
     pub fn record_len(&self) -> usize {
         HEADER.len() + 2 * self.parameters.len()
+    }
+
+    /// The nominal period between records, µs.
+    pub fn period_us(&self) -> f64 {
+        1e6 / self.rate_hz
     }
 
     /// Wire time of `bytes` bytes in µs (start + 8 data + stop bits = 10 per byte).
@@ -183,16 +223,34 @@ pub struct IscanDecoder {
     /// ASCII: drop bytes until the next line end (after an over-long line).
     skip_line: bool,
     values: Vec<f64>,
+    /// The device clock: records sent so far (decoded + estimated lost).
+    sent: u64,
+    /// Lost records (the framing's count) already added to `sent`.
+    lost_seen: u64,
+    /// Bytes and count of the ASCII lines decoded (for their mean length).
+    line_bytes: u64,
+    lines: u64,
 }
 
 impl IscanDecoder {
     pub fn new(config: IscanConfig) -> Self {
         let n = config.parameters.len();
+        let mut framing = Framing::new();
+        framing.record_len = match config.mode {
+            IscanMode::Binary => config.record_len(),
+            // Until a line has decoded: a guess of "xxx.x " per value.
+            IscanMode::Ascii => 6 * config.parameters.len().max(1),
+        };
+        framing.line_records = config.mode == IscanMode::Ascii;
         Self {
             config,
-            framing: Framing::new(),
+            framing,
             skip_line: false,
             values: Vec::with_capacity(n),
+            sent: 0,
+            lost_seen: 0,
+            line_bytes: 0,
+            lines: 0,
         }
     }
 
@@ -229,11 +287,24 @@ impl IscanDecoder {
                 self.framing.stats.invalid_values += 1;
             }
         }
+        // Records lost since the last one (see the module docs).
+        self.sent += self.framing.lost_records - self.lost_seen;
+        self.lost_seen = self.framing.lost_records;
+        if self.config.mode == IscanMode::Ascii {
+            self.line_bytes += record_bytes as u64;
+            self.lines += 1;
+            self.framing.record_len = (self.line_bytes / self.lines).max(1) as usize;
+        }
+        let device_us = (self.sent as f64 * self.config.period_us()).round() as u64;
+        self.sent += 1;
         let seq = self.framing.record();
         out.push_back(GazeSample {
             seq,
-            device_time_us: Some(arrival_us.saturating_sub(self.config.wire_time_us(record_bytes))),
+            device_time_us: Some(device_us),
             host_time_us: arrival_us,
+            mapped_time_us: arrival_us,
+            time_order: crate::timing::TimeOrder::Unmapped,
+            clock_segment: 0,
             left: eyes[0],
             right: eyes[1],
             combined: None,
@@ -337,6 +408,12 @@ impl Decoder for IscanDecoder {
     fn stop_command(&self) -> Vec<u8> {
         vec![self.config.stop_command]
     }
+
+    fn device_clock(&self) -> DeviceClock {
+        DeviceClock::Counter {
+            period_us: self.config.period_us(),
+        }
+    }
 }
 
 /// Encodes one binary record (the simulator's and the tests' encoder).
@@ -385,8 +462,8 @@ mod tests {
         assert_eq!(s.len(), 1);
         assert_eq!(s[0].left.position, Some([100.5, 200.0]));
         assert_eq!(s[0].right.position, Some([101.0, 199.9]));
-        // 10 bytes at 19200 baud: 5208 µs on the wire.
-        assert_eq!(s[0].device_time_us, Some(1_000_000 - 5208));
+        // The first record of a connection starts the device clock.
+        assert_eq!(s[0].device_time_us, Some(0));
     }
 
     #[test]
@@ -458,5 +535,107 @@ mod tests {
         let mut c = cfg(IscanMode::Binary);
         c.start_command = 0x10;
         assert_eq!(c.validate().unwrap_err().0, "start_command");
+    }
+
+    /// The derived device clock against the simulator's truth: every
+    /// decoded record's device time is its true capture time since the
+    /// first record, exactly, whatever the host's read timing, with records
+    /// truncated by lost bytes, records whose first bytes were lost and
+    /// records corrupted into garbage (binary and ASCII).
+    #[test]
+    fn the_record_counter_clock_matches_the_simulators_truth() {
+        use crate::sim::{gaze_script, simulate_iscan, Script};
+        use rand::{Rng, SeedableRng};
+        for (mode, rate) in [
+            (IscanMode::Binary, 60.0),
+            (IscanMode::Ascii, 60.0),
+            (IscanMode::Binary, 240.0),
+        ] {
+            let mut config = cfg(mode);
+            config.rate_hz = rate;
+            let truth = gaze_script(&Script {
+                seconds: 20.0,
+                rate_hz: rate,
+                frame: (512.0, 512.0),
+                units_per_degree: 12.0,
+                seed: 5,
+            });
+            let sim = simulate_iscan(&config, &truth, 5);
+            // Reassemble the records (each is 1–3 chunks) and damage them.
+            let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(9);
+            let mut bytes = Vec::new();
+            let mut kept = Vec::new();
+            let mut rec = Vec::new();
+            let mut k = 0usize;
+
+            for c in &sim.chunks {
+                rec.extend_from_slice(&c.payload);
+                let complete = match mode {
+                    IscanMode::Binary => rec.len() == config.record_len(),
+                    IscanMode::Ascii => rec.ends_with(b"\n"),
+                };
+                if !complete {
+                    continue;
+                }
+                let r: f64 = rng.random();
+                let n = rec.len();
+                // Damage never hits two records in a row: a truncated record
+                // followed by one whose header is gone cannot be told from
+                // one record with bad values (the format has no length or
+                // checksum), and decodes as such.
+                // Nor a binary record with a payload byte 0x44 (a value's low
+                // byte): a piece of it beside a header is a header too.
+                let ambiguous = mode == IscanMode::Binary && rec[2..].contains(&HEADER[0]);
+                let r = if kept.last() == Some(&(k.wrapping_sub(1))) && !ambiguous {
+                    r
+                } else {
+                    1.0
+                };
+                if k > 0 && r < 0.03 && mode == IscanMode::Binary {
+                    // Truncated: its last bytes lost on the line.
+                    bytes.extend_from_slice(&rec[..rng.random_range(2..n - 1)]);
+                } else if k > 0 && r < 0.06 {
+                    // Its first bytes lost (the header, or part of a line).
+                    // (Binary: the whole header, so that the payload's low
+                    // bytes, which may be 0x44, cannot join what is left of
+                    // it into a header — an ambiguity of the format itself.)
+                    let from = match mode {
+                        IscanMode::Binary => rng.random_range(2..n - 1),
+                        // (ASCII: at least the first value, or the tail could
+                        // parse as a record with a wrong first value.)
+                        IscanMode::Ascii => {
+                            let sep = rec
+                                .iter()
+                                .position(|b| *b == b' ' || *b == b'\t')
+                                .unwrap_or(1);
+                            rng.random_range(sep + 1..n - 2)
+                        }
+                    };
+                    bytes.extend_from_slice(&rec[from..]);
+                } else if k > 0 && r < 0.09 {
+                    // Corrupted into garbage: a header byte or a digit hit.
+                    let mut bad = rec.clone();
+                    bad[0] = b'x';
+                    bad[1] = b'#';
+                    bytes.extend_from_slice(&bad);
+                } else {
+                    bytes.extend_from_slice(&rec);
+                    kept.push(k);
+                }
+                rec.clear();
+                k += 1;
+            }
+            // Keep the first record so the clock starts at the truth's first.
+            assert_eq!(kept[0], 0);
+            let got = decode_all(&mut IscanDecoder::new(config.clone()), &bytes, 0);
+            assert_eq!(got.len(), kept.len(), "{mode:?}");
+            for (g, &k) in got.iter().zip(&kept) {
+                assert_eq!(
+                    g.device_time_us,
+                    Some(truth[k].t_us - truth[0].t_us),
+                    "{mode:?} {rate} Hz record {k}"
+                );
+            }
+        }
     }
 }

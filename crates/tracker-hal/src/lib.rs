@@ -11,8 +11,10 @@
 //! stream; `TimedOut` = call again; `Disconnected` = reopen). Every error
 //! has one [`ErrorKind`] (`#[non_exhaustive]`) and a message.
 //!
-//! A [`GazeSample`] carries a sequence number, the device timestamp (when the
-//! device has one) and the host monotonic arrival time (µs, both kept), and
+//! A [`GazeSample`] carries a sequence number and three times: the device
+//! timestamp as decoded, the host monotonic arrival time, and the device
+//! time mapped onto the host clock by the driver's online clock model
+//! ([`timing`]: what every file and event downstream uses), and
 //! per eye a position in tracker units or *missing* — never a bogus
 //! coordinate — with an optional pupil size. Mapping to screen pixels is a
 //! separate, explicit step ([`Mapping`]).
@@ -92,6 +94,7 @@ pub mod sim;
 pub mod source;
 #[cfg(test)]
 mod test_support;
+pub mod timing;
 
 pub use clock::{Clock, MonotonicClock, SharedClock};
 pub use config::{AttentionSourceConfig, Driver, TrackerConfig};
@@ -101,3 +104,4 @@ pub use recording::{Recorder, RecorderSummary, Recording, RecordingHeader, Tap};
 pub use replay::{Pacing, ReplayTransport};
 pub use sample::{DecodeStats, EyeSample, GazeSample};
 pub use source::{decode_all, Decoder, GazeSource, StreamDriver};
+pub use timing::{ClockMapper, ClockState, DeviceClock, TimeOrder};

@@ -21,7 +21,9 @@
 
 use std::collections::VecDeque;
 use std::io::{Read, Write};
-use std::time::{Duration, Instant};
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::Arc;
+use std::time::Duration;
 
 use crossbeam_channel::{Receiver, Sender};
 use rand::SeedableRng;
@@ -312,6 +314,9 @@ impl Decoder for MouseDecoder {
                 seq,
                 device_time_us: Some(t),
                 host_time_us: arrival_us,
+                mapped_time_us: arrival_us,
+                time_order: crate::timing::TimeOrder::Unmapped,
+                clock_segment: 0,
                 left: eye,
                 right: eye,
                 combined: None,
@@ -343,6 +348,41 @@ impl Decoder for MouseDecoder {
 pub struct MouseLink {
     reader: std::io::PipeReader,
     commands: Sender<u8>,
+    timing: Arc<DeviceTiming>,
+}
+
+/// What the device thread's schedule went through.
+#[derive(Debug, Default)]
+struct DeviceTiming {
+    late: AtomicU64,
+    skipped: AtomicU64,
+}
+
+/// A handle on a running mouse device's schedule counts (clones share).
+#[derive(Debug, Clone)]
+pub struct MouseTiming(Arc<DeviceTiming>);
+
+impl MouseTiming {
+    /// Ticks the device thread ran late for (one period or more after
+    /// their scheduled time): each was still sampled at its scheduled
+    /// device time, and the schedule kept.
+    pub fn late_ticks(&self) -> u64 {
+        self.0.late.load(Ordering::Relaxed)
+    }
+
+    /// Periods skipped because the thread was stalled for longer than
+    /// [`MAX_CATCH_UP`] (a device would have overflowed its buffer).
+    pub fn skipped_ticks(&self) -> u64 {
+        self.0.skipped.load(Ordering::Relaxed)
+    }
+}
+
+impl MouseLink {
+    /// The device's schedule counts, readable after the link has moved
+    /// into a driver.
+    pub fn timing(&self) -> MouseTiming {
+        MouseTiming(self.timing.clone())
+    }
 }
 
 impl Read for MouseLink {
@@ -369,28 +409,87 @@ impl Write for MouseLink {
     }
 }
 
+/// The longest stall the emulated device catches up on (its buffer):
+/// beyond it the missed periods are skipped and counted.
+pub const MAX_CATCH_UP: Duration = Duration::from_secs(1);
+
+/// The device's fixed schedule: tick *k* is due at `start + k·period`.
+/// [`Schedule::due`] gives every tick due by `now`, one per period, each
+/// with its own scheduled time — a late thread samples the cursor at the
+/// times it missed instead of ticking twice for one period or shifting
+/// the schedule.
+#[derive(Debug, Clone)]
+pub struct Schedule {
+    start_us: u64,
+    period_us: u64,
+    next: u64,
+}
+
+impl Schedule {
+    pub fn new(start_us: u64, period_us: u64) -> Self {
+        Self {
+            start_us,
+            period_us: period_us.max(1),
+            next: 0,
+        }
+    }
+
+    /// The scheduled time of the next tick.
+    pub fn next_us(&self) -> u64 {
+        self.start_us + self.next * self.period_us
+    }
+
+    /// The ticks due at `now_us`, oldest first: (scheduled time, late).
+    /// At most `max_catch_up_us` worth of ticks; older ones are skipped
+    /// (returned count in the second value).
+    pub fn due(&mut self, now_us: u64, max_catch_up_us: u64) -> (Vec<(u64, bool)>, u64) {
+        let mut skipped = 0;
+        let oldest = now_us.saturating_sub(max_catch_up_us);
+        if self.next_us() < oldest {
+            let k = (oldest - self.start_us).div_ceil(self.period_us);
+            skipped = k - self.next;
+            self.next = k;
+        }
+        let mut out = Vec::new();
+        while self.next_us() <= now_us {
+            let t = self.next_us();
+            out.push((t, now_us - t >= self.period_us));
+            self.next += 1;
+        }
+        (out, skipped)
+    }
+}
+
 /// Runs a [`MouseEmulator`] on its own thread, sampling at the configured
 /// rate while started. Cursor events come from `cursor` (the viewer's window
 /// thread); when that channel closes the device stops and the link reads end
-/// of stream. Device time is host monotonic time.
+/// of stream. Device time is host monotonic time: each record carries its
+/// tick's *scheduled* time on a fixed schedule ([`Schedule`]), whatever the
+/// thread's own delays.
 pub fn spawn_device(
     config: MouseConfig,
     cursor: Receiver<CursorEvent>,
 ) -> std::io::Result<MouseLink> {
     let (reader, mut writer) = std::io::pipe()?;
     let (commands, command_rx) = crossbeam_channel::unbounded::<u8>();
-    let period = Duration::from_micros(config.period_us());
+    let period_us = config.period_us();
+    let timing = Arc::new(DeviceTiming::default());
+    let t = timing.clone();
     std::thread::Builder::new()
         .name("mouse-gaze".into())
         .spawn(move || {
             let mut emulator = MouseEmulator::new(config);
-            let mut streaming = false;
-            let mut next = Instant::now();
+            let mut schedule: Option<Schedule> = None;
+            let catch_up = MAX_CATCH_UP.as_micros() as u64;
             loop {
                 for c in command_rx.try_iter() {
                     match c {
-                        START => streaming = true,
-                        STOP => streaming = false,
+                        START => {
+                            schedule.get_or_insert_with(|| {
+                                Schedule::new(crate::clock::monotonic_us(), period_us)
+                            });
+                        }
+                        STOP => schedule = None,
                         _ => {}
                     }
                 }
@@ -401,22 +500,34 @@ pub fn spawn_device(
                         Err(crossbeam_channel::TryRecvError::Disconnected) => return,
                     }
                 }
-                if streaming {
-                    let record = emulator.tick(crate::clock::monotonic_us());
-                    if writer.write_all(&record).is_err() {
-                        return; // the driver is gone
+                let now = crate::clock::monotonic_us();
+                let next = match &mut schedule {
+                    Some(s) => {
+                        let (ticks, skipped) = s.due(now, catch_up);
+                        t.skipped.fetch_add(skipped, Ordering::Relaxed);
+                        let mut bytes = Vec::with_capacity(ticks.len() * RECORD_LEN);
+                        for (at, late) in ticks {
+                            t.late.fetch_add(u64::from(late), Ordering::Relaxed);
+                            bytes.extend_from_slice(&emulator.tick(at));
+                        }
+                        if !bytes.is_empty() && writer.write_all(&bytes).is_err() {
+                            return; // the driver is gone
+                        }
+                        s.next_us()
                     }
-                }
-                next += period;
-                let now = Instant::now();
+                    None => now + period_us,
+                };
+                let now = crate::clock::monotonic_us();
                 if next > now {
-                    std::thread::sleep(next - now);
-                } else {
-                    next = now;
+                    std::thread::sleep(Duration::from_micros(next - now));
                 }
             }
         })?;
-    Ok(MouseLink { reader, commands })
+    Ok(MouseLink {
+        reader,
+        commands,
+        timing,
+    })
 }
 
 #[cfg(test)]
@@ -429,6 +540,41 @@ mod tests {
             t_us: t_ms * 1000,
             position_px: [x, y],
             blink: false,
+        }
+    }
+
+    proptest::proptest! {
+        /// However late and irregular the thread wakes (stalls up to 2 s),
+        /// the device ticks once per period at its scheduled time: never
+        /// two ticks for one period, never a shifted schedule; a stall
+        /// beyond the catch-up bound skips (and counts) the oldest periods.
+        #[test]
+        fn the_schedule_ticks_once_per_period_at_its_time(
+            period in 1_000u64..20_000,
+            wakes in proptest::collection::vec(0u64..2_000_000, 1..200),
+        ) {
+            let mut s = Schedule::new(5_000, period);
+            let mut now = 5_000;
+            let mut times = Vec::new();
+            let mut skipped = 0;
+            for w in wakes {
+                now += w;
+                let (due, sk) = s.due(now, 1_000_000);
+                skipped += sk;
+                for (t, late) in due {
+                    proptest::prop_assert!(t <= now);
+                    proptest::prop_assert_eq!(late, now - t >= period);
+                    proptest::prop_assert!(now - t <= 1_000_000 + period);
+                    times.push(t);
+                }
+            }
+            // Every scheduled time up to now, once, except the skipped ones.
+            let expected = (now - 5_000) / period + 1;
+            proptest::prop_assert_eq!(times.len() as u64 + skipped, expected);
+            for w in times.windows(2) {
+                proptest::prop_assert!(w[1] > w[0]);
+                proptest::prop_assert_eq!((w[1] - 5_000) % period, 0);
+            }
         }
     }
 

@@ -1,5 +1,7 @@
 //! What a gaze source delivers.
 
+use crate::timing::TimeOrder;
+
 /// One eye in one sample: a position in tracker units, or missing. A
 /// missing eye never carries a coordinate (no bogus 0,0).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
@@ -30,8 +32,19 @@ pub struct GazeSample {
     /// The device's own timestamp in µs on the device clock, when it has one
     /// (ISCAN has none; its driver derives one, see `iscan`).
     pub device_time_us: Option<u64>,
-    /// Host monotonic time in µs when the record's last byte arrived.
+    /// Host monotonic time in µs when the record's last byte arrived (the
+    /// *arrival* time: what the machine's load changes).
     pub host_time_us: u64,
+    /// The device time mapped onto the host monotonic clock (µs) by the
+    /// driver's [`ClockMapper`](crate::timing::ClockMapper): the time every
+    /// file, event and latency figure uses. A decoder sets it to the
+    /// arrival time with [`TimeOrder::Unmapped`]; the driver maps it.
+    pub mapped_time_us: u64,
+    /// How the device time stands against the previous sample's.
+    pub time_order: TimeOrder,
+    /// The clock segment (a device clock reset starts a new one): events
+    /// never span two.
+    pub clock_segment: u32,
     pub left: EyeSample,
     pub right: EyeSample,
     /// The device's own combined (cyclopean) point, for devices that send one.
@@ -42,6 +55,28 @@ pub struct GazeSample {
 }
 
 impl GazeSample {
+    /// A decoded sample, not yet mapped onto the host clock.
+    pub fn new(
+        seq: u64,
+        device_time_us: Option<u64>,
+        arrival_us: u64,
+        left: EyeSample,
+        right: EyeSample,
+    ) -> Self {
+        Self {
+            seq,
+            device_time_us,
+            host_time_us: arrival_us,
+            mapped_time_us: arrival_us,
+            time_order: TimeOrder::Unmapped,
+            clock_segment: 0,
+            left,
+            right,
+            combined: None,
+            eye_position_um: [None, None],
+        }
+    }
+
     /// The point the renderer uses: the device's combined point where it has
     /// one, else the mean of the valid eyes; `None` when no eye is valid.
     pub fn gaze(&self) -> Option<[f64; 2]> {

@@ -9,6 +9,7 @@ use crate::clock::Clock;
 use crate::error::{Error, ErrorKind, Result};
 use crate::recording::Tap;
 use crate::sample::{DecodeStats, GazeSample};
+use crate::timing::{ClockMapper, ClockState, DeviceClock};
 
 /// A source of gaze samples. Blocking, in the style of `embedded-io`.
 ///
@@ -28,6 +29,16 @@ pub trait GazeSource {
     fn stop(&mut self) -> Result<()>;
     fn next_sample(&mut self) -> Result<Option<GazeSample>>;
     fn stats(&self) -> DecodeStats;
+    /// How this source's device times are obtained.
+    fn device_clock(&self) -> DeviceClock {
+        DeviceClock::Device
+    }
+    /// The clock model of the current connection (offset, drift, what it
+    /// corrected), once a sample has been mapped; `None` for sources that
+    /// do not map (their `mapped_time_us` is the arrival time).
+    fn clock(&self) -> Option<ClockState> {
+        None
+    }
 }
 
 /// Turns device bytes into samples. A decoder is a pure state machine: no
@@ -48,6 +59,10 @@ pub trait Decoder: Send {
     fn frame_hint(&self) -> Option<(f64, f64)> {
         None
     }
+    /// How the decoder obtains device times (see [`DeviceClock`]).
+    fn device_clock(&self) -> DeviceClock {
+        DeviceClock::Device
+    }
 }
 
 /// A [`GazeSource`] over any byte transport (`Read + Write`): a serial port,
@@ -61,6 +76,7 @@ pub struct StreamDriver<T, D> {
     buf: Vec<u8>,
     ended: bool,
     max_wait: Option<Duration>,
+    mapper: ClockMapper,
 }
 
 impl<T: Read + Write, D: Decoder> StreamDriver<T, D> {
@@ -75,6 +91,7 @@ impl<T: Read + Write, D: Decoder> StreamDriver<T, D> {
             buf: vec![0; 4096],
             ended: false,
             max_wait: None,
+            mapper: ClockMapper::new(),
         }
     }
 
@@ -153,7 +170,12 @@ impl<T: Read + Write, D: Decoder> GazeSource for StreamDriver<T, D> {
                     if let Some(tap) = &self.tap {
                         tap.device_to_host(t, &self.buf[..n]);
                     }
+                    let before = self.pending.len();
                     self.decoder.push(&self.buf[..n], t, &mut self.pending);
+                    // The records this read completed, mapped together: the
+                    // last of them is the least delayed.
+                    let pending = self.pending.make_contiguous();
+                    self.mapper.map_read(&mut pending[before..]);
                     if let Some((began, wait)) = began {
                         if self.pending.is_empty() && began.elapsed() >= wait {
                             return Err(Error::new(
@@ -180,6 +202,14 @@ impl<T: Read + Write, D: Decoder> GazeSource for StreamDriver<T, D> {
 
     fn stats(&self) -> DecodeStats {
         self.decoder.stats()
+    }
+
+    fn device_clock(&self) -> DeviceClock {
+        self.decoder.device_clock()
+    }
+
+    fn clock(&self) -> Option<ClockState> {
+        (self.mapper.state().samples > 0).then(|| self.mapper.state())
     }
 }
 

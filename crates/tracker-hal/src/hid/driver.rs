@@ -15,6 +15,7 @@ use crate::error::{Error, ErrorKind, Result};
 use crate::recording::Tap;
 use crate::sample::{DecodeStats, GazeSample};
 use crate::source::{Decoder, GazeSource};
+use crate::timing::{ClockMapper, ClockState};
 
 /// A HID device, as the driver needs it.
 pub trait HidTransport: Send {
@@ -41,6 +42,7 @@ pub struct HidDriver<T> {
     pending: VecDeque<GazeSample>,
     connected: bool,
     ended: bool,
+    mapper: ClockMapper,
 }
 
 impl<T: HidTransport> HidDriver<T> {
@@ -54,6 +56,7 @@ impl<T: HidTransport> HidDriver<T> {
             pending: VecDeque::new(),
             connected: false,
             ended: false,
+            mapper: ClockMapper::new(),
         }
     }
 
@@ -77,7 +80,10 @@ impl<T: HidTransport> HidDriver<T> {
         if let Some(tap) = &self.tap {
             tap.device_to_host(t, text.as_bytes());
         }
+        let before = self.pending.len();
         self.decoder.push(text.as_bytes(), t, &mut self.pending);
+        let pending = self.pending.make_contiguous();
+        self.mapper.map_read(&mut pending[before..]);
     }
 
     /// Reads the descriptor and the features (a fresh device, or after a
@@ -180,6 +186,10 @@ impl<T: HidTransport> GazeSource for HidDriver<T> {
 
     fn stats(&self) -> DecodeStats {
         self.decoder.stats()
+    }
+
+    fn clock(&self) -> Option<ClockState> {
+        (self.mapper.state().samples > 0).then(|| self.mapper.state())
     }
 }
 

@@ -337,16 +337,16 @@ pub fn simulate_hid(
             seq: expected.len() as u64,
             device_time_us: Some(device_us),
             host_time_us: arrival,
+            mapped_time_us: arrival,
+            time_order: crate::timing::TimeOrder::Unmapped,
+            clock_segment: 0,
             left: EyeSample::MISSING,
             right: EyeSample::MISSING,
             combined: Some(gum),
             eye_position_um: [le, re],
         });
     }
-    SimStream {
-        chunks: out.chunks,
-        expected,
-    }
+    SimStream::one_record_per_read(out.chunks, expected)
 }
 
 /// Device text split into 1–3 reads at random points, arrival times never

@@ -52,3 +52,17 @@ pub struct SimStream {
     /// The samples a correct decoder produces from `chunks`.
     pub expected: Vec<GazeSample>,
 }
+
+impl SimStream {
+    /// The stream with its expected samples mapped onto the host clock as
+    /// a driver maps them ([`crate::timing::ClockMapper`]), for simulators
+    /// whose every record is completed by a read of its own (each record's
+    /// last chunk holds no other record's end).
+    pub fn one_record_per_read(chunks: Vec<Chunk>, mut expected: Vec<GazeSample>) -> Self {
+        let mut mapper = crate::timing::ClockMapper::new();
+        for s in &mut expected {
+            mapper.map_sample(s);
+        }
+        Self { chunks, expected }
+    }
+}

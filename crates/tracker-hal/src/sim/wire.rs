@@ -104,15 +104,20 @@ pub fn simulate_iscan(config: &IscanConfig, truth: &[TruthSample], seed: u64) ->
         }
         expected.push(GazeSample {
             seq: k as u64,
-            device_time_us: Some(last_arrival.saturating_sub(config.wire_time_us(record.len()))),
+            // The driver's record-counting clock (`iscan`): the true time
+            // since the first record.
+            device_time_us: Some(s.t_us - truth[0].t_us),
             host_time_us: last_arrival,
+            mapped_time_us: last_arrival,
+            time_order: crate::timing::TimeOrder::Unmapped,
+            clock_segment: 0,
             left,
             right,
             combined: None,
             eye_position_um: [None, None],
         });
     }
-    SimStream { chunks, expected }
+    SimStream::one_record_per_read(chunks, expected)
 }
 
 /// Drives the mouse emulator with the truth's left eye (scaled by
@@ -167,11 +172,14 @@ pub fn simulate_mouse(
             seq: k as u64,
             device_time_us: Some(s.t_us),
             host_time_us: arrival,
+            mapped_time_us: arrival,
+            time_order: crate::timing::TimeOrder::Unmapped,
+            clock_segment: 0,
             left: eye,
             right: eye,
             combined: None,
             eye_position_um: [None, None],
         });
     }
-    SimStream { chunks, expected }
+    SimStream::one_record_per_read(chunks, expected)
 }

@@ -1430,13 +1430,15 @@ fn write_outputs(
     Ok(())
 }
 
-/// The trial's fixations between search onset and response, clipped to
-/// that window, in order.
+/// The trial's fixations between search onset and response (the sitting's
+/// host clock), clipped to that window, in order. Only events of the
+/// sitting that completed the trial count (an aborted run of it left none
+/// on the same clock).
 pub fn trial_fixations(events: &[EventRow], t: &TrialRow) -> Vec<Fixation> {
     let (t0, t1) = (t.search_onset_us, t.response_us);
     let mut fx: Vec<&EventRow> = events
         .iter()
-        .filter(|e| e.kind == "fixation")
+        .filter(|e| e.kind == "fixation" && e.sitting == t.sitting)
         .filter(|e| e.trial.is_none_or(|i| i == t.trial))
         .filter(|e| e.onset_us < t1 && e.end_us > t0)
         .collect();

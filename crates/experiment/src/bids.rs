@@ -7,24 +7,38 @@
 //!   dataset_description.json   Name, BIDSVersion, DatasetType, GeneratedBy
 //!   README.md                  what the dataset is (and that it is synthetic, if so)
 //!   participants.tsv / .json   participant_id, participant, participant_index, synthetic
-//!   sub-<label>/beh/
-//!     sub-<label>_task-<task>_recording-eye1_physio.tsv.gz   no header:
-//!         timestamp  x_coordinate  y_coordinate  host_timestamp
-//!     sub-<label>_task-<task>_recording-eye1_physio.json     the sidecar
-//!     sub-<label>_task-<task>_events.tsv                     one row per trial
-//!     sub-<label>_task-<task>_events.json                    columns + StimulusPresentation
+//!   sub-<label>/beh/           one run per sitting (run-1, run-2, …):
+//!     sub-<label>_task-<task>_run-<n>_recording-eye1_physio.tsv.gz   no header:
+//!         timestamp  x_coordinate  y_coordinate  device_timestamp  arrival_timestamp
+//!     sub-<label>_task-<task>_run-<n>_recording-eye1_physio.json     the sidecar
+//!     sub-<label>_task-<task>_run-<n>_events.tsv                     one row per trial
+//!     sub-<label>_task-<task>_run-<n>_events.json                    columns + StimulusPresentation
 //! ```
 //!
 //! Choices (the specification leaves them to the exporter):
 //!
-//! - `timestamp` is the tracker's own clock (`samples.tsv` `sample_us`,
-//!   µs), as the specification defines it; the extra column
-//!   `host_timestamp` (`host_us`) is the host clock, on which the events'
-//!   onsets are measured, so the two can be aligned.
+//! - **One run per sitting.** A session resumed after a crash or a break
+//!   (`experiment run --resume`) has one sitting per process, each with
+//!   its own host clock; BIDS 1.11 gives each continuous recording its own
+//!   run (`run-<index>`, "if a recording was interrupted"), with times
+//!   relative to that recording. So each sitting is a run, numbered by the
+//!   sitting, and every time in a run is on that sitting's clock; the
+//!   sittings' wall-clock anchors stay in the session folder
+//!   (`session.json`). Samples of a trial that was aborted by the end of a
+//!   sitting and run again later are left out (a warning counts them), as
+//!   are samples with a repeated or backwards tracker timestamp.
+//! - `timestamp` is the tracker's timestamp mapped onto the host clock
+//!   (`samples.tsv` `mapped_us`, µs): the tracker's own sample times, on
+//!   the clock the events' onsets are measured on. Within a run it
+//!   increases strictly (a session file whose times go back is refused,
+//!   naming the line). The extra columns keep the tracker's own timestamp
+//!   as decoded (`device_timestamp`, how it is derived is in the sidecar)
+//!   and the arrival time (`arrival_timestamp`). The clock model is in the
+//!   sidecar (`ClockModel`).
 //! - `onset` and `duration` are seconds on the host clock relative to the
-//!   first sample (`StartTime` 0: the physio file starts the recording).
-//!   Without samples the reference is the first trial's search onset and
-//!   no physio file is written (a warning says so).
+//!   run's first sample (`StartTime` 0: the physio file starts the run).
+//!   Without samples the reference is the run's first search onset and no
+//!   physio file is written (a warning says so).
 //! - `SamplingFrequency` is estimated from the median interval between
 //!   consecutive tracker timestamps; the sidecar says so
 //!   (`SamplingFrequencyEstimate`), with the nominal rate from
@@ -47,6 +61,7 @@ use crate::session::{
     SAMPLES_TSV, SESSION_JSON, TRIALS_TSV,
 };
 use serde_json::{json, Value};
+use std::collections::BTreeMap;
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
@@ -153,6 +168,224 @@ fn field(s: &str) -> String {
     s.replace(['\t', '\n', '\r'], " ")
 }
 
+/// The most sittings one session may have in an export.
+pub const MAX_SITTINGS: usize = 1000;
+
+/// One run's physio file while it is written.
+struct RunWriter {
+    path: PathBuf,
+    gz: flate2::write::GzEncoder<AtomicFile>,
+    first_us: Option<u64>,
+    last_us: Option<u64>,
+    last_device: Option<u64>,
+    intervals: Vec<u64>,
+    n: usize,
+    valid: usize,
+    line: String,
+}
+
+/// What a run's sidecar needs from its session.
+struct RunContext<'a> {
+    info: &'a SessionInfo,
+    meta: Option<&'a session::Sitting>,
+    synthetic: bool,
+    task: &'a str,
+    guard: &'a OutputGuard,
+    beh: &'a Path,
+    stem: &'a str,
+    samples_path: &'a Path,
+    export: &'a mut BidsExport,
+}
+
+impl RunWriter {
+    fn new(path: PathBuf, file: AtomicFile) -> Self {
+        Self {
+            path,
+            gz: flate2::write::GzEncoder::new(file, flate2::Compression::default()),
+            first_us: None,
+            last_us: None,
+            last_device: None,
+            intervals: Vec::new(),
+            n: 0,
+            valid: 0,
+            line: String::new(),
+        }
+    }
+
+    /// One sample (timed, not aborted). Its mapped time must be later than
+    /// the run's previous one: a file whose times go back is refused.
+    fn write(&mut self, s: &SampleRow, line: u64, from: &Path) -> Result<(), SessionFileError> {
+        if let Some(prev) = self.last_us {
+            if s.mapped_us <= prev {
+                return Err(SessionFileError::Parse {
+                    path: from.to_path_buf(),
+                    line,
+                    column: Some("mapped_us".into()),
+                    message: format!(
+                        "{} is not later than the sitting's previous sample ({prev})",
+                        s.mapped_us
+                    ),
+                });
+            }
+        }
+        // The sampling interval from the tracker's own clock where it has
+        // one (the mapped clock otherwise), within a clock segment.
+        match (s.device_us, self.last_device, self.last_us) {
+            (Some(d), Some(ld), _) if d > ld && s.time_order != "reset" => {
+                self.intervals.push(d - ld)
+            }
+            (None, _, Some(prev)) => self.intervals.push(s.mapped_us - prev),
+            _ => {}
+        }
+        self.first_us.get_or_insert(s.mapped_us);
+        self.last_us = Some(s.mapped_us);
+        self.last_device = s.device_us;
+        let coord = |v: Option<f64>| match v {
+            Some(x) if x.is_finite() => format!("{x}"),
+            _ => "n/a".to_string(),
+        };
+        let (x, y) = match (s.x_px, s.y_px) {
+            (Some(x), Some(y)) if x.is_finite() && y.is_finite() => {
+                self.valid += 1;
+                (coord(Some(x)), coord(Some(y)))
+            }
+            _ => ("n/a".into(), "n/a".into()),
+        };
+        self.line.clear();
+        self.line.push_str(&format!(
+            "{}\t{x}\t{y}\t{}\t{}\n",
+            s.mapped_us,
+            s.device_us.map_or("n/a".into(), |d| d.to_string()),
+            s.arrival_us
+        ));
+        self.n += 1;
+        self.gz
+            .write_all(self.line.as_bytes())
+            .map_err(|e| SessionFileError::Io {
+                path: self.path.clone(),
+                source: e,
+            })
+    }
+
+    /// Commits the physio file and writes its sidecar; the physio file's
+    /// path, or `None` (and a warning) when no sampling rate is known.
+    fn finish(mut self, c: &mut RunContext) -> Result<Option<PathBuf>, BidsError> {
+        self.intervals.sort_unstable();
+        let m = self.intervals.len();
+        let median_us = (m > 0).then(|| {
+            if m % 2 == 1 {
+                self.intervals[m / 2] as f64
+            } else {
+                (self.intervals[m / 2 - 1] + self.intervals[m / 2]) as f64 / 2.0
+            }
+        });
+        let info = c.info;
+        let nominal = info.tracker_rate_hz.filter(|r| r.is_finite() && *r > 0.0);
+        let (rate, rate_note) = match (median_us, nominal) {
+            (Some(med), _) => (
+                1e6 / med,
+                format!(
+                    "estimated from the median interval between consecutive tracker timestamps ({med} us over {m} intervals){}",
+                    nominal.map(|r| format!("; nominal rate in session.json: {r} Hz")).unwrap_or_default()
+                ),
+            ),
+            (None, Some(r)) => (
+                r,
+                "nominal rate from session.json (too few samples to estimate)".to_string(),
+            ),
+            (None, None) => {
+                drop(self.gz); // AtomicFile dropped uncommitted: nothing written.
+                c.export.warnings.push(format!(
+                    "{}: cannot estimate the sampling frequency of {} (no increasing timestamps) and session.json has no tracker_rate_hz; no physio file",
+                    c.samples_path.display(),
+                    c.stem
+                ));
+                return Ok(None);
+            }
+        };
+        let file = self.gz.finish().map_err(|e| out_err(&self.path, e))?;
+        file.commit().map_err(|e| out_err(&self.path, e))?;
+        let d = &info.display;
+        let device_clock = c.meta.map_or(
+            "not recorded (a session of an earlier gazecast)".to_string(),
+            |m| m.device_clock.clone(),
+        );
+        let clock = c.meta.and_then(|m| m.clock.as_ref()).map(|k| {
+            json!({
+                "Description": "gazecast's clock model (tracker-hal timing) at the end of the sitting: timestamp = device_timestamp mapped onto the host clock.",
+                "Rate": k.rate,
+                "DriftPpm": k.drift_ppm,
+                "OffsetUs": k.offset_us,
+                "CausalityCorrections": k.corrections,
+                "NonIncreasingTimestamps": k.non_increasing,
+                "ClockResets": k.resets,
+            })
+        });
+        let mut sidecar = json!({
+            "SamplingFrequency": rate,
+            "SamplingFrequencyEstimate": rate_note,
+            "StartTime": 0.0,
+            "Columns": ["timestamp", "x_coordinate", "y_coordinate", "device_timestamp", "arrival_timestamp"],
+            "PhysioType": "eyetrack",
+            "RecordedEye": "cyclopean",
+            "SampleCoordinateSystem": "gaze-on-screen",
+            "Manufacturer": info.tracker,
+            "SoftwareVersions": info.software,
+            "ScreenSize": [d.width_mm / 1000.0, d.height_mm / 1000.0],
+            "ScreenResolution": [d.width_px, d.height_px],
+            "ScreenDistance": d.distance_mm / 1000.0,
+            "ScreenOrigin": ["top", "left"],
+            "timestamp": {
+                "Description": "The eye-tracker's timestamp of the sample (device_timestamp) mapped onto the host's monotonic clock by gazecast's clock model (rate fitted to the least-delayed arrivals, offset at the transport's minimum latency): the clock the events' onsets are on. Strictly increasing within the run; its intervals are the tracker's own.",
+                "Units": "us",
+                "Origin": "host monotonic clock of the sitting (this run)"
+            },
+            "x_coordinate": {
+                "LongName": "Gaze position (x)",
+                "Description": "Gaze position x-coordinate on the screen (the tracker's combined gaze), origin top-left, x to the right; n/a for an invalid sample (blink, lost track).",
+                "Units": "pixel"
+            },
+            "y_coordinate": {
+                "LongName": "Gaze position (y)",
+                "Description": "Gaze position y-coordinate on the screen, origin top-left, y downwards; n/a for an invalid sample.",
+                "Units": "pixel"
+            },
+            "device_timestamp": {
+                "Description": format!("The eye-tracker's own timestamp as decoded: {device_clock}. n/a where the tracker sends none."),
+                "Units": "us",
+                "Origin": "tracker clock"
+            },
+            "arrival_timestamp": {
+                "Description": "When the sample's bytes reached the host (delivery, not capture: it varies with the host's load; not used for timing).",
+                "Units": "us",
+                "Origin": "host monotonic clock of the sitting (this run)"
+            },
+            "SyntheticData": c.synthetic,
+            "Notes": if c.synthetic {
+                "SYNTHETIC DATA: simulated participant, not human data."
+            } else {
+                "Recorded data."
+            },
+            "TaskName": c.task,
+        });
+        if let (Some(clock), Some(obj)) = (clock, sidecar.as_object_mut()) {
+            obj.insert("ClockModel".into(), clock);
+        }
+        let json_path = c.beh.join(format!("{}_recording-eye1_physio.json", c.stem));
+        write_json(c.guard, &json_path, &sidecar)?;
+        c.export.files.push(json_path);
+        if self.valid < self.n {
+            c.export.warnings.push(format!(
+                "{}: {} of {} samples invalid (n/a)",
+                c.stem,
+                self.n - self.valid,
+                self.n
+            ));
+        }
+        Ok(Some(self.path))
+    }
+}
+
 /// Exports the session folders `dirs` as a BIDS dataset in `out` with task
 /// label `task`. See the module documentation for the layout and choices.
 pub fn export_bids(dirs: &[PathBuf], out: &Path, task: &str) -> Result<BidsExport, BidsError> {
@@ -218,219 +451,168 @@ pub fn export_bids(dirs: &[PathBuf], out: &Path, task: &str) -> Result<BidsExpor
         let beh = out.join(format!("sub-{label}")).join("beh");
         guard.check(&beh).map_err(|m| out_err(&beh, m))?;
         std::fs::create_dir_all(&beh).map_err(|e| out_err(&beh, e))?;
-        let stem = format!("sub-{label}_task-{task}");
+        let completed = session::completing_sittings(&trials.rows);
 
-        // Samples → physio.tsv.gz, streamed.
+        // Samples → one physio.tsv.gz per sitting (a BIDS run), streamed.
         let samples_path = dir.join(SAMPLES_TSV);
-        let gz_path = beh.join(format!("{stem}_recording-eye1_physio.tsv.gz"));
-        guard.check(&gz_path).map_err(|m| out_err(&gz_path, m))?;
-        let file = AtomicFile::create(&gz_path).map_err(|e| out_err(&gz_path, e))?;
-        let mut gz = flate2::write::GzEncoder::new(file, flate2::Compression::default());
-        let mut first_host: Option<u64> = None;
-        let mut last_sample: Option<u64> = None;
-        let mut intervals: Vec<u64> = Vec::new();
-        let mut n = 0usize;
-        let mut valid = 0usize;
-        let mut line = String::new();
-        let warnings = visit_tsv::<SampleRow>(&samples_path, |s, _| {
-            first_host = Some(first_host.map_or(s.host_us, |f| f.min(s.host_us)));
-            if let Some(prev) = last_sample {
-                if s.sample_us > prev {
-                    intervals.push(s.sample_us - prev);
-                }
+        let mut runs: BTreeMap<u32, RunWriter> = BTreeMap::new();
+        let mut aborted = 0usize;
+        let mut untimed = 0usize;
+        let warnings = visit_tsv::<SampleRow>(&samples_path, |s, line| {
+            if session::aborted(&completed, s.sitting, s.trial) {
+                aborted += 1;
+                return Ok(());
             }
-            last_sample = Some(s.sample_us);
-            line.clear();
-            let coord = |v: Option<f64>| match v {
-                Some(x) if x.is_finite() => format!("{x}"),
-                _ => "n/a".to_string(),
-            };
-            let (x, y) = match (s.x_px, s.y_px) {
-                (Some(x), Some(y)) if x.is_finite() && y.is_finite() => {
-                    valid += 1;
-                    (coord(Some(x)), coord(Some(y)))
+            if !s.is_timed() {
+                untimed += 1;
+                return Ok(());
+            }
+            if !runs.contains_key(&s.sitting) {
+                if runs.len() >= MAX_SITTINGS {
+                    return Err(SessionFileError::Parse {
+                        path: samples_path.clone(),
+                        line,
+                        column: Some("sitting".into()),
+                        message: format!("more than {MAX_SITTINGS} sittings"),
+                    });
                 }
-                _ => ("n/a".into(), "n/a".into()),
-            };
-            line.push_str(&format!("{}\t{x}\t{y}\t{}\n", s.sample_us, s.host_us));
-            n += 1;
-            gz.write_all(line.as_bytes())
-                .map_err(|e| SessionFileError::Io {
+                let gz_path = beh.join(format!(
+                    "sub-{label}_task-{task}_run-{}_recording-eye1_physio.tsv.gz",
+                    s.sitting
+                ));
+                guard.check(&gz_path).map_err(|m| SessionFileError::Io {
+                    path: gz_path.clone(),
+                    source: std::io::Error::other(m),
+                })?;
+                let file = AtomicFile::create(&gz_path).map_err(|e| SessionFileError::Io {
                     path: gz_path.clone(),
                     source: e,
-                })
+                })?;
+                runs.insert(s.sitting, RunWriter::new(gz_path, file));
+            }
+            let Some(run) = runs.get_mut(&s.sitting) else {
+                return Ok(());
+            };
+            run.write(&s, line, &samples_path)
         })?;
         export
             .warnings
             .extend(warnings.iter().map(|w| w.to_string()));
-        intervals.sort_unstable();
-        let median_us = (!intervals.is_empty()).then(|| {
-            let m = intervals.len();
-            if m % 2 == 1 {
-                intervals[m / 2] as f64
-            } else {
-                (intervals[m / 2 - 1] + intervals[m / 2]) as f64 / 2.0
-            }
-        });
-        let nominal = info.tracker_rate_hz.filter(|r| r.is_finite() && *r > 0.0);
-        let (rate, rate_note) = match (median_us, nominal) {
-            (Some(m), _) => (
-                Some(1e6 / m),
-                format!(
-                    "estimated from the median interval between consecutive tracker timestamps ({m} us over {} intervals){}",
-                    intervals.len(),
-                    nominal.map(|r| format!("; nominal rate in session.json: {r} Hz")).unwrap_or_default()
-                ),
-            ),
-            (None, Some(r)) => (
-                Some(r),
-                "nominal rate from session.json (too few samples to estimate)".to_string(),
-            ),
-            (None, None) => (None, String::new()),
-        };
-        let t0 = match first_host {
-            Some(t) => t,
-            None => {
-                let t = trials
-                    .rows
-                    .iter()
-                    .map(|t| t.search_onset_us)
-                    .min()
-                    .unwrap_or(0);
-                export.warnings.push(format!(
-                    "{}: no samples; no physio file for sub-{label}, event onsets are relative to the first search onset",
-                    samples_path.display()
-                ));
-                t
-            }
-        };
-        match (first_host, rate) {
-            (Some(_), Some(rate)) => {
-                let file = gz.finish().map_err(|e| out_err(&gz_path, e))?;
-                file.commit().map_err(|e| out_err(&gz_path, e))?;
-                export.files.push(gz_path.clone());
-                let d = &info.display;
-                let sidecar = json!({
-                    "SamplingFrequency": rate,
-                    "SamplingFrequencyEstimate": rate_note,
-                    "StartTime": 0.0,
-                    "Columns": ["timestamp", "x_coordinate", "y_coordinate", "host_timestamp"],
-                    "PhysioType": "eyetrack",
-                    "RecordedEye": "cyclopean",
-                    "SampleCoordinateSystem": "gaze-on-screen",
-                    "Manufacturer": info.tracker,
-                    "SoftwareVersions": info.software,
-                    "ScreenSize": [d.width_mm / 1000.0, d.height_mm / 1000.0],
-                    "ScreenResolution": [d.width_px, d.height_px],
-                    "ScreenDistance": d.distance_mm / 1000.0,
-                    "ScreenOrigin": ["top", "left"],
-                    "timestamp": {
-                        "Description": "Timestamp issued by the eye-tracker (its own clock).",
-                        "Units": "us",
-                        "Origin": "tracker clock"
-                    },
-                    "x_coordinate": {
-                        "LongName": "Gaze position (x)",
-                        "Description": "Gaze position x-coordinate on the screen (the tracker's combined gaze), origin top-left, x to the right; n/a for an invalid sample (blink, lost track).",
-                        "Units": "pixel"
-                    },
-                    "y_coordinate": {
-                        "LongName": "Gaze position (y)",
-                        "Description": "Gaze position y-coordinate on the screen, origin top-left, y downwards; n/a for an invalid sample.",
-                        "Units": "pixel"
-                    },
-                    "host_timestamp": {
-                        "Description": "Host clock when the sample arrived; the events' onsets are seconds on this clock since the first sample.",
-                        "Units": "us",
-                        "Origin": "host clock"
-                    },
-                    "SyntheticData": synthetic,
-                    "Notes": if synthetic {
-                        "SYNTHETIC DATA: simulated participant, not human data."
-                    } else {
-                        "Recorded data."
-                    },
-                });
-                let json_path = beh.join(format!("{stem}_recording-eye1_physio.json"));
-                write_json(&guard, &json_path, &sidecar)?;
-                export.files.push(json_path);
-                if valid < n {
-                    export.warnings.push(format!(
-                        "sub-{label}: {} of {n} samples invalid (n/a)",
-                        n - valid
-                    ));
-                }
-            }
-            (Some(_), None) => {
-                drop(gz); // AtomicFile dropped uncommitted: nothing written.
-                export.warnings.push(format!(
-                    "{}: cannot estimate the sampling frequency (no increasing timestamps) and session.json has no tracker_rate_hz; no physio file for sub-{label}",
-                    samples_path.display()
-                ));
-            }
-            (None, _) => drop(gz),
-        }
-
-        // Trials → events.tsv.
-        let mut ev = String::from(
-            "onset\tduration\ttrial_type\ttrial\trun\tmethod\tinset_deg\tsilhouette_edges\ttarget_row\ttarget_col\tresponse_time\tcorrect\n",
-        );
-        for t in &trials.rows {
-            let onset = (t.search_onset_us as f64 - t0 as f64) / 1e6;
-            let duration = t.response_us.saturating_sub(t.search_onset_us) as f64 / 1e6;
-            ev.push_str(&format!(
-                "{onset:.6}\t{duration:.6}\t{}\t{}\t{}\t{}\t{}\t{}\t{}\t{}\t{}\t{}\n",
-                field(&t.condition),
-                t.trial,
-                t.run,
-                field(&t.method),
-                t.inset_deg.map_or("n/a".into(), |d| format!("{d}")),
-                if t.silhouette_edges { 1 } else { 0 },
-                t.target_row,
-                t.target_col,
-                if t.rt_s.is_finite() {
-                    format!("{}", t.rt_s)
-                } else {
-                    "n/a".into()
-                },
-                match t.correct {
-                    Some(true) => "1",
-                    Some(false) => "0",
-                    None => "n/a",
-                },
+        if aborted > 0 {
+            export.warnings.push(format!(
+                "sub-{label}: {aborted} samples of aborted trials (run again in a later sitting) left out"
             ));
         }
-        let events_path = beh.join(format!("{stem}_events.tsv"));
-        write_text(&guard, &events_path, &ev)?;
-        export.files.push(events_path);
-        let d = &info.display;
-        let events_json = json!({
-            "TaskName": task,
-            "TaskDescription": format!("Visual search, design {:?}: find the target mesh in the search grid and press the response key.", info.design_name),
-            "StimulusPresentation": {
-                "ScreenDistance": d.distance_mm / 1000.0,
-                "ScreenOrigin": ["top", "left"],
-                "ScreenResolution": [d.width_px, d.height_px],
-                "ScreenSize": [d.width_mm / 1000.0, d.height_mm / 1000.0],
-                "SoftwareName": "gazecast",
-                "SoftwareVersion": info.software,
-            },
-            "onset": {"Description": "Search display onset, seconds since the first eye-tracking sample (host clock).", "Units": "s"},
-            "duration": {"Description": "Search time: search display onset to the response key.", "Units": "s"},
-            "trial_type": {"Description": "Condition (scene type) name from the design file."},
-            "trial": {"Description": "Trial index within the session, from 0."},
-            "run": {"Description": "Run (repetition of all conditions), from 0."},
-            "method": {"Description": "Rendering method.", "Levels": {"full": "full-resolution ray casting (control)", "hybrid": "hybrid gaze-contingent rendering"}},
-            "inset_deg": {"Description": "Diameter of the full-resolution inset around the point of regard; n/a for the full method.", "Units": "deg"},
-            "silhouette_edges": {"Description": "Whether silhouette edges were kept in the periphery.", "Levels": {"1": "edges kept", "0": "edges discarded"}},
-            "target_row": {"Description": "Row of the target cell in the search grid, from 0."},
-            "target_col": {"Description": "Column of the target cell in the search grid, from 0."},
-            "response_time": {"Description": "Search time as recorded by the runner.", "Units": "s"},
-            "correct": {"Description": "Whether the clicked cell was the target.", "Levels": {"1": "correct", "0": "incorrect", "n/a": "no click recorded"}},
-        });
-        let events_json_path = beh.join(format!("{stem}_events.json"));
-        write_json(&guard, &events_json_path, &events_json)?;
-        export.files.push(events_json_path);
+        if untimed > 0 {
+            export.warnings.push(format!(
+                "sub-{label}: {untimed} samples with a repeated or backwards tracker timestamp left out"
+            ));
+        }
+        let mut sittings: Vec<u32> = runs.keys().copied().collect();
+        sittings.extend(trials.rows.iter().map(|t| t.sitting));
+        sittings.sort_unstable();
+        sittings.dedup();
+        let mut written = 0usize;
+        for sitting in sittings {
+            let stem = format!("sub-{label}_task-{task}_run-{sitting}");
+            let meta = info.sittings.iter().find(|m| m.number == sitting);
+            let run_trials: Vec<&TrialRow> = trials
+                .rows
+                .iter()
+                .filter(|t| t.sitting == sitting)
+                .collect();
+            let first_sample = runs.get(&sitting).and_then(|r| r.first_us);
+            let t0 = match first_sample {
+                Some(t) => t,
+                None => {
+                    export.warnings.push(format!(
+                        "{}: no samples in sitting {sitting}; no physio file for its run, event onsets are relative to its first search onset",
+                        samples_path.display()
+                    ));
+                    run_trials
+                        .iter()
+                        .map(|t| t.search_onset_us)
+                        .min()
+                        .unwrap_or(0)
+                }
+            };
+            if let Some(run) = runs.remove(&sitting) {
+                written += run.n;
+                if let Some(path) = run.finish(&mut RunContext {
+                    info,
+                    meta,
+                    synthetic,
+                    task,
+                    guard: &guard,
+                    beh: &beh,
+                    stem: &stem,
+                    samples_path: &samples_path,
+                    export: &mut export,
+                })? {
+                    export.files.push(path);
+                }
+            }
+            // Trials → events.tsv.
+            let mut ev = String::from(
+                "onset\tduration\ttrial_type\ttrial\trun\tmethod\tinset_deg\tsilhouette_edges\ttarget_row\ttarget_col\tresponse_time\tcorrect\n",
+            );
+            for t in &run_trials {
+                let onset = (t.search_onset_us as f64 - t0 as f64) / 1e6;
+                let duration = t.response_us.saturating_sub(t.search_onset_us) as f64 / 1e6;
+                ev.push_str(&format!(
+                    "{onset:.6}\t{duration:.6}\t{}\t{}\t{}\t{}\t{}\t{}\t{}\t{}\t{}\t{}\n",
+                    field(&t.condition),
+                    t.trial,
+                    t.run,
+                    field(&t.method),
+                    t.inset_deg.map_or("n/a".into(), |d| format!("{d}")),
+                    if t.silhouette_edges { 1 } else { 0 },
+                    t.target_row,
+                    t.target_col,
+                    if t.rt_s.is_finite() {
+                        format!("{}", t.rt_s)
+                    } else {
+                        "n/a".into()
+                    },
+                    match t.correct {
+                        Some(true) => "1",
+                        Some(false) => "0",
+                        None => "n/a",
+                    },
+                ));
+            }
+            let events_path = beh.join(format!("{stem}_events.tsv"));
+            write_text(&guard, &events_path, &ev)?;
+            export.files.push(events_path);
+            let d = &info.display;
+            let events_json = json!({
+                "TaskName": task,
+                "TaskDescription": format!("Visual search, design {:?}: find the target mesh in the search grid and press the response key.", info.design_name),
+                "StimulusPresentation": {
+                    "ScreenDistance": d.distance_mm / 1000.0,
+                    "ScreenOrigin": ["top", "left"],
+                    "ScreenResolution": [d.width_px, d.height_px],
+                    "ScreenSize": [d.width_mm / 1000.0, d.height_mm / 1000.0],
+                    "SoftwareName": "gazecast",
+                    "SoftwareVersion": info.software,
+                },
+                "onset": {"Description": "Search display onset, seconds since the run's first eye-tracking sample (the physio file's timestamp column: the tracker's time mapped onto the host clock; the onset itself is when the display's first frame was presented, host clock).", "Units": "s"},
+                "duration": {"Description": "Search time: search display onset to the response key.", "Units": "s"},
+                "trial_type": {"Description": "Condition (scene type) name from the design file."},
+                "trial": {"Description": "Trial index within the session, from 0."},
+                "run": {"Description": "Run (repetition of all conditions) of the design, from 0; the file's run- entity is the sitting instead."},
+                "method": {"Description": "Rendering method.", "Levels": {"full": "full-resolution ray casting (control)", "hybrid": "hybrid gaze-contingent rendering"}},
+                "inset_deg": {"Description": "Diameter of the full-resolution inset around the point of regard; n/a for the full method.", "Units": "deg"},
+                "silhouette_edges": {"Description": "Whether silhouette edges were kept in the periphery.", "Levels": {"1": "edges kept", "0": "edges discarded"}},
+                "target_row": {"Description": "Row of the target cell in the search grid, from 0."},
+                "target_col": {"Description": "Column of the target cell in the search grid, from 0."},
+                "response_time": {"Description": "Search time as recorded by the runner.", "Units": "s"},
+                "correct": {"Description": "Whether the clicked cell was the target.", "Levels": {"1": "correct", "0": "incorrect", "n/a": "no click recorded"}},
+            });
+            let events_json_path = beh.join(format!("{stem}_events.json"));
+            write_json(&guard, &events_json_path, &events_json)?;
+            export.files.push(events_json_path);
+        }
 
         participants_rows.push(format!(
             "sub-{label}\t{}\t{}\t{}\n",
@@ -439,9 +621,7 @@ pub fn export_bids(dirs: &[PathBuf], out: &Path, task: &str) -> Result<BidsExpor
             synthetic
         ));
         export.labels.push(label.clone());
-        export
-            .samples
-            .push(if first_host.is_some() { n } else { 0 });
+        export.samples.push(written);
     }
     let synthetic = synthetic_any || synthetic_trials_any;
 
@@ -496,9 +676,10 @@ pub fn export_bids(dirs: &[PathBuf], out: &Path, task: &str) -> Result<BidsExpor
     }
     text.push_str(&format!(
         "# {design_name}\n\nVisual search with gaze-contingent rendering (gazecast), exported to BIDS {BIDS_VERSION}.\n\n\
-Per participant, `beh/` holds the eye-tracking recording (`_recording-eye1_physio.tsv.gz`, PhysioType eyetrack: \
-timestamp (tracker clock, us), x_coordinate and y_coordinate (screen pixels, origin top-left, n/a for invalid samples), \
-host_timestamp (host clock, us)) and one event per search trial (`_events.tsv`: onset and duration in s since the first sample).\n"
+Per participant, `beh/` holds one run per sitting (a session resumed later has several): the eye-tracking recording \
+(`_run-N_recording-eye1_physio.tsv.gz`, PhysioType eyetrack: timestamp (the tracker's timestamp mapped onto the host clock, us), \
+x_coordinate and y_coordinate (screen pixels, origin top-left, n/a for invalid samples), device_timestamp (the tracker's own clock, us), \
+arrival_timestamp (host arrival, us)) and one event per search trial (`_run-N_events.tsv`: onset and duration in s since the run's first sample).\n"
     ));
     write_text(&guard, &readme, &text)?;
     export.files.push(readme);

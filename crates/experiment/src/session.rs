@@ -11,8 +11,36 @@
 //!   events.tsv            EventRow, fixations / saccades / blinks
 //!   markers.tsv           MarkerRow, phase starts, keys, clicks, calibration results
 //!   frames.tsv            FrameRow, every rendered frame
+//!   clock.tsv             ClockRow, the tracker clock model as it was updated
+//!   gaze-N.gzrec          every tracker byte of sitting N, with arrival times
 //!   stimuli/trial-NNN.png the search display of trial NNN (optional, RGB)
 //! ```
+//!
+//! # Clocks and sittings
+//!
+//! Every time in these files says its clock in its name and its column's
+//! doc. Two clocks appear:
+//!
+//! - the **host clock** (`*_us` without `device`): the runner's monotonic
+//!   microseconds, restarted by each process — so every row also carries
+//!   its `sitting` (1, 2, … : one per run of `experiment run`, the first
+//!   and each `--resume`). [`Sitting`] in `session.json` ties each
+//!   sitting's host clock to the wall clock (`started_unix_us` at
+//!   `host_anchor_us`), which puts all sittings on one time axis
+//!   ([`SessionInfo::session_time_us`]).
+//! - the **tracker clock** (`device_us`): the tracker's own timestamps as
+//!   decoded (how they are derived: [`Sitting::device_clock`]).
+//!
+//! A gaze sample's `mapped_us` is its device time mapped onto the host
+//! clock by tracker-hal's clock model (its updates: `clock.tsv`); events,
+//! trial-relative times and the BIDS export use it. Its `arrival_us` is
+//! when its bytes arrived (what machine load changes): kept, never used
+//! for timing.
+//!
+//! A trial interrupted by the end of a sitting (a crash, Esc,
+//! `--max-trials`) is run again in the next one: its samples in the
+//! earlier sitting are *aborted* ([`aborted`]) and left out of the
+//! analysis and the export.
 //!
 //! # The TSV files
 //!
@@ -79,6 +107,8 @@ pub const EVENTS_TSV: &str = "events.tsv";
 pub const MARKERS_TSV: &str = "markers.tsv";
 /// `frames.tsv`: [`FrameRow`].
 pub const FRAMES_TSV: &str = "frames.tsv";
+/// `clock.tsv`: [`ClockRow`].
+pub const CLOCK_TSV: &str = "clock.tsv";
 /// The folder of the per-trial stimulus pictures.
 pub const STIMULI_DIR: &str = "stimuli";
 /// What a missing value is written as.
@@ -100,6 +130,9 @@ pub fn stimulus_path(dir: &Path, trial: usize) -> PathBuf {
 pub struct TrialRow {
     /// Participant id (as in `session.json`).
     pub participant: String,
+    /// The sitting the trial was completed in (its times are on that
+    /// sitting's host clock).
+    pub sitting: u32,
     /// Run (repetition), from 0.
     pub run: usize,
     /// Position in the session, from 0 (`plan::Trial::index`).
@@ -121,7 +154,8 @@ pub struct TrialRow {
     pub target_row: u32,
     /// Target cell column in the search grid.
     pub target_col: u32,
-    /// Host clock when the search display appeared (µs).
+    /// Host clock when the search display appeared (µs): when the present
+    /// call of its first frame returned.
     pub search_onset_us: u64,
     /// Host clock of the response key (µs).
     pub response_us: u64,
@@ -149,10 +183,26 @@ pub struct TrialRow {
 /// One gaze sample (`samples.tsv`).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct SampleRow {
-    /// Host clock when the sample arrived (µs).
-    pub host_us: u64,
-    /// The tracker's own timestamp (µs, tracker clock).
-    pub sample_us: u64,
+    /// The sitting (1 = the session's first run, then one per `--resume`).
+    pub sitting: u32,
+    /// The tracker's timestamp mapped onto the host clock (µs, host
+    /// monotonic clock of the sitting): the sample's time.
+    pub mapped_us: u64,
+    /// The tracker's own timestamp as decoded (µs, tracker clock); `n/a`
+    /// for a tracker that sends none (then `mapped_us` is the arrival).
+    #[serde(with = "na")]
+    pub device_us: Option<u64>,
+    /// Host clock when the sample's bytes arrived (µs): delivery, not
+    /// capture — it varies with the machine's load.
+    pub arrival_us: u64,
+    /// How `device_us` stands against the previous sample's: `first`, `ok`,
+    /// `repeated`, `backwards`, `ahead` (not believed: its capture would
+    /// follow its arrival by over a second; these three have no valid
+    /// interval, and `mapped_us` repeats the previous sample's), `reset` (a device clock reset: a new segment),
+    /// `no-device-time`.
+    pub time_order: String,
+    /// The clock segment within the connection (a reset starts a new one).
+    pub segment: u32,
     /// Trial index, `n/a` outside trials.
     #[serde(with = "na")]
     pub trial: Option<usize>,
@@ -172,18 +222,33 @@ pub struct SampleRow {
     pub y_px: Option<f64>,
 }
 
-/// One eye-movement event (`events.tsv`).
+impl SampleRow {
+    /// Whether the sample has a time of its own (not a repeated, backwards
+    /// or ahead device time, whose `mapped_us` is the previous one's).
+    pub fn is_timed(&self) -> bool {
+        !matches!(self.time_order.as_str(), "repeated" | "backwards" | "ahead")
+    }
+}
+
+/// One eye-movement event (`events.tsv`), detected on the tracker's clock
+/// (I-VT on device-time intervals, then the congruent-fixation merge).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct EventRow {
+    /// The sitting.
+    pub sitting: u32,
     /// Trial index, `n/a` outside trials.
     #[serde(with = "na")]
     pub trial: Option<usize>,
-    /// `"fixation"`, `"saccade"` or `"blink"`.
+    /// `"fixation"`, `"saccade"`, `"blink"` or `"lost"`.
     pub kind: String,
-    /// Host clock at the start (µs).
+    /// Start: the first sample's mapped time (µs, host clock).
     pub onset_us: u64,
-    /// Host clock at the end (µs).
+    /// End: the last sample's mapped time (µs, host clock).
     pub end_us: u64,
+    /// Start on the tracker's clock (µs, device time).
+    pub onset_device_us: u64,
+    /// End on the tracker's clock (µs, device time).
+    pub end_device_us: u64,
     /// Fixation: centroid x; saccade: start x (display px).
     pub x_px: f64,
     /// Fixation: centroid y; saccade: start y.
@@ -198,6 +263,8 @@ pub struct EventRow {
 /// calibration results.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct MarkerRow {
+    /// The sitting.
+    pub sitting: u32,
     /// Host clock (µs).
     pub host_us: u64,
     /// Trial index, `n/a` outside trials.
@@ -212,7 +279,9 @@ pub struct MarkerRow {
 /// One rendered frame (`frames.tsv`).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct FrameRow {
-    /// Host clock at presentation (µs).
+    /// The sitting.
+    pub sitting: u32,
+    /// Host clock when the present call returned (µs).
     pub host_us: u64,
     /// Trial index, `n/a` outside trials.
     #[serde(with = "na")]
@@ -228,6 +297,36 @@ pub struct FrameRow {
     pub interval_ms: Option<f64>,
     /// The frame missed its deadline.
     pub late: bool,
+}
+
+/// One update of the tracker's clock model (`clock.tsv`): how the
+/// tracker's clock was mapped onto the host's (tracker-hal `timing`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ClockRow {
+    /// The sitting.
+    pub sitting: u32,
+    /// Samples the model had mapped on this connection.
+    pub samples: u64,
+    /// The newest sample's device time (µs, tracker clock).
+    pub device_us: u64,
+    /// Its mapped time (µs, host clock).
+    pub mapped_us: u64,
+    /// Host µs per tracker µs.
+    pub rate: f64,
+    /// Tracker-clock drift against the host (ppm; positive: fast).
+    pub drift_ppm: f64,
+    /// The fitted drift lay beyond the model's bound (a wrong nominal rate).
+    pub rate_clamped: bool,
+    /// Mapped − device time (µs): the clock offset.
+    pub offset_us: f64,
+    /// Arrival − mapped time of the newest sample (µs).
+    pub delay_us: f64,
+    /// Steps back towards an arrival (causality corrections) so far.
+    pub corrections: u64,
+    /// Samples with a repeated or backwards device time so far.
+    pub non_increasing: u64,
+    /// Device clock resets so far.
+    pub resets: u64,
 }
 
 /// A row type of one of the session's TSV files.
@@ -247,6 +346,7 @@ impl TsvRow for TrialRow {
     const FILE: &'static str = TRIALS_TSV;
     const COLUMNS: &'static [&'static str] = &[
         "participant",
+        "sitting",
         "run",
         "trial",
         "trial_in_run",
@@ -273,8 +373,12 @@ impl TsvRow for TrialRow {
 impl TsvRow for SampleRow {
     const FILE: &'static str = SAMPLES_TSV;
     const COLUMNS: &'static [&'static str] = &[
-        "host_us",
-        "sample_us",
+        "sitting",
+        "mapped_us",
+        "device_us",
+        "arrival_us",
+        "time_order",
+        "segment",
         "trial",
         "phase",
         "raw_x",
@@ -287,18 +391,47 @@ impl TsvRow for SampleRow {
 impl TsvRow for EventRow {
     const FILE: &'static str = EVENTS_TSV;
     const COLUMNS: &'static [&'static str] = &[
-        "trial", "kind", "onset_us", "end_us", "x_px", "y_px", "end_x_px", "end_y_px",
+        "sitting",
+        "trial",
+        "kind",
+        "onset_us",
+        "end_us",
+        "onset_device_us",
+        "end_device_us",
+        "x_px",
+        "y_px",
+        "end_x_px",
+        "end_y_px",
+    ];
+}
+
+impl TsvRow for ClockRow {
+    const FILE: &'static str = CLOCK_TSV;
+    const COLUMNS: &'static [&'static str] = &[
+        "sitting",
+        "samples",
+        "device_us",
+        "mapped_us",
+        "rate",
+        "drift_ppm",
+        "rate_clamped",
+        "offset_us",
+        "delay_us",
+        "corrections",
+        "non_increasing",
+        "resets",
     ];
 }
 
 impl TsvRow for MarkerRow {
     const FILE: &'static str = MARKERS_TSV;
-    const COLUMNS: &'static [&'static str] = &["host_us", "trial", "event", "detail"];
+    const COLUMNS: &'static [&'static str] = &["sitting", "host_us", "trial", "event", "detail"];
 }
 
 impl TsvRow for FrameRow {
     const FILE: &'static str = FRAMES_TSV;
     const COLUMNS: &'static [&'static str] = &[
+        "sitting",
         "host_us",
         "trial",
         "phase",
@@ -332,6 +465,68 @@ pub struct SessionInfo {
     pub synthetic: bool,
     /// Free notes.
     pub notes: Vec<String>,
+    /// One entry per sitting, in order (the first is the session's start).
+    #[serde(default)]
+    pub sittings: Vec<Sitting>,
+}
+
+/// One sitting: one run of the session's process, with what ties its host
+/// clock to the wall clock and to the tracker's clock.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Sitting {
+    /// 1, 2, …
+    pub number: u32,
+    /// The first trial it ran (index, from 0).
+    pub first_trial: usize,
+    /// Wall clock (Unix time, µs) at `host_anchor_us`.
+    pub started_unix_us: u64,
+    /// The sitting's host clock (µs) at `started_unix_us`.
+    pub host_anchor_us: u64,
+    /// The software that ran it.
+    pub software: String,
+    /// The tracker it used (name; the port may differ between sittings).
+    pub tracker: String,
+    /// The tracker file's settings (as JSON), to check a resumed sitting
+    /// against the first.
+    #[serde(default)]
+    pub tracker_settings: Option<serde_json::Value>,
+    /// How the tracker's device times are obtained.
+    pub device_clock: String,
+    /// The clock model at the sitting's end (`None` until it ends, or for
+    /// a tracker without device times).
+    #[serde(default)]
+    pub clock: Option<ClockRow>,
+}
+
+impl SessionInfo {
+    /// A sitting's host time on the session's one time axis: µs since the
+    /// first sitting's start, through each sitting's wall-clock anchor.
+    /// `None` for an unknown sitting.
+    pub fn session_time_us(&self, sitting: u32, host_us: u64) -> Option<i64> {
+        let first = self.sittings.first()?;
+        let s = self.sittings.iter().find(|s| s.number == sitting)?;
+        let start = s.started_unix_us as i64 - first.started_unix_us as i64;
+        Some(start + (host_us as i64 - s.host_anchor_us as i64))
+    }
+}
+
+/// The trials whose samples in a sitting are aborted: a sample of trial
+/// `t` in sitting `s` is aborted when the trial table completed `t` in
+/// another sitting (it was run again) or not at all. Returns, for each
+/// trial index, the sitting that completed it.
+pub fn completing_sittings(trials: &[TrialRow]) -> std::collections::HashMap<usize, u32> {
+    trials.iter().map(|t| (t.trial, t.sitting)).collect()
+}
+
+/// Whether a row of `sitting` for `trial` belongs to an aborted run of the
+/// trial (see [`completing_sittings`]). Rows outside trials are never
+/// aborted.
+pub fn aborted(
+    completed: &std::collections::HashMap<usize, u32>,
+    sitting: u32,
+    trial: Option<usize>,
+) -> bool {
+    trial.is_some_and(|t| completed.get(&t) != Some(&sitting))
 }
 
 /// The display the stimuli were shown on.

@@ -100,6 +100,7 @@ fn make_session(dir: &Path, g: &Gen) -> Vec<TrialRow> {
         started_unix_s: 1.7e9,
         synthetic: g.synthetic,
         notes: vec![],
+        sittings: Vec::new(),
     }
     .write(&dir.join(SESSION_JSON))
     .unwrap();
@@ -117,6 +118,7 @@ fn make_session(dir: &Path, g: &Gen) -> Vec<TrialRow> {
         let incorrect = g.incorrect_every > 0 && t.index % g.incorrect_every == 1;
         let row = TrialRow {
             participant: g.participant.clone(),
+            sitting: 1,
             run: t.run,
             trial: t.index,
             trial_in_run: t.trial_in_run,
@@ -160,10 +162,13 @@ fn make_session(dir: &Path, g: &Gen) -> Vec<TrialRow> {
                 let dur = 150_000 + 90_000 * (k as u64 % 4);
                 events
                     .write(&EventRow {
+                        sitting: 1,
                         trial: Some(t.index),
                         kind: "fixation".into(),
                         onset_us: at,
                         end_us: at + dur,
+                        onset_device_us: 0,
+                        end_device_us: 0,
                         x_px: x,
                         y_px: y,
                         end_x_px: x,
@@ -172,10 +177,13 @@ fn make_session(dir: &Path, g: &Gen) -> Vec<TrialRow> {
                     .unwrap();
                 events
                     .write(&EventRow {
+                        sitting: 1,
                         trial: Some(t.index),
                         kind: "saccade".into(),
                         onset_us: at + dur,
                         end_us: at + dur + 40_000,
+                        onset_device_us: 0,
+                        end_device_us: 0,
                         x_px: x,
                         y_px: y,
                         end_x_px: x + 1.0,
@@ -187,10 +195,13 @@ fn make_session(dir: &Path, g: &Gen) -> Vec<TrialRow> {
             // A fixation after the response: not drawn.
             events
                 .write(&EventRow {
+                    sitting: 1,
                     trial: Some(t.index),
                     kind: "fixation".into(),
                     onset_us: response + 10_000,
                     end_us: response + 300_000,
+                    onset_device_us: 0,
+                    end_device_us: 0,
                     x_px: 10.0,
                     y_px: 10.0,
                     end_x_px: 10.0,
@@ -510,7 +521,10 @@ fn numbers_match_stats_called_directly() {
     let all = std::fs::read_to_string(out.join("trials.csv")).unwrap();
     let lines: Vec<&str> = all.lines().collect();
     let header: Vec<&str> = lines[0].split(',').collect();
-    assert_eq!(&header[..3], &["data_source", "participant", "run"]);
+    assert_eq!(
+        &header[..4],
+        &["data_source", "participant", "sitting", "run"]
+    );
     let rt = header.iter().position(|h| *h == "rt_s").unwrap();
     let flat: Vec<&TrialRow> = rows.iter().flatten().collect();
     assert_eq!(lines.len(), 1 + flat.len());
@@ -725,6 +739,7 @@ fn a_design_without_the_factors_gets_the_per_condition_table_only() {
             started_unix_s: 0.0,
             synthetic: false,
             notes: vec![],
+            sittings: Vec::new(),
         }
         .write(&d.join(SESSION_JSON))
         .unwrap();
@@ -733,6 +748,7 @@ fn a_design_without_the_factors_gets_the_per_condition_table_only() {
             let c = &design.conditions[t.condition];
             log.write(&TrialRow {
                 participant: p.to_string(),
+                sitting: 1,
                 run: t.run,
                 trial: t.index,
                 trial_in_run: t.trial_in_run,
@@ -823,7 +839,7 @@ fn bad_inputs_give_errors_naming_the_file() {
     let text = std::fs::read_to_string(&p).unwrap();
     let mut lines: Vec<String> = text.lines().map(String::from).collect();
     let mut f: Vec<String> = lines[4].split('\t').map(String::from).collect();
-    f[13] = "8,5".into();
+    f[14] = "8,5".into(); // rt_s
     lines[4] = f.join("\t");
     std::fs::write(&p, lines.join("\n") + "\n").unwrap();
     let msg = err_of(std::slice::from_ref(&b), &out).to_string();
@@ -838,7 +854,7 @@ fn bad_inputs_give_errors_naming_the_file() {
     let text = std::fs::read_to_string(&p).unwrap();
     let mut lines: Vec<String> = text.lines().map(String::from).collect();
     let mut f: Vec<String> = lines[2].split('\t').map(String::from).collect();
-    f[4] = "E99".into();
+    f[5] = "E99".into(); // condition
     lines[2] = f.join("\t");
     std::fs::write(&p, lines.join("\n") + "\n").unwrap();
     let msg = err_of(std::slice::from_ref(&c), &out).to_string();
@@ -853,7 +869,7 @@ fn bad_inputs_give_errors_naming_the_file() {
     let text = std::fs::read_to_string(&p).unwrap();
     let mut lines: Vec<String> = text.lines().map(String::from).collect();
     let mut f: Vec<String> = lines[1].split('\t').map(String::from).collect();
-    f[13] = "-1.5".into();
+    f[14] = "-1.5".into(); // rt_s
     lines[1] = f.join("\t");
     std::fs::write(&p, lines.join("\n") + "\n").unwrap();
     let msg = err_of(std::slice::from_ref(&c2), &out).to_string();

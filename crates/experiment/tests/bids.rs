@@ -46,6 +46,7 @@ fn make(root: &Path, participant: &str, synthetic: bool, n_samples: usize) -> Ma
         started_unix_s: 1.7e9,
         synthetic,
         notes: vec![],
+        sittings: Vec::new(),
     }
     .write(&dir.join(SESSION_JSON))
     .unwrap();
@@ -60,8 +61,12 @@ fn make(root: &Path, participant: &str, synthetic: bool, n_samples: usize) -> Ma
         }
         let valid = i % 7 != 3;
         let s = SampleRow {
-            host_us: 1_000_000_000 + t + 1_500,
-            sample_us: t,
+            sitting: 1,
+            mapped_us: 1_000_000_000 + t + 1_000,
+            device_us: Some(t),
+            arrival_us: 1_000_000_000 + t + 1_500,
+            time_order: if i == 0 { "first" } else { "ok" }.into(),
+            segment: 0,
             trial: Some(i / 100),
             phase: "search".into(),
             raw_x: Some(0.5),
@@ -74,10 +79,11 @@ fn make(root: &Path, participant: &str, synthetic: bool, n_samples: usize) -> Ma
     }
     drop(log);
     let mut log = TsvLog::<TrialRow>::append_to(dir.join(TRIALS_TSV)).unwrap();
-    let first = samples.first().map_or(1_000_000_000, |s| s.host_us);
+    let first = samples.first().map_or(1_000_000_000, |s| s.mapped_us);
     let trials: Vec<TrialRow> = (0..3)
         .map(|k| TrialRow {
             participant: participant.into(),
+            sitting: 1,
             run: 0,
             trial: k,
             trial_in_run: k,
@@ -151,14 +157,15 @@ fn export_writes_a_bids_eyetracking_dataset() {
     assert!(lines[2].starts_with("sub-P02\tP02\t"));
 
     let beh = out.join("sub-P01/beh");
-    let gz = beh.join("sub-P01_task-visualSearch_recording-eye1_physio.tsv.gz");
+    let gz = beh.join("sub-P01_task-visualSearch_run-1_recording-eye1_physio.tsv.gz");
     let text = gunzip(&gz);
     let rows: Vec<Vec<&str>> = text.lines().map(|l| l.split('\t').collect()).collect();
     assert_eq!(rows.len(), a.samples.len(), "one row per sample, no header");
     for (r, s) in rows.iter().zip(&a.samples) {
-        assert_eq!(r.len(), 4);
-        assert_eq!(r[0], s.sample_us.to_string());
-        assert_eq!(r[3], s.host_us.to_string());
+        assert_eq!(r.len(), 5);
+        assert_eq!(r[0], s.mapped_us.to_string());
+        assert_eq!(r[3], s.device_us.unwrap().to_string());
+        assert_eq!(r[4], s.arrival_us.to_string());
         match s.x_px {
             Some(x) => {
                 assert_eq!(r[1].parse::<f64>().unwrap(), x);
@@ -168,11 +175,12 @@ fn export_writes_a_bids_eyetracking_dataset() {
         }
     }
     assert!(rows.iter().any(|r| r[1] == "n/a"));
-    let b_rows =
-        gunzip(&out.join("sub-P02/beh/sub-P02_task-visualSearch_recording-eye1_physio.tsv.gz"));
+    let b_rows = gunzip(
+        &out.join("sub-P02/beh/sub-P02_task-visualSearch_run-1_recording-eye1_physio.tsv.gz"),
+    );
     assert_eq!(b_rows.lines().count(), 40);
 
-    let side = json(&beh.join("sub-P01_task-visualSearch_recording-eye1_physio.json"));
+    let side = json(&beh.join("sub-P01_task-visualSearch_run-1_recording-eye1_physio.json"));
     // REQUIRED (BIDS 1.11 physio + eyetrack).
     for key in [
         "SamplingFrequency",
@@ -190,7 +198,9 @@ fn export_writes_a_bids_eyetracking_dataset() {
     assert_eq!(side["Columns"][0], "timestamp");
     assert_eq!(side["Columns"][1], "x_coordinate");
     assert_eq!(side["Columns"][2], "y_coordinate");
-    assert_eq!(side["Columns"].as_array().unwrap().len(), 4);
+    assert_eq!(side["Columns"].as_array().unwrap().len(), 5);
+    assert_eq!(side["Columns"][3], "device_timestamp");
+    assert_eq!(side["TaskName"], "visualSearch");
     assert_eq!(side["x_coordinate"]["Units"], "pixel");
     assert_eq!(side["y_coordinate"]["Units"], "pixel");
     assert_eq!(side["Manufacturer"], "Tobii ET-1750");
@@ -204,7 +214,8 @@ fn export_writes_a_bids_eyetracking_dataset() {
         .unwrap()
         .contains("median"));
 
-    let events = std::fs::read_to_string(beh.join("sub-P01_task-visualSearch_events.tsv")).unwrap();
+    let events =
+        std::fs::read_to_string(beh.join("sub-P01_task-visualSearch_run-1_events.tsv")).unwrap();
     let lines: Vec<&str> = events.lines().collect();
     let header: Vec<&str> = lines[0].split('\t').collect();
     assert_eq!(&header[..3], &["onset", "duration", "trial_type"]);
@@ -222,7 +233,7 @@ fn export_writes_a_bids_eyetracking_dataset() {
         let i = header.iter().position(|h| *h == name).unwrap();
         row.split('\t').nth(i).unwrap().to_string()
     };
-    let t0 = a.samples[0].host_us;
+    let t0 = a.samples[0].mapped_us;
     for (l, t) in lines[1..].iter().zip(&a.trials) {
         let onset: f64 = col(l, "onset").parse().unwrap();
         assert!((onset - (t.search_onset_us - t0) as f64 / 1e6).abs() < 1e-6);
@@ -239,7 +250,7 @@ fn export_writes_a_bids_eyetracking_dataset() {
     assert_eq!(col(lines[3], "correct"), "n/a");
     assert_eq!(col(lines[1], "inset_deg"), "n/a");
 
-    let ej = json(&beh.join("sub-P01_task-visualSearch_events.json"));
+    let ej = json(&beh.join("sub-P01_task-visualSearch_run-1_events.json"));
     let sp = &ej["StimulusPresentation"];
     for key in [
         "ScreenDistance",
@@ -287,7 +298,8 @@ fn synthetic_sessions_are_labelled() {
     assert!(readme.lines().next().unwrap().contains("SYNTHETIC DATA"));
     let parts = std::fs::read_to_string(out.join("participants.tsv")).unwrap();
     assert!(parts.lines().nth(1).unwrap().ends_with("\ttrue"));
-    let side = json(&out.join("sub-sim01/beh/sub-sim01_task-search_recording-eye1_physio.json"));
+    let side =
+        json(&out.join("sub-sim01/beh/sub-sim01_task-search_run-1_recording-eye1_physio.json"));
     assert_eq!(side["SyntheticData"], true);
 }
 
@@ -366,7 +378,7 @@ fn missing_or_corrupt_samples_are_errors_naming_the_file() {
     // No half-written recording is left behind.
     let gz = tmp
         .path()
-        .join("o/sub-P01/beh/sub-P01_task-search_recording-eye1_physio.tsv.gz");
+        .join("o/sub-P01/beh/sub-P01_task-search_run-1_recording-eye1_physio.tsv.gz");
     assert!(!gz.exists());
     std::fs::remove_file(&p).unwrap();
     let msg = export_bids(
@@ -392,10 +404,110 @@ fn without_samples_events_are_still_written_and_a_warning_says_why() {
         export.warnings
     );
     assert!(!out
-        .join("sub-P01/beh/sub-P01_task-search_recording-eye1_physio.tsv.gz")
+        .join("sub-P01/beh/sub-P01_task-search_run-1_recording-eye1_physio.tsv.gz")
         .exists());
-    let ev =
-        std::fs::read_to_string(out.join("sub-P01/beh/sub-P01_task-search_events.tsv")).unwrap();
+    let ev = std::fs::read_to_string(out.join("sub-P01/beh/sub-P01_task-search_run-1_events.tsv"))
+        .unwrap();
     assert_eq!(ev.lines().count(), 4);
     assert!(ev.lines().nth(1).unwrap().starts_with("0.000000\t"));
+}
+
+/// A session resumed after a crash: sitting 1 completed trials 0–1 and was
+/// killed in trial 2; sitting 2 (a new process: its host clock starts near
+/// zero again) ran trial 2 again. Each sitting is one run, every run's
+/// timestamps increase strictly and keep the tracker's intervals, the
+/// aborted trial's samples are left out, and each run's events are on its
+/// own clock.
+#[test]
+fn a_two_sitting_session_exports_one_monotonic_run_per_sitting() {
+    let tmp = tempfile::tempdir().unwrap();
+    let a = make(tmp.path(), "P01", false, 0);
+    let mut log = TsvLog::<SampleRow>::append_to(a.dir.join(SAMPLES_TSV)).unwrap();
+    let sample = |sitting: u32, i: u64, trial: usize, host0: u64, dev0: u64| SampleRow {
+        sitting,
+        mapped_us: host0 + i * 8_333,
+        device_us: Some(dev0 + i * 8_333),
+        arrival_us: host0 + i * 8_333 + 700,
+        time_order: if i == 0 { "first" } else { "ok" }.into(),
+        segment: 0,
+        trial: Some(trial),
+        phase: "search".into(),
+        raw_x: None,
+        raw_y: None,
+        x_px: Some(640.0),
+        y_px: Some(512.0),
+    };
+    // Sitting 1: trials 0 and 1 (120 samples each), trial 2 aborted (57).
+    for i in 0..297u64 {
+        log.write(&sample(1, i, (i / 120) as usize, 26_950_933, 9_000_000_000))
+            .unwrap();
+    }
+    // Sitting 2: trial 2 again, on a host clock that restarted.
+    for i in 0..150u64 {
+        log.write(&sample(2, i, 2, 2_012, 9_400_000_000)).unwrap();
+    }
+    drop(log);
+    let mut trials = a.trials.clone();
+    trials[2].sitting = 2;
+    trials[2].search_onset_us = 2_012 + 50_000;
+    trials[2].response_us = 2_012 + 1_000_000;
+    for (k, t) in trials.iter_mut().enumerate().take(2) {
+        t.search_onset_us = 26_950_933 + k as u64 * 1_000_000 + 10_000;
+        t.response_us = t.search_onset_us + 900_000;
+    }
+    std::fs::remove_file(a.dir.join(TRIALS_TSV)).unwrap();
+    let mut tl = TsvLog::<TrialRow>::append_to(a.dir.join(TRIALS_TSV)).unwrap();
+    for t in &trials {
+        tl.write(t).unwrap();
+    }
+    drop(tl);
+    let out = tmp.path().join("bids");
+    let export = export_bids(std::slice::from_ref(&a.dir), &out, "search").unwrap();
+    assert!(
+        export
+            .warnings
+            .iter()
+            .any(|w| w.contains("57 samples of aborted trials")),
+        "{:?}",
+        export.warnings
+    );
+    let beh = out.join("sub-P01/beh");
+    for (run, n, first_onset) in [(1, 240, 10_000.0), (2, 150, 50_000.0)] {
+        let text = gunzip(&beh.join(format!(
+            "sub-P01_task-search_run-{run}_recording-eye1_physio.tsv.gz"
+        )));
+        let rows: Vec<Vec<u64>> = text
+            .lines()
+            .map(|l| {
+                let c: Vec<&str> = l.split('\t').collect();
+                vec![c[0].parse().unwrap(), c[3].parse().unwrap()]
+            })
+            .collect();
+        assert_eq!(rows.len(), n, "run {run}");
+        for w in rows.windows(2) {
+            assert!(w[1][0] > w[0][0], "run {run}: timestamps increase");
+            // Intervals equal the tracker's own (device_timestamp).
+            assert_eq!(w[1][0] - w[0][0], w[1][1] - w[0][1], "run {run}");
+        }
+        let ev =
+            std::fs::read_to_string(beh.join(format!("sub-P01_task-search_run-{run}_events.tsv")))
+                .unwrap();
+        let onset: f64 = ev
+            .lines()
+            .nth(1)
+            .unwrap()
+            .split('\t')
+            .next()
+            .unwrap()
+            .parse()
+            .unwrap();
+        assert!(
+            (onset - first_onset / 1e6).abs() < 1e-6,
+            "run {run}: {onset}"
+        );
+        assert!(
+            ev.lines().all(|l| !l.starts_with('-')),
+            "no negative onsets"
+        );
+    }
 }

@@ -15,6 +15,7 @@ use std::time::Duration;
 fn trial(i: usize) -> TrialRow {
     TrialRow {
         participant: "P 01".into(),
+        sitting: 1,
         run: i / 11,
         trial: i,
         trial_in_run: i % 11,
@@ -61,23 +62,23 @@ fn header_lines_are_the_documented_ones() {
     type Writer = Box<dyn Fn(&Path)>;
     let cases: [(&str, Writer); 5] = [
         (
-            "participant\trun\ttrial\ttrial_in_run\tcondition\tmethod\tinset_deg\tsilhouette_edges\ttarget_mesh\ttarget_row\ttarget_col\tsearch_onset_us\tresponse_us\trt_s\tclicked_row\tclicked_col\tcorrect\tframes\tframes_late\tmean_rays\tsynthetic",
+            "participant\tsitting\trun\ttrial\ttrial_in_run\tcondition\tmethod\tinset_deg\tsilhouette_edges\ttarget_mesh\ttarget_row\ttarget_col\tsearch_onset_us\tresponse_us\trt_s\tclicked_row\tclicked_col\tcorrect\tframes\tframes_late\tmean_rays\tsynthetic",
             Box::new(|p| write_rows(p, &[trial(0)])),
         ),
         (
-            "host_us\tsample_us\ttrial\tphase\traw_x\traw_y\tx_px\ty_px",
+            "sitting\tmapped_us\tdevice_us\tarrival_us\ttime_order\tsegment\ttrial\tphase\traw_x\traw_y\tx_px\ty_px",
             Box::new(|p| write_rows::<SampleRow>(p, &[])),
         ),
         (
-            "trial\tkind\tonset_us\tend_us\tx_px\ty_px\tend_x_px\tend_y_px",
+            "sitting\ttrial\tkind\tonset_us\tend_us\tonset_device_us\tend_device_us\tx_px\ty_px\tend_x_px\tend_y_px",
             Box::new(|p| write_rows::<EventRow>(p, &[])),
         ),
         (
-            "host_us\ttrial\tevent\tdetail",
+            "sitting\thost_us\ttrial\tevent\tdetail",
             Box::new(|p| write_rows::<MarkerRow>(p, &[])),
         ),
         (
-            "host_us\ttrial\tphase\trays\trender_ms\tinterval_ms\tlate",
+            "sitting\thost_us\ttrial\tphase\trays\trender_ms\tinterval_ms\tlate",
             Box::new(|p| write_rows::<FrameRow>(p, &[])),
         ),
     ];
@@ -116,8 +117,12 @@ fn columns_are_the_serde_field_names() {
     }
     assert_eq!(serde_header(&trial(0)), cols::<TrialRow>());
     let s = SampleRow {
-        host_us: 1,
-        sample_us: 2,
+        sitting: 1,
+        mapped_us: 1,
+        device_us: Some(2),
+        arrival_us: 3,
+        time_order: "ok".into(),
+        segment: 0,
         trial: None,
         phase: "search".into(),
         raw_x: None,
@@ -127,10 +132,13 @@ fn columns_are_the_serde_field_names() {
     };
     assert_eq!(serde_header(&s), cols::<SampleRow>());
     let e = EventRow {
+        sitting: 1,
         trial: None,
         kind: "fixation".into(),
         onset_us: 0,
         end_us: 1,
+        onset_device_us: 0,
+        end_device_us: 0,
         x_px: 0.0,
         y_px: 0.0,
         end_x_px: 0.0,
@@ -138,6 +146,7 @@ fn columns_are_the_serde_field_names() {
     };
     assert_eq!(serde_header(&e), cols::<EventRow>());
     let m = MarkerRow {
+        sitting: 1,
         host_us: 0,
         trial: None,
         event: "key".into(),
@@ -145,6 +154,7 @@ fn columns_are_the_serde_field_names() {
     };
     assert_eq!(serde_header(&m), cols::<MarkerRow>());
     let f = FrameRow {
+        sitting: 1,
         host_us: 0,
         trial: None,
         phase: "search".into(),
@@ -163,13 +173,14 @@ fn missing_values_are_written_n_a() {
     write_rows(&p, &[trial(0)]);
     let text = std::fs::read_to_string(&p).unwrap();
     let row: Vec<&str> = text.lines().nth(1).unwrap().split('\t').collect();
-    assert_eq!(row.len(), 21);
+    assert_eq!(row.len(), 22);
     assert_eq!(row[0], "P 01", "spaces kept, no quoting");
-    assert_eq!(row[6], "2.0");
-    assert_eq!(row[14], "n/a", "clicked_row None");
-    assert_eq!(row[15], "4");
-    assert_eq!(row[16], "n/a", "correct None");
-    assert_eq!(row[20], "true");
+    assert_eq!(row[1], "1", "sitting");
+    assert_eq!(row[7], "2.0");
+    assert_eq!(row[15], "n/a", "clicked_row None");
+    assert_eq!(row[16], "4");
+    assert_eq!(row[17], "n/a", "correct None");
+    assert_eq!(row[21], "true");
     // An empty field reads as None too (hand-edited files).
     let edited = text.replace("\tn/a\t4\tn/a\t", "\t\t4\t\t");
     std::fs::write(&p, edited).unwrap();
@@ -256,6 +267,7 @@ fn trial_row() -> impl Strategy<Value = TrialRow> {
                 (frames, frames_late, mean_rays, synthetic),
             )| TrialRow {
                 participant,
+                sitting: (run % 7) as u32 + 1,
                 run,
                 trial,
                 trial_in_run,
@@ -299,8 +311,19 @@ fn trial_same(a: &TrialRow, b: &TrialRow) -> bool {
 
 fn sample_row() -> impl Strategy<Value = SampleRow> {
     (
-        any::<u64>(),
-        any::<u64>(),
+        (
+            any::<u32>(),
+            any::<u64>(),
+            proptest::option::of(any::<u64>()),
+            any::<u64>(),
+            prop_oneof![
+                Just("ok"),
+                Just("first"),
+                Just("repeated"),
+                Just("backwards")
+            ],
+            any::<u32>(),
+        ),
         proptest::option::of(any::<usize>()),
         text(),
         proptest::option::of(any_f64()),
@@ -309,9 +332,21 @@ fn sample_row() -> impl Strategy<Value = SampleRow> {
         proptest::option::of(any_f64()),
     )
         .prop_map(
-            |(host_us, sample_us, trial, phase, raw_x, raw_y, x_px, y_px)| SampleRow {
-                host_us,
-                sample_us,
+            |(
+                (sitting, mapped_us, device_us, arrival_us, order, segment),
+                trial,
+                phase,
+                raw_x,
+                raw_y,
+                x_px,
+                y_px,
+            )| SampleRow {
+                sitting,
+                mapped_us,
+                device_us,
+                arrival_us,
+                time_order: order.into(),
+                segment,
                 trial,
                 phase,
                 raw_x,
@@ -323,9 +358,21 @@ fn sample_row() -> impl Strategy<Value = SampleRow> {
 }
 
 fn sample_same(a: &SampleRow, b: &SampleRow) -> bool {
-    a.host_us == b.host_us
-        && a.sample_us == b.sample_us
-        && a.trial == b.trial
+    (
+        a.sitting,
+        a.mapped_us,
+        a.device_us,
+        a.arrival_us,
+        &a.time_order,
+        a.segment,
+    ) == (
+        b.sitting,
+        b.mapped_us,
+        b.device_us,
+        b.arrival_us,
+        &b.time_order,
+        b.segment,
+    ) && a.trial == b.trial
         && a.phase == b.phase
         && same_opt(a.raw_x, b.raw_x)
         && same_opt(a.raw_y, b.raw_y)
@@ -337,19 +384,29 @@ fn event_row() -> impl Strategy<Value = EventRow> {
     (
         proptest::option::of(any::<usize>()),
         text(),
-        any::<u64>(),
-        any::<u64>(),
+        (any::<u64>(), any::<u64>(), any::<u64>(), any::<u64>()),
         any_f64(),
         any_f64(),
         any_f64(),
         any_f64(),
     )
         .prop_map(
-            |(trial, kind, onset_us, end_us, x_px, y_px, end_x_px, end_y_px)| EventRow {
+            |(
+                trial,
+                kind,
+                (onset_us, end_us, onset_device_us, end_device_us),
+                x_px,
+                y_px,
+                end_x_px,
+                end_y_px,
+            )| EventRow {
+                sitting: 1,
                 trial,
                 kind,
                 onset_us,
                 end_us,
+                onset_device_us,
+                end_device_us,
                 x_px,
                 y_px,
                 end_x_px,
@@ -363,6 +420,7 @@ fn event_same(a: &EventRow, b: &EventRow) -> bool {
         && a.kind == b.kind
         && a.onset_us == b.onset_us
         && a.end_us == b.end_us
+        && (a.onset_device_us, a.end_device_us) == (b.onset_device_us, b.end_device_us)
         && same_f64(a.x_px, b.x_px)
         && same_f64(a.y_px, b.y_px)
         && same_f64(a.end_x_px, b.end_x_px)
@@ -377,6 +435,7 @@ fn marker_row() -> impl Strategy<Value = MarkerRow> {
         text(),
     )
         .prop_map(|(host_us, trial, event, detail)| MarkerRow {
+            sitting: 1,
             host_us,
             trial,
             event,
@@ -396,6 +455,7 @@ fn frame_row() -> impl Strategy<Value = FrameRow> {
     )
         .prop_map(
             |(host_us, trial, phase, rays, render_ms, interval_ms, late)| FrameRow {
+                sitting: 2,
                 host_us,
                 trial,
                 phase,
@@ -485,7 +545,7 @@ proptest! {
         let dir = tempfile::tempdir().unwrap();
         let p = dir.path().join("markers.tsv");
         let mut log = TsvLog::<MarkerRow>::append_to(&p).unwrap();
-        let good = MarkerRow { host_us: 1, trial: Some(0), event: "key".into(), detail: "space".into() };
+        let good = MarkerRow { sitting: 1, host_us: 1, trial: Some(0), event: "key".into(), detail: "space".into() };
         log.write(&good).unwrap();
         let row = MarkerRow { detail: format!("{before}{bad}{after}"), ..good.clone() };
         let err = log.write(&row).unwrap_err();
@@ -513,6 +573,7 @@ fn nan_and_infinities_round_trip() {
     let rows: Vec<FrameRow> = [f64::NAN, f64::INFINITY, f64::NEG_INFINITY]
         .iter()
         .map(|&v| FrameRow {
+            sitting: 1,
             host_us: 0,
             trial: None,
             phase: "x".into(),
@@ -570,12 +631,13 @@ fn killed_writer_half_line_is_a_warning_and_append_cuts_it() {
 fn a_half_header_is_a_warning_and_is_rewritten() {
     let dir = tempfile::tempdir().unwrap();
     let p = dir.path().join("markers.tsv");
-    std::fs::write(&p, "host_us\ttri").unwrap();
+    std::fs::write(&p, "sitting\thost_us\ttri").unwrap();
     let read = read_tsv::<MarkerRow>(&p).unwrap();
     assert!(read.rows.is_empty());
     assert_eq!(read.warnings.len(), 1);
     assert_eq!(read.warnings[0].line, 1);
     let row = MarkerRow {
+        sitting: 3,
         host_us: 5,
         trial: None,
         event: "phase".into(),
@@ -632,7 +694,7 @@ fn parse_errors_name_file_line_and_column() {
     let text = std::fs::read_to_string(&p).unwrap();
     let mut lines: Vec<String> = text.lines().map(String::from).collect();
     let mut fields: Vec<String> = lines[2].split('\t').map(String::from).collect();
-    fields[13] = "fast".into(); // rt_s
+    fields[14] = "fast".into(); // rt_s
     lines[2] = fields.join("\t");
     std::fs::write(&p, lines.join("\n") + "\n").unwrap();
     let err = read_tsv::<TrialRow>(&p).unwrap_err();
@@ -653,8 +715,8 @@ fn parse_errors_name_file_line_and_column() {
     );
 
     // n/a where a value is required.
-    fields[13] = "8.5".into();
-    fields[8] = "n/a".into(); // target_mesh
+    fields[14] = "8.5".into();
+    fields[9] = "n/a".into(); // target_mesh
     lines[2] = fields.join("\t");
     std::fs::write(&p, lines.join("\n") + "\n").unwrap();
     let err = read_tsv::<TrialRow>(&p).unwrap_err();
@@ -673,8 +735,8 @@ fn parse_errors_name_file_line_and_column() {
     );
 
     // A bad Option value names its column too.
-    fields[8] = "3".into();
-    fields[16] = "maybe".into(); // correct
+    fields[9] = "3".into();
+    fields[17] = "maybe".into(); // correct
     lines[2] = fields.join("\t");
     std::fs::write(&p, lines.join("\n") + "\n").unwrap();
     let err = read_tsv::<TrialRow>(&p).unwrap_err();
@@ -695,8 +757,12 @@ fn every_row_reaches_the_os_by_default_and_batches_flush_on_drop() {
     let dir = tempfile::tempdir().unwrap();
     let p = dir.path().join("samples.tsv");
     let s = |i: u64| SampleRow {
-        host_us: i,
-        sample_us: i * 2,
+        sitting: 1,
+        mapped_us: i,
+        device_us: Some(i * 2),
+        arrival_us: i + 10,
+        time_order: "ok".into(),
+        segment: 0,
         trial: Some(0),
         phase: "search".into(),
         raw_x: Some(0.5),
@@ -762,6 +828,7 @@ fn info() -> SessionInfo {
         started_unix_s: 1_700_000_000.123456,
         synthetic: false,
         notes: vec!["chin rest".into(), "tab\there".into()],
+        sittings: Vec::new(),
     }
 }
 

@@ -99,6 +99,8 @@ struct Calibrator<'a> {
     screen: Option<Screen>,
     status: String,
     stream_ended: bool,
+    /// The tracker's clock model as last reported (a log line).
+    clock: Option<String>,
     /// Set when the result should be saved once it has been drawn.
     save_after_draw: bool,
     saved: bool,
@@ -183,9 +185,9 @@ impl Calibrator<'_> {
                 }
             };
             match m {
-                TrackerMsg::Gaze { sample_us, raw, .. } => {
+                TrackerMsg::Gaze { mapped_us, raw, .. } => {
                     let s = TimedPoint {
-                        t_us: sample_us,
+                        t_us: mapped_us,
                         raw,
                     };
                     self.session.feed(s);
@@ -197,6 +199,7 @@ impl Calibrator<'_> {
                     }
                     self.status = s;
                 }
+                TrackerMsg::Clock(c, d) => self.clock = Some(crate::live::clock_line(&c, &d)),
             }
         }
     }
@@ -561,6 +564,7 @@ pub fn run(args: &CalibrateArgs, out: &mut dyn Write) -> Result<(), String> {
         screen: None,
         status: String::new(),
         stream_ended: false,
+        clock: None,
         save_after_draw: false,
         saved: false,
         rgb: Vec::new(),
@@ -573,7 +577,7 @@ pub fn run(args: &CalibrateArgs, out: &mut dyn Write) -> Result<(), String> {
     // The tracker's faults (silences, undecoded bytes, reconnects). Gaze far
     // off the screen is not rejected here: a calibration must see what an
     // uncalibrated tracker reports, however far off.
-    for line in c.feed.report() {
+    for line in c.feed.report().into_iter().chain(c.clock.clone()) {
         writeln!(out, "{line}").map_err(|e| e.to_string())?;
     }
     if let Some(line) = recorded? {

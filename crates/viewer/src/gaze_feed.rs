@@ -14,10 +14,11 @@ use std::time::{Duration, Instant};
 use crossbeam_channel::{Receiver, Sender};
 use tracker_hal::calibration::Calibration;
 use tracker_hal::clock::monotonic_us;
-use tracker_hal::mouse::{spawn_device, CursorEvent, MouseConfig};
+use tracker_hal::mouse::{spawn_device, CursorEvent, MouseConfig, MouseTiming};
 use tracker_hal::{
-    DecodeStats, Driver, ErrorKind, GazeSource, MonotonicClock, Pacing, Recorder, Recording,
-    RecordingHeader, ReplayTransport, StreamDriver, Tap, TrackerConfig,
+    ClockState, DecodeStats, DeviceClock, Driver, ErrorKind, GazeSource, MonotonicClock, Pacing,
+    Recorder, Recording, RecordingHeader, ReplayTransport, StreamDriver, Tap, TimeOrder,
+    TrackerConfig,
 };
 
 use crate::config;
@@ -25,14 +26,25 @@ use crate::config;
 /// What the tracker thread tells the window.
 #[derive(Debug, Clone)]
 pub enum TrackerMsg {
-    /// A sample. `host_us`: host monotonic time (µs) when the thread got it
-    /// (for gaze age); `sample_us`: the source's own arrival time (the
-    /// recorded one in a replay; for procedures that must replay exactly);
-    /// `raw`: tracker units; `gaze_px`: screen pixels (`None` for both when
-    /// invalid, e.g. a blink, or outside a calibration's domain).
+    /// A sample with its three times (tracker-hal `timing`), raw tracker
+    /// units and mapped screen pixels (`None` for both when invalid, e.g.
+    /// a blink, or outside a calibration's domain).
     Gaze {
-        host_us: u64,
-        sample_us: u64,
+        /// This process's host monotonic clock (µs) when the tracker thread
+        /// passed the sample on.
+        received_us: u64,
+        /// The tracker's own timestamp as decoded (µs, tracker clock).
+        device_us: Option<u64>,
+        /// When the sample's bytes arrived (µs, the source's host clock:
+        /// the recorded one in a replay).
+        arrival_us: u64,
+        /// The device time mapped onto that host clock (µs): the sample's
+        /// time for events, procedures and files.
+        mapped_us: u64,
+        /// How the device time stands against the previous sample's.
+        time_order: TimeOrder,
+        /// The clock segment (a device clock reset starts a new one).
+        segment: u32,
         raw: Option<[f64; 2]>,
         gaze_px: Option<[f64; 2]>,
         /// The left and right eyes' points of regard, screen pixels, when
@@ -46,6 +58,9 @@ pub enum TrackerMsg {
         /// ([`pipeline::EYE_DISTANCE_RANGE_MM`]); `None` otherwise.
         eye_distance_mm: Option<f64>,
     },
+    /// The tracker's clock model was updated (offset, drift, corrections),
+    /// with how the device times are obtained.
+    Clock(ClockState, DeviceClock),
     /// A status line (disconnect, reconnect, end of recording); empty when
     /// the tracker is streaming again.
     Status(String),
@@ -96,6 +111,14 @@ pub struct Faults {
     pub reconnects: u64,
     /// Decoder totals over every connection of the session.
     pub decode: DecodeStats,
+}
+
+/// The capture time of a sample on this process's clock (µs): when it
+/// was received, less how long after its mapped capture time it arrived
+/// (the delivery delay, which a replay records too). Gaze age counts from
+/// here, so the tracker's own latency shows where it reports it.
+pub fn capture_us(received_us: u64, arrival_us: u64, mapped_us: u64) -> u64 {
+    received_us.saturating_sub(arrival_us.saturating_sub(mapped_us))
 }
 
 impl Faults {
@@ -180,6 +203,10 @@ fn tracker_thread(mut open: Opener, ctx: ThreadCtx) {
     let mut undecoded_bytes = 0u64;
     let mut far_reported: Option<(Instant, u64)> = None;
     let mut first = true;
+    // The newest mapped time passed on: a new connection's mapper starts
+    // afresh, and its times are shifted (by a constant, so intervals stay)
+    // to follow the previous connection's strictly.
+    let mut last_mapped: Option<u64> = None;
     while !stop.load(Ordering::Relaxed) {
         let mut source = match open() {
             Ok(s) => s,
@@ -207,6 +234,8 @@ fn tracker_thread(mut open: Opener, ctx: ThreadCtx) {
         let _ = tx.send(TrackerMsg::Status(String::new()));
         backoff = Duration::from_millis(250);
         let opened = Instant::now();
+        let mut shift: Option<u64> = None;
+        let mut refits = u64::MAX;
         let mut last_record = opened;
         let mut last_byte = opened;
         // When a silence (no byte at all) began, once reported.
@@ -266,9 +295,23 @@ fn tracker_thread(mut open: Opener, ctx: ThreadCtx) {
                         }
                         f.far
                     };
+                    let shift = *shift.get_or_insert_with(|| match last_mapped {
+                        Some(l) if s.mapped_time_us <= l => l + 1 - s.mapped_time_us,
+                        _ => 0,
+                    });
+                    let mapped_us = s.mapped_time_us + shift;
+                    last_mapped = Some(last_mapped.map_or(mapped_us, |l| l.max(mapped_us)));
+                    if let Some(c) = source.clock().filter(|c| c.refits != refits) {
+                        refits = c.refits;
+                        let _ = tx.send(TrackerMsg::Clock(c, source.device_clock()));
+                    }
                     let _ = tx.send(TrackerMsg::Gaze {
-                        host_us: monotonic_us(),
-                        sample_us: s.host_time_us,
+                        received_us: monotonic_us(),
+                        device_us: s.device_time_us,
+                        arrival_us: s.host_time_us,
+                        mapped_us,
+                        time_order: s.time_order,
+                        segment: s.clock_segment,
                         raw,
                         gaze_px,
                         eyes_px,
@@ -359,6 +402,8 @@ pub struct GazeFeed {
     faults: Arc<Mutex<Faults>>,
     /// How the last [`GazeFeed::finish`] ended the thread, for the log.
     stopped: Option<String>,
+    /// The mouse emulator's schedule counts, when the source is one.
+    mouse_timing: Arc<Mutex<Option<MouseTiming>>>,
     /// The attention source's settings when the gaze is the attention
     /// model's (not in a replay): the viewer then runs the model on every
     /// frame and feeds its point in ([`GazeFeed::attention_gaze`]).
@@ -402,6 +447,11 @@ impl GazeSetup {
     pub fn with_screen(mut self, size_px: [f64; 2]) -> Self {
         self.screen_px = Some(size_px);
         self
+    }
+
+    /// How the tracker's device times are obtained.
+    pub fn device_clock(&self) -> DeviceClock {
+        self.tracker.decoder().device_clock()
     }
 
     pub fn is_replay(&self) -> bool {
@@ -449,7 +499,15 @@ impl GazeSetup {
         };
         let stop = Arc::new(AtomicBool::new(false));
         let binocular = !matches!(self.tracker.driver, Driver::Mouse(_) | Driver::Attention(_));
-        let open = opener(self.tracker, self.replay, tap, cursor_rx, stop.clone());
+        let mouse_timing = Arc::new(Mutex::new(None));
+        let open = opener(
+            self.tracker,
+            self.replay,
+            tap,
+            cursor_rx,
+            stop.clone(),
+            mouse_timing.clone(),
+        );
         let (tx, rx) = crossbeam_channel::unbounded();
         let faults = Arc::new(Mutex::new(Faults::default()));
         let ctx = ThreadCtx {
@@ -473,17 +531,26 @@ impl GazeSetup {
             recorder,
             faults,
             stopped: None,
+            mouse_timing,
             attention,
         })
     }
 }
 
 /// Opens the mouse emulator on the cursor events (once: it keeps running).
-fn mouse_opener(c: MouseConfig, cursor_rx: Receiver<CursorEvent>, tap: Option<Tap>) -> Opener {
+fn mouse_opener(
+    c: MouseConfig,
+    cursor_rx: Receiver<CursorEvent>,
+    tap: Option<Tap>,
+    timing: Arc<Mutex<Option<MouseTiming>>>,
+) -> Opener {
     let mut cursor = Some(cursor_rx);
     Box::new(move || {
         let rx = cursor.take().ok_or("the mouse device has stopped")?;
         let link = spawn_device(c.clone(), rx).map_err(|e| e.to_string())?;
+        if let Ok(mut t) = timing.lock() {
+            *t = Some(link.timing());
+        }
         let d = StreamDriver::new(
             link,
             tracker_hal::mouse::MouseDecoder::new(),
@@ -504,6 +571,7 @@ fn opener(
     tap: Option<Tap>,
     cursor_rx: Receiver<CursorEvent>,
     stop: Arc<AtomicBool>,
+    mouse_timing: Arc<Mutex<Option<MouseTiming>>>,
 ) -> Opener {
     fn tapped<T: std::io::Read + std::io::Write, D: tracker_hal::Decoder>(
         d: StreamDriver<T, D>,
@@ -530,9 +598,9 @@ fn opener(
         });
     }
     match tracker.driver.clone() {
-        Driver::Mouse(c) => mouse_opener(c, cursor_rx, tap),
+        Driver::Mouse(c) => mouse_opener(c, cursor_rx, tap, mouse_timing),
         // The viewer feeds the attention model's point in as the cursor.
-        Driver::Attention(a) => mouse_opener(a.stream(), cursor_rx, tap),
+        Driver::Attention(a) => mouse_opener(a.stream(), cursor_rx, tap, mouse_timing),
         Driver::Iscan(c) => Box::new(move || {
             let name = c
                 .port
@@ -637,6 +705,15 @@ impl GazeFeed {
     pub fn report(&self) -> Vec<String> {
         let mut lines: Vec<String> = self.stopped.iter().cloned().collect();
         lines.extend(lock(&self.faults).lines());
+        let timing = self.mouse_timing.lock().ok().and_then(|t| t.clone());
+        if let Some(t) = timing {
+            lines.push(format!(
+                "mouse emulator: {} ticks ran late (each sampled at its scheduled time, the schedule kept), {} periods skipped after stalls over {} s",
+                t.late_ticks(),
+                t.skipped_ticks(),
+                tracker_hal::mouse::MAX_CATCH_UP.as_secs_f64()
+            ));
+        }
         lines
     }
 
@@ -710,6 +787,9 @@ mod tests {
             seq: 0,
             device_time_us: None,
             host_time_us: 0,
+            mapped_time_us: 0,
+            time_order: tracker_hal::timing::TimeOrder::Unmapped,
+            clock_segment: 0,
             left: tracker_hal::EyeSample::MISSING,
             right: tracker_hal::EyeSample::MISSING,
             combined: None,

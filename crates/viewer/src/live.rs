@@ -112,14 +112,18 @@ const HUD_FRAMES: usize = 300;
 
 /// Gaze-to-photon figures (ms), one entry per frame that showed a gaze
 /// sample for the first time (a sample's later frames add no latency).
+/// Gaze age counts from the sample's capture: its mapped device time
+/// ([`crate::gaze_feed::capture_us`]), so the transport's delivery delay
+/// is in it (the tracker's own fixed latency before its timestamp is not:
+/// no tracker here reports it).
 #[derive(Debug, Default)]
 pub struct Latency {
-    /// Host arrival → latched by the frame (after the surface gave it a
+    /// Capture → latched by the frame (after the surface gave it a
     /// texture, so a vsync wait is not counted as gaze age).
     pub latch: Vec<f64>,
-    /// Host arrival → the frame's copy submitted to the GPU queue.
+    /// Capture → the frame's copy submitted to the GPU queue.
     pub submit: Vec<f64>,
-    /// Host arrival → the present call returned.
+    /// Capture → the present call returned.
     pub present: Vec<f64>,
     /// Submit-to-submit time of those frames.
     pub interval: Vec<f64>,
@@ -173,8 +177,13 @@ struct Viewer<'a> {
     /// The last measured eye distance (mm), kept through samples without
     /// one (blinks); `None` until one arrives.
     eye_distance_mm: Option<f64>,
-    /// Host arrival of the gaze in use, and whether a frame has shown it.
+    /// Capture time of the gaze in use (this process's clock), and whether
+    /// a frame has shown it.
     gaze_host_us: Option<u64>,
+    /// The tracker's clock model, as last reported, and when it was last
+    /// logged (µs).
+    clock: Option<(tracker_hal::ClockState, tracker_hal::DeviceClock)>,
+    clock_logged_us: Option<u64>,
     gaze_shown: bool,
     status: String,
     layers: bool,
@@ -234,7 +243,8 @@ pub fn vergence_mm(camera: &Camera, eyes_px: [[f64; 2]; 2]) -> Option<f64> {
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Newest {
     pub gaze_px: [f64; 2],
-    /// Host arrival, monotonic µs.
+    /// Capture time on this process's monotonic clock (µs,
+    /// [`crate::gaze_feed::capture_us`]).
     pub host_us: u64,
     /// Both eyes' points (screen px) when that sample had both.
     pub eyes_px: Option<[[f64; 2]; 2]>,
@@ -243,17 +253,21 @@ pub struct Newest {
     pub eye_distance_mm: Option<f64>,
 }
 
-/// Drains `rx` to its newest valid gaze; returns it with its host arrival
-/// time, and applies status lines. Invalid samples keep the last valid gaze.
+/// Drains `rx` to its newest valid gaze; returns it with its capture time,
+/// applies status lines and hands clock-model updates on. Invalid samples
+/// keep the last valid gaze.
 pub fn drain_newest(
     rx: &Receiver<TrackerMsg>,
     mut on_status: impl FnMut(String),
+    mut on_clock: impl FnMut(tracker_hal::ClockState, tracker_hal::DeviceClock),
 ) -> Option<Newest> {
     let mut newest = None;
     for m in rx.try_iter() {
         match m {
             TrackerMsg::Gaze {
-                host_us,
+                received_us,
+                arrival_us,
+                mapped_us,
                 gaze_px,
                 eyes_px,
                 eye_distance_mm,
@@ -262,13 +276,14 @@ pub fn drain_newest(
                 if let Some(g) = gaze_px.filter(|g| g[0].is_finite() && g[1].is_finite()) {
                     newest = Some(Newest {
                         gaze_px: g,
-                        host_us,
+                        host_us: crate::gaze_feed::capture_us(received_us, arrival_us, mapped_us),
                         eyes_px,
                         eye_distance_mm,
                     });
                 }
             }
             TrackerMsg::Status(s) => on_status(s),
+            TrackerMsg::Clock(c, d) => on_clock(c, d),
         }
     }
     newest
@@ -282,12 +297,30 @@ impl Viewer<'_> {
 
     fn drain(&mut self) {
         let (out, log_error, status) = (&mut *self.out, &mut self.log_error, &mut self.status);
-        if let Some(n) = drain_newest(&self.feed.rx, |s| {
-            if !s.is_empty() {
-                emit(out, log_error, &s);
+        let clock = &mut self.clock;
+        let newest = drain_newest(
+            &self.feed.rx,
+            |s| {
+                if !s.is_empty() {
+                    emit(out, log_error, &s);
+                }
+                *status = s;
+            },
+            |c, d| *clock = Some((c, d)),
+        );
+        // The clock model in the log: its first fit, then every 10 s.
+        if let Some((c, d)) = self.clock {
+            let now = monotonic_us();
+            if self
+                .clock_logged_us
+                .is_none_or(|t| now.saturating_sub(t) >= 10_000_000)
+            {
+                self.clock_logged_us = Some(now);
+                let line = clock_line(&c, &d);
+                self.say(&line);
             }
-            *status = s;
-        }) {
+        }
+        if let Some(n) = newest {
             self.gaze = n.gaze_px;
             self.eyes_px = n.eyes_px;
             if n.eye_distance_mm.is_some() {
@@ -565,6 +598,8 @@ pub fn run(opts: &LiveOptions, out: &mut dyn Write) -> Result<(), LiveError> {
         eyes_px: None,
         eye_distance_mm: None,
         gaze_host_us: None,
+        clock: None,
+        clock_logged_us: None,
         gaze_shown: false,
         status: String::new(),
         layers: false,
@@ -612,6 +647,10 @@ pub fn run(opts: &LiveOptions, out: &mut dyn Write) -> Result<(), LiveError> {
             viewer.say(&rate);
         }
     }
+    if let Some((c, d)) = viewer.clock {
+        let line = format!("at the end: {}", clock_line(&c, &d));
+        viewer.say(&line);
+    }
     for l in viewer.latency.summary() {
         viewer.say(&l);
     }
@@ -630,6 +669,22 @@ pub fn run(opts: &LiveOptions, out: &mut dyn Write) -> Result<(), LiveError> {
         viewer.say(&line);
     }
     viewer.log_error.map_or(Ok(()), |e| Err(e.into()))
+}
+
+/// One log line about the tracker's clock model.
+pub fn clock_line(c: &tracker_hal::ClockState, d: &tracker_hal::DeviceClock) -> String {
+    format!(
+        "tracker clock: {} samples, drift {:+.1} ppm{}, offset (mapped − device) {:.0} µs, newest sample delivered {:.1} ms after its mapped time; {} causality corrections, {} repeated or backwards timestamps, {} resets; device times: {}",
+        c.samples,
+        c.drift_ppm,
+        if c.rate_clamped { " (the fit lay beyond ±500 ppm: check the tracker's nominal rate)" } else { "" },
+        c.offset_us,
+        c.delay_us / 1e3,
+        c.corrections,
+        c.non_increasing,
+        c.resets,
+        d.describe()
+    )
 }
 
 /// Writes one log line; the first failure is kept (the session goes on).
@@ -652,8 +707,12 @@ mod tests {
         for k in 0..1000u64 {
             let g = [k as f64, 2.0 * k as f64];
             tx.send(TrackerMsg::Gaze {
-                host_us: k,
-                sample_us: k,
+                received_us: k + 7,
+                device_us: Some(k),
+                arrival_us: k + 7,
+                mapped_us: k,
+                time_order: tracker_hal::TimeOrder::Increasing,
+                segment: 0,
                 raw: Some(g),
                 gaze_px: Some(g),
                 eyes_px: None,
@@ -664,8 +723,12 @@ mod tests {
         tx.send(TrackerMsg::Status("lost".into())).expect("send");
         for bad in [None, Some([f64::NAN, 1.0]), Some([1.0, f64::INFINITY])] {
             tx.send(TrackerMsg::Gaze {
-                host_us: 5000,
-                sample_us: 5000,
+                received_us: 5000,
+                device_us: Some(5000),
+                arrival_us: 5000,
+                mapped_us: 5000,
+                time_order: tracker_hal::TimeOrder::Increasing,
+                segment: 0,
                 raw: None,
                 gaze_px: bad,
                 eyes_px: None,
@@ -674,7 +737,7 @@ mod tests {
             .expect("send");
         }
         let mut statuses = Vec::new();
-        let newest = drain_newest(&rx, |s| statuses.push(s));
+        let newest = drain_newest(&rx, |s| statuses.push(s), |_, _| {});
         assert_eq!(
             newest,
             Some(Newest {
@@ -686,7 +749,7 @@ mod tests {
         );
         assert_eq!(statuses, vec!["lost".to_string()]);
         assert!(rx.is_empty());
-        assert_eq!(drain_newest(&rx, |_| {}), None);
+        assert_eq!(drain_newest(&rx, |_| {}, |_, _| {}), None);
     }
 
     /// Eqs. 1–3 on the display: eyes converging on the screen give the

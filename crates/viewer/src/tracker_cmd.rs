@@ -243,6 +243,19 @@ const LIVE_ONLY: &[&str] = &[
 /// the tracker file; [`LIVE_ONLY`] settings are not compared). Empty when
 /// they agree.
 pub fn tracker_differences(header: &TrackerConfig, given: &TrackerConfig) -> Vec<String> {
+    tracker_differences_except(header, given, LIVE_ONLY)
+}
+
+/// How a device is reached (its port, which USB device, a read timeout):
+/// what may change between the sittings of one session.
+pub const CONNECTION_ONLY: &[&str] = &["port", "vendor_id", "product_id", "timeout_ms"];
+
+/// [`tracker_differences`], leaving out the driver settings in `ignore`.
+pub fn tracker_differences_except(
+    header: &TrackerConfig,
+    given: &TrackerConfig,
+    ignore: &[&str],
+) -> Vec<String> {
     if header.driver_name() != given.driver_name() {
         return vec![format!(
             "driver: header {}, --tracker {}",
@@ -252,7 +265,7 @@ pub fn tracker_differences(header: &TrackerConfig, given: &TrackerConfig) -> Vec
     }
     let mut out = Vec::new();
     match (serde_json::to_value(header), serde_json::to_value(given)) {
-        (Ok(a), Ok(b)) => json_differences("", &a, &b, &mut out),
+        (Ok(a), Ok(b)) => json_differences("", &a, &b, ignore, &mut out),
         _ if header != given => out.push("the tracker configuration differs".into()),
         _ => {}
     }
@@ -263,6 +276,7 @@ fn json_differences(
     path: &str,
     a: &serde_json::Value,
     b: &serde_json::Value,
+    ignore: &[&str],
     out: &mut Vec<String>,
 ) {
     use serde_json::Value;
@@ -279,20 +293,21 @@ fn json_differences(
             // on both sides is compared field by field under the same name.
             if let (Some((kx, vx)), Some((ky, vy))) = (variant(x), variant(y)) {
                 if kx == ky {
-                    return json_differences(path, vx, vy, out);
+                    return json_differences(path, vx, vy, ignore, out);
                 }
             }
             let mut keys: Vec<&String> = x.keys().chain(y.keys()).collect();
             keys.sort();
             keys.dedup();
             for k in keys {
-                if path == "driver" && LIVE_ONLY.contains(&k.as_str()) {
+                if path == "driver" && ignore.contains(&k.as_str()) {
                     continue;
                 }
                 json_differences(
                     &join(k),
                     x.get(k).unwrap_or(&Value::Null),
                     y.get(k).unwrap_or(&Value::Null),
+                    ignore,
                     out,
                 );
             }
@@ -725,7 +740,7 @@ pub fn simulated(
         }
     };
     let rate = args.rate.unwrap_or(match &tracker.driver {
-        Driver::Iscan(_) => 60.0,
+        Driver::Iscan(c) => c.rate_hz,
         Driver::Mouse(c) => c.rate_hz,
         Driver::Attention(c) => c.rate_hz,
         // The seed's Tobii ET-1750 ran at 50 Hz (Murphy 2007 §7.1).
@@ -736,6 +751,15 @@ pub fn simulated(
     if !(rate.is_finite() && rate > 0.0 && rate <= 10_000.0) {
         return Err(format!("--rate {rate}: must be in (0, 10000] Hz"));
     }
+    // A simulated ISCAN sends at the simulated rate, and its recording's
+    // tracker says so (the driver's record-counting clock runs at it).
+    let mut tracker = tracker.clone();
+    if let Driver::Iscan(c) = &mut tracker.driver {
+        c.rate_hz = rate;
+        c.validate()
+            .map_err(|(field, e)| format!("--rate: the ISCAN's {field}: {e}"))?;
+    }
+    let tracker = &tracker;
     let stream = match &tracker.driver {
         Driver::Iscan(c) => {
             // The seed's ISCAN covers about ±20° with 512 units: 12.8 units/deg.

@@ -35,7 +35,7 @@ fn attention(scene: &Path, display: &Path) -> std::process::Command {
 }
 
 fn header() -> &'static str {
-    "seq,device_time_us,host_time_us,left_x,left_y,left_valid,right_x,right_y,right_valid,gaze_x,gaze_y,gaze_valid"
+    "seq,device_time_us,host_time_us,mapped_time_us,time_order,left_x,left_y,left_valid,right_x,right_y,right_valid,gaze_x,gaze_y,gaze_valid"
 }
 
 #[test]
@@ -98,10 +98,10 @@ fn a_viewer_on_the_only_target_scores_one_and_scenery_is_never_predicted() {
     for k in 0..100u64 {
         let t = 5_000_000 + k * 10_000;
         if (40..45).contains(&k) {
-            csv.push_str(&format!("{k},,{t},,,0,,,0,,,0\n"));
+            csv.push_str(&format!("{k},,{t},{t},ok,,,0,,,0,,,0\n"));
         } else {
             let x = 80.0 + (k % 3) as f64 * 0.5;
-            csv.push_str(&format!("{k},,{t},,,0,,,0,{x},64.0,1\n"));
+            csv.push_str(&format!("{k},,{t},{t},ok,,,0,,,0,{x},64.0,1\n"));
         }
     }
     let session = dir.path().join("centre.csv");
@@ -146,7 +146,10 @@ fn bad_sessions_are_refused_naming_file_and_line() {
     let session = dir.path().join("back.csv");
     std::fs::write(
         &session,
-        format!("{}\n0,,200,,,0,,,0,1,2,1\n1,,100,,,0,,,0,1,2,1\n", header()),
+        format!(
+            "{}\n0,,200,200,ok,,,0,,,0,1,2,1\n1,,100,100,ok,,,0,,,0,1,2,1\n",
+            header()
+        ),
     )
     .expect("write");
     let out = dir.path().join("eval");
@@ -160,7 +163,7 @@ fn bad_sessions_are_refused_naming_file_and_line() {
     assert!(!run.status.success());
     let err = String::from_utf8_lossy(&run.stderr);
     assert!(
-        err.contains("back.csv") && err.contains("line 3") && err.contains("host_time_us"),
+        err.contains("back.csv") && err.contains("line 3") && err.contains("mapped_time_us"),
         "{err}"
     );
     assert!(!out.exists(), "nothing written for a bad session");

@@ -11,7 +11,7 @@ fn repo() -> PathBuf {
 }
 
 const HEADER: &str =
-    "seq,device_time_us,host_time_us,left_x,left_y,left_valid,right_x,right_y,right_valid,gaze_x,gaze_y,gaze_valid";
+    "seq,device_time_us,host_time_us,mapped_time_us,time_order,left_x,left_y,left_valid,right_x,right_y,right_valid,gaze_x,gaze_y,gaze_valid";
 
 #[test]
 fn replay_writes_the_contract_csv_and_a_summary_line() {
@@ -39,8 +39,8 @@ fn replay_writes_the_contract_csv_and_a_summary_line() {
     assert_eq!(rows.len(), 600);
     // Screen pixels (1280×1024 mapping): x within the screen; a missing eye has empty coordinates.
     for r in &rows {
-        assert_eq!(r.len(), 12);
-        for (x, y, v) in [(3, 4, 5), (6, 7, 8), (9, 10, 11)] {
+        assert_eq!(r.len(), 14);
+        for (x, y, v) in [(5, 6, 7), (8, 9, 10), (11, 12, 13)] {
             match r[v] {
                 "1" => {
                     let (x, y): (f64, f64) = (r[x].parse().expect("x"), r[y].parse().expect("y"));
@@ -276,8 +276,8 @@ fn replay_of_a_hid_log_follows_the_raw_contract_and_maps_to_pixels() {
         .skip(1)
         .map(|l| l.split(',').collect::<Vec<_>>())
     {
-        assert_eq!((r[5], r[8], r[11]), ("0", "0", "1"), "{r:?}");
-        let (x, y): (f64, f64) = (r[9].parse().expect("x"), r[10].parse().expect("y"));
+        assert_eq!((r[7], r[10], r[13]), ("0", "0", "1"), "{r:?}");
+        let (x, y): (f64, f64) = (r[11].parse().expect("x"), r[12].parse().expect("y"));
         assert!((0.0..=1280.0).contains(&x) && (0.0..=1024.0).contains(&y));
     }
     // A calibration file replaces the mapping: this one doubles x.
@@ -306,8 +306,8 @@ fn replay_of_a_hid_log_follows_the_raw_contract_and_maps_to_pixels() {
             .split(',')
             .collect::<Vec<_>>(),
     );
-    let ax: f64 = a[9].parse().expect("x");
-    let bx: f64 = b[9].parse().expect("x");
+    let ax: f64 = a[11].parse().expect("x");
+    let bx: f64 = b[11].parse().expect("x");
     assert_eq!(bx, 2.0 * ax);
     // A calibration with the wrong parameter count names the field.
     std::fs::write(

@@ -200,7 +200,7 @@ pub fn frames_of(rows: &[GazeRow], rate_hz: f64, max: usize) -> (Vec<FrameGaze>,
     let (Some(first), Some(last)) = (rows.first(), rows.last()) else {
         return (Vec::new(), false);
     };
-    let span_s = (last.host_time_us - first.host_time_us) as f64 * 1e-6;
+    let span_s = (last.time_us - first.time_us) as f64 * 1e-6;
     let total = (span_s * rate_hz).floor() + 1.0;
     let n = if total.is_finite() && total < max as f64 {
         total as usize
@@ -214,12 +214,12 @@ pub fn frames_of(rows: &[GazeRow], rate_hz: f64, max: usize) -> (Vec<FrameGaze>,
     let max_age_us = (2e6 / rate_hz).ceil() as u64;
     for k in 0..n {
         let t_s = k as f64 / rate_hz;
-        let due_us = first.host_time_us + (t_s * 1e6).round() as u64;
-        while next + 1 < rows.len() && rows[next + 1].host_time_us <= due_us {
+        let due_us = first.time_us + (t_s * 1e6).round() as u64;
+        while next + 1 < rows.len() && rows[next + 1].time_us <= due_us {
             next += 1;
         }
         let row = rows[next];
-        let fresh = due_us.saturating_sub(row.host_time_us) <= max_age_us;
+        let fresh = due_us.saturating_sub(row.time_us) <= max_age_us;
         out.push((t_s, row.gaze.filter(|_| fresh)));
     }
     (out, (n as f64) < total)
@@ -773,13 +773,16 @@ fn synthesize(
     let mut seq = 0usize;
     let mut at = targets[rng.random_range(0..targets.len())];
     let push = |s: &mut String, p: Option<[f64; 2]>, seq: &mut usize| {
+        // A synthetic tracker on an ideal clock: device, arrival and mapped
+        // times are one.
         let t = 1_000_000 + (*seq as f64 * period_us).round() as u64;
+        let order = if *seq == 0 { "first" } else { "ok" };
         match p {
             Some([x, y]) => {
-                let _ = writeln!(s, "{seq},,{t},,,0,,,0,{x:.2},{y:.2},1");
+                let _ = writeln!(s, "{seq},{t},{t},{t},{order},,,0,,,0,{x:.2},{y:.2},1");
             }
             None => {
-                let _ = writeln!(s, "{seq},,{t},,,0,,,0,,,0");
+                let _ = writeln!(s, "{seq},{t},{t},{t},{order},,,0,,,0,,,0");
             }
         }
         *seq += 1;
@@ -862,7 +865,7 @@ mod tests {
     #[test]
     fn frames_take_the_newest_sample_and_stop_at_max() {
         let row = |t: u64, x: f64| GazeRow {
-            host_time_us: t,
+            time_us: t,
             gaze: Some([x, 0.0]),
         };
         let rows = [

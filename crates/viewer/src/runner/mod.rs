@@ -11,13 +11,17 @@
 //! resolution) or the search display through the frame pipeline with the
 //! trial condition's method (`stimulus`).
 //!
-//! Timing, on the host's monotonic clock (the one the gaze samples carry
-//! as `host_us`): the search starts when the present call of the search
-//! display's first frame returns (`search_onset_us`), and ends at the
-//! Space key's event (`response_us`, taken when the event reaches the
-//! runner; winit gives key events no timestamp of their own). Every frame
-//! is logged (`frames.tsv`), late when its interval exceeds 1.5 periods of
-//! the nominal refresh rate.
+//! Timing, on the host's monotonic clock of this sitting (the clock the
+//! gaze samples' device times are mapped onto, `mapped_us`): the search
+//! starts when the present call of the search display's first frame
+//! returns (`search_onset_us`), and ends at the Space key's event
+//! (`response_us`, taken when the event reaches the runner; winit gives
+//! key events no timestamp of their own; the simulated participant's keys
+//! carry the time it planned them for). A trial's eye-movement events are
+//! detected on the tracker's clock (tracker-hal `events`) over its samples
+//! captured up to the response: its end waits for the tracker to deliver
+//! them. Every frame is logged (`frames.tsv`), late when its interval
+//! exceeds 1.5 periods of the nominal refresh rate.
 //!
 //! Keys: `Space` go on (instructions, breaks, the preview) and "found"
 //! (the search); a left click confirms the object found (designs with
@@ -44,6 +48,7 @@ use tracker_hal::calibration::{
     TimedPoint,
 };
 use tracker_hal::clock::monotonic_us;
+use tracker_hal::events::TimedGaze;
 use winit::application::ApplicationHandler;
 use winit::event::{ElementState, MouseButton, WindowEvent};
 use winit::event_loop::{ActiveEventLoop, EventLoop};
@@ -63,6 +68,9 @@ const SETTLE_MS: u32 = 400;
 const COLLECT_MS: u32 = 800;
 /// Failed validations before the runner asks the experimenter.
 const MAX_CALIBRATION_ATTEMPTS: u32 = 3;
+/// The longest a trial's end waits for the tracker's samples captured up
+/// to its response (a delivery stall; the events are computed on them).
+const RESPONSE_SAMPLES_WAIT: std::time::Duration = std::time::Duration::from_millis(500);
 /// Refresh rate assumed when the monitor reports none (Hz).
 const NOMINAL_REFRESH_HZ: f64 = 60.0;
 
@@ -171,6 +179,7 @@ impl Runner<'_> {
 
     fn marker(&mut self, event: &str, detail: String) {
         let row = MarkerRow {
+            sitting: self.dir.sitting(),
             host_us: monotonic_us(),
             trial: self.flow.trial().map(|t| t.index),
             event: event.to_string(),
@@ -196,8 +205,11 @@ impl Runner<'_> {
         for m in msgs {
             match m {
                 TrackerMsg::Gaze {
-                    host_us,
-                    sample_us,
+                    device_us,
+                    arrival_us,
+                    mapped_us,
+                    time_order,
+                    segment,
                     raw,
                     gaze_px,
                     ..
@@ -210,8 +222,12 @@ impl Runner<'_> {
                         crate::gaze_feed::plausible(*g, Some(self.setup.geometry.size_px()))
                     });
                     self.dir.sample(&SampleRow {
-                        host_us,
-                        sample_us,
+                        sitting: self.dir.sitting(),
+                        mapped_us,
+                        device_us,
+                        arrival_us,
+                        time_order: time_order.name().into(),
+                        segment,
                         trial,
                         phase: phase.name().into(),
                         raw_x: raw.map(|r| r[0]),
@@ -223,16 +239,22 @@ impl Runner<'_> {
                         self.gaze = g;
                     }
                     if let Some(t) = &mut self.trial {
-                        t.sample(host_us, mapped);
+                        t.sample(TimedGaze {
+                            device_us: device_us.unwrap_or(mapped_us),
+                            mapped_us,
+                            order: time_order,
+                            segment,
+                            gaze: mapped,
+                        });
                     }
                     match &mut self.checking {
                         Some(Checking::Calibrating(s)) => s.feed(TimedPoint {
-                            t_us: sample_us,
+                            t_us: mapped_us,
                             raw,
                         }),
                         Some(Checking::Validating { procedure, .. }) => {
                             procedure.feed(TimedPoint {
-                                t_us: sample_us,
+                                t_us: mapped_us,
                                 raw,
                             })
                         }
@@ -244,6 +266,9 @@ impl Runner<'_> {
                         self.say(&format!("tracker: {s}"));
                         self.marker("tracker-status", s);
                     }
+                }
+                TrackerMsg::Clock(c, d) => {
+                    self.dir.clock(&c, &d);
                 }
             }
         }
@@ -375,6 +400,16 @@ impl Runner<'_> {
 
     /// The trial's response is complete: write it, then the next screen.
     fn end_trial(&mut self, click: Option<Option<(u32, u32)>>, el: &ActiveEventLoop) {
+        // Its eye-movement events are computed on the tracker's clock: wait
+        // (at most RESPONSE_SAMPLES_WAIT) until the tracker has delivered
+        // the samples captured up to the response, however late delivery is.
+        let waited = std::time::Instant::now();
+        while self.trial.as_ref().is_some_and(TrialState::awaits_samples)
+            && waited.elapsed() < RESPONSE_SAMPLES_WAIT
+        {
+            std::thread::sleep(std::time::Duration::from_millis(5));
+            self.drain();
+        }
         let (Some(state), Some(t)) = (self.trial.take(), self.flow.trial().cloned()) else {
             return;
         };
@@ -424,6 +459,7 @@ impl Runner<'_> {
                 let requests = s.take_requests();
                 for l in log {
                     self.dir.marker(&MarkerRow {
+                        sitting: self.dir.sitting(),
                         host_us: monotonic_us(),
                         trial: self.flow.trial().map(|t| t.index),
                         event: "calibration".into(),
@@ -666,6 +702,7 @@ impl Runner<'_> {
                 let first = t.presented(present_us, rays, late);
                 if first {
                     self.dir.marker(&MarkerRow {
+                        sitting: self.dir.sitting(),
                         host_us: present_us,
                         trial: self.flow.trial().map(|t| t.index),
                         event: "search-onset".into(),
@@ -687,6 +724,7 @@ impl Runner<'_> {
             }
         }
         self.dir.frame(&FrameRow {
+            sitting: self.dir.sitting(),
             host_us: present_us,
             trial: self
                 .flow
@@ -829,8 +867,22 @@ pub fn run(opts: &RunOptions, out: &mut dyn Write) -> Result<(), String> {
             }
         }
     }
-    let dir = SessionDir::open(opts, &design, &display, index, &setup_gaze)?;
+    let mut dir = SessionDir::open(opts, &design, &display, index, &setup_gaze)?;
     let start = dir.next_trial();
+    if let Some((trial, sitting)) = dir.aborted_trial().filter(|(t, _)| *t < trials.len()) {
+        // The trial the last sitting did not finish runs again now: its
+        // rows there are aborted (the analysis and the export leave them out).
+        dir.marker(&MarkerRow {
+            sitting: dir.sitting(),
+            host_us: monotonic_us(),
+            trial: Some(trial),
+            event: "aborted-trial".into(),
+            detail: format!(
+                "trial {} was not finished in sitting {sitting}; it runs again in this sitting, its rows of sitting {sitting} are aborted",
+                trial + 1
+            ),
+        });
+    }
     if start >= trials.len() {
         return Err(format!(
             "{}: every trial ({}) is done; nothing to resume",

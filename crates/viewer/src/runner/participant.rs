@@ -28,6 +28,14 @@
 //! Its search times are synthetic: they say nothing about people, and do
 //! not depend on the condition (the model never looks at the image). The
 //! session it runs is marked synthetic in every file.
+//!
+//! **Timing.** What it plans happens at the planned host time, however
+//! late its own thread runs: a search's fixations go to the tracker as
+//! gaze dated by the plan (the mouse device samples the cursor history at
+//! each tick's scheduled time; the simulated ISCAN writes on a fixed
+//! schedule from the same dated plan), and its keys and clicks carry the
+//! time they were planned for. A busy machine delays delivery, not what
+//! the tracker measured.
 
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex};
@@ -129,7 +137,7 @@ impl Participant {
         let stop = Arc::new(AtomicBool::new(false));
         let (tx, actions) = crossbeam_channel::unbounded();
         let (s, st) = (seen.clone(), stop.clone());
-        let gaze = Arc::new(Mutex::new(geometry.centre_px()));
+        let gaze = Arc::new(Mutex::new(Gaze::new(geometry.centre_px())));
         let (cursor, writer) = match eye {
             Eye::Mouse(c) => (Some(c), None),
             Eye::Iscan {
@@ -202,55 +210,87 @@ impl Drop for Participant {
     }
 }
 
-/// The simulated ISCAN: every 1/[`ISCAN_RATE_HZ`] s a binary record of the
-/// uncalibrated raw units of where the participant looks (both eyes the
-/// same), with Gaussian-like jitter of about 0.1° (the sum of four
-/// uniforms). Ends at the stop flag; a record the line refuses (no reader
-/// yet) is dropped.
+/// Where the participant looks over time: (host µs, px) in time order, for
+/// the simulated ISCAN's scheduled ticks.
+#[derive(Debug, Clone)]
+struct Gaze {
+    plan: std::collections::VecDeque<(u64, [f64; 2])>,
+}
+
+impl Gaze {
+    fn new(at: [f64; 2]) -> Self {
+        Self {
+            plan: std::collections::VecDeque::from([(0, at)]),
+        }
+    }
+
+    fn push(&mut self, t_us: u64, p: [f64; 2]) {
+        self.plan.push_back((t_us, p));
+    }
+
+    /// Where the eye is at `t_us` (older entries are dropped).
+    fn at(&mut self, t_us: u64) -> [f64; 2] {
+        while self.plan.len() > 1 && self.plan[1].0 <= t_us {
+            self.plan.pop_front();
+        }
+        self.plan.front().map_or([0.0, 0.0], |e| e.1)
+    }
+}
+
+/// The simulated ISCAN: on a fixed schedule of 1/[`ISCAN_RATE_HZ`] s
+/// (a late thread writes the ticks it missed, each from where the eye was
+/// at its scheduled time), a binary record of the uncalibrated raw units
+/// of where the participant looks (both eyes the same), with
+/// Gaussian-like jitter of about 0.1° (the sum of four uniforms). Ends at
+/// the stop flag; a record the line refuses (no reader yet) is dropped.
 fn iscan_writer(
     mut port: serialport::TTYPort,
     config: &IscanConfig,
     screen_px: (u32, u32),
-    gaze: &Mutex<[f64; 2]>,
+    gaze: &Mutex<Gaze>,
     stop: &AtomicBool,
     seed: u64,
 ) {
     use std::io::Write;
     let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0x15CA);
-    let period = Duration::from_secs_f64(1.0 / ISCAN_RATE_HZ);
+    let period_us = (1e6 / ISCAN_RATE_HZ).round() as u64;
     // 0.1 deg at about 35 px per degree, in raw units.
     let jitter_px = 3.5;
-    let mut next = std::time::Instant::now();
+    let mut schedule = tracker_hal::mouse::Schedule::new(monotonic_us(), period_us);
+    let catch_up = tracker_hal::mouse::MAX_CATCH_UP.as_micros() as u64;
     while !stop.load(Ordering::Relaxed) {
-        let p = gaze.lock().map(|g| *g).unwrap_or([0.0, 0.0]);
-        let mut j = || (0..4).map(|_| rng.random_range(-1.0..1.0)).sum::<f64>() * jitter_px / 2.0;
-        let px = [p[0] + j(), p[1] + j()];
-        let raw = uncalibrated_raw(px, screen_px, config.frame);
-        let values: Vec<Option<f64>> = config
-            .parameters
-            .iter()
-            .map(|k| match k {
-                IscanParam::LeftPorH | IscanParam::RightPorH => Some(raw[0]),
-                IscanParam::LeftPorV | IscanParam::RightPorV => Some(raw[1]),
-                IscanParam::LeftPupil | IscanParam::RightPupil => Some(30.0),
-                IscanParam::Other => Some(0.0),
-            })
-            .collect();
-        let record = match config.mode {
-            IscanMode::Binary => encode_binary(&values),
-            IscanMode::Ascii => tracker_hal::iscan::encode_ascii(&values),
-        };
-        // Until the tracker has opened the slave (and while it reconnects)
-        // the master may refuse writes (EIO); ending here would close the
-        // master, the slave's path would vanish, and the tracker would
-        // retry forever. The record is dropped, as a line would lose it.
-        let _ = port.write_all(&record);
-        next += period;
-        let now = std::time::Instant::now();
+        let (ticks, _) = schedule.due(monotonic_us(), catch_up);
+        for (t, _) in ticks {
+            let p = gaze.lock().map(|mut g| g.at(t)).unwrap_or([0.0, 0.0]);
+            let mut j =
+                || (0..4).map(|_| rng.random_range(-1.0..1.0)).sum::<f64>() * jitter_px / 2.0;
+            let px = [p[0] + j(), p[1] + j()];
+            let raw = uncalibrated_raw(px, screen_px, config.frame);
+            let values: Vec<Option<f64>> = config
+                .parameters
+                .iter()
+                .map(|k| match k {
+                    IscanParam::LeftPorH | IscanParam::RightPorH => Some(raw[0]),
+                    IscanParam::LeftPorV | IscanParam::RightPorV => Some(raw[1]),
+                    IscanParam::LeftPupil | IscanParam::RightPupil => Some(30.0),
+                    IscanParam::Other => Some(0.0),
+                })
+                .collect();
+            let record = match config.mode {
+                IscanMode::Binary => encode_binary(&values),
+                IscanMode::Ascii => tracker_hal::iscan::encode_ascii(&values),
+            };
+            // Until the tracker has opened the slave (and while it
+            // reconnects) the master may refuse writes (EIO); ending here
+            // would close the master, the slave's path would vanish, and
+            // the tracker would retry forever. The record is dropped, as a
+            // line would lose it.
+            let _ = port.write_all(&record);
+        }
+        let now = monotonic_us();
+        let next = schedule.next_us();
         if next > now {
-            std::thread::sleep(next - now);
-        } else {
-            next = now;
+            std::thread::sleep(Duration::from_micros(next - now));
         }
     }
 }
@@ -261,7 +301,7 @@ fn behave(
     seen: &Mutex<Seen>,
     stop: &AtomicBool,
     cursor: Option<&Sender<CursorEvent>>,
-    gaze: &Mutex<[f64; 2]>,
+    gaze: &Mutex<Gaze>,
     actions: &Sender<Action>,
     geometry: ScreenGeometry,
     seed: u64,
@@ -273,15 +313,20 @@ fn behave(
     let mut search: (Vec<([f64; 2], f64)>, f64) = (Vec::new(), 0.0);
     let mut click_px = geometry.centre_px();
     let mut looking: Option<[f64; 2]> = None;
-    let look = |p: [f64; 2], looking: &mut Option<[f64; 2]>| {
+    // The newest time a look was dated for: later looks are never dated
+    // before it (the tracker's cursor history is in time order).
+    let mut last_t = 0u64;
+    let mut look = |p: [f64; 2], t_us: u64, looking: &mut Option<[f64; 2]>| {
         if *looking != Some(p) {
             *looking = Some(p);
+            let t = t_us.max(last_t);
+            last_t = t;
             if let Ok(mut g) = gaze.lock() {
-                *g = p;
+                g.push(t, p);
             }
             if let Some(c) = cursor {
                 let _ = c.send(CursorEvent {
-                    t_us: monotonic_us(),
+                    t_us: t,
                     position_px: p,
                     blink: false,
                 });
@@ -297,6 +342,8 @@ fn behave(
         let Some(phase) = s.phase else { continue };
         let now = monotonic_us();
         let elapsed_ms = now.saturating_sub(s.since_us) as f64 / 1e3;
+        // When something planned `ms` after the screen's start happens.
+        let at = |ms: f64| s.since_us + (ms * 1e3).round() as u64;
         if s.epoch != epoch {
             epoch = s.epoch;
             acted = false;
@@ -305,6 +352,11 @@ fn behave(
                 Phase::Search => {
                     if let Some(t) = s.target_object {
                         search = search_plan(&geometry, &s.objects, t, &mut rng);
+                        // The whole search, dated: each fixation happens
+                        // at its planned time whenever this thread runs.
+                        for &(p, t_ms) in &search.0 {
+                            look(p, at(t_ms), &mut looking);
+                        }
                     }
                 }
                 Phase::Confirm => {
@@ -328,37 +380,39 @@ fn behave(
             Phase::Instructions | Phase::Rest { .. } => {
                 if !acted && elapsed_ms >= wait_ms {
                     acted = true;
-                    let _ = actions.send(Action::Space { host_us: now });
+                    let _ = actions.send(Action::Space {
+                        host_us: at(wait_ms),
+                    });
                 }
             }
             Phase::Calibration | Phase::Validation { .. } | Phase::DriftCheck => {
                 if let Some(t) = s.target_px {
-                    look(t, &mut looking);
+                    look(t, now, &mut looking);
                 }
             }
             Phase::Preview => {
-                look(geometry.centre_px(), &mut looking);
+                look(geometry.centre_px(), s.since_us, &mut looking);
                 if !acted && elapsed_ms >= wait_ms {
                     acted = true;
-                    let _ = actions.send(Action::Space { host_us: now });
+                    let _ = actions.send(Action::Space {
+                        host_us: at(wait_ms),
+                    });
                 }
             }
             Phase::Search => {
-                // The fixation due now.
-                if let Some(&(p, _)) = search.0.iter().rev().find(|(_, t)| *t <= elapsed_ms) {
-                    look(p, &mut looking);
-                }
                 if !acted && elapsed_ms >= search.1 {
                     acted = true;
-                    let _ = actions.send(Action::Space { host_us: now });
+                    let _ = actions.send(Action::Space {
+                        host_us: at(search.1),
+                    });
                 }
             }
             Phase::Confirm => {
-                look(click_px, &mut looking);
+                look(click_px, s.since_us, &mut looking);
                 if !acted && elapsed_ms >= wait_ms {
                     acted = true;
                     let _ = actions.send(Action::Click {
-                        host_us: now,
+                        host_us: at(wait_ms),
                         px: click_px,
                     });
                 }

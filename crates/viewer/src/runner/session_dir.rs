@@ -8,8 +8,8 @@ use std::time::Duration;
 
 use experiment::design::Design;
 use experiment::session::{
-    self, read_tsv, DisplayInfo, EventRow, FrameRow, MarkerRow, SampleRow, SessionInfo, TrialRow,
-    TsvLog,
+    self, read_tsv, ClockRow, DisplayInfo, EventRow, FrameRow, MarkerRow, SampleRow, SessionInfo,
+    Sitting, TrialRow, TsvLog,
 };
 use foveation::Display;
 
@@ -30,6 +30,10 @@ pub struct SessionDir {
     events: TsvLog<EventRow>,
     markers: TsvLog<MarkerRow>,
     frames: TsvLog<FrameRow>,
+    clock: TsvLog<ClockRow>,
+    /// The clock model's newest state, for `session.json` at the close.
+    last_clock: Option<ClockRow>,
+    aborted_trial: Option<(usize, u32)>,
     /// The first write that failed (the runner then stops).
     error: Option<String>,
     written_trials: usize,
@@ -92,6 +96,19 @@ impl SessionDir {
             ));
         }
         let software = format!("gazecast {}", env!("CARGO_PKG_VERSION"));
+        let geometry = display.geometry().map_err(|e| e.to_string())?;
+        let display_info = DisplayInfo {
+            name: display.name.clone(),
+            width_px: geometry.width_px,
+            height_px: geometry.height_px,
+            width_mm: display.size_mm.0,
+            height_mm: display.size_mm.1,
+            distance_mm: display.eye_distance_mm,
+        };
+        let tracker_settings = serde_json::to_value(&gaze.tracker).ok();
+        let (started_unix_us, host_anchor_us) = wall_anchor();
+        let device_clock = gaze.device_clock().describe();
+        let mut aborted_trial = None;
         if exists {
             let mut info = SessionInfo::read(&info_path).map_err(|e| e.to_string())?;
             if info.participant_index != index {
@@ -110,6 +127,8 @@ impl SessionDir {
                     copy_path.display()
                 ));
             }
+            resume_differences(&info, &display_info, &software, gaze)
+                .map_err(|d| format!("--resume: {}: {d}", info_path.display()))?;
             let done = read_tsv::<TrialRow>(&trials_path).map_err(|e| e.to_string())?;
             for w in &done.warnings {
                 eprintln!("warning: {w}");
@@ -126,24 +145,42 @@ impl SessionDir {
             }
             next_trial = done.rows.len();
             sitting = 1 + info
-                .notes
+                .sittings
                 .iter()
-                .filter(|n| n.starts_with("sitting "))
-                .count() as u32;
+                .map(|s| s.number)
+                .max()
+                .unwrap_or_else(|| {
+                    info.notes
+                        .iter()
+                        .filter(|n| n.starts_with("sitting "))
+                        .count() as u32
+                });
+            aborted_trial = Some((next_trial, sitting - 1));
             info.notes.push(format!(
                 "sitting {sitting} from trial {} ({software}, {})",
                 next_trial + 1,
                 gaze.name
             ));
+            info.sittings.push(Sitting {
+                number: sitting,
+                first_trial: next_trial,
+                started_unix_us,
+                host_anchor_us,
+                software: software.clone(),
+                tracker: gaze.name.clone(),
+                tracker_settings,
+                device_clock,
+                clock: None,
+            });
             info.synthetic |= opts.simulate.is_some();
             info.write(&info_path).map_err(|e| e.to_string())?;
         } else {
             std::fs::create_dir_all(path.join(session::STIMULI_DIR)).map_err(io(&path))?;
             let copy_path = path.join(session::DESIGN_RON);
             std::fs::write(&copy_path, &design_text).map_err(io(&copy_path))?;
-            let geometry = display.geometry().map_err(|e| e.to_string())?;
             let rate = match &gaze.tracker.driver {
                 tracker_hal::Driver::Mouse(m) => Some(m.rate_hz),
+                tracker_hal::Driver::Iscan(i) => Some(i.rate_hz),
                 _ => None,
             };
             let info = SessionInfo {
@@ -151,25 +188,26 @@ impl SessionDir {
                 participant_index: index,
                 design_name: design.name.clone(),
                 software: software.clone(),
-                display: DisplayInfo {
-                    name: display.name.clone(),
-                    width_px: geometry.width_px,
-                    height_px: geometry.height_px,
-                    width_mm: display.size_mm.0,
-                    height_mm: display.size_mm.1,
-                    distance_mm: display.eye_distance_mm,
-                },
+                display: display_info,
                 tracker: gaze.name.clone(),
                 tracker_rate_hz: rate,
-                started_unix_s: std::time::SystemTime::now()
-                    .duration_since(std::time::UNIX_EPOCH)
-                    .map(|d| d.as_secs_f64())
-                    .unwrap_or(0.0),
+                started_unix_s: started_unix_us as f64 / 1e6,
                 synthetic: opts.simulate.is_some(),
                 notes: vec![format!(
                     "sitting 1 from trial 1 ({software}, {})",
                     gaze.name
                 )],
+                sittings: vec![Sitting {
+                    number: 1,
+                    first_trial: 0,
+                    started_unix_us,
+                    host_anchor_us,
+                    software: software.clone(),
+                    tracker: gaze.name.clone(),
+                    tracker_settings,
+                    device_clock,
+                    clock: None,
+                }],
             };
             info.write(&info_path).map_err(|e| e.to_string())?;
         }
@@ -189,6 +227,11 @@ impl SessionDir {
             frames: TsvLog::append_to(open(session::FRAMES_TSV))
                 .map_err(err)?
                 .flush_every(64, every),
+            clock: TsvLog::append_to(open(session::CLOCK_TSV))
+                .map_err(err)?
+                .flush_every(64, every),
+            last_clock: None,
+            aborted_trial,
             path,
             error: None,
             written_trials: 0,
@@ -197,6 +240,33 @@ impl SessionDir {
 
     pub fn path(&self) -> &Path {
         &self.path
+    }
+
+    /// This sitting's number (1 for a new session).
+    pub fn sitting(&self) -> u32 {
+        self.sitting
+    }
+
+    /// A clock-model update: a `clock.tsv` row, and the newest one goes
+    /// into `session.json`'s sitting at the close.
+    pub fn clock(&mut self, c: &tracker_hal::ClockState, _how: &tracker_hal::DeviceClock) {
+        let row = ClockRow {
+            sitting: self.sitting,
+            samples: c.samples,
+            device_us: c.device_us,
+            mapped_us: c.mapped_us,
+            rate: c.rate,
+            drift_ppm: c.drift_ppm,
+            rate_clamped: c.rate_clamped,
+            offset_us: c.offset_us,
+            delay_us: c.delay_us,
+            corrections: c.corrections,
+            non_increasing: c.non_increasing,
+            resets: c.resets,
+        };
+        let r = self.clock.write(&row);
+        self.keep(r);
+        self.last_clock = Some(row);
     }
 
     pub fn participant(&self) -> &str {
@@ -227,6 +297,12 @@ impl SessionDir {
     pub fn sample(&mut self, row: &SampleRow) {
         let r = self.samples.write(row);
         self.keep(r);
+    }
+
+    /// The trial an earlier sitting left unfinished (it is run again in
+    /// this one), and that sitting: its rows there are aborted.
+    pub fn aborted_trial(&self) -> Option<(usize, u32)> {
+        self.aborted_trial
     }
 
     pub fn marker(&mut self, row: &MarkerRow) {
@@ -261,15 +337,27 @@ impl SessionDir {
         Ok(())
     }
 
-    /// Flushes every file; the closing line for the log.
+    /// Flushes every file and puts the sitting's final clock model into
+    /// `session.json`; the closing line for the log.
     pub fn close(&mut self) -> String {
         for r in [
             self.samples.flush(),
             self.events.flush(),
             self.markers.flush(),
             self.frames.flush(),
+            self.clock.flush(),
             self.trials.flush(),
         ] {
+            self.keep(r);
+        }
+        if let Some(c) = self.last_clock.take() {
+            let info_path = self.path.join(session::SESSION_JSON);
+            let r = SessionInfo::read(&info_path).and_then(|mut info| {
+                if let Some(s) = info.sittings.iter_mut().find(|s| s.number == self.sitting) {
+                    s.clock = Some(c);
+                }
+                info.write(&info_path)
+            });
             self.keep(r);
         }
         match &self.error {
@@ -285,6 +373,65 @@ impl SessionDir {
             ),
         }
     }
+}
+
+/// The wall clock (Unix µs) and this process's host clock (µs) at one
+/// instant: the host clock read on both sides of the wall clock, taking
+/// the midpoint (they are microseconds apart).
+fn wall_anchor() -> (u64, u64) {
+    let a = tracker_hal::clock::monotonic_us();
+    let unix = std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map(|d| d.as_micros() as u64)
+        .unwrap_or(0);
+    let b = tracker_hal::clock::monotonic_us();
+    (unix, a + (b - a) / 2)
+}
+
+/// What a resumed sitting may not change: the display, the software and
+/// the tracker's settings (all but how it is reached: its port or USB
+/// device). The first difference, named.
+fn resume_differences(
+    info: &SessionInfo,
+    display: &DisplayInfo,
+    software: &str,
+    gaze: &GazeSetup,
+) -> Result<(), String> {
+    if info.display != *display {
+        let (a, b) = (&info.display, display);
+        return Err(format!(
+            "the session ran on display {:?} ({}x{} px, {}x{} mm at {} mm); this sitting would run on {:?} ({}x{} px, {}x{} mm at {} mm): a session continues on the display it started on",
+            a.name, a.width_px, a.height_px, a.width_mm, a.height_mm, a.distance_mm,
+            b.name, b.width_px, b.height_px, b.width_mm, b.height_mm, b.distance_mm
+        ));
+    }
+    if info.software != software {
+        return Err(format!(
+            "the session was started by {}, this is {software}: finish it with the same version",
+            info.software
+        ));
+    }
+    let first = info
+        .sittings
+        .first()
+        .and_then(|s| s.tracker_settings.clone());
+    if let Some(first) = first {
+        let Ok(was) = serde_json::from_value::<tracker_hal::TrackerConfig>(first) else {
+            return Err("the first sitting's tracker settings cannot be read".into());
+        };
+        let d = crate::tracker_cmd::tracker_differences_except(
+            &was,
+            &gaze.tracker,
+            crate::tracker_cmd::CONNECTION_ONLY,
+        );
+        if !d.is_empty() {
+            return Err(format!(
+                "the tracker differs from the first sitting's ({}); only its port or USB device may change",
+                d.join("; ")
+            ));
+        }
+    }
+    Ok(())
 }
 
 #[cfg(test)]

@@ -12,7 +12,7 @@ use plotters::prelude::*;
 use plotters::style::text_anchor::{HPos, Pos, VPos};
 use raycast::{Camera, Frame, Scene};
 use tracker_hal::clock::monotonic_us;
-use tracker_hal::events::{classify, merge_congruent_fixations, EventKind, IvtConfig};
+use tracker_hal::events::{classify, merge_congruent_fixations, EventKind, IvtConfig, TimedGaze};
 
 use super::flow::Phase;
 use super::session_dir::SessionDir;
@@ -41,8 +41,8 @@ pub struct TrialState {
     frames: u64,
     late: u64,
     rays: u64,
-    /// Mapped gaze (host µs, px or invalid) from the preview on.
-    samples: Vec<(u64, Option<[f64; 2]>)>,
+    /// The gaze samples (times, px or invalid) from the preview on.
+    samples: Vec<TimedGaze>,
 }
 
 /// Fixations closer than this (degrees) with only saccades between them,
@@ -120,11 +120,26 @@ impl TrialState {
         })
     }
 
-    /// A gaze sample during the trial.
-    pub fn sample(&mut self, host_us: u64, gaze: Option<[f64; 2]>) {
-        if self.response_us.is_none() && self.samples.len() < MAX_TRIAL_SAMPLES {
-            self.samples.push((host_us, gaze));
+    /// A gaze sample during the trial (kept until the trial is written:
+    /// samples captured before the response may arrive after it).
+    pub fn sample(&mut self, s: TimedGaze) {
+        if self.samples.len() < MAX_TRIAL_SAMPLES {
+            self.samples.push(s);
         }
+    }
+
+    /// The trial has its response, but the tracker has not yet delivered a
+    /// sample captured after it (the events need every sample up to it).
+    pub fn awaits_samples(&self) -> bool {
+        self.response_us.is_some_and(|r| {
+            self.samples.len() < MAX_TRIAL_SAMPLES
+                && self
+                    .samples
+                    .iter()
+                    .rev()
+                    .find(|s| s.order.is_timed())
+                    .is_none_or(|s| s.mapped_us < r)
+        })
     }
 
     /// Renders the search display for `gaze`: (rays, render ms).
@@ -227,9 +242,16 @@ impl TrialState {
         let (Some(onset), Some(response)) = (self.onset_us, self.response_us) else {
             return Err(format!("trial {}: ended without a search", trial.index + 1));
         };
-        let raw_events = classify(&self.samples, &setup.geometry, &IvtConfig::default());
+        // The samples captured up to the response (on the mapped clock).
+        let n = self
+            .samples
+            .iter()
+            .rposition(|s| s.order.is_timed() && s.mapped_us <= response)
+            .map_or(0, |i| i + 1);
+        let samples = &self.samples[..n];
+        let classified = classify(samples, &setup.geometry, &IvtConfig::default());
         let events = merge_congruent_fixations(
-            &raw_events,
+            &classified.events,
             &setup.geometry,
             CONGRUENT_DEG,
             CONGRUENT_GAP_US,
@@ -242,24 +264,21 @@ impl TrialState {
                     (centroid_px[0], centroid_px[1]),
                 ),
                 EventKind::Saccade { .. } => {
-                    let at = |t: u64| {
-                        self.samples
-                            .iter()
-                            .filter(|s| s.0 >= t)
-                            .find_map(|s| s.1)
-                            .unwrap_or([f64::NAN, f64::NAN])
-                    };
-                    let (a, b) = (at(e.start_us), at(e.end_us));
+                    let at = |i: usize| samples[i].gaze.unwrap_or([f64::NAN, f64::NAN]);
+                    let (a, b) = (at(e.first), at(e.last));
                     ("saccade", (a[0], a[1]), (b[0], b[1]))
                 }
                 EventKind::Blink => ("blink", (f64::NAN, f64::NAN), (f64::NAN, f64::NAN)),
                 EventKind::Lost => ("lost", (f64::NAN, f64::NAN), (f64::NAN, f64::NAN)),
             };
             dir.event(&EventRow {
+                sitting: dir.sitting(),
                 trial: Some(trial.index),
                 kind: kind.into(),
                 onset_us: e.start_us,
                 end_us: e.end_us,
+                onset_device_us: e.start_device_us,
+                end_device_us: e.end_device_us,
                 x_px: x,
                 y_px: y,
                 end_x_px: ex,
@@ -274,6 +293,7 @@ impl TrialState {
         let rt_s = response.saturating_sub(onset) as f64 / 1e6;
         let row = TrialRow {
             participant: participant.to_string(),
+            sitting: dir.sitting(),
             run: trial.run,
             trial: trial.index,
             trial_in_run: trial.trial_in_run,

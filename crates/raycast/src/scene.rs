@@ -126,6 +126,7 @@ pub enum Light {
 }
 
 /// Effects a scene asks for; the pipeline runs only these (DESIGN.md).
+/// Each kind may appear once in a scene (a second is an error naming both).
 ///
 /// An effect may carry parameters, written in the scene file as
 /// `Name(field: value, …)` (RON's struct variants: the parentheses are
@@ -305,6 +306,18 @@ impl Effect {
     /// parameters.
     pub fn same_kind(&self, other: &Effect) -> bool {
         std::mem::discriminant(self) == std::mem::discriminant(other)
+    }
+
+    /// The effect's name as the scene file writes it (`DepthOfField`).
+    pub fn kind_name(&self) -> &'static str {
+        match self {
+            Effect::FoveatedSampling => "FoveatedSampling",
+            Effect::SilhouetteRefinement => "SilhouetteRefinement",
+            Effect::CreaseRefinement => "CreaseRefinement",
+            Effect::DepthRefinement => "DepthRefinement",
+            Effect::PorOverlay { .. } => "PorOverlay",
+            Effect::DepthOfField { .. } => "DepthOfField",
+        }
     }
 
     /// Checks the parameters; the error names the field under `field`.
@@ -804,6 +817,18 @@ impl Scene {
         let finite3 = |v: (f32, f32, f32)| v.0.is_finite() && v.1.is_finite() && v.2.is_finite();
         for (i, e) in file.effects.iter().enumerate() {
             e.validate(&format!("effects[{i}]"))?;
+            // Each effect is a switch or one pass with one set of
+            // parameters (`Scene::effect` reads the first): a second of a
+            // kind would run twice or be ignored.
+            if let Some(first) = file.effects[..i].iter().position(|x| x.same_kind(e)) {
+                return Err(SceneError::field(
+                    format!("effects[{i}]"),
+                    format!(
+                        "{} is listed twice (also effects[{first}]): each effect may appear once",
+                        e.kind_name()
+                    ),
+                ));
+            }
         }
         check_colour("background", file.background)?;
         let mut meshes = BTreeMap::new();

@@ -329,7 +329,8 @@ fn check_calibration(files: &Files, text: &str) -> Result<bool, String> {
         Err(e) => return check_error(&path, &e.to_string(), e.field(), e.line()).map(|_| false),
         Ok(c) => c,
     };
-    let (raw, _) = c.ranges();
+    let (raw, screen) = c.ranges();
+    let mut grid = [[[0.0f64; 2]; 9]; 9];
     for i in 0..=8 {
         for j in 0..=8 {
             let p = [
@@ -337,8 +338,28 @@ fn check_calibration(files: &Files, text: &str) -> Result<bool, String> {
                 raw[1] + (raw[3] - raw[1]) * (f64::from(j) / 8.0),
             ];
             match c.map(p) {
-                Some(q) if q[0].is_finite() && q[1].is_finite() => {}
+                Some(q) if q[0].is_finite() && q[1].is_finite() => grid[i as usize][j as usize] = q,
                 q => return Err(format!("accepted, but {p:?} maps to {q:?}")),
+            }
+        }
+    }
+    // The tracker's range lands on an area of the screen: every cell of the
+    // grid keeps one orientation and at least (diagonal/16/8)²/8 px², the
+    // first-order area the Jacobian bound gives with a margin of 8.
+    let diagonal = (screen[2] - screen[0]).hypot(screen[3] - screen[1]);
+    let least = (diagonal * tracker_hal::calibration::MIN_STRETCH / 8.0).powi(2) / 8.0;
+    let mut sign = 0.0f64;
+    for i in 0..8 {
+        for j in 0..8 {
+            let (a, b, d) = (grid[i][j], grid[i + 1][j], grid[i][j + 1]);
+            let cross = (b[0] - a[0]) * (d[1] - a[1]) - (b[1] - a[1]) * (d[0] - a[0]);
+            if sign == 0.0 {
+                sign = cross.signum();
+            }
+            if !(cross.abs() >= least && cross.signum() == sign) {
+                return Err(format!(
+                    "accepted, but the grid cell ({i}, {j}) maps to {cross} px² (at least {least}, one orientation)"
+                ));
             }
         }
     }
@@ -566,6 +587,61 @@ fn mappings_that_cannot_reach_the_screen_are_refused() {
     let err = config::load_calibration(&path).expect_err("scale 1e-300");
     assert_eq!(err.field(), Some("screen.scale"), "{err}");
     assert!(err.to_string().len() < 400, "{err}");
+}
+
+/// Calibrations that map the tracker's range onto a line or a point —
+/// rank 1, parameters of 1e-300, a screen scale of 1e308 — are refused on
+/// the load path `replay`, `view` and `calibrate` use, naming file, line
+/// and field.
+#[test]
+fn degenerate_calibrations_are_refused() {
+    let files = Files::new();
+    let good = Calibration::fit(Model::Affine, &{
+        let mut pairs = Vec::new();
+        for t in [
+            [128.0, 102.0],
+            [1152.0, 102.0],
+            [128.0, 922.0],
+            [1152.0, 922.0],
+            [640.0, 512.0],
+        ] {
+            pairs.push(([t[0] / 2.5, t[1] / 4.0], t));
+        }
+        pairs
+    })
+    .expect("fits");
+    let write = |name: &str, c: &Calibration| {
+        let text = ron::ser::to_string_pretty(c, ron::ser::PrettyConfig::default()).expect("ron");
+        files.write(name, &text)
+    };
+    config::load_calibration(&write("good.ron", &good)).expect("the fitted one loads");
+    let mut cases = Vec::new();
+    // Rank 1: v follows u.
+    let mut rank1 = good.clone();
+    rank1.params[3] = rank1.params[0];
+    rank1.params[4] = rank1.params[1];
+    cases.push(("rank1.ron", rank1, "params"));
+    let mut tiny = good.clone();
+    for p in &mut tiny.params {
+        *p *= 1e-300;
+    }
+    cases.push(("tiny.ron", tiny, "params"));
+    let mut far = good.clone();
+    far.screen.scale = 1e308;
+    cases.push(("far.ron", far, "params"));
+    let mut hand = good.clone();
+    hand.points.clear();
+    hand.screen.scale = 1e308;
+    cases.push(("hand.ron", hand, "screen.scale"));
+    for (name, c, field) in cases {
+        let err = config::load_calibration(&write(name, &c)).expect_err(name);
+        let msg = err.to_string();
+        assert_eq!(err.field(), Some(field), "{name}: {msg}");
+        assert!(
+            msg.contains(name) && err.line() > 0 && msg.len() < 600,
+            "{name}: {msg}"
+        );
+    }
 }
 
 /// An OBJ that cannot be opened says why, with the path.

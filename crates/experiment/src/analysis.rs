@@ -34,7 +34,7 @@
 //! line, every figure's title and the CSVs' first line and first column
 //! say so.
 
-use crate::design::{Condition, Design, DesignError};
+use crate::design::{Condition, Design, DesignError, MAX_SEARCH_S};
 use crate::figures::{self, Bar, BarChart, BarGroup, Fixation, Reference, Scanpath};
 use crate::session::{
     self, read_tsv, EventRow, SessionFileError, SessionInfo, TrialRow, DESIGN_RON, EVENTS_TSV,
@@ -418,14 +418,29 @@ pub fn analyze(
                     second_design: s.design.name.clone(),
                 });
             }
-            if first.design.conditions != s.design.conditions {
+            // Same name is not enough: sessions whose stimuli differ
+            // (`meshes: 4` and `64`, another grid, other conditions) are
+            // never pooled.
+            let differences = first.design.differences(&s.design);
+            if !differences.is_empty() {
+                let shown: Vec<&str> = differences.iter().take(8).map(String::as_str).collect();
                 return Err(AnalysisError::Invalid {
                     path: s.dir.join(DESIGN_RON),
                     line: None,
                     message: format!(
-                        "design {:?} has other conditions than in {}",
+                        "design {:?} differs from {} in {} field{} ({}{}): sessions that ran \
+                         different stimuli are not pooled; analyse each version of the design \
+                         separately",
                         s.design.name,
-                        first.dir.join(DESIGN_RON).display()
+                        first.dir.join(DESIGN_RON).display(),
+                        differences.len(),
+                        if differences.len() == 1 { "" } else { "s" },
+                        shown.join("; "),
+                        if differences.len() > shown.len() {
+                            "; …"
+                        } else {
+                            ""
+                        }
                     ),
                 });
             }
@@ -631,10 +646,10 @@ fn load_session(
                 describe(&row.method, row.inset_deg, row.silhouette_edges)
             )));
         }
-        if !(row.rt_s.is_finite() && row.rt_s >= 0.0) {
+        if !(row.rt_s.is_finite() && (0.0..=MAX_SEARCH_S).contains(&row.rt_s)) {
             return Err(bad(format!(
-                "rt_s {} is not a finite, non-negative number of seconds",
-                row.rt_s
+                "rt_s {}: a search time must be 0 to {MAX_SEARCH_S} s",
+                screen_geometry::fmt_f64(row.rt_s)
             )));
         }
         if let Some(first) = seen.insert(row.trial, line) {
@@ -814,16 +829,23 @@ fn compute(sessions: &[Loaded], opts: &AnalyzeOptions, mut warnings: Vec<String>
         } else {
             let gs: Vec<&[f64]> = present.iter().map(|(_, (_, xs))| xs.as_slice()).collect();
             let labels: Vec<String> = present.iter().map(|(l, _)| l.to_string()).collect();
-            match (stats::one_way_anova(&gs), stats::pairwise_t_pooled(&gs)) {
-                (Ok(a), Ok(ps)) => Computed::Done(EdgesAnalysis {
-                    groups: present
-                        .iter()
-                        .map(|(l, (names, xs))| GroupStats {
-                            label: l.to_string(),
-                            conditions: names.clone(),
-                            summary: stats::summarize(xs).expect("non-empty, finite"),
-                        })
-                        .collect(),
+            let summaries: Result<Vec<GroupStats>, stats::StatsError> = present
+                .iter()
+                .map(|(l, (names, xs))| {
+                    Ok(GroupStats {
+                        label: l.to_string(),
+                        conditions: names.clone(),
+                        summary: stats::summarize(xs)?,
+                    })
+                })
+                .collect();
+            match (
+                summaries,
+                stats::one_way_anova(&gs),
+                stats::pairwise_t_pooled(&gs),
+            ) {
+                (Ok(groups), Ok(a), Ok(ps)) => Computed::Done(EdgesAnalysis {
+                    groups,
                     anova: OneWay {
                         groups: labels.clone(),
                         anova: a,
@@ -837,7 +859,9 @@ fn compute(sessions: &[Loaded], opts: &AnalyzeOptions, mut warnings: Vec<String>
                         })
                         .collect(),
                 }),
-                (Err(e), _) | (_, Err(e)) => Computed::Skipped(format!("edges ANOVA: {e}")),
+                (Err(e), _, _) | (_, Err(e), _) | (_, _, Err(e)) => {
+                    Computed::Skipped(format!("edges ANOVA: {e}"))
+                }
             }
         }
     };
@@ -910,8 +934,7 @@ fn compute(sessions: &[Loaded], opts: &AnalyzeOptions, mut warnings: Vec<String>
             let edge_values: BTreeSet<bool> =
                 hybrid.iter().map(|(_, c)| c.silhouette_edges).collect();
             let mut insets: Vec<f64> = Vec::new();
-            for (_, c) in &hybrid {
-                let d = c.inset_deg.expect("filtered");
+            for d in hybrid.iter().filter_map(|(_, c)| c.inset_deg) {
                 if !insets.contains(&d) {
                     insets.push(d);
                 }

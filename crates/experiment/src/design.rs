@@ -145,6 +145,47 @@ pub struct Stimulus {
     pub grid_deg: f64,
 }
 
+/// Longest condition name, factor name or factor level (characters).
+pub const MAX_LABEL_CHARS: usize = 32;
+
+/// Checks a condition name, factor name or factor level, which end up as
+/// TSV and CSV cells, BIDS `trial_type` values, Markdown table cells and
+/// figure labels: 1 to [`MAX_LABEL_CHARS`] ASCII letters, digits, `-`,
+/// `_`, `.` and `+`, starting with a letter or a digit. So no tab or
+/// newline (they split TSV rows and cells), no `/` or `\` and no `.` or
+/// `..` (a name must never act as a path), no quote, comma or `|` (CSV and
+/// Markdown), and never BIDS's missing value `n/a`.
+pub fn check_label(field: &str, value: &str) -> Result<(), DesignError> {
+    let bad = |why: String| Err(DesignError::invalid(field, format!("{value:?}: {why}")));
+    if value.eq_ignore_ascii_case("n/a") {
+        return bad("is BIDS's marker of a missing value; choose another name".into());
+    }
+    let n = value.chars().count();
+    if n == 0 || n > MAX_LABEL_CHARS {
+        return bad(format!(
+            "must be 1 to {MAX_LABEL_CHARS} characters, got {n}"
+        ));
+    }
+    if let Some(c) = value
+        .chars()
+        .find(|c| !(c.is_ascii_alphanumeric() || matches!(c, '-' | '_' | '.' | '+')))
+    {
+        return bad(format!(
+            "{c:?} is not allowed (ASCII letters, digits, '-', '_', '.' and '+' only: the name is \
+             written into TSV, CSV and BIDS files)"
+        ));
+    }
+    if !value.starts_with(|c: char| c.is_ascii_alphanumeric()) {
+        return bad("must start with a letter or a digit".into());
+    }
+    Ok(())
+}
+
+/// Longest search a trial may record, seconds (an hour): the bound of a
+/// design's `response.max_search_s`, and of every `rt_s` that `analyze`
+/// reads (a longer one is invalid input, named by file and line).
+pub const MAX_SEARCH_S: f64 = 3600.0;
+
 /// Most trials a participant's plan may hold (a day of 1-s trials).
 pub const MAX_TRIALS: usize = 100_000;
 
@@ -280,6 +321,25 @@ impl Design {
         Self::from_ron_str(&text)
     }
 
+    /// Every field in which `other` differs from `self`, as
+    /// `path: this → that` (e.g. `stimulus.meshes: 4 → 64`), in field
+    /// order; empty when the two designs produce the same stimuli and
+    /// data. Only `description` (free text) is ignored: every other field
+    /// changes what a participant sees, in which order, or what a trial
+    /// records, so sessions of designs that differ must not be pooled.
+    pub fn differences(&self, other: &Design) -> Vec<String> {
+        let value = |d: &Design| {
+            let mut v = serde_json::to_value(d).unwrap_or(serde_json::Value::Null);
+            if let Some(map) = v.as_object_mut() {
+                map.remove("description");
+            }
+            v
+        };
+        let mut out = Vec::new();
+        diff_values("", &value(self), &value(other), &mut out);
+        out
+    }
+
     /// Trials per run (one per condition).
     pub fn trials_per_run(&self) -> usize {
         self.conditions.len()
@@ -362,10 +422,10 @@ impl Design {
             ));
         }
         if let Some(t) = self.response.max_search_s {
-            if !(t.is_finite() && t > 0.0 && t <= 3600.0) {
+            if !(t.is_finite() && t > 0.0 && t <= MAX_SEARCH_S) {
                 return Err(DesignError::invalid(
                     "response.max_search_s",
-                    format!("must be in (0, 3600] seconds, got {t}"),
+                    format!("must be in (0, {MAX_SEARCH_S}] seconds, got {t}"),
                 ));
             }
         }
@@ -418,12 +478,7 @@ impl Design {
 
     fn validate_factors(&self) -> Result<(), DesignError> {
         for (i, f) in self.factors.iter().enumerate() {
-            if f.name.trim().is_empty() {
-                return Err(DesignError::invalid(
-                    format!("factors[{i}].name"),
-                    "must not be empty",
-                ));
-            }
+            check_label(&format!("factors[{i}].name"), &f.name)?;
             if let Some(j) = self.factors[..i].iter().position(|g| g.name == f.name) {
                 return Err(DesignError::invalid(
                     format!("factors[{i}].name"),
@@ -437,6 +492,7 @@ impl Design {
                 ));
             }
             for (l, level) in f.levels.iter().enumerate() {
+                check_label(&format!("factors[{i}].levels[{l}]"), level)?;
                 if let Some(m) = f.levels[..l].iter().position(|x| x == level) {
                     return Err(DesignError::invalid(
                         format!("factors[{i}].levels[{l}]"),
@@ -457,9 +513,7 @@ impl Design {
         }
         for (i, c) in self.conditions.iter().enumerate() {
             let at = |field: &str| format!("conditions[{i}].{field}");
-            if c.name.trim().is_empty() {
-                return Err(DesignError::invalid(at("name"), "must not be empty"));
-            }
+            check_label(&at("name"), &c.name)?;
             if let Some(j) = self.conditions[..i].iter().position(|d| d.name == c.name) {
                 return Err(DesignError::invalid(
                     at("name"),
@@ -550,6 +604,50 @@ impl Design {
             }
         }
         Ok(())
+    }
+}
+
+/// Appends the paths where `a` and `b` differ (objects key by key, arrays
+/// element by element when of equal length, anything else as a whole).
+fn diff_values(path: &str, a: &serde_json::Value, b: &serde_json::Value, out: &mut Vec<String>) {
+    use serde_json::Value;
+    let join = |k: &str| {
+        if path.is_empty() {
+            k.to_string()
+        } else {
+            format!("{path}.{k}")
+        }
+    };
+    match (a, b) {
+        (Value::Object(x), Value::Object(y)) => {
+            let keys: std::collections::BTreeSet<&String> = x.keys().chain(y.keys()).collect();
+            for k in keys {
+                let null = Value::Null;
+                diff_values(
+                    &join(k),
+                    x.get(k).unwrap_or(&null),
+                    y.get(k).unwrap_or(&null),
+                    out,
+                );
+            }
+        }
+        (Value::Array(x), Value::Array(y)) if x.len() == y.len() => {
+            for (i, (p, q)) in x.iter().zip(y).enumerate() {
+                diff_values(&format!("{path}[{i}]"), p, q, out);
+            }
+        }
+        _ if a != b => {
+            let show = |v: &Value| {
+                let s = v.to_string();
+                if s.chars().count() > 60 {
+                    format!("{}…", s.chars().take(60).collect::<String>())
+                } else {
+                    s
+                }
+            };
+            out.push(format!("{path}: {} → {}", show(a), show(b)));
+        }
+        _ => {}
     }
 }
 

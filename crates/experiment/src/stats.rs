@@ -4,10 +4,13 @@
 //! p-values (the analyses of Murphy 2007 §7.2, plus the within-subjects
 //! analysis its design calls for).
 //!
-//! The F and t tail probabilities come from `statrs`. Every input value
-//! must be finite: NaN or ±∞ is an error naming the group and position.
+//! The F and t tail probabilities are regularised incomplete beta
+//! functions from `statrs` (its checked form: an argument it cannot take is
+//! an error here, never a panic or a NaN). Every input value must be
+//! finite: NaN or ±∞ is an error naming the group and position; a sum,
+//! mean square or statistic that overflows is [`StatsError::Overflow`].
 
-use statrs::distribution::{ContinuousCDF, FisherSnedecor, StudentsT};
+use statrs::function::beta::checked_beta_reg;
 
 /// Why a statistic could not be computed.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -40,6 +43,22 @@ pub enum StatsError {
     /// so are the group means: the ratio is 0/0.
     #[error("zero variance: the statistic is 0/0")]
     ZeroVariance,
+    /// An intermediate sum or the statistic is not a finite number (the
+    /// values are too large to square and add in `f64`).
+    #[error("{0} overflows: the values are too large for the arithmetic")]
+    Overflow(&'static str),
+    /// The tail probability cannot be computed for these arguments.
+    #[error("no p-value for {statistic} = {value} on ({df1}, {df2}) degrees of freedom")]
+    NoPValue {
+        /// `F` or `t`.
+        statistic: &'static str,
+        /// The statistic.
+        value: f64,
+        /// First (or only) degrees of freedom.
+        df1: f64,
+        /// Second degrees of freedom (`t`: the same as `df1`).
+        df2: f64,
+    },
     /// Repeated-measures rows differ in length.
     #[error("subject {subject} has {got} values, expected {expected}")]
     Ragged {
@@ -93,6 +112,9 @@ pub fn summarize(xs: &[f64]) -> Result<Summary, StatsError> {
     } else {
         0.0
     };
+    if !(mean.is_finite() && sd.is_finite()) {
+        return Err(StatsError::Overflow("the mean or the SD"));
+    }
     Ok(Summary {
         n,
         mean,
@@ -171,6 +193,12 @@ pub fn one_way_anova(groups: &[&[f64]]) -> Result<Anova, StatsError> {
 
 /// `F = num / den` and its upper-tail p on `(d1, d2)` df.
 fn f_test(num: f64, den: f64, d1: f64, d2: f64) -> Result<(f64, f64), StatsError> {
+    if !num.is_finite() {
+        return Err(StatsError::Overflow("the between-groups mean square"));
+    }
+    if !den.is_finite() {
+        return Err(StatsError::Overflow("the error mean square"));
+    }
     // Relative tolerance: residual sums of squares that are zero in exact
     // arithmetic come out as rounding noise.
     if den <= 0.0 || den <= num.abs() * 1e-14 {
@@ -180,15 +208,55 @@ fn f_test(num: f64, den: f64, d1: f64, d2: f64) -> Result<(f64, f64), StatsError
         return Err(StatsError::ZeroVariance);
     }
     let f = num / den;
-    Ok((f, f_sf(f, d1, d2)))
+    if !f.is_finite() {
+        return Err(StatsError::Overflow("F"));
+    }
+    Ok((f, f_sf(f, d1, d2)?))
 }
 
-/// Upper tail of the F distribution (statrs `FisherSnedecor::sf`).
-fn f_sf(f: f64, d1: f64, d2: f64) -> f64 {
-    match FisherSnedecor::new(d1, d2) {
-        Ok(dist) => dist.sf(f),
-        Err(_) => f64::NAN,
+/// Upper tail of the F distribution, `P(F(d1, d2) ≥ f) = I_x(d2/2, d1/2)`
+/// with `x = d2 / (d2 + d1·f)` (Abramowitz & Stegun 26.6.2), written so
+/// that a huge `f` gives `x → 0` rather than ∞/∞.
+pub fn f_sf(f: f64, d1: f64, d2: f64) -> Result<f64, StatsError> {
+    let none = || StatsError::NoPValue {
+        statistic: "F",
+        value: f,
+        df1: d1,
+        df2: d2,
+    };
+    if !(d1 > 0.0 && d2 > 0.0 && d1.is_finite() && d2.is_finite()) || f.is_nan() {
+        return Err(none());
     }
+    if f <= 0.0 {
+        return Ok(1.0);
+    }
+    if f.is_infinite() {
+        return Ok(0.0);
+    }
+    let x = d2 / (d2 + d1 * f);
+    checked_beta_reg(d2 / 2.0, d1 / 2.0, x.clamp(0.0, 1.0)).map_err(|_| none())
+}
+
+/// Two-sided p of Student's t on `df` degrees of freedom,
+/// `P(|T| ≥ |t|) = I_x(df/2, 1/2)` with `x = df / (df + t²)` (Abramowitz &
+/// Stegun 26.7.1), written so that a huge `t` gives `x → 0`.
+pub fn t_two_sided_p(t: f64, df: f64) -> Result<f64, StatsError> {
+    let none = || StatsError::NoPValue {
+        statistic: "t",
+        value: t,
+        df1: df,
+        df2: df,
+    };
+    if !(df > 0.0 && df.is_finite()) || t.is_nan() {
+        return Err(none());
+    }
+    if t.is_infinite() {
+        return Ok(0.0);
+    }
+    let x = df / (df + t * t);
+    checked_beta_reg(df / 2.0, 0.5, x.clamp(0.0, 1.0))
+        .map(|p| p.min(1.0))
+        .map_err(|_| none())
 }
 
 /// A repeated-measures (within-subjects) one-way ANOVA table.
@@ -304,10 +372,13 @@ pub fn rm_anova(data: &[&[f64]]) -> Result<RmAnova, StatsError> {
     } else {
         1.0
     };
+    if !(trace.is_finite() && sum_sq.is_finite()) {
+        return Err(StatsError::Overflow("the covariance of the conditions"));
+    }
     let p_gg = if f.is_infinite() {
         0.0
     } else {
-        f_sf(f, gg_epsilon * df_conditions, gg_epsilon * df_error)
+        f_sf(f, gg_epsilon * df_conditions, gg_epsilon * df_error)?
     };
     Ok(RmAnova {
         subjects: n,
@@ -356,7 +427,6 @@ pub fn pairwise_t_pooled(groups: &[&[f64]]) -> Result<Vec<Pair>, StatsError> {
         return Err(StatsError::ZeroVariance);
     }
     let df = anova.df_within;
-    let t_dist = StudentsT::new(0.0, 1.0, df).map_err(|_| StatsError::NoErrorDf)?;
     let means: Vec<f64> = groups
         .iter()
         .map(|g| g.iter().sum::<f64>() / g.len() as f64)
@@ -369,7 +439,10 @@ pub fn pairwise_t_pooled(groups: &[&[f64]]) -> Result<Vec<Pair>, StatsError> {
                 * (1.0 / groups[a].len() as f64 + 1.0 / groups[b].len() as f64))
                 .sqrt();
             let t = diff / se;
-            let p = (2.0 * t_dist.sf(t.abs())).min(1.0);
+            if !t.is_finite() {
+                return Err(StatsError::Overflow("t"));
+            }
+            let p = t_two_sided_p(t, df)?;
             pairs.push(Pair {
                 a,
                 b,

@@ -7,7 +7,7 @@
 use experiment::analysis::{analyze, AnalysisError, AnalyzeOptions, Computed};
 use experiment::design::Design;
 use experiment::session::{
-    self, DisplayInfo, EventRow, SessionInfo, TrialRow, TsvLog, DESIGN_RON, SESSION_JSON,
+    self, DisplayInfo, EventRow, SessionInfo, TrialRow, TsvLog, TsvRow, DESIGN_RON, SESSION_JSON,
     TRIALS_TSV,
 };
 use experiment::stats;
@@ -1076,4 +1076,132 @@ fn stimulus_pictures_in_any_png_colour_type_are_read_as_rgb() {
         None,
     ));
     assert_eq!(half, vec![100, 50, 25, 0, 0, 0]);
+}
+
+/// Replaces field `column` (0-based) of line `line` (1-based, header = 1)
+/// of `path`'s TSV.
+fn set_cell(path: &Path, line: usize, column: usize, value: &str) {
+    let text = std::fs::read_to_string(path).unwrap();
+    let mut lines: Vec<String> = text.lines().map(String::from).collect();
+    let mut f: Vec<String> = lines[line - 1].split('\t').map(String::from).collect();
+    f[column] = value.into();
+    lines[line - 1] = f.join("\t");
+    std::fs::write(path, lines.join("\n") + "\n").unwrap();
+}
+
+/// Search times beyond the stated maximum (an hour) are invalid input
+/// naming the file and line, not F = inf, 309-digit means or a panic in
+/// the ANOVA (two sessions at 1e308 panicked).
+#[test]
+fn search_times_beyond_the_maximum_are_invalid_input() {
+    let tmp = tempfile::tempdir().unwrap();
+    let out = tmp.path().join("out");
+    let rt = <TrialRow as TsvRow>::COLUMNS
+        .iter()
+        .position(|c| *c == "rt_s")
+        .unwrap();
+    for (k, value) in ["1e155", "1e308", "3600.5", "86400"].iter().enumerate() {
+        let a = tmp.path().join(format!("a{k}"));
+        let b = tmp.path().join(format!("b{k}"));
+        let mut g = Gen::new("A", 0);
+        g.stimuli.clear();
+        make_session(&a, &g);
+        let mut g = Gen::new("B", 1);
+        g.stimuli.clear();
+        make_session(&b, &g);
+        set_cell(&a.join(TRIALS_TSV), 3, rt, value);
+        set_cell(&b.join(TRIALS_TSV), 7, rt, value);
+        let msg = err_of(&[a.clone(), b], &out).to_string();
+        assert!(
+            msg.contains(&a.join(TRIALS_TSV).display().to_string())
+                && msg.contains("line 3")
+                && msg.contains("rt_s")
+                && msg.contains("3600")
+                && msg.len() < 300,
+            "{value}: {msg}"
+        );
+    }
+    // The maximum itself is accepted.
+    let a = tmp.path().join("max");
+    let mut g = Gen::new("A", 0);
+    g.stimuli.clear();
+    make_session(&a, &g);
+    set_cell(&a.join(TRIALS_TSV), 3, rt, "3600");
+    let report = analyze(&[a], &out, &AnalyzeOptions::default()).expect("an hour is allowed");
+    assert!(report.conditions.iter().all(|c| c
+        .summary
+        .is_none_or(|s| s.mean.is_finite() && s.mean < 3600.0)));
+}
+
+/// Sessions of one design name whose stimuli differ (`meshes: 4` and
+/// `64`, another grid, another object size, another condition) are
+/// refused, naming the field and both values.
+#[test]
+fn sessions_with_different_stimuli_are_not_pooled() {
+    let tmp = tempfile::tempdir().unwrap();
+    let out = tmp.path().join("out");
+    let cases = [
+        ("meshes: 4", "meshes: 64", "stimulus.meshes: 4 → 64"),
+        ("grid: (5, 5)", "grid: (5, 6)", "stimulus.grid[1]: 5 → 6"),
+        (
+            "object_deg: 3.5",
+            "object_deg: 2.5",
+            "stimulus.object_deg: 3.5 → 2.5",
+        ),
+        ("seed: 2007", "seed: 2008", "stimulus.seed: 2007 → 2008"),
+        ("contrast: 0.25", "contrast: 0.5", "contrast: 0.25 → 0.5"),
+        (
+            "inset_deg: Some(20.0), silhouette_edges: true",
+            "inset_deg: Some(25.0), silhouette_edges: true",
+            "conditions[10].inset_deg: 20.0 → 25.0",
+        ),
+    ];
+    for (k, (from, to, named)) in cases.iter().enumerate() {
+        let a = tmp.path().join(format!("a{k}"));
+        let b = tmp.path().join(format!("b{k}"));
+        let mut g = Gen::new("A", 0);
+        g.stimuli.clear();
+        make_session(&a, &g);
+        let mut g = Gen::new("B", 1);
+        g.stimuli.clear();
+        make_session(&b, &g);
+        let ron = std::fs::read_to_string(b.join(DESIGN_RON)).unwrap();
+        assert!(ron.contains(from), "{from}");
+        std::fs::write(b.join(DESIGN_RON), ron.replacen(from, to, 1)).unwrap();
+        if from.starts_with("inset_deg") {
+            // The rows must agree with their own design (or that is the
+            // error): rewrite E20's rows.
+            let p = b.join(TRIALS_TSV);
+            let cols = <TrialRow as TsvRow>::COLUMNS;
+            let at = |name: &str| cols.iter().position(|c| *c == name).unwrap();
+            let text: Vec<String> = std::fs::read_to_string(&p)
+                .unwrap()
+                .lines()
+                .map(|l| {
+                    let mut f: Vec<&str> = l.split('\t').collect();
+                    if f.get(at("condition")) == Some(&"E20") {
+                        f[at("inset_deg")] = "25";
+                    }
+                    f.join("\t")
+                })
+                .collect();
+            std::fs::write(&p, text.join("\n") + "\n").unwrap();
+        }
+        let msg = err_of(&[a.clone(), b.clone()], &out).to_string();
+        assert!(
+            msg.contains(&b.join(DESIGN_RON).display().to_string())
+                && msg.contains(named)
+                && msg.contains("not pooled"),
+            "{from} → {to}: {msg}"
+        );
+    }
+    // The free-text description may differ.
+    let a = tmp.path().join("d1");
+    let b = tmp.path().join("d2");
+    make_session(&a, &Gen::new("A", 0));
+    make_session(&b, &Gen::new("B", 1));
+    let ron = std::fs::read_to_string(b.join(DESIGN_RON)).unwrap();
+    let ron = ron.replacen("description: \"", "description: \"Re-run. ", 1);
+    std::fs::write(b.join(DESIGN_RON), ron).unwrap();
+    analyze(&[a, b], &out, &AnalyzeOptions::default()).expect("only the description differs");
 }

@@ -166,3 +166,53 @@ fn an_image_condition_takes_an_inset_but_no_edges() {
     );
     assert_eq!(field_of(&bad), "conditions[0].inset_deg");
 }
+
+/// Condition names, factor names and levels that would break a TSV row,
+/// a BIDS value or a path are refused, naming the field.
+#[test]
+fn names_that_break_tsv_bids_or_paths_are_refused() {
+    let text = murphy_text();
+    for bad in [
+        "E\t10", "E\n10", "E\r10", "a/../b", "../E", "n/a", "N/A", "..", ".", "-E", "E,10",
+        "E\"10", "E|10", "E 10", "", "Ë10", "E/10", "E\\10",
+    ] {
+        let name = format!("{bad:?}");
+        let t = text.replacen("name: \"E10\"", &format!("name: {name}"), 1);
+        assert_eq!(field_of(&t), "conditions[8].name", "{bad:?}");
+        let t = text.replacen(
+            "\"kept\", \"discarded\"",
+            &format!("{name}, \"discarded\""),
+            1,
+        );
+        assert_eq!(field_of(&t), "factors[1].levels[0]", "{bad:?}");
+    }
+    let long = "E".repeat(33);
+    let t = text.replacen("name: \"E10\"", &format!("name: \"{long}\""), 1);
+    assert_eq!(field_of(&t), "conditions[8].name");
+    for good in ["E10", "NE2b", "ctl", "inset-2.5", "A+B", "x_1"] {
+        let t = text.replacen("name: \"E10\"", &format!("name: {good:?}"), 1);
+        Design::from_ron_str(&t).unwrap_or_else(|e| panic!("{good}: {e}"));
+    }
+}
+
+proptest::proptest! {
+    /// Whatever the name: accepted exactly when it follows the rule, and an
+    /// accepted name has nothing a TSV, CSV, BIDS value or path would split
+    /// or read as a separator.
+    #[test]
+    fn a_condition_name_is_accepted_iff_it_follows_the_rule(name in "\\PC{0,3}|[A-Za-z0-9._+/ \t\n-]{0,40}") {
+        let t = murphy_text().replacen("name: \"E10\"", &format!("name: {name:?}"), 1);
+        let rule = !name.is_empty()
+            && name.len() <= 32
+            && name.chars().all(|c| c.is_ascii_alphanumeric() || "-_.+".contains(c))
+            && name.starts_with(|c: char| c.is_ascii_alphanumeric());
+        let duplicate = ["control", "NE2", "NE5", "NE10", "NE15", "NE20", "E2", "E5", "E15", "E20"].contains(&name.as_str());
+        match Design::from_ron_str(&t) {
+            Ok(_) => {
+                proptest::prop_assert!(rule, "{:?} accepted", name);
+                proptest::prop_assert!(!name.contains(['\t', '\n', '\r', '/', '\\', ',', '"', '|']));
+            }
+            Err(e) => proptest::prop_assert!(!rule || duplicate, "{:?}: {}", name, e),
+        }
+    }
+}

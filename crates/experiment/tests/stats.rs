@@ -5,7 +5,10 @@
 //! published (R documentation; Field 2009) and re-derived with a separate
 //! regularised-incomplete-beta implementation.
 
-use experiment::stats::{holm, one_way_anova, pairwise_t_pooled, rm_anova, summarize, StatsError};
+use experiment::stats::{
+    self, holm, one_way_anova, pairwise_t_pooled, rm_anova, summarize, StatsError,
+};
+use proptest::prelude::*;
 
 fn close(got: f64, want: f64, tol: f64, what: &str) {
     assert!(
@@ -266,6 +269,76 @@ proptest::proptest! {
                 if p[i] < p[j] {
                     proptest::prop_assert!(adj[i] <= adj[j]);
                 }
+            }
+        }
+    }
+}
+
+/// Values near the top of f64 (1e308: sums of squares overflow, and
+/// statrs's tail functions panicked on the NaN that followed) are errors,
+/// never a panic or an F of inf.
+#[test]
+fn huge_values_are_an_overflow_error_not_a_panic() {
+    let a = [1e308, 1e308, 9e307];
+    let b = [1.0, 2.0, 3.0];
+    assert!(matches!(
+        stats::one_way_anova(&[&a, &b]),
+        Err(StatsError::Overflow(_))
+    ));
+    assert!(stats::pairwise_t_pooled(&[&a, &b]).is_err());
+    assert!(stats::rm_anova(&[&a, &b]).is_err());
+    assert!(matches!(stats::summarize(&a), Err(StatsError::Overflow(_))));
+    // The tails themselves take any statistic.
+    assert_eq!(stats::f_sf(1e308, 10.0, 473.0), Ok(0.0));
+    assert!((stats::f_sf(0.0, 10.0, 473.0).unwrap() - 1.0).abs() < 1e-15);
+    assert_eq!(stats::t_two_sided_p(1e300, 20.0), Ok(0.0));
+    assert!(stats::f_sf(f64::NAN, 1.0, 2.0).is_err());
+    assert!(stats::t_two_sided_p(1.0, 0.0).is_err());
+}
+
+fn value() -> impl Strategy<Value = f64> {
+    prop_oneof![
+        0.0f64..100.0,
+        Just(1e308),
+        Just(-1e308),
+        Just(1e155),
+        Just(f64::MIN_POSITIVE),
+        1e100f64..1e300,
+        -1e-300f64..1e-300,
+    ]
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(400))]
+
+    /// Any finite values: every test gives finite statistics with p in
+    /// [0, 1] (F may be +∞ with p = 0 when only the means differ), or an
+    /// error; never a panic, never NaN.
+    #[test]
+    fn any_finite_values_give_finite_statistics_or_an_error(
+        groups in prop::collection::vec(prop::collection::vec(value(), 1..6), 2..5),
+    ) {
+        let gs: Vec<&[f64]> = groups.iter().map(|g| g.as_slice()).collect();
+        if let Ok(a) = stats::one_way_anova(&gs) {
+            prop_assert!(a.f >= 0.0 && !a.f.is_nan(), "{a:?}");
+            prop_assert!((0.0..=1.0).contains(&a.p), "{a:?}");
+            prop_assert!(a.ms_within.is_finite() && a.ms_between.is_finite(), "{a:?}");
+        }
+        if let Ok(ps) = stats::pairwise_t_pooled(&gs) {
+            for p in ps {
+                prop_assert!(p.t.is_finite() && (0.0..=1.0).contains(&p.p), "{p:?}");
+                prop_assert!((0.0..=1.0).contains(&p.p_holm), "{p:?}");
+            }
+        }
+        let k = groups[0].len();
+        let rows: Vec<&[f64]> = groups.iter().map(|g| &g[..k.min(g.len())]).collect();
+        if let Ok(r) = stats::rm_anova(&rows) {
+            prop_assert!(!r.f.is_nan() && (0.0..=1.0).contains(&r.p), "{r:?}");
+            prop_assert!((0.0..=1.0).contains(&r.p_gg), "{r:?}");
+        }
+        for g in &gs {
+            if let Ok(s) = stats::summarize(g) {
+                prop_assert!(s.mean.is_finite() && s.sd.is_finite() && s.se.is_finite());
             }
         }
     }

@@ -397,6 +397,10 @@ impl VertexTree {
             }
         }
         edges.sort_unstable();
+        // Clusters on the mesh's open border (an end of an edge of exactly
+        // one live triangle): folding anything above them moves the
+        // object's outline against what lies behind it.
+        let mut border = vec![false; node_cap];
         let mut i = 0;
         while i < edges.len() {
             let e = edges[i].0;
@@ -406,6 +410,8 @@ impl VertexTree {
             }
             let (a, b) = ((e >> 32) as u32, e as u32);
             if j - i == 1 {
+                border[a as usize] = true;
+                border[b as usize] = true;
                 let t = edges[i].1 as usize;
                 let nrm = face_normal[t];
                 let (pa, pb) = (
@@ -539,6 +545,7 @@ impl VertexTree {
             normals,
             luminance,
             triangles,
+            &border,
             welded_groups,
             forest_roots,
         )
@@ -583,6 +590,7 @@ fn finish(
     normals: &[Vec3],
     luminance: &[f32],
     triangles: &[[u32; 3]],
+    border: &[bool],
     welded_groups: u32,
     forest_roots: u32,
 ) -> Result<VertexTree, LodError> {
@@ -617,8 +625,10 @@ fn finish(
     let mut children = vec![[NONE, NONE]; count];
     let mut proxy = Vec::with_capacity(count);
     let mut vertex_of = vec![NONE; count];
+    let mut outline = vec![false; count];
     for (v, &old) in order.iter().enumerate() {
         proxy.push(old_proxy[old as usize]);
+        outline[v] = border[old as usize];
         if (old as usize) < n {
             vertex_of[v] = old;
         } else {
@@ -739,6 +749,7 @@ fn finish(
         let mut mk = mask[a];
         mk.union_with(&mask[b]);
         mask[v] = mk;
+        outline[v] |= outline[a] || outline[b];
         luminance_min[v] = luminance_min[a].min(luminance_min[b]);
         luminance_max[v] = luminance_max[a].max(luminance_max[b]);
         lum_sum[v] = lum_sum[a] + lum_sum[b];
@@ -834,6 +845,7 @@ fn finish(
         fold_contrast,
         mask,
         cone,
+        outline,
         subtri_start,
         subtris,
         triangles: triangles.to_vec(),

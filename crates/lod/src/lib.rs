@@ -99,6 +99,9 @@
 //!   paper's 48 bytes; layout in [`NormalMask`]); a leaf holds the cells of
 //!   its triangles' face normals (zero-area triangles set none); parents OR
 //!   their children.
+//! - *Outline flag*: the node supports a vertex of the open border (an end
+//!   of an edge of exactly one live triangle of the welded mesh); parents
+//!   OR their children.
 //! - *Subtris* (VDS): the triangles that vanish when the node folds, i.e.
 //!   those whose deepest pairwise lowest common ancestor of corners is this
 //!   node. Every drawable triangle is the subtri of exactly one node.
@@ -158,6 +161,15 @@
 //!   perspective is handled (the paper gives no rule); cells near the
 //!   view-perpendicular plane count as both. A cone bounding the mask
 //!   skips the bit loop where it cannot change the answer.
+//!   *Gap decision* (open meshes): a node that supports a vertex of the
+//!   mesh's open border — an end of an edge only one triangle uses, after
+//!   welding ([`VertexTree::on_outline`]) — is a silhouette node from every
+//!   view, whatever its normals. L&H's test assumes closed meshes, where
+//!   the outline is where the normals turn; an open mesh's outline is its
+//!   border, and folding it uncovers the background. Without this a flat
+//!   object facing the viewer (one triangle, a quad, a planar polygon) has
+//!   only front-facing normals and zero interior contrast, and its root
+//!   folded: the object vanished.
 //! - Contrast: the fold contrast, or for a silhouette node
 //!   max(scene contrast, fold contrast) (L&H §3.1, §5.2: the background may
 //!   be exposed; *decision*: the scene's full contrast as given in

@@ -153,7 +153,9 @@ pub struct NodeJudgement {
     pub frequency_cpd: f64,
     /// Angle from the gaze direction to the nearest point of the sphere.
     pub eccentricity_deg: f64,
-    /// The normal mask meets both the might-be-front and might-be-back sets.
+    /// The normal mask meets both the might-be-front and might-be-back
+    /// sets, or the node is on the mesh's open border
+    /// ([`VertexTree::on_outline`]).
     pub silhouette: bool,
     /// The fold contrast, or max(scene, fold) contrast for a silhouette.
     pub contrast: f64,
@@ -279,10 +281,18 @@ impl Frame {
         }
     }
 
+    /// A silhouette node (§5.2): its fold may expose the background. Either
+    /// its normals may face both ways from its view cone, or it holds part
+    /// of the mesh's open border ([`VertexTree::on_outline`]): an open
+    /// mesh's outline is its border, whatever the normals, so a flat object
+    /// facing the viewer is a silhouette there (without this, folding it
+    /// away was judged by its interior contrast alone and the object
+    /// vanished).
     fn silhouette(tree: &VertexTree, node: NodeId, g: &Geometry) -> bool {
         let v = node as usize;
-        tree.cone[v].may_be_silhouette(g.axis, g.sin_a, g.cos_a)
-            && tree.mask[v].is_silhouette(g.axis, g.sin_a, g.cos_a)
+        tree.outline[v]
+            || tree.cone[v].may_be_silhouette(g.axis, g.sin_a, g.cos_a)
+                && tree.mask[v].is_silhouette(g.axis, g.sin_a, g.cos_a)
     }
 
     /// Luebke & Hallen: would folding `node` be perceptible? The silhouette

@@ -46,6 +46,9 @@ pub struct VertexTree {
     pub(crate) fold_contrast: Vec<f32>,
     pub(crate) mask: Vec<NormalMask>,
     pub(crate) cone: Vec<NormalCone>,
+    /// The node supports a vertex of the mesh's open border (see
+    /// [`VertexTree::on_outline`]); OR of the children.
+    pub(crate) outline: Vec<bool>,
     /// CSR: the subtris of node n are `subtris[subtri_start[n]..subtri_start[n+1]]`.
     pub(crate) subtri_start: Vec<u32>,
     pub(crate) subtris: Vec<u32>,
@@ -181,6 +184,17 @@ impl VertexTree {
     /// Normal-cube cells of the supported triangles' normals.
     pub fn normal_mask(&self, node: NodeId) -> &NormalMask {
         &self.mask[node as usize]
+    }
+
+    /// Does `node` support a vertex on the mesh's open border, an end of an
+    /// edge that only one triangle uses (after welding)? Such a node's fold
+    /// moves the border, which is the object's outline against whatever is
+    /// behind it from every view, so selection treats it as a silhouette
+    /// node whatever its normals (a flat object facing the viewer has no
+    /// back-facing normal, yet folding its border removes it). Monotone: a
+    /// parent is on the outline when a child is.
+    pub fn on_outline(&self, node: NodeId) -> bool {
+        self.outline[node as usize]
     }
 
     /// Triangles that vanish when `node` folds: those whose deepest pairwise

@@ -1,7 +1,5 @@
 //! Scene and mesh errors: they name the file, the line where known, and the field.
 
-use std::path::Path;
-
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum SceneError {
     /// A mesh's data is unusable.
@@ -28,6 +26,16 @@ impl SceneError {
         }
     }
 
+    /// An error at line `line` (1-based) of mesh file `origin`.
+    pub fn mesh_at(origin: &str, line: usize, message: impl Into<String>) -> Self {
+        SceneError::Mesh {
+            origin: origin.to_string(),
+            line: Some(line),
+            vertex: None,
+            message: message.into(),
+        }
+    }
+
     pub fn field(field: impl Into<String>, message: impl Into<String>) -> Self {
         SceneError::Field {
             field: field.into(),
@@ -36,7 +44,7 @@ impl SceneError {
     }
 
     /// For an error about vertex `k` of an OBJ file: the line of its `v` statement.
-    pub(crate) fn with_obj_line(self, path: &Path) -> Self {
+    pub(crate) fn with_obj_line(self, text: &str) -> Self {
         match self {
             SceneError::Mesh {
                 origin,
@@ -44,13 +52,12 @@ impl SceneError {
                 vertex: Some(k),
                 message,
             } => {
-                let line = std::fs::read_to_string(path).ok().and_then(|text| {
-                    text.lines()
-                        .enumerate()
-                        .filter(|(_, l)| l.trim_start().starts_with("v "))
-                        .nth(k)
-                        .map(|(i, _)| i + 1)
-                });
+                let line = text
+                    .lines()
+                    .enumerate()
+                    .filter(|(_, l)| l.split_whitespace().next() == Some("v"))
+                    .nth(k)
+                    .map(|(i, _)| i + 1);
                 SceneError::Mesh {
                     origin,
                     line,

@@ -94,20 +94,30 @@ impl TriangleMesh {
         self.indices[i].map(|k| self.positions[k as usize])
     }
 
-    /// Loads the first… all models of an OBJ file as one mesh (triangulated).
+    /// Loads every model of an OBJ file as one mesh (faces of more than
+    /// three vertices are fanned into triangles).
+    ///
+    /// The file must be a regular file (a directory, FIFO or device is
+    /// refused with what it is) of UTF-8 text: a leading UTF-8 byte-order
+    /// mark is skipped; a NUL byte or a byte sequence that is not UTF-8 is
+    /// refused as binary, naming the line. Every face (`f`) needs at least
+    /// three vertices, each index naming an existing vertex: *decision*, a
+    /// face of one or two vertices is an error naming its line (OBJ draws
+    /// points and lines with `p` and `l`; those statements are valid and
+    /// draw nothing here).
     pub fn load_obj(path: &Path) -> Result<Self, SceneError> {
         let origin = path.display().to_string();
+        let bytes = read_obj(path, &origin)?;
+        let text = obj_text(&bytes, &origin)?;
+        check_obj_faces(text, &origin)?;
         let opts = tobj::LoadOptions {
             triangulate: true,
             single_index: true,
-            ..Default::default()
+            // `p` and `l` statements are not surfaces: never triangles.
+            ignore_points: true,
+            ignore_lines: true,
         };
-        // tobj reports "open file failed" and drops the system's reason:
-        // open the file here for the error, and parse from the buffer.
-        let file = std::fs::File::open(path).map_err(|e| {
-            SceneError::mesh(&origin, None, format!("cannot open the OBJ file: {e}"))
-        })?;
-        let mut reader = std::io::BufReader::new(file);
+        let mut reader = std::io::Cursor::new(text.as_bytes());
         let (models, _) = tobj::load_obj_buf(&mut reader, &opts, |_| {
             Err(tobj::LoadError::MaterialParseError)
         })
@@ -123,7 +133,7 @@ impl TriangleMesh {
                 indices.push([base + t[0], base + t[1], base + t[2]]);
             }
         }
-        Self::new(positions, indices, &origin).map_err(|e| e.with_obj_line(path))
+        Self::new(positions, indices, &origin).map_err(|e| e.with_obj_line(text))
     }
 
     /// An icosphere of radius 1: an icosahedron subdivided `subdivisions` times
@@ -324,6 +334,125 @@ pub const FACE_SEMI_AXES: [f32; 3] = [0.80, 0.96, 0.82];
 
 /// A compact smooth bump: (1 − q)³ for q = (du/ru)² + (dv/rv)² < 1, else
 /// exactly 0; C² everywhere (value and slope vanish at its rim).
+/// The bytes of an OBJ file, refusing what is not a regular file with
+/// what it is (a directory reads as "Is a directory" at best, a FIFO or a
+/// device blocks or never ends).
+fn read_obj(path: &Path, origin: &str) -> Result<Vec<u8>, SceneError> {
+    let meta = std::fs::metadata(path)
+        .map_err(|e| SceneError::mesh(origin, None, format!("cannot open the OBJ file: {e}")))?;
+    let kind = meta.file_type();
+    if kind.is_dir() {
+        return Err(SceneError::mesh(
+            origin,
+            None,
+            "is a directory, not an OBJ file",
+        ));
+    }
+    if !kind.is_file() {
+        return Err(SceneError::mesh(
+            origin,
+            None,
+            "is not a regular file (a FIFO, socket or device?): an OBJ mesh must be a file",
+        ));
+    }
+    std::fs::read(path)
+        .map_err(|e| SceneError::mesh(origin, None, format!("cannot read the OBJ file: {e}")))
+}
+
+/// An OBJ file's bytes as text: a leading UTF-8 byte-order mark skipped;
+/// a NUL byte or bytes that are not UTF-8 refused, naming the line.
+fn obj_text<'a>(bytes: &'a [u8], origin: &str) -> Result<&'a str, SceneError> {
+    let bytes = bytes.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(bytes);
+    let line_at = |offset: usize| 1 + bytes[..offset].iter().filter(|&&b| b == b'\n').count();
+    let binary = |offset: usize, what: String| {
+        SceneError::mesh_at(
+            origin,
+            line_at(offset),
+            format!(
+                "{what} at byte {offset}: this is not a text file (a binary mesh?); \
+                 an OBJ mesh is UTF-8 text"
+            ),
+        )
+    };
+    let text = std::str::from_utf8(bytes).map_err(|e| {
+        let at = e.valid_up_to();
+        binary(at, format!("byte 0x{:02X} is not UTF-8", bytes[at]))
+    })?;
+    if let Some(at) = text.bytes().position(|b| b == 0) {
+        return Err(binary(at, "a NUL byte".into()));
+    }
+    Ok(text)
+}
+
+/// Every `f` statement has at least three vertex references, each naming
+/// a vertex of the file, and its texture coordinate and normal (`v/vt/vn`)
+/// where given naming existing ones (OBJ indices count from 1; a negative
+/// index counts back from the last one read so far). Errors name the line.
+fn check_obj_faces(text: &str, origin: &str) -> Result<(), SceneError> {
+    const KINDS: [(&str, &str); 3] = [
+        ("v", "vertex"),
+        ("vt", "texture coordinate"),
+        ("vn", "normal"),
+    ];
+    let mut total = [0i64; 3];
+    for line in text.lines() {
+        if let Some(k) = KINDS
+            .iter()
+            .position(|(w, _)| line.split_whitespace().next() == Some(*w))
+        {
+            total[k] += 1;
+        }
+    }
+    let mut seen = [0i64; 3];
+    for (i, line) in text.lines().enumerate() {
+        let mut words = line.split_whitespace();
+        let Some(word) = words.next() else { continue };
+        if let Some(k) = KINDS.iter().position(|(w, _)| *w == word) {
+            seen[k] += 1;
+            continue;
+        }
+        if word != "f" {
+            continue;
+        }
+        let at = |message: String| SceneError::mesh_at(origin, i + 1, message);
+        let refs: Vec<&str> = words.collect();
+        if refs.len() < 3 {
+            return Err(at(format!(
+                "a face of {} vertices: a face needs at least 3 (OBJ writes lines as `l`)",
+                refs.len()
+            )));
+        }
+        for r in refs {
+            let parts: Vec<&str> = r.split('/').collect();
+            if parts.len() > 3 {
+                return Err(at(format!("face vertex `{r}`: more than v/vt/vn")));
+            }
+            for (k, part) in parts.iter().enumerate() {
+                // `v//vn` leaves the texture coordinate out.
+                if k > 0 && part.is_empty() {
+                    continue;
+                }
+                let what = KINDS[k].1;
+                let index: i64 = part.parse().map_err(|_| {
+                    at(format!("face vertex `{r}`: `{part}` is not a {what} index"))
+                })?;
+                let ok = if index > 0 {
+                    index <= total[k]
+                } else {
+                    index < 0 && -index <= seen[k]
+                };
+                if !ok {
+                    return Err(at(format!(
+                        "face vertex `{r}`: no {what} {index} (the file has {}, {} before this line; indices count from 1, negative ones back from the last)",
+                        total[k], seen[k]
+                    )));
+                }
+            }
+        }
+    }
+    Ok(())
+}
+
 fn bump(du: f32, dv: f32, ru: f32, rv: f32) -> f32 {
     let q = (du / ru).powi(2) + (dv / rv).powi(2);
     if q < 1.0 {

@@ -126,6 +126,7 @@ pub enum Light {
 }
 
 /// Effects a scene asks for; the pipeline runs only these (DESIGN.md).
+/// Each kind may appear once in a scene (a second is an error naming both).
 ///
 /// An effect may carry parameters, written in the scene file as
 /// `Name(field: value, …)` (RON's struct variants: the parentheses are
@@ -305,6 +306,18 @@ impl Effect {
     /// parameters.
     pub fn same_kind(&self, other: &Effect) -> bool {
         std::mem::discriminant(self) == std::mem::discriminant(other)
+    }
+
+    /// The effect's name as the scene file writes it (`DepthOfField`).
+    pub fn kind_name(&self) -> &'static str {
+        match self {
+            Effect::FoveatedSampling => "FoveatedSampling",
+            Effect::SilhouetteRefinement => "SilhouetteRefinement",
+            Effect::CreaseRefinement => "CreaseRefinement",
+            Effect::DepthRefinement => "DepthRefinement",
+            Effect::PorOverlay { .. } => "PorOverlay",
+            Effect::DepthOfField { .. } => "DepthOfField",
+        }
     }
 
     /// Checks the parameters; the error names the field under `field`.
@@ -797,13 +810,85 @@ fn moving_scene(
     }))
 }
 
+/// A scene file checked and placed, before its hierarchy is built.
+struct Checked {
+    triangles: Vec<WorldTriangle>,
+    materials: Vec<Material>,
+    object_material: Vec<u32>,
+    object_importance: Vec<f32>,
+    motion: Option<SceneMotion>,
+}
+
 impl Scene {
     /// Builds the world. Relative OBJ paths are resolved against `base_dir`.
     /// Errors name the field (`objects[3].mesh`) or the mesh file and line.
     pub fn build(file: &SceneFile, base_dir: &Path) -> Result<Self, SceneError> {
+        let Checked {
+            triangles,
+            materials,
+            object_material,
+            object_importance,
+            motion,
+        } = Self::checked(file, base_dir)?;
+        let (triangles, lights, pose) = match &motion {
+            Some(m) => {
+                let (t, l, p) = m.place(0.0);
+                (t, l, Some(p))
+            }
+            None => (triangles, file.lights.clone(), None),
+        };
+        let (triangles, bvh) = hierarchy(triangles);
+        let object_materials = object_material
+            .iter()
+            .map(|&m| materials[m as usize])
+            .collect();
+        let c = file.background;
+        Ok(Self {
+            name: file.name.clone(),
+            background: Vec3::new(c.0, c.1, c.2),
+            background_rgb8: crate::shade::to_rgb8(Vec3::new(c.0, c.1, c.2)),
+            object_materials,
+            object_importance,
+            lights,
+            effects: file.effects.clone(),
+            crease_deg: file.crease_deg,
+            depth_jump: file.depth_jump,
+            triangles,
+            bvh4: Bvh4::collapse(&bvh),
+            bvh,
+            grid: None,
+            accel: Accel::Bvh,
+            revision: next_revision(),
+            motion: motion.map(std::sync::Arc::new),
+            pose,
+        })
+    }
+
+    /// Every check [`Scene::build`] makes — meshes loaded or generated,
+    /// the triangle limit, every field, every placed vertex finite — without
+    /// building the hierarchy (the costly part): a scene that passes
+    /// builds. For checking a scene before committing to it (the
+    /// experiment checks its stimulus scenes before the window opens).
+    pub fn check(file: &SceneFile, base_dir: &Path) -> Result<(), SceneError> {
+        Self::checked(file, base_dir).map(|_| ())
+    }
+
+    fn checked(file: &SceneFile, base_dir: &Path) -> Result<Checked, SceneError> {
         let finite3 = |v: (f32, f32, f32)| v.0.is_finite() && v.1.is_finite() && v.2.is_finite();
         for (i, e) in file.effects.iter().enumerate() {
             e.validate(&format!("effects[{i}]"))?;
+            // Each effect is a switch or one pass with one set of
+            // parameters (`Scene::effect` reads the first): a second of a
+            // kind would run twice or be ignored.
+            if let Some(first) = file.effects[..i].iter().position(|x| x.same_kind(e)) {
+                return Err(SceneError::field(
+                    format!("effects[{i}]"),
+                    format!(
+                        "{} is listed twice (also effects[{first}]): each effect may appear once",
+                        e.kind_name()
+                    ),
+                ));
+            }
         }
         check_colour("background", file.background)?;
         let mut meshes = BTreeMap::new();
@@ -1083,37 +1168,12 @@ impl Scene {
             }
         }
         let motion = moving_scene(file, &meshes)?;
-        let (triangles, lights, pose) = match &motion {
-            Some(m) => {
-                let (t, l, p) = m.place(0.0);
-                (t, l, Some(p))
-            }
-            None => (triangles, file.lights.clone(), None),
-        };
-        let (triangles, bvh) = hierarchy(triangles);
-        let object_materials = object_material
-            .iter()
-            .map(|&m| materials[m as usize])
-            .collect();
-        let c = file.background;
-        Ok(Self {
-            name: file.name.clone(),
-            background: Vec3::new(c.0, c.1, c.2),
-            background_rgb8: crate::shade::to_rgb8(Vec3::new(c.0, c.1, c.2)),
-            object_materials,
-            object_importance,
-            lights,
-            effects: file.effects.clone(),
-            crease_deg: file.crease_deg,
-            depth_jump: file.depth_jump,
+        Ok(Checked {
             triangles,
-            bvh4: Bvh4::collapse(&bvh),
-            bvh,
-            grid: None,
-            accel: Accel::Bvh,
-            revision: next_revision(),
-            motion: motion.map(std::sync::Arc::new),
-            pose,
+            materials,
+            object_material,
+            object_importance,
+            motion,
         })
     }
 

@@ -87,7 +87,13 @@ fn scene_file(
 /// Ok with finite triangles and unit normals, or a field/mesh error that
 /// names something.
 fn check(file: &SceneFile) -> Result<(), TestCaseError> {
-    match Scene::build(file, Path::new(".")) {
+    let built = Scene::build(file, Path::new("."));
+    // `Scene::check` (no hierarchy) gives the same answer, the same error.
+    prop_assert_eq!(
+        Scene::check(file, Path::new(".")).err(),
+        built.as_ref().err().cloned()
+    );
+    match built {
         Ok(scene) => {
             for t in &scene.triangles {
                 prop_assert!(

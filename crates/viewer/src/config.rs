@@ -421,6 +421,16 @@ pub fn load_display(path: &Path) -> Result<foveation::Display, ConfigError> {
 /// Loads an experiment design and checks it
 /// (`experiment::Design::validate`); errors name the file, line and field.
 pub fn load_design(path: &Path) -> Result<experiment::Design, ConfigError> {
+    load_design_checked(path, |_| Ok(())).map(|(design, ())| design)
+}
+
+/// [`load_design`], then `check` on the design (against the display it
+/// will run on, say); a `(field, message)` it returns is located in the
+/// design file like a validation error.
+pub fn load_design_checked<T>(
+    path: &Path,
+    check: impl FnOnce(&experiment::Design) -> Result<T, (String, String)>,
+) -> Result<(experiment::Design, T), ConfigError> {
     let (design, text): (experiment::Design, String) = load(path)?;
     design.validate().map_err(|e| match e {
         experiment::DesignError::Invalid { field, message } => {
@@ -428,7 +438,9 @@ pub fn load_design(path: &Path) -> Result<experiment::Design, ConfigError> {
         }
         other => ConfigError::invalid(path, 0, 0, None, other.to_string()),
     })?;
-    Ok(design)
+    let checked =
+        check(&design).map_err(|(field, message)| invalid_field(path, &text, &field, message))?;
+    Ok((design, checked))
 }
 
 /// Loads a tracker file and checks its values, and that its mapping takes

@@ -88,6 +88,15 @@ pub struct PlanArgs {
     /// Counterbalancing row (0-based).
     #[arg(long, value_name = "N", default_value_t = 0)]
     pub participant_index: usize,
+    /// The display the session will run on (RON): the design is checked
+    /// against it as `run` checks it (every cell on the screen, objects at
+    /// least a few pixels, the trial scenes buildable).
+    #[arg(
+        long,
+        value_name = "FILE",
+        default_value = "config/displays/tobii-et1750-17in.ron"
+    )]
+    pub display: PathBuf,
 }
 
 #[derive(Debug, Clone, clap::Args)]
@@ -137,9 +146,12 @@ pub fn run(args: &ExperimentArgs, out: &mut dyn Write) -> Result<(), String> {
             runner::run(&opts, out)
         }
         ExperimentCommand::Plan(a) => {
-            let design = crate::config::load_design(&a.design).map_err(|e| e.to_string())?;
-            let trials =
-                experiment::plan(&design, a.participant_index).map_err(|e| e.to_string())?;
+            let display = crate::config::load_display(&a.display).map_err(|e| e.to_string())?;
+            let geometry = display.geometry().map_err(|e| e.to_string())?;
+            let (_, (trials, _)) = crate::config::load_design_checked(&a.design, |d| {
+                runner::stimulus::plan_on_display(d, a.participant_index, &geometry)
+            })
+            .map_err(|e| e.to_string())?;
             let w =
                 |out: &mut dyn Write, s: String| writeln!(out, "{s}").map_err(|e| e.to_string());
             w(out, "trial\trun\ttrial_in_run\tcondition\tseed\ttarget_mesh\ttarget_row\ttarget_col\tbefore".into())?;

@@ -397,3 +397,101 @@ fn a_killed_session_loses_no_finished_trial_and_resumes() {
     // unclosed, and says so when read.
     assert!(dir.join("gaze-1.gzrec").exists() && dir.join("gaze-2.gzrec").exists());
 }
+
+/// A design is checked against the display it runs on before the session
+/// folder exists (and before any window): a grid wider than the screen,
+/// objects of 1e-42°, a stimulus scene over the triangle limit are each
+/// refused with the design field and the real reason, by `run` (exit 1 in
+/// well under a second, no `sub-*` folder left) and by `plan --display`.
+#[test]
+fn a_design_that_does_not_fit_its_display_is_refused_before_the_session_folder() {
+    let tmp = tempfile::tempdir().expect("tempdir");
+    let good = std::fs::read_to_string(
+        Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("../../config/experiments/murphy2007-search.ron"),
+    )
+    .expect("design");
+    let cases = [
+        (
+            "wide",
+            good.replace("grid_deg: 20.0", "grid_deg: 60.0"),
+            "stimulus.grid_deg",
+            "off the screen",
+        ),
+        (
+            "tiny",
+            good.replace("object_deg: 3.5", "object_deg: 1e-42"),
+            "stimulus.object_deg",
+            "8 px",
+        ),
+        (
+            "big",
+            good.replace("grid: (5, 5)", "grid: (32, 32)")
+                .replace("object_deg: 3.5", "object_deg: 0.5"),
+            "`stimulus`",
+            "20000000 triangles",
+        ),
+    ];
+    for (name, text, field, reason) in cases {
+        let design = tmp.path().join(format!("{name}.ron"));
+        std::fs::write(&design, text).expect("write");
+        let out_dir = tmp.path().join(format!("data-{name}"));
+        let started = std::time::Instant::now();
+        let out = common::gazecast()
+            .args(["experiment", "run"])
+            .arg(&design)
+            .args([
+                "--participant",
+                "P01",
+                "--tracker",
+                "tests/data/mouse-participant.ron",
+                "--out",
+            ])
+            .arg(&out_dir)
+            .output()
+            .expect("runs");
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(1), "{name}: {err}");
+        assert!(
+            err.contains(&format!("{name}.ron:")) && err.contains(field) && err.contains(reason),
+            "{name}: {err}"
+        );
+        assert!(!out_dir.exists(), "{name}: no session folder");
+        assert!(
+            started.elapsed().as_secs_f64() < 10.0,
+            "{name}: refused at once"
+        );
+        let out = common::gazecast()
+            .args(["experiment", "plan"])
+            .arg(&design)
+            .output()
+            .expect("runs");
+        assert_eq!(out.status.code(), Some(1), "plan {name}");
+        assert!(
+            String::from_utf8_lossy(&out.stderr).contains(field),
+            "plan {name}"
+        );
+    }
+    // The seed design fits the seed display but not a screen of under 6°.
+    let small = tmp.path().join("small.ron");
+    std::fs::write(
+        &small,
+        "Display(name: \"small\", resolution_px: (320, 240), size_mm: (100.0, 75.0), eye_distance_mm: 1000.0)",
+    )
+    .expect("write");
+    let out = common::gazecast()
+        .args([
+            "experiment",
+            "plan",
+            "config/experiments/murphy2007-search.ron",
+            "--display",
+        ])
+        .arg(&small)
+        .output()
+        .expect("runs");
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        !out.status.success() && err.contains("stimulus.grid_deg") && err.contains("320×240"),
+        "{err}"
+    );
+}

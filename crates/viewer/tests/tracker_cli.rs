@@ -280,13 +280,15 @@ fn replay_of_a_hid_log_follows_the_raw_contract_and_maps_to_pixels() {
         let (x, y): (f64, f64) = (r[11].parse().expect("x"), r[12].parse().expect("y"));
         assert!((0.0..=1280.0).contains(&x) && (0.0..=1024.0).contains(&y));
     }
-    // A calibration file replaces the mapping: this one doubles x.
+    // A calibration file replaces the mapping: this one doubles x. (Its
+    // normalisers span ±512 units, 2/scale: a calibration must spread its
+    // targets over at least 16 px.)
     let cal = dir.path().join("cal.ron");
     std::fs::write(
         &cal,
         "Calibration(model: Affine, params: [2.0, 0.0, 0.0, 0.0, 1.0, 0.0], \
-         raw: (centre: (0.0, 0.0), scale: 1.0), screen: (centre: (0.0, 0.0), scale: 1.0), \
-         rms_residual_px: 0.0, points: [])",
+         raw: (centre: (0.0, 0.0), scale: 0.00390625), \
+         screen: (centre: (0.0, 0.0), scale: 0.00390625), rms_residual_px: 0.0, points: [])",
     )
     .expect("write");
     let calibrated = dir.path().join("cal.csv");

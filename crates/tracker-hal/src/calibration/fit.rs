@@ -52,6 +52,10 @@ pub enum CalibrationError {
     NonFinite(String),
     #[error("target {index}: {reason}")]
     Target { index: usize, reason: String },
+    /// The fit is determined but the mapping fails [`Calibration::check`]
+    /// (it collapses the tracker's range, folds it, or leaves the screen).
+    #[error("the fitted mapping is unusable: {0}")]
+    Unusable(String),
 }
 
 /// Hartley normalisation: `(p − c)·s`.
@@ -231,6 +235,10 @@ impl Calibration {
             sq += (p[0] - t[0]).powi(2) + (p[1] - t[1]).powi(2);
         }
         c.rms_residual_px = (sq / pairs.len() as f64).sqrt();
+        // The same test as a calibration read from a file: a fit that is
+        // determined can still collapse or fold the tracker's range.
+        c.check()
+            .map_err(|(_, reason)| CalibrationError::Unusable(reason))?;
         Ok(c)
     }
 
@@ -281,6 +289,27 @@ const MAX_RAW_UNITS: f64 = 1e12;
 /// Smallest ratio of the homography's denominator, over the tracker's
 /// range, to its largest: below it the mapping nears its horizon.
 const MIN_DENOMINATOR_RATIO: f64 = 0.1;
+
+/// Smallest side (px) of the screen rectangle a calibration is checked
+/// against (its targets' bounding box): targets closer together than this
+/// determine no usable mapping.
+pub const MIN_TARGET_SPREAD_PX: f64 = 16.0;
+
+/// Smallest singular value of the mapping's Jacobian over the tracker's
+/// range, in screen pixels per tracker range (the raw range's width and
+/// height each scaled to 1), as a fraction of the diagonal of the targets'
+/// rectangle: crossing the tracker's whole range in its narrowest
+/// direction must move the gaze by at least 1/16 of the targets' diagonal
+/// (a fitted calibration moves it about 1.5 times the targets' spread). A
+/// rank-1 mapping (every gaze on a line) has 0; parameters of 1e-300 or a
+/// screen scale of 1e308 (every gaze on one point) have about 0.
+pub const MIN_STRETCH: f64 = 1.0 / 16.0;
+
+/// Largest condition number (largest over smallest singular value) of that
+/// Jacobian anywhere on the tracker's range: a mapping may stretch one
+/// direction at most this much more than the other (a 16:9 target grid
+/// gives about 1.8).
+pub const MAX_CONDITION: f64 = 64.0;
 
 impl Calibration {
     /// Parameters `model` needs.
@@ -502,8 +531,163 @@ impl Calibration {
                 ));
             }
         }
-        crate::mapping::check_grid(raw, screen, |p| self.map(p)).map_err(|m| ("params".into(), m))
+        crate::mapping::check_grid(raw, screen, |p| self.map(p))
+            .map_err(|m| ("params".into(), m))?;
+        self.check_conditioning(raw, screen)
     }
+
+    /// The area part of [`Calibration::check`]: the targets' rectangle is
+    /// at least [`MIN_TARGET_SPREAD_PX`] a side, and over a grid of the raw
+    /// range (9 × 9 points, corners included) the Jacobian of the mapping,
+    /// in pixels per raw range, keeps the sign of its determinant (the
+    /// mapping never folds the range over itself), has its smallest
+    /// singular value at least [`MIN_STRETCH`] of the targets' diagonal and
+    /// its condition number at most [`MAX_CONDITION`]. So the tracker's
+    /// range lands on a region of the screen of non-trivial area, never on
+    /// a line or a point.
+    fn check_conditioning(&self, raw: [f64; 4], screen: [f64; 4]) -> Result<(), (String, String)> {
+        let (sw, sh) = (screen[2] - screen[0], screen[3] - screen[1]);
+        if !(sw >= MIN_TARGET_SPREAD_PX && sh >= MIN_TARGET_SPREAD_PX) {
+            let field = if self.points.len() >= self.model.min_points() {
+                "points"
+            } else {
+                "screen.scale"
+            };
+            return Err((
+                field.into(),
+                format!(
+                    "the targets span {} × {} px: a calibration's targets must spread over at \
+                     least {MIN_TARGET_SPREAD_PX} px in each direction",
+                    fmt_f64(sw),
+                    fmt_f64(sh)
+                ),
+            ));
+        }
+        let diagonal = sw.hypot(sh);
+        let mut sign = 0.0f64;
+        for (p, big, small, det) in self.jacobian_grid(raw) {
+            let at = || format!("({}, {})", fmt_f64(p[0]), fmt_f64(p[1]));
+            if !(big.is_finite() && small.is_finite()) {
+                return Err((
+                    "params".into(),
+                    format!(
+                        "the mapping's slope at the tracker point {} is not finite",
+                        at()
+                    ),
+                ));
+            }
+            if small < MIN_STRETCH * diagonal {
+                return Err((
+                    "params".into(),
+                    format!(
+                        "at the tracker point {} the mapping squeezes the tracker's range to \
+                         {} px in its narrowest direction (at least {} px needed, 1/{} of the \
+                         targets' {} px diagonal): it maps the gaze onto a line or a point",
+                        at(),
+                        fmt_f64(small),
+                        fmt_f64(MIN_STRETCH * diagonal),
+                        (1.0 / MIN_STRETCH).round(),
+                        fmt_f64(diagonal)
+                    ),
+                ));
+            }
+            if big > MAX_CONDITION * small {
+                return Err((
+                    "params".into(),
+                    format!(
+                        "at the tracker point {} the mapping stretches one direction {}× \
+                         more than the other (at most {MAX_CONDITION}×): it nearly maps the \
+                         gaze onto a line",
+                        at(),
+                        fmt_f64(big / small)
+                    ),
+                ));
+            }
+            if sign == 0.0 {
+                sign = det.signum();
+            } else if det.signum() != sign {
+                return Err((
+                    "params".into(),
+                    format!(
+                        "the mapping folds the tracker's range over itself (its orientation \
+                         flips at the tracker point {}): two gazes would land on one point",
+                        at()
+                    ),
+                ));
+            }
+        }
+        Ok(())
+    }
+
+    /// Over a 9 × 9 grid of the raw range `raw` (corners included): each
+    /// point, and the Jacobian's largest and smallest singular values and
+    /// determinant there, in screen pixels per raw range (the range's width
+    /// and height each scaled to 1).
+    fn jacobian_grid(&self, raw: [f64; 4]) -> Vec<([f64; 2], f64, f64, f64)> {
+        // Column scales (s_raw·width) / s_screen; the normalised range is
+        // within ±NORMALISED_REACH (checked before this).
+        let col = [
+            self.raw.scale * (raw[2] - raw[0]) / self.screen.scale,
+            self.raw.scale * (raw[3] - raw[1]) / self.screen.scale,
+        ];
+        const N: usize = 9;
+        let t = |k: usize| k as f64 / (N - 1) as f64;
+        let mut out = Vec::with_capacity(N * N);
+        for i in 0..N {
+            for j in 0..N {
+                let p = [
+                    raw[0] + (raw[2] - raw[0]) * t(i),
+                    raw[1] + (raw[3] - raw[1]) * t(j),
+                ];
+                let jf = self.jacobian_normalised(self.raw.apply(p));
+                let m = [
+                    [jf[0][0] * col[0], jf[0][1] * col[1]],
+                    [jf[1][0] * col[0], jf[1][1] * col[1]],
+                ];
+                let (big, small, det) = singular_values(m);
+                out.push((p, big, small, det));
+            }
+        }
+        out
+    }
+
+    /// ∂u/∂x of the normalised mapping (u the normalised screen point, x
+    /// the normalised raw point), rows u, v; columns x, y.
+    fn jacobian_normalised(&self, x: [f64; 2]) -> [[f64; 2]; 2] {
+        let h = &self.params;
+        let [px, py] = x;
+        match self.model {
+            Model::Affine => [[h[0], h[1]], [h[3], h[4]]],
+            // Monomials 1, x, y, xy, x², y² per axis.
+            Model::Polynomial2 => {
+                let row = |o: usize| {
+                    [
+                        h[o + 1] + h[o + 3] * py + 2.0 * h[o + 4] * px,
+                        h[o + 2] + h[o + 3] * px + 2.0 * h[o + 5] * py,
+                    ]
+                };
+                [row(0), row(6)]
+            }
+            Model::Homography => {
+                let w = h[6] * px + h[7] * py + h[8];
+                let u = (h[0] * px + h[1] * py + h[2]) / w;
+                let v = (h[3] * px + h[4] * py + h[5]) / w;
+                [
+                    [(h[0] - u * h[6]) / w, (h[1] - u * h[7]) / w],
+                    [(h[3] - v * h[6]) / w, (h[4] - v * h[7]) / w],
+                ]
+            }
+        }
+    }
+}
+
+/// Singular values (largest, smallest) and determinant of a 2 × 2 matrix,
+/// by the stable half-sum/half-difference of two hypotenuses.
+fn singular_values(m: [[f64; 2]; 2]) -> (f64, f64, f64) {
+    let [[a, b], [c, d]] = m;
+    let p = (a + d).hypot(c - b);
+    let q = (a - d).hypot(c + b);
+    ((p + q) / 2.0, (p - q).abs() / 2.0, a * d - b * c)
 }
 
 fn full_rank(m: &DMatrix<f64>) -> bool {
@@ -656,6 +840,222 @@ mod tests {
         let mut c = good;
         c.points[3].1[0] = -1e308;
         assert_eq!(c.check().unwrap_err().0, "points[3]");
+    }
+
+    /// A hand-written calibration (no points): `model` with `params`,
+    /// raw and screen normalisers as a 1280 × 1024 calibration would have.
+    fn written(model: Model, params: Vec<f64>) -> Calibration {
+        Calibration {
+            model,
+            params,
+            raw: Normaliser {
+                centre: [256.0, 256.0],
+                scale: std::f64::consts::SQRT_2 / 150.0,
+            },
+            screen: Normaliser {
+                centre: [640.0, 512.0],
+                scale: std::f64::consts::SQRT_2 / 380.0,
+            },
+            rms_residual_px: 0.5,
+            points: Vec::new(),
+        }
+    }
+
+    #[test]
+    fn calibrations_that_collapse_the_tracker_range_fail_their_check() {
+        let id_affine = vec![1.0, 0.0, 0.0, 0.0, 1.0, 0.0];
+        let id_homography = vec![1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0];
+        assert_eq!(written(Model::Affine, id_affine.clone()).check(), Ok(()));
+        assert_eq!(
+            written(Model::Homography, id_homography.clone()).check(),
+            Ok(())
+        );
+        let refused = |c: Calibration, what: &str| {
+            let (field, msg) = c.check().expect_err(what);
+            assert!(msg.len() < 400, "{what}: {msg}");
+            (field, msg)
+        };
+        // Rank 1: v = u, every gaze on the diagonal.
+        let (f, m) = refused(
+            written(Model::Affine, vec![1.0, 0.5, 0.0, 1.0, 0.5, 0.0]),
+            "rank-1 affine",
+        );
+        assert!(f == "params" && m.contains("line or a point"), "{m}");
+        let (f, _) = refused(
+            written(
+                Model::Homography,
+                vec![1.0, 0.5, 0.0, 2.0, 1.0, 0.0, 0.0, 0.0, 1.0],
+            ),
+            "rank-1 homography",
+        );
+        assert_eq!(f, "params");
+        // Every gaze on one point.
+        let (f, _) = refused(
+            written(Model::Affine, vec![1e-300, 0.0, 0.0, 0.0, 1e-300, 0.0]),
+            "parameters of 1e-300",
+        );
+        assert_eq!(f, "params");
+        let mut c = written(Model::Affine, id_affine.clone());
+        c.screen.scale = 1e308;
+        let (f, m) = refused(c, "a screen scale of 1e308");
+        assert!(f == "screen.scale" && m.contains("16 px"), "{m}");
+        // Nearly rank 1: one direction squeezed 1000×.
+        let (_, m) = refused(
+            written(Model::Affine, vec![1.0, 0.0, 0.0, 0.0, 1e-3, 0.0]),
+            "squeezed",
+        );
+        assert!(m.contains("narrowest direction"), "{m}");
+        // A fold: the polynomial's x-derivative 1 + 2·0.6·x changes sign
+        // inside the range (x ≈ −0.83 normalised).
+        let (_, m) = refused(
+            written(
+                Model::Polynomial2,
+                vec![0.0, 1.0, 0.0, 0.0, 0.6, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0],
+            ),
+            "folded",
+        );
+        assert!(m.contains("folds") || m.contains("narrowest"), "{m}");
+        // A fitted calibration with one point moved onto the others' line
+        // keeps its targets' rectangle, but a tracker range of 0 width.
+        let good = procedure_on(Model::Affine, &grid(9), 0.3, 1)
+            .fit(Model::Affine)
+            .expect("fits");
+        let mut c = good.clone();
+        for p in &mut c.points {
+            p.0[0] = 100.0;
+        }
+        assert!(c.check().is_err());
+    }
+
+    #[test]
+    fn a_fit_that_collapses_the_range_is_an_error() {
+        // A tracker that reports x and y moving together (one photodiode
+        // wired to both): rank 1 in the data, caught by the fit's rank test,
+        // or by the conditioning check when noise makes it rank 2.
+        let pairs: Vec<([f64; 2], [f64; 2])> = grid(9)
+            .iter()
+            .enumerate()
+            .map(|(i, t)| {
+                let r = t[0] / 4.0 + t[1] / 8.0;
+                ([r, r * 0.5 + 1e-6 * (i as f64).sin()], *t)
+            })
+            .collect();
+        for m in [Model::Affine, Model::Homography, Model::Polynomial2] {
+            assert!(Calibration::fit(m, &pairs).is_err(), "{m:?}");
+        }
+    }
+
+    /// Fitted calibrations stay far inside the bounds: noisy fits of every
+    /// model on 5, 9 and 16 targets keep the smallest stretch at several
+    /// times MIN_STRETCH and the condition number far below MAX_CONDITION.
+    #[test]
+    fn fitted_calibrations_stay_well_inside_the_conditioning_bounds() {
+        let (mut least, mut most) = (f64::INFINITY, 0.0f64);
+        for seed in 0..20 {
+            for (model, targets) in [
+                (Model::Affine, grid(5)),
+                (Model::Affine, grid(9)),
+                (Model::Homography, grid(9)),
+                (Model::Polynomial2, grid(16)),
+            ] {
+                let c = procedure_on(model, &targets, 2.0, seed)
+                    .fit(model)
+                    .expect("a noisy fit passes its check");
+                let (raw, screen) = c.ranges();
+                let diagonal = (screen[2] - screen[0]).hypot(screen[3] - screen[1]);
+                for (_, big, small, _) in c.jacobian_grid(raw) {
+                    least = least.min(small / diagonal);
+                    most = most.max(big / small);
+                }
+            }
+        }
+        println!(
+            "fitted: smallest stretch {least:.3} of the diagonal, largest condition {most:.2}"
+        );
+        assert!(least > 4.0 * MIN_STRETCH, "{least}");
+        assert!(most < MAX_CONDITION / 8.0, "{most}");
+    }
+
+    prop_compose! {
+        /// A random affine or homography in normalised coordinates: a
+        /// rotation, two scales, a shear and (homography) a small
+        /// perspective part.
+        fn arb_mapping()(
+            model in prop_oneof![Just(Model::Affine), Just(Model::Homography)],
+            angle in 0.0f64..std::f64::consts::TAU,
+            sx in prop_oneof![Just(0.0), 1e-300f64..1e-6, 1e-3f64..10.0, 1e6f64..1e300],
+            sy in prop_oneof![Just(0.0), 1e-300f64..1e-6, 1e-3f64..10.0, 1e6f64..1e300],
+            shear in -2.0f64..2.0,
+            persp in (-0.2f64..0.2, -0.2f64..0.2),
+            screen_scale in prop_oneof![1e-4f64..1.0, 1.0f64..1e308],
+        ) -> Calibration {
+            let (c, s) = (angle.cos(), angle.sin());
+            // R · [[sx, shear·sx], [0, sy]]
+            let m = [[c * sx, c * shear * sx - s * sy], [s * sx, s * shear * sx + c * sy]];
+            let params = match model {
+                Model::Affine => vec![m[0][0], m[0][1], 0.0, m[1][0], m[1][1], 0.0],
+                _ => vec![m[0][0], m[0][1], 0.0, m[1][0], m[1][1], 0.0, persp.0, persp.1, 1.0],
+            };
+            let mut cal = written(model, params);
+            cal.screen.scale = screen_scale;
+            cal
+        }
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(500))]
+
+        /// Whatever a calibration file holds: accepted means the tracker's
+        /// range lands on the screen as a region of non-trivial area —
+        /// the 9 × 9 grid of the raw range maps to points that are
+        /// finite, pairwise apart, and whose cells all keep one
+        /// orientation and an area of at least (MIN_STRETCH·diagonal/8)²/2
+        /// px (the Jacobian bound over one cell of the grid, to first
+        /// order, with a margin of 4 for curvature).
+        #[test]
+        fn accepted_calibrations_map_the_range_onto_an_area(cal in arb_mapping()) {
+            if cal.check().is_err() {
+                return Ok(());
+            }
+            let (raw, screen) = cal.ranges();
+            let diagonal = (screen[2] - screen[0]).hypot(screen[3] - screen[1]);
+            prop_assert!(screen[2] - screen[0] >= MIN_TARGET_SPREAD_PX);
+            const N: usize = 9;
+            let at = |i: usize, j: usize| {
+                let t = |k: usize| k as f64 / (N - 1) as f64;
+                cal.map([raw[0] + (raw[2] - raw[0]) * t(i), raw[1] + (raw[3] - raw[1]) * t(j)])
+            };
+            let cell = MIN_STRETCH * diagonal / (N - 1) as f64;
+            let mut sign = 0.0f64;
+            for i in 0..N - 1 {
+                for j in 0..N - 1 {
+                    let (a, b, c) = (at(i, j), at(i + 1, j), at(i, j + 1));
+                    let (Some(a), Some(b), Some(c)) = (a, b, c) else {
+                        return Err(TestCaseError::fail("an accepted mapping has a horizon"));
+                    };
+                    let cross = (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0]);
+                    prop_assert!(cross.abs() / 2.0 >= cell * cell / 8.0, "cell ({i}, {j}): {cross}");
+                    if sign == 0.0 {
+                        sign = cross.signum();
+                    }
+                    prop_assert_eq!(cross.signum(), sign);
+                }
+            }
+        }
+
+        /// A well-conditioned mapping of a usable size is accepted.
+        #[test]
+        fn well_conditioned_mappings_are_accepted(
+            angle in 0.0f64..std::f64::consts::TAU,
+            sx in 0.5f64..2.0,
+            sy in 0.5f64..2.0,
+            shear in -0.3f64..0.3,
+        ) {
+            let (c, s) = (angle.cos(), angle.sin());
+            let m = [[c * sx, c * shear * sx - s * sy], [s * sx, s * shear * sx + c * sy]];
+            let cal = written(Model::Affine, vec![m[0][0], m[0][1], 0.0, m[1][0], m[1][1], 0.0]);
+            prop_assert_eq!(cal.check(), Ok(()));
+        }
     }
 
     proptest! {

@@ -23,7 +23,14 @@
 //!
 //! Degenerate input — too few distinct targets for the model, collinear
 //! targets, all samples invalid, non-finite values — is an error that says
-//! so, never NaN and never a silently wrong mapping.
+//! so, never NaN and never a silently wrong mapping. Every calibration,
+//! fitted or read from a file, passes one test, [`Calibration::check`]: it
+//! maps the tracker's whole range onto finite points near the screen, and
+//! onto a region of non-trivial area — over a grid of the range the
+//! Jacobian keeps its orientation, its smallest singular value is at least
+//! [`MIN_STRETCH`] of the targets' diagonal per tracker range, and its
+//! condition number is at most [`MAX_CONDITION`], with the targets spread
+//! over at least [`MIN_TARGET_SPREAD_PX`] each way.
 
 mod fit;
 mod plan;
@@ -35,7 +42,10 @@ mod window;
 #[cfg(test)]
 mod testing;
 
-pub use fit::{Calibration, CalibrationError, Model, Normaliser};
+pub use fit::{
+    Calibration, CalibrationError, Model, Normaliser, MAX_CONDITION, MIN_STRETCH,
+    MIN_TARGET_SPREAD_PX,
+};
 pub use plan::{Order, Plan, PlanError, SessionPlan, CALIBRATION_MARGIN, VALIDATION_MARGIN};
 pub use procedure::{Procedure, TargetResult, CHANGE_TOLERANCE_US};
 pub use session::{

@@ -812,7 +812,8 @@ impl ApplicationHandler for Runner<'_> {
                     return self.quit(el);
                 }
                 if let Err(e) = self.frame(el) {
-                    self.error = Some(e);
+                    // Keep the first error: it is the cause.
+                    self.error.get_or_insert(e);
                     return self.quit(el);
                 }
                 if let Some(e) = &self.error {
@@ -831,7 +832,6 @@ impl ApplicationHandler for Runner<'_> {
 
 /// Runs (or resumes) a session to its end or until it is stopped.
 pub fn run(opts: &RunOptions, out: &mut dyn Write) -> Result<(), String> {
-    let design = crate::config::load_design(&opts.design).map_err(|e| e.to_string())?;
     let display = crate::config::load_display(&opts.display).map_err(|e| e.to_string())?;
     let geometry = display.geometry().map_err(|e| e.to_string())?;
     let index = match opts.participant_index {
@@ -843,7 +843,11 @@ pub fn run(opts: &RunOptions, out: &mut dyn Write) -> Result<(), String> {
             )
         })?,
     };
-    let trials = experiment::plan(&design, index).map_err(|e| e.to_string())?;
+    // The design on this display, before any folder or window exists.
+    let (design, (trials, layout)) = crate::config::load_design_checked(&opts.design, |d| {
+        stimulus::plan_on_display(d, index, &geometry)
+    })
+    .map_err(|e| e.to_string())?;
     let mut setup_gaze = GazeSetup::resolve(opts.tracker.as_deref(), None)?;
     // The simulated participant's ISCAN: a pseudo-terminal whose slave the
     // tracker opens in place of the file's port.
@@ -915,7 +919,7 @@ pub fn run(opts: &RunOptions, out: &mut dyn Write) -> Result<(), String> {
         None => None,
     };
     let setup = Setup {
-        layout: Layout::new(&design, &geometry),
+        layout,
         design,
         geometry,
         backend: opts.backend,

@@ -25,6 +25,133 @@ pub const DEPTH_MM: f64 = 20.0;
 /// Icosphere subdivisions of each face mesh (20·4⁵ = 20 480 triangles).
 pub const FACE_SUBDIVISIONS: u32 = 5;
 
+/// Smallest object a design may show: this many pixels across on the
+/// session's display (a smaller one draws no recognisable face, or no
+/// pixel at all).
+pub const MIN_OBJECT_PX: f64 = 8.0;
+
+/// Participant `index`'s trials and the layout, the design checked on
+/// `geometry` ([`check_on_display`]): what `experiment run` and
+/// `experiment plan` do before anything else.
+pub fn plan_on_display(
+    design: &Design,
+    index: usize,
+    geometry: &ScreenGeometry,
+) -> Result<(Vec<Trial>, Layout), (String, String)> {
+    let trials = experiment::plan(design, index)
+        .map_err(|e| (e.field().unwrap_or("runs").to_string(), e.to_string()))?;
+    let layout = check_on_display(design, &trials, geometry)?;
+    Ok((trials, layout))
+}
+
+/// The design's stimuli on the display they will be shown on, checked
+/// before any session folder or window exists (`experiment run`,
+/// `experiment plan`): every object at least [`MIN_OBJECT_PX`] across,
+/// every cell's object wholly on the screen, every condition's sampling
+/// model buildable (contrast, inset), and the trial scenes buildable
+/// (the scene's triangle limit, sizes that underflow: the first trial's
+/// search display and preview go through every check of `Scene::build`,
+/// without the hierarchy, and every trial's scene has the same meshes,
+/// object count and sizes). `Err((field, message))` names
+/// the design field to change.
+pub fn check_on_display(
+    design: &Design,
+    trials: &[Trial],
+    geometry: &ScreenGeometry,
+) -> Result<Layout, (String, String)> {
+    let s = &design.stimulus;
+    let layout = Layout::new(design, geometry);
+    // Pixels to one decimal, degrees as written (tiny or huge: 1e-42).
+    let px = |v: f64| {
+        if v.is_finite() && v.abs() >= 0.05 && v.abs() < 1e9 {
+            format!("{v:.1}")
+        } else {
+            foveation::fmt_f64(v)
+        }
+    };
+    let deg = foveation::fmt_f64;
+    let [w, h] = geometry.size_px();
+    let on = format!(
+        "on this display ({}×{} px at {} mm)",
+        geometry.width_px, geometry.height_px, geometry.eye_distance_mm
+    );
+    let across_px = 2.0 * layout.radius_px;
+    if !(across_px.is_finite() && across_px >= MIN_OBJECT_PX) {
+        // The angle that MIN_OBJECT_PX subtends at the screen centre.
+        let pitch = geometry.pitch_x_mm.max(geometry.pitch_y_mm);
+        let min_deg = 2.0
+            * (MIN_OBJECT_PX * pitch / 2.0 / geometry.eye_distance_mm)
+                .atan()
+                .to_degrees();
+        return Err((
+            "stimulus.object_deg".into(),
+            format!(
+                "{}° is {} px across {on}: an object must be at least {MIN_OBJECT_PX} px \
+                 ({min_deg:.2}°) across to be seen",
+                deg(s.object_deg),
+                px(across_px),
+            ),
+        ));
+    }
+    let r = layout.radius_px;
+    for (k, c) in layout.centres_px.iter().enumerate() {
+        let inside = c[0] - r >= 0.0 && c[0] + r <= w && c[1] - r >= 0.0 && c[1] + r <= h;
+        if !(c[0].is_finite() && c[1].is_finite() && inside) {
+            let (row, col) = (k as u32 / layout.cols, k as u32 % layout.cols);
+            let first = layout.centres_px.first().copied().unwrap_or(*c);
+            let last = layout.centres_px.last().copied().unwrap_or(*c);
+            let (span_x, span_y) = (
+                (last[0] - first[0]).abs() + 2.0 * r,
+                (last[1] - first[1]).abs() + 2.0 * r,
+            );
+            let field = if s.grid_deg > s.object_deg {
+                "stimulus.grid_deg"
+            } else {
+                "stimulus.grid"
+            };
+            return Err((
+                field.into(),
+                format!(
+                    "the {}×{} grid ({}° wide, objects {}°) takes {} × {} px {on}: cell ({row}, \
+                     {col}) at ({}, {}) px reaches off the screen; every object must be wholly \
+                     on it",
+                    s.grid.0,
+                    s.grid.1,
+                    deg(s.grid_deg),
+                    deg(s.object_deg),
+                    px(span_x),
+                    px(span_y),
+                    px(c[0]),
+                    px(c[1])
+                ),
+            ));
+        }
+    }
+    pipeline::sampling_model(*geometry, design.contrast)
+        .map_err(|e| ("contrast".to_string(), e.to_string()))?;
+    for (i, c) in design.conditions.iter().enumerate() {
+        if let Some(d) = c.inset_deg {
+            pipeline::sampling_model(*geometry, design.contrast)
+                .and_then(|m| m.with_inset_deg(d))
+                .map_err(|e| (format!("conditions[{i}].inset_deg"), e.to_string()))?;
+        }
+    }
+    if let Some(t) = trials.first() {
+        for file in [
+            search_scene(design, t, &layout),
+            preview_scene(design, t, &layout),
+        ] {
+            raycast::Scene::check(&file, std::path::Path::new(".")).map_err(|e| {
+                (
+                    "stimulus".to_string(),
+                    format!("the trials' scene cannot be built {on}: {e}"),
+                )
+            })?;
+        }
+    }
+    Ok(layout)
+}
+
 /// The grid on one display: where each cell is, in the world and on the
 /// screen.
 #[derive(Debug, Clone, PartialEq)]
@@ -321,5 +448,133 @@ mod tests {
             assert!(p.effects.is_empty());
             assert_eq!(p.objects[0].mesh, mesh_name(t.target_mesh));
         }
+    }
+
+    fn display(res: (u32, u32), size_mm: (f64, f64), eye_mm: f64) -> ScreenGeometry {
+        foveation::Display {
+            name: "any".into(),
+            resolution_px: res,
+            size_mm,
+            eye_distance_mm: eye_mm,
+            eye_point_px: None,
+        }
+        .geometry()
+        .expect("geometry")
+    }
+
+    fn with(edit: impl Fn(&mut Design)) -> Design {
+        let mut d = murphy();
+        edit(&mut d);
+        d.validate().expect("a valid design");
+        d
+    }
+
+    fn refusal(d: &Design, g: &ScreenGeometry) -> (String, String) {
+        match plan_on_display(d, 0, g) {
+            Err(e) => e,
+            Ok(_) => panic!("accepted: {:?}", d.stimulus),
+        }
+    }
+
+    #[test]
+    fn the_seed_design_fits_its_display_and_what_cannot_be_seen_or_built_is_refused() {
+        let g = seed_display();
+        plan_on_display(&murphy(), 0, &g).expect("the seed design on the seed display");
+        // A grid wider than the screen: only the centre was on screen.
+        let (field, msg) = refusal(&with(|d| d.stimulus.grid_deg = 60.0), &g);
+        assert_eq!(field, "stimulus.grid_deg", "{msg}");
+        assert!(
+            msg.contains("off the screen") && msg.contains("1280×1024"),
+            "{msg}"
+        );
+        // Objects of 1e-42°: no pixel drawn.
+        let (field, msg) = refusal(&with(|d| d.stimulus.object_deg = 1e-42), &g);
+        assert_eq!(field, "stimulus.object_deg", "{msg}");
+        assert!(msg.contains("1e-42") && msg.contains("8 px"), "{msg}");
+        // 0.1° is about 3.6 px here.
+        assert_eq!(
+            refusal(&with(|d| d.stimulus.object_deg = 0.1), &g).0,
+            "stimulus.object_deg"
+        );
+        // More than the scene's triangle limit: 32×32 faces.
+        let (field, msg) = refusal(
+            &with(|d| {
+                d.stimulus.grid = (32, 32);
+                d.stimulus.object_deg = 0.5;
+            }),
+            &g,
+        );
+        assert_eq!(field, "stimulus", "{msg}");
+        assert!(msg.contains("20000000 triangles"), "{msg}");
+        // The design allows an inset of 180°, the sampling model does not.
+        let (field, _) = refusal(&with(|d| d.conditions[10].inset_deg = Some(180.0)), &g);
+        assert_eq!(field, "conditions[10].inset_deg");
+        // The seed design on a screen of under 6° (10 cm at 1 m): its 20°
+        // grid does not fit.
+        let small = display((320, 240), (100.0, 75.0), 1000.0);
+        assert_eq!(refusal(&murphy(), &small).0, "stimulus.grid_deg");
+    }
+
+    proptest::proptest! {
+        #![proptest_config(proptest::prelude::ProptestConfig::with_cases(48))]
+
+        /// Accepted exactly when every object of the search scene that is
+        /// rendered — its sphere's left, right, top and bottom points,
+        /// projected through the eye onto the screen — lies on the screen
+        /// and spans at least MIN_OBJECT_PX.
+        #[test]
+        fn a_design_is_accepted_iff_every_object_is_on_screen_and_visible(
+            rows in 1u32..6,
+            cols in 1u32..6,
+            object_deg in prop_oneof_object(),
+            grid_extra in 0.0f64..40.0,
+            res in (200u32..2600, 200u32..1700),
+            eye_mm in 300.0f64..1200.0,
+        ) {
+            let g = display(res, (f64::from(res.0) * 0.26, f64::from(res.1) * 0.26), eye_mm);
+            let mut d = murphy();
+            d.stimulus.grid = (rows, cols);
+            d.stimulus.object_deg = object_deg;
+            d.stimulus.grid_deg = (object_deg + grid_extra).min(169.0);
+            proptest::prop_assume!(d.validate().is_ok());
+            let trials = experiment::plan(&d, 0).expect("plan");
+            let layout = Layout::new(&d, &g);
+            let file = search_scene(&d, &trials[0], &layout);
+            // Independent projection: eye at the camera, screen at z = 0.
+            let cam = raycast::Camera::new(&g);
+            let eye = [f64::from(cam.eye.x), f64::from(cam.eye.y), f64::from(cam.eye.z)];
+            let [w, h] = g.size_px();
+            let project = |x: f64, y: f64, z: f64| {
+                let t = eye[2] / (eye[2] - z);
+                [
+                    (eye[0] + t * (x - eye[0])) / g.pitch_x_mm + w / 2.0,
+                    h / 2.0 - (eye[1] + t * (y - eye[1])) / g.pitch_y_mm,
+                ]
+            };
+            let mut ok = true;
+            for o in &file.objects {
+                let (x, y, z) = (f64::from(o.translate_mm.0), f64::from(o.translate_mm.1), f64::from(o.translate_mm.2));
+                let r = f64::from(o.scale_mm);
+                let (l, rt) = (project(x - r, y, z), project(x + r, y, z));
+                let (top, bottom) = (project(x, y + r, z), project(x, y - r, z));
+                let tol = 1e-6 * w.max(h);
+                ok &= l[0] >= -tol && rt[0] <= w + tol && top[1] >= -tol && bottom[1] <= h + tol;
+                ok &= (rt[0] - l[0]).min(bottom[1] - top[1]) >= MIN_OBJECT_PX * (1.0 - 1e-3);
+            }
+            let got = check_on_display(&d, &trials, &g);
+            match &got {
+                Ok(_) => proptest::prop_assert!(ok, "accepted, but an object is off the screen or too small"),
+                Err((field, msg)) => {
+                    proptest::prop_assert!(field.starts_with("stimulus."), "{field}: {msg}");
+                    // A borderline object (within a thousandth) may go either way.
+                    proptest::prop_assert!(!ok || msg.contains("8 px"), "{field}: {msg}");
+                }
+            }
+        }
+    }
+
+    fn prop_oneof_object() -> impl proptest::strategy::Strategy<Value = f64> {
+        use proptest::prelude::*;
+        prop_oneof![1e-3f64..0.5, 0.5f64..30.0, Just(1e-42)]
     }
 }

@@ -314,9 +314,11 @@ impl Design {
     /// Reads, parses and validates a design file.
     pub fn load(path: impl AsRef<Path>) -> Result<Self, DesignError> {
         let path = path.as_ref();
-        let text = std::fs::read_to_string(path).map_err(|source| DesignError::Io {
-            path: path.display().to_string(),
-            source,
+        let text = input_file::read_to_string(path, input_file::DESIGN).map_err(|source| {
+            DesignError::Io {
+                path: path.display().to_string(),
+                source,
+            }
         })?;
         Self::from_ron_str(&text)
     }

@@ -507,7 +507,7 @@ fn draw_scanpath(buf: &mut [u8], (w, h): (u32, u32), sp: &Scanpath) -> Result<()
 /// Reads a PNG as 8-bit RGB (palette, grey, 16-bit and alpha converted;
 /// alpha is composited over black).
 pub fn read_png_rgb(path: &Path) -> Result<(u32, u32, Vec<u8>), FigureError> {
-    let file = std::fs::File::open(path)?;
+    let (file, _) = input_file::open(path, input_file::PICTURE)?;
     let mut decoder = png::Decoder::new(BufReader::new(file));
     decoder.set_transformations(png::Transformations::normalize_to_color8());
     let mut reader = decoder.read_info()?;

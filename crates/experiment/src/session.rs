@@ -560,7 +560,8 @@ impl SessionInfo {
 
     /// Reads `path`; errors name the file (and line and column for JSON).
     pub fn read(path: &Path) -> Result<Self, SessionFileError> {
-        let text = std::fs::read_to_string(path).map_err(|e| SessionFileError::io(path, e))?;
+        let text = input_file::read_to_string(path, input_file::SESSION_TABLE)
+            .map_err(|e| SessionFileError::io(path, e))?;
         serde_json::from_str(&text).map_err(|source| SessionFileError::Json {
             path: path.to_path_buf(),
             source,
@@ -755,8 +756,7 @@ pub fn visit_tsv<T: TsvRow>(
     mut each: impl FnMut(T, u64) -> Result<(), SessionFileError>,
 ) -> Result<Vec<ReadWarning>, SessionFileError> {
     let io_err = |e| SessionFileError::io(path, e);
-    let mut file = File::open(path).map_err(io_err)?;
-    let len = file.metadata().map_err(io_err)?.len();
+    let (mut file, len) = input_file::open(path, input_file::SESSION_STREAM).map_err(io_err)?;
     let good = complete_len(&mut file, len).map_err(io_err)?;
     let mut warnings = Vec::new();
     if len == 0 {

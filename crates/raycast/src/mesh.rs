@@ -332,31 +332,18 @@ pub const FACE_MAX_SUBDIVISIONS: u32 = 7;
 /// prescale (and with it the normals outside the cap) does not depend on it.
 pub const FACE_SEMI_AXES: [f32; 3] = [0.80, 0.96, 0.82];
 
-/// A compact smooth bump: (1 − q)³ for q = (du/ru)² + (dv/rv)² < 1, else
-/// exactly 0; C² everywhere (value and slope vanish at its rim).
 /// The bytes of an OBJ file, refusing what is not a regular file with
 /// what it is (a directory reads as "Is a directory" at best, a FIFO or a
-/// device blocks or never ends).
+/// device blocks or never ends) and files over [`input_file::MESH`].
 fn read_obj(path: &Path, origin: &str) -> Result<Vec<u8>, SceneError> {
-    let meta = std::fs::metadata(path)
-        .map_err(|e| SceneError::mesh(origin, None, format!("cannot open the OBJ file: {e}")))?;
-    let kind = meta.file_type();
-    if kind.is_dir() {
-        return Err(SceneError::mesh(
-            origin,
-            None,
-            "is a directory, not an OBJ file",
-        ));
-    }
-    if !kind.is_file() {
-        return Err(SceneError::mesh(
-            origin,
-            None,
-            "is not a regular file (a FIFO, socket or device?): an OBJ mesh must be a file",
-        ));
-    }
-    std::fs::read(path)
-        .map_err(|e| SceneError::mesh(origin, None, format!("cannot read the OBJ file: {e}")))
+    input_file::read(path, input_file::MESH).map_err(|e| {
+        let what = if e.kind() == std::io::ErrorKind::NotFound {
+            format!("cannot open the OBJ file: {e}")
+        } else {
+            e.to_string()
+        };
+        SceneError::mesh(origin, None, what)
+    })
 }
 
 /// An OBJ file's bytes as text: a leading UTF-8 byte-order mark skipped;
@@ -453,6 +440,8 @@ fn check_obj_faces(text: &str, origin: &str) -> Result<(), SceneError> {
     Ok(())
 }
 
+/// A compact smooth bump: (1 − q)³ for q = (du/ru)² + (dv/rv)² < 1, else
+/// exactly 0; C² everywhere (value and slope vanish at its rim).
 fn bump(du: f32, dv: f32, ru: f32, rv: f32) -> f32 {
     let q = (du / ru).powi(2) + (dv / rv).powi(2);
     if q < 1.0 {

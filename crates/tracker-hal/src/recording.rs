@@ -57,7 +57,7 @@
 //! overflow chunk, and [`Recorder::finish`] returns the totals — a loss is
 //! never silent.
 
-use std::io::{BufWriter, Read, Write};
+use std::io::{BufWriter, Write};
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::Arc;
@@ -286,9 +286,7 @@ impl Recording {
     /// the end are reported (see [`summary`](Self::summary)), not errors; a
     /// file that is not a recording, or whose header is unreadable, is.
     pub fn read(path: &Path) -> Result<Self> {
-        let mut bytes = Vec::new();
-        std::fs::File::open(path)
-            .and_then(|mut f| f.read_to_end(&mut bytes))
+        let bytes = input_file::read(path, input_file::RECORDING)
             .map_err(|e| Error::from_io(&format!("{}", path.display()), &e))?;
         Self::parse(&bytes)
             .map_err(|e| Error::new(e.kind, format!("{}: {}", path.display(), e.message)))

@@ -69,9 +69,11 @@ impl ConfigError {
 
 /// Reads and parses a RON file.
 pub fn load<T: DeserializeOwned>(path: &Path) -> Result<(T, String), ConfigError> {
-    let text = std::fs::read_to_string(path).map_err(|source| ConfigError::Read {
-        path: path.to_path_buf(),
-        source,
+    let text = input_file::read_to_string(path, input_file::CONFIG).map_err(|source| {
+        ConfigError::Read {
+            path: path.to_path_buf(),
+            source,
+        }
     })?;
     let value = parse(path, &text)?;
     Ok((value, text))

@@ -491,7 +491,7 @@ pub fn replay(args: &ReplayArgs, err: &mut dyn Write) -> Result<(), String> {
                     tracker.driver_name()
                 ));
             }
-            let bytes = std::fs::read(&args.input)
+            let bytes = input_file::read(&args.input, input_file::RECORDING)
                 .map_err(|e| format!("{}: cannot read: {e}", args.input.display()))?;
             let baud = match &tracker.driver {
                 Driver::Iscan(c) => c.baud,

@@ -72,7 +72,8 @@ impl SessionDir {
         gaze: &GazeSetup,
     ) -> Result<Self, String> {
         check_id(&opts.participant)?;
-        let design_text = std::fs::read_to_string(&opts.design).map_err(io(&opts.design))?;
+        let design_text = input_file::read_to_string(&opts.design, input_file::DESIGN)
+            .map_err(io(&opts.design))?;
         let path = opts
             .out
             .join(&design.name)
@@ -119,7 +120,8 @@ impl SessionDir {
                 ));
             }
             let copy_path = path.join(session::DESIGN_RON);
-            let copy = std::fs::read_to_string(&copy_path).map_err(io(&copy_path))?;
+            let copy = input_file::read_to_string(&copy_path, input_file::DESIGN)
+                .map_err(io(&copy_path))?;
             if copy != design_text {
                 return Err(format!(
                     "--resume: {} differs from the session's copy {}; a session continues with the design it started with",

@@ -4,7 +4,7 @@
 //! behind the screen have z < 0), with one BVH over all of them.
 
 use std::collections::BTreeMap;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use glam::{EulerRot, Mat3, Vec3};
 use serde::{Deserialize, Serialize};
@@ -820,6 +820,21 @@ struct Checked {
 }
 
 impl Scene {
+    /// The files a scene reads besides its own: each OBJ mesh's field
+    /// (`meshes.NAME`) and path, resolved as [`Scene::build`] resolves it.
+    /// A command lists them among its inputs so that no output replaces one.
+    pub fn mesh_files(file: &SceneFile, base_dir: &Path) -> Vec<(String, PathBuf)> {
+        file.meshes
+            .iter()
+            .filter_map(|(name, src)| match src {
+                MeshSource::Obj { path } => {
+                    Some((format!("meshes.{name}"), obj_path(path, base_dir)))
+                }
+                _ => None,
+            })
+            .collect()
+    }
+
     /// Builds the world. Relative OBJ paths are resolved against `base_dir`.
     /// Errors name the field (`objects[3].mesh`) or the mesh file and line.
     pub fn build(file: &SceneFile, base_dir: &Path) -> Result<Self, SceneError> {
@@ -895,15 +910,7 @@ impl Scene {
         for (name, src) in &file.meshes {
             let field = format!("meshes.{name}");
             let mesh = match src {
-                MeshSource::Obj { path } => {
-                    let p = Path::new(path);
-                    let p = if p.is_absolute() {
-                        p.to_path_buf()
-                    } else {
-                        base_dir.join(p)
-                    };
-                    TriangleMesh::load_obj(&p)?
-                }
+                MeshSource::Obj { path } => TriangleMesh::load_obj(&obj_path(path, base_dir))?,
                 MeshSource::Icosphere { subdivisions } => {
                     if *subdivisions > 8 {
                         return Err(SceneError::field(
@@ -1334,5 +1341,16 @@ impl Scene {
                 normal,
             }
         })
+    }
+}
+
+/// An OBJ path from a scene file: absolute as it is, relative to the
+/// scene file's folder otherwise.
+fn obj_path(path: &str, base_dir: &Path) -> PathBuf {
+    let p = Path::new(path);
+    if p.is_absolute() {
+        p.to_path_buf()
+    } else {
+        base_dir.join(p)
     }
 }

@@ -59,6 +59,74 @@ pub fn refuse_inputs(outputs: &[(&str, &Path)], inputs: &[(&str, &Path)]) -> Res
     Ok(())
 }
 
+/// A command's inputs, by flag: what [`Inputs::refuse`] keeps outputs
+/// from replacing. A scene brings its OBJ meshes with it (`--scene
+/// meshes.NAME`), so `render --out mesh.obj` is refused like
+/// `render --out scene.ron`.
+#[derive(Debug, Default, Clone)]
+pub struct Inputs {
+    list: Vec<(String, PathBuf)>,
+}
+
+impl Inputs {
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    /// Adds one input file.
+    pub fn file(mut self, flag: &str, path: &Path) -> Self {
+        self.list.push((flag.to_string(), path.to_path_buf()));
+        self
+    }
+
+    /// Adds an optional input file.
+    pub fn maybe(self, flag: &str, path: Option<&Path>) -> Self {
+        match path {
+            Some(p) => self.file(flag, p),
+            None => self,
+        }
+    }
+
+    /// Adds a scene file and the meshes it loads. A scene that does not
+    /// parse adds itself only: loading it fails later, before any output.
+    pub fn scene(mut self, flag: &str, path: &Path) -> Self {
+        self.list.push((flag.to_string(), path.to_path_buf()));
+        if let Ok((file, _)) = crate::config::load::<raycast::SceneFile>(path) {
+            let dir = path.parent().unwrap_or(Path::new("."));
+            for (field, mesh) in raycast::Scene::mesh_files(&file, dir) {
+                self.list
+                    .push((format!("{flag} {}'s {field}", path.display()), mesh));
+            }
+        }
+        self
+    }
+
+    /// Refuses files `names` in the output folder `dir` (given as `flag`)
+    /// that are inputs.
+    pub fn refuse_in(&self, flag: &str, dir: &Path, names: &[&str]) -> Result<(), String> {
+        let paths: Vec<(String, PathBuf)> = names
+            .iter()
+            .map(|n| (format!("{flag} {}'s {n}", dir.display()), dir.join(n)))
+            .collect();
+        let outputs: Vec<(&str, &Path)> = paths
+            .iter()
+            .map(|(f, p)| (f.as_str(), p.as_path()))
+            .collect();
+        self.refuse(&outputs)
+    }
+
+    /// Refuses any output that is one of these inputs or another output
+    /// (see [`refuse_inputs`]).
+    pub fn refuse(&self, outputs: &[(&str, &Path)]) -> Result<(), String> {
+        let inputs: Vec<(&str, &Path)> = self
+            .list
+            .iter()
+            .map(|(f, p)| (f.as_str(), p.as_path()))
+            .collect();
+        refuse_inputs(outputs, &inputs)
+    }
+}
+
 /// A file written under a temporary name and renamed over its target by
 /// [`AtomicFile::commit`]; dropped uncommitted, it is removed and the
 /// target is untouched.

@@ -214,10 +214,10 @@ pub fn run(args: &RenderArgs, out: &mut dyn Write) -> Result<(), String> {
     outputs.extend(args.stats.as_deref().map(|p| ("--stats", p)));
     outputs.extend(args.coc.as_deref().map(|p| ("--coc", p)));
     outputs.extend(args.dof_level.as_deref().map(|p| ("--dof-level", p)));
-    crate::output::refuse_inputs(
-        &outputs,
-        &[("--scene", &args.scene), ("--display", &args.display)],
-    )?;
+    crate::output::Inputs::new()
+        .scene("--scene", &args.scene)
+        .file("--display", &args.display)
+        .refuse(&outputs)?;
     let mut scene = load_scene(&args.scene)?;
     if args.accel == AccelArg::Grid {
         scene.build_grid();

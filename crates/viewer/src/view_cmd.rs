@@ -124,14 +124,13 @@ pub fn run(args: &ViewArgs, out: &mut dyn Write) -> Result<(), String> {
     let mut outputs = Vec::new();
     outputs.extend(args.record.as_deref().map(|p| ("--record", p)));
     outputs.extend(args.screenshot.as_deref().map(|p| ("--screenshot", p)));
-    let mut inputs = vec![
-        ("--scene", args.scene.as_path()),
-        ("--display", &args.display),
-    ];
-    inputs.extend(args.tracker.as_deref().map(|p| ("--tracker", p)));
-    inputs.extend(args.replay.as_deref().map(|p| ("--replay", p)));
-    inputs.extend(args.calibration.as_deref().map(|p| ("--calibration", p)));
-    crate::output::refuse_inputs(&outputs, &inputs)?;
+    crate::output::Inputs::new()
+        .scene("--scene", &args.scene)
+        .file("--display", &args.display)
+        .maybe("--tracker", args.tracker.as_deref())
+        .maybe("--replay", args.replay.as_deref())
+        .maybe("--calibration", args.calibration.as_deref())
+        .refuse(&outputs)?;
     check_tracker_against_replay(args)?;
     let options = args.live_options();
     if args.explain {

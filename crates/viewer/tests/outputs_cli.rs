@@ -91,6 +91,71 @@ fn render_out_over_its_scene_is_refused() {
     assert_eq!(std::fs::read(&scene).expect("read"), bytes);
 }
 
+/// The meshes a scene loads are inputs too: every output flag that names
+/// one (however it is spelt: relative to the scene, through `.`, a hard
+/// link) is refused and the mesh survives. Before, `render --out m.obj`
+/// replaced the mesh and exited 0.
+#[test]
+fn an_output_over_a_mesh_the_scene_loads_is_refused() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let mesh = dir.path().join("m.obj");
+    let bytes = b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n".to_vec();
+    std::fs::write(&mesh, &bytes).expect("write");
+    let link = dir.path().join("linked.obj");
+    std::fs::hard_link(&mesh, &link).expect("link");
+    let scene = dir.path().join("s.ron");
+    std::fs::write(
+        &scene,
+        "Scene(name: \"m\", background: (0.0, 0.0, 0.0), meshes: { \"m\": Obj(path: \"m.obj\") }, materials: {}, objects: [(mesh: \"m\", translate_mm: (0.0, 0.0, -100.0), scale_mm: 80.0)])",
+    )
+    .expect("write");
+    let display = repo("config/displays/tobii-et1750-17in.ron");
+    let spellings = [mesh.clone(), dir.path().join(".").join("m.obj"), link];
+    for flag in ["--out", "--stats", "--layers", "--coc"] {
+        for spelt in &spellings {
+            let mut c = gazecast();
+            c.args(["render", "--backend", "cpu", "--scene"])
+                .arg(&scene)
+                .arg("--display")
+                .arg(&display);
+            if flag != "--out" {
+                c.arg("--out").arg(dir.path().join("frame.png"));
+            }
+            let out = c.arg(flag).arg(spelt).output().expect("runs");
+            refused(out, &format!("render {flag} {}", spelt.display()));
+            assert_eq!(std::fs::read(&mesh).expect("read"), bytes);
+        }
+    }
+    let out = gazecast()
+        .args(["view", "--scene"])
+        .arg(&scene)
+        .arg("--display")
+        .arg(&display)
+        .args([
+            "--replay",
+            "tests/data/mouse-120hz.gzrec",
+            "--frames",
+            "1",
+            "--screenshot",
+        ])
+        .arg(&mesh)
+        .env_remove("DISPLAY")
+        .output()
+        .expect("runs");
+    refused(out, "view --screenshot");
+    let out = gazecast()
+        .args(["bench", "attention", "--scene"])
+        .arg(&scene)
+        .arg("--display")
+        .arg(&display)
+        .arg("--synthesize-gaze")
+        .arg(&mesh)
+        .output()
+        .expect("runs");
+    refused(out, "bench attention --synthesize-gaze");
+    assert_eq!(std::fs::read(&mesh).expect("read"), bytes);
+}
+
 /// A bad `--calibration` used to truncate an existing `--csv` to its header
 /// before the error.
 #[test]

@@ -27,6 +27,14 @@ const REFERENCE_BUDGET_BYTES: u64 = 8_000_000_000;
 
 /// Runs `gazecast bench accuracy`.
 pub fn run(args: &AccuracyArgs, out: &mut dyn Write) -> Result<(), String> {
+    crate::output::Inputs::new()
+        .scene("--scene", &args.scene)
+        .file("--display", &args.display)
+        .refuse_in(
+            "--out",
+            &args.out,
+            &["results.csv", "pareto.png", "report.md"],
+        )?;
     let display = config::load_display(&args.display).map_err(|e| e.to_string())?;
     let geometry = display.geometry().map_err(|e| e.to_string())?;
     let n_gazes = if args.quick && args.gazes == 5 {

@@ -467,6 +467,13 @@ pub fn lod_markdown(report: &LodReport, command: &str) -> String {
 
 /// Runs `gazecast bench lod`.
 pub fn run(args: &LodArgs, out: &mut dyn Write) -> Result<(), String> {
+    args.scene
+        .iter()
+        .fold(
+            crate::output::Inputs::new().maybe("--display", args.display.as_deref()),
+            |i, s| i.scene("--scene", s),
+        )
+        .refuse_in("--out", &args.out, &["lod.md", "lod.csv", "lod.json"])?;
     let display = match &args.display {
         Some(p) => config::load_display(p).map_err(|e| e.to_string())?,
         None if args.quick => scaling_display(320, 180),

@@ -186,6 +186,10 @@ fn generate(
 
 /// Runs `gazecast bench ulod`.
 pub fn run(args: &UlodArgs, out: &mut dyn Write) -> Result<(), String> {
+    crate::output::Inputs::new()
+        .scene("--mesh-scene", &args.mesh_scene)
+        .file("--display", &args.display)
+        .refuse_in("--out", &args.out, &["ulod.md", "ulod.csv", "ulod.png"])?;
     let display = config::load_display(&args.display).map_err(|e| e.to_string())?;
     let geometry = display.geometry().map_err(|e| e.to_string())?;
     let camera = Camera::new(&geometry);

@@ -78,8 +78,6 @@ pub const MAX_RADIUS_DEG: f64 = 5.0;
 /// Lee's velocity thresholds (normalised screen units per frame).
 pub const FIXATION_BELOW: f64 = 0.03;
 pub const SACCADE_ABOVE: f64 = 0.1;
-/// Largest size of a sample CSV read (bytes): 2 GiB.
-const MAX_CSV_BYTES: u64 = 2 << 30;
 
 #[derive(Debug, Clone, clap::Args)]
 pub struct AttentionArgs {
@@ -192,37 +190,85 @@ pub fn eye_state(
 /// px; `None`: invalid).
 pub type FrameGaze = (f64, Option<[f64; 2]>);
 
+/// A gap between samples longer than this (s) gets no frames past its
+/// first [`LONG_GAP_S`]: the frame clock moves on to the next sample, and
+/// the gap is counted. A clock jump of days in a CSV would otherwise ask
+/// for billions of frames of "no gaze".
+pub const LONG_GAP_S: f64 = 2.0;
+
+/// A session cut into frames.
+#[derive(Debug, Clone, Default)]
+pub struct FrameCut {
+    pub frames: Vec<FrameGaze>,
+    /// More frames were due than `max`.
+    pub truncated: bool,
+    /// Gaps between samples longer than [`LONG_GAP_S`], and the seconds
+    /// of them that got no frames.
+    pub long_gaps: usize,
+    pub skipped_s: f64,
+}
+
 /// Cuts `rows` into frames at `rate_hz`: each frame's time (s since the
 /// first sample) and the newest sample's gaze at or before it (`None`
-/// when that sample is invalid or more than two frames old). At most
-/// `max` frames; the second value says whether the session was longer.
-pub fn frames_of(rows: &[GazeRow], rate_hz: f64, max: usize) -> (Vec<FrameGaze>, bool) {
-    let (Some(first), Some(last)) = (rows.first(), rows.last()) else {
-        return (Vec::new(), false);
+/// when that sample is invalid or more than two frames old). A gap longer
+/// than [`LONG_GAP_S`] has frames (without gaze) for its first
+/// [`LONG_GAP_S`] only, then the frames go on from the next sample. At
+/// most `max` frames: the work is bounded by `max` and the row count,
+/// never by the times in the file.
+pub fn frames_of(rows: &[GazeRow], rate_hz: f64, max: usize) -> FrameCut {
+    let mut cut = FrameCut::default();
+    let Some(first) = rows.first() else {
+        return cut;
     };
-    let span_s = (last.time_us - first.time_us) as f64 * 1e-6;
-    let total = (span_s * rate_hz).floor() + 1.0;
-    let n = if total.is_finite() && total < max as f64 {
-        total as usize
-    } else {
-        max
-    };
-    let mut out = Vec::with_capacity(n);
-    let mut next = 0;
+    if !(rate_hz.is_finite() && rate_hz > 0.0) {
+        return cut;
+    }
+    let period_us = 1e6 / rate_hz;
+    let long_gap_us = (LONG_GAP_S * 1e6) as u64;
     // A sample older than two frames is no gaze for this frame: a gap in
     // the recording counts as invalid (a blink), not as a still eye.
-    let max_age_us = (2e6 / rate_hz).ceil() as u64;
-    for k in 0..n {
-        let t_s = k as f64 / rate_hz;
-        let due_us = first.time_us + (t_s * 1e6).round() as u64;
+    let max_age_us = (2.0 * period_us).ceil() as u64;
+    let span_us = rows[rows.len() - 1].time_us.saturating_sub(first.time_us);
+    let mut next = 0;
+    let mut gap_after = None;
+    let mut k: u64 = 0;
+    loop {
+        // The frame's offset from the first sample; compared in f64
+        // before it becomes an integer, so no time in the file overflows.
+        let offset_us = (k as f64 * period_us).round();
+        if offset_us > span_us as f64 {
+            break;
+        }
+        let due_us = first.time_us + (offset_us as u64).min(span_us);
+        if cut.frames.len() >= max {
+            cut.truncated = true;
+            break;
+        }
         while next + 1 < rows.len() && rows[next + 1].time_us <= due_us {
             next += 1;
         }
         let row = rows[next];
-        let fresh = due_us.saturating_sub(row.time_us) <= max_age_us;
-        out.push((t_s, row.gaze.filter(|_| fresh)));
+        let age_us = due_us.saturating_sub(row.time_us);
+        if age_us > long_gap_us && next + 1 < rows.len() {
+            // Jump to the first frame at or after the next sample.
+            let resume_us = rows[next + 1].time_us - first.time_us;
+            let resume_k = (resume_us as f64 / period_us).ceil() as u64;
+            // Rounding can land a frame short of the sample: the gap is
+            // still the one after row `next`, counted once.
+            if gap_after != Some(next) {
+                cut.long_gaps += 1;
+                gap_after = Some(next);
+            }
+            cut.skipped_s += (resume_k.saturating_sub(k)) as f64 * period_us * 1e-6;
+            k = resume_k.max(k + 1);
+            continue;
+        }
+        let fresh = age_us <= max_age_us;
+        cut.frames
+            .push((offset_us * 1e-6, row.gaze.filter(|_| fresh)));
+        k += 1;
     }
-    (out, (n as f64) < total)
+    cut
 }
 
 /// Whether object `id` is worth attending in this scene (among the ids the
@@ -331,6 +377,9 @@ pub struct SessionResult {
     pub notes: Vec<String>,
     pub frames: usize,
     pub truncated: bool,
+    /// Gaps between samples over [`LONG_GAP_S`] and the seconds skipped.
+    pub long_gaps: usize,
+    pub skipped_s: f64,
     /// Frames per eye state: blink, start, saccade, drift, fixation.
     pub states: [usize; 5],
     pub accuracy: [attention::AccuracyAccumulator; 8],
@@ -354,27 +403,8 @@ fn radius_px(geometry: &ScreenGeometry, deg: f64) -> f64 {
 }
 
 fn read_session(path: &Path) -> Result<tracker_hal::csv::GazeCsv, String> {
-    let len = std::fs::metadata(path)
-        .map_err(|e| format!("--gaze {}: cannot read: {e}", path.display()))?
-        .len();
-    if len > MAX_CSV_BYTES {
-        return Err(format!(
-            "--gaze {}: {len} bytes; at most {MAX_CSV_BYTES} are read",
-            path.display()
-        ));
-    }
-    // Read through a limit too: a pipe or FIFO reports no length.
-    let mut text = String::new();
-    let file = std::fs::File::open(path)
+    let text = input_file::read_to_string(path, input_file::GAZE_CSV)
         .map_err(|e| format!("--gaze {}: cannot read: {e}", path.display()))?;
-    std::io::Read::read_to_string(&mut std::io::Read::take(file, MAX_CSV_BYTES + 1), &mut text)
-        .map_err(|e| format!("--gaze {}: cannot read: {e}", path.display()))?;
-    if text.len() as u64 > MAX_CSV_BYTES {
-        return Err(format!(
-            "--gaze {}: more than {MAX_CSV_BYTES} bytes; at most that many are read",
-            path.display()
-        ));
-    }
     let mut csv = parse_gaze(&text).map_err(|e| format!("--gaze {}: {e}", path.display()))?;
     let extra = csv.notes.len().saturating_sub(MAX_NOTES);
     csv.notes.truncate(MAX_NOTES);
@@ -415,9 +445,12 @@ fn check_args(args: &AttentionArgs) -> Result<(), String> {
 /// Runs `gazecast bench attention`.
 pub fn run(args: &AttentionArgs, out: &mut dyn Write) -> Result<(), String> {
     check_args(args)?;
-    let mut inputs: Vec<(&str, &Path)> =
-        vec![("--scene", &args.scene), ("--display", &args.display)];
-    inputs.extend(args.gaze.iter().map(|g| ("--gaze", g.as_path())));
+    let inputs = args.gaze.iter().fold(
+        crate::output::Inputs::new()
+            .scene("--scene", &args.scene)
+            .file("--display", &args.display),
+        |i, g| i.file("--gaze", g),
+    );
     let scene = load_scene(&args.scene)?;
     let display = config::load_display(&args.display).map_err(|e| e.to_string())?;
     let geometry = display.geometry().map_err(|e| e.to_string())?;
@@ -432,7 +465,7 @@ pub fn run(args: &AttentionArgs, out: &mut dyn Write) -> Result<(), String> {
     let mut renderer = Renderer::new(&scene, Camera::new(&geometry), model, &options)
         .map_err(|e| e.to_string())?;
     if let Some(path) = &args.synthesize_gaze {
-        crate::output::refuse_inputs(&[("--synthesize-gaze", path)], &inputs)?;
+        inputs.refuse(&[("--synthesize-gaze", path)])?;
         let (frame, _) = renderer
             .render(geometry.centre_px())
             .map_err(|e| e.to_string())?;
@@ -463,7 +496,7 @@ pub fn run(args: &AttentionArgs, out: &mut dyn Write) -> Result<(), String> {
         .iter()
         .map(|(n, p)| (n.as_str(), p.as_path()))
         .collect();
-    crate::output::refuse_inputs(&flags, &inputs)?;
+    inputs.refuse(&flags)?;
     // Every session is read and checked before anything is written.
     let sessions: Vec<_> = args
         .gaze
@@ -500,7 +533,12 @@ fn evaluate(
     csv: tracker_hal::csv::GazeCsv,
 ) -> Result<(SessionResult, String), String> {
     let max = args.max_frames.unwrap_or(MAX_FRAMES);
-    let (frames, truncated) = frames_of(&csv.rows, args.frame_rate, max);
+    let FrameCut {
+        frames,
+        truncated,
+        long_gaps,
+        skipped_s,
+    } = frames_of(&csv.rows, args.frame_rate, max);
     let importance = &scene.object_importance;
     let mut models: Vec<FrameAttention> = COMBINATIONS[1..]
         .iter()
@@ -523,6 +561,8 @@ fn evaluate(
         notes: csv.notes,
         frames: frames.len(),
         truncated,
+        long_gaps,
+        skipped_s,
         states: [0; 5],
         accuracy: Default::default(),
         model_ms: [0.0; 8],
@@ -660,11 +700,19 @@ fn report(results: &[SessionResult], args: &AttentionArgs, scene: &Scene) -> Str
         let [blink, start, saccade, drift, fixation] = r.states;
         let _ = writeln!(
             s,
-            "- Session {}: `{}`: {} frames{}; fixation {fixation}, drift {drift}, saccade {saccade}, blink {blink}, no velocity {start}; scored with foreground: {}.",
+            "- Session {}: `{}`: {} frames{}{}; fixation {fixation}, drift {drift}, saccade {saccade}, blink {blink}, no velocity {start}; scored with foreground: {}.",
             k + 1,
             r.path.display(),
             r.frames,
             if r.truncated { " (cut at --max-frames)" } else { "" },
+            if r.long_gaps > 0 {
+                format!(
+                    " ({} gaps over {LONG_GAP_S} s between samples: {:.1} s without frames)",
+                    r.long_gaps, r.skipped_s
+                )
+            } else {
+                String::new()
+            },
             r.accuracy[7].frames()
         );
         for n in &r.notes {
@@ -874,21 +922,81 @@ mod tests {
             row(1_020_000, 3.0),
             row(1_050_000, 4.0),
         ];
-        let (f, cut) = frames_of(&rows, 50.0, 100);
+        let FrameCut {
+            frames: f,
+            truncated: cut,
+            ..
+        } = frames_of(&rows, 50.0, 100);
         assert!(!cut);
         let xs: Vec<f64> = f.iter().map(|(_, g)| g.map_or(-1.0, |g| g[0])).collect();
         assert_eq!(xs, vec![1.0, 3.0, 3.0]);
-        let (f, cut) = frames_of(&rows, 1000.0, 10);
-        assert!(cut);
-        assert_eq!(f.len(), 10);
-        assert!(frames_of(&[], 60.0, 10).0.is_empty());
+        let c = frames_of(&rows, 1000.0, 10);
+        assert!(c.truncated);
+        assert_eq!(c.frames.len(), 10);
+        assert!(frames_of(&[], 60.0, 10).frames.is_empty());
         // A 200-ms gap: the frames inside it have no gaze.
-        let (f, _) = frames_of(&[row(1_000_000, 1.0), row(1_200_000, 2.0)], 50.0, 100);
+        let f = frames_of(&[row(1_000_000, 1.0), row(1_200_000, 2.0)], 50.0, 100).frames;
         let valid: Vec<bool> = f.iter().map(|(_, g)| g.is_some()).collect();
         assert_eq!(
             valid,
             vec![true, true, true, false, false, false, false, false, false, false, true]
         );
+    }
+
+    /// A clock jump of days (or of u64's whole range) costs frames for
+    /// [`LONG_GAP_S`] only and is reported; the frames after it follow the
+    /// next sample. The work is bounded by the rows, not by the times.
+    #[test]
+    fn a_clock_jump_is_a_reported_gap_not_billions_of_frames() {
+        let row = |t: u64, x: f64| GazeRow {
+            time_us: t,
+            gaze: Some([x, 0.0]),
+        };
+        for jump in [3_000_000u64, 86_400_000_000 * 3, u64::MAX / 2] {
+            let rows = [
+                row(1_000_000, 1.0),
+                row(1_000_000 + jump, 2.0),
+                row(1_100_000 + jump, 3.0),
+            ];
+            let c = frames_of(&rows, 60.0, 2_000_000);
+            assert!(!c.truncated, "jump {jump}");
+            assert_eq!(c.long_gaps, 1, "jump {jump}");
+            let gap_frames = 1 + (LONG_GAP_S * 60.0) as usize;
+            assert!(
+                (gap_frames..=gap_frames + 7).contains(&c.frames.len()),
+                "jump {jump}: {}",
+                c.frames.len()
+            );
+            let (t, g) = c.frames[gap_frames];
+            assert_eq!(g, Some([2.0, 0.0]), "jump {jump}");
+            assert!(t * 1e6 >= jump as f64 * (1.0 - 1e-15), "jump {jump}: {t}");
+            assert!(
+                t * 1e6 - jump as f64 <= 1e6 / 60.0 + 1.0,
+                "jump {jump}: {t}"
+            );
+        }
+        // Times up to u64::MAX do not overflow the frame clock.
+        let c = frames_of(
+            &[
+                row(0, 1.0),
+                row(u64::MAX - 200_000, 2.0),
+                row(u64::MAX, 3.0),
+            ],
+            60.0,
+            1000,
+        );
+        assert_eq!(c.long_gaps, 1);
+        assert!(
+            c.frames.len() <= 1 + (LONG_GAP_S * 60.0) as usize + 14,
+            "{}",
+            c.frames.len()
+        );
+        // Rates that cannot make frames make none.
+        for rate in [0.0, -1.0, f64::NAN, f64::INFINITY] {
+            assert!(frames_of(&[row(0, 1.0), row(10, 1.0)], rate, 10)
+                .frames
+                .is_empty());
+        }
     }
 
     #[test]

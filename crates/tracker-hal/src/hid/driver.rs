@@ -111,17 +111,25 @@ impl<T: HidTransport> HidDriver<T> {
     }
 
     fn control(&mut self, mode: u32) -> Result<()> {
-        let Some(report) = self.decoder.layout().and_then(|l| l.control_report(mode)) else {
+        let layout = self.decoder.layout();
+        let Some((report, sent)) =
+            layout.and_then(|l| Some((l.control_report(mode)?, l.mode_value(mode)?)))
+        else {
             return Err(Error::new(
                 ErrorKind::Unsupported,
-                "the device has no Control feature report (0x14)",
+                "the device's report descriptor declares no Device Mode Request \
+                 (usage page 0x12, usage 0x0400) as a feature, neither in a Control \
+                 collection (0x14) nor in an Eye Tracker collection whose logical \
+                 collections are unnamed: it cannot be asked to stream",
             ));
         };
         self.transport.set_feature(&report)?;
         if let Some(tap) = &self.tap {
+            // The mode actually sent (clamped to the declared range).
+            let sent = u32::try_from(sent).unwrap_or(mode);
             tap.host_to_device(
                 self.clock.now_us(),
-                format_line(&Line::Control(mode)).as_bytes(),
+                format_line(&Line::Control(sent)).as_bytes(),
             );
         }
         Ok(())

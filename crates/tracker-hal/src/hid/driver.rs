@@ -402,6 +402,65 @@ mod tests {
         }
     }
 
+    /// Every descriptor shape the simulator emits, through the live driver
+    /// flow and through the byte-stream decoder `replay --format hid-log`
+    /// uses: the same samples, the device's screen size, the clamped mode.
+    #[test]
+    fn every_simulated_shape_streams_live_and_replays() {
+        for layout in HidLayout::ALL {
+            let (text, expected) = log_text(layout);
+            let mut d = HidDriver::new(
+                HidLogTransport::new(&text),
+                HidConfig {
+                    vendor_id: None,
+                    product_id: None,
+                    screen_um: (1.0, 1.0),
+                    eye_positions: true,
+                    timeout_ms: 10,
+                },
+                Box::new(SharedClock::default()),
+            );
+            d.start()
+                .unwrap_or_else(|e| panic!("{layout:?}: starts: {e}"));
+            assert_eq!(
+                d.info().screen_um,
+                Some((337_900.0, 270_300.0)),
+                "{layout:?}"
+            );
+            let mut live = Vec::new();
+            while let Some(s) = d.next_sample().expect("replays") {
+                live.push(s);
+            }
+            let start = if layout == HidLayout::Unnamed { 1 } else { 3 };
+            assert_eq!(
+                d.transport_mut().sent,
+                vec![vec![0x14, start]],
+                "{layout:?}"
+            );
+            let mut decoder = HidLogDecoder::new();
+            let replayed = crate::source::decode_all(&mut decoder, text.as_bytes(), 0);
+            assert_eq!(replayed.len(), expected.len(), "{layout:?}");
+            assert_eq!(decoder.frame_hint(), Some((337_900.0, 270_300.0)));
+            assert_eq!(decoder.stats().resyncs, 0, "{layout:?}");
+            assert!(!live.is_empty() && live.len() < expected.len());
+            for (k, e) in expected.iter().enumerate() {
+                let r = &replayed[k];
+                assert_eq!(
+                    (r.combined, r.device_time_us, r.eye_position_um),
+                    (e.combined, e.device_time_us, e.eye_position_um),
+                    "{layout:?} sample {k}"
+                );
+                if let Some(g) = live.get(k) {
+                    assert_eq!(
+                        (g.combined, g.device_time_us, g.eye_position_um),
+                        (e.combined, e.device_time_us, e.eye_position_um),
+                        "{layout:?} live sample {k}"
+                    );
+                }
+            }
+        }
+    }
+
     #[test]
     fn a_device_that_is_not_an_eye_tracker_is_refused() {
         let mut t = HidLogTransport::new("# descriptor 05 01 09 02 a1 01 c0\n");

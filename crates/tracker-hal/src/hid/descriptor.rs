@@ -66,10 +66,21 @@ impl Field {
         )
     }
 
-    /// Whether `v` is inside the declared logical range (always, when the
-    /// descriptor declares none: minimum ≥ maximum, as 64-bit fields do).
+    /// The declared logical range, when it bounds the field: `None` when
+    /// the descriptor declares none (minimum ≥ maximum, as 64-bit fields
+    /// do) and for fields wider than 32 bits, whose values a Logical
+    /// Minimum/Maximum (at most 32-bit items) cannot describe — such a field
+    /// may carry a range left over from the 32-bit fields before it.
+    pub fn declared_range(&self) -> Option<(i64, i64)> {
+        (self.logical_min < self.logical_max && self.bit_size <= 32)
+            .then_some((self.logical_min, self.logical_max))
+    }
+
+    /// Whether `v` is inside the declared logical range (always, when
+    /// [`declared_range`](Self::declared_range) is `None`).
     pub fn in_range(&self, v: i64) -> bool {
-        self.logical_min >= self.logical_max || (self.logical_min..=self.logical_max).contains(&v)
+        self.declared_range()
+            .is_none_or(|(lo, hi)| (lo..=hi).contains(&v))
     }
 }
 

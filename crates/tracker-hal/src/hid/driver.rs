@@ -111,17 +111,25 @@ impl<T: HidTransport> HidDriver<T> {
     }
 
     fn control(&mut self, mode: u32) -> Result<()> {
-        let Some(report) = self.decoder.layout().and_then(|l| l.control_report(mode)) else {
+        let layout = self.decoder.layout();
+        let Some((report, sent)) =
+            layout.and_then(|l| Some((l.control_report(mode)?, l.mode_value(mode)?)))
+        else {
             return Err(Error::new(
                 ErrorKind::Unsupported,
-                "the device has no Control feature report (0x14)",
+                "the device's report descriptor declares no Device Mode Request \
+                 (usage page 0x12, usage 0x0400) as a feature, neither in a Control \
+                 collection (0x14) nor in an Eye Tracker collection whose logical \
+                 collections are unnamed: it cannot be asked to stream",
             ));
         };
         self.transport.set_feature(&report)?;
         if let Some(tap) = &self.tap {
+            // The mode actually sent (clamped to the declared range).
+            let sent = u32::try_from(sent).unwrap_or(mode);
             tap.host_to_device(
                 self.clock.now_us(),
-                format_line(&Line::Control(mode)).as_bytes(),
+                format_line(&Line::Control(sent)).as_bytes(),
             );
         }
         Ok(())
@@ -391,6 +399,65 @@ mod tests {
                 (g.combined, g.device_time_us, g.eye_position_um),
                 (e.combined, e.device_time_us, e.eye_position_um)
             );
+        }
+    }
+
+    /// Every descriptor shape the simulator emits, through the live driver
+    /// flow and through the byte-stream decoder `replay --format hid-log`
+    /// uses: the same samples, the device's screen size, the clamped mode.
+    #[test]
+    fn every_simulated_shape_streams_live_and_replays() {
+        for layout in HidLayout::ALL {
+            let (text, expected) = log_text(layout);
+            let mut d = HidDriver::new(
+                HidLogTransport::new(&text),
+                HidConfig {
+                    vendor_id: None,
+                    product_id: None,
+                    screen_um: (1.0, 1.0),
+                    eye_positions: true,
+                    timeout_ms: 10,
+                },
+                Box::new(SharedClock::default()),
+            );
+            d.start()
+                .unwrap_or_else(|e| panic!("{layout:?}: starts: {e}"));
+            assert_eq!(
+                d.info().screen_um,
+                Some((337_900.0, 270_300.0)),
+                "{layout:?}"
+            );
+            let mut live = Vec::new();
+            while let Some(s) = d.next_sample().expect("replays") {
+                live.push(s);
+            }
+            let start = if layout == HidLayout::Unnamed { 1 } else { 3 };
+            assert_eq!(
+                d.transport_mut().sent,
+                vec![vec![0x14, start]],
+                "{layout:?}"
+            );
+            let mut decoder = HidLogDecoder::new();
+            let replayed = crate::source::decode_all(&mut decoder, text.as_bytes(), 0);
+            assert_eq!(replayed.len(), expected.len(), "{layout:?}");
+            assert_eq!(decoder.frame_hint(), Some((337_900.0, 270_300.0)));
+            assert_eq!(decoder.stats().resyncs, 0, "{layout:?}");
+            assert!(!live.is_empty() && live.len() < expected.len());
+            for (k, e) in expected.iter().enumerate() {
+                let r = &replayed[k];
+                assert_eq!(
+                    (r.combined, r.device_time_us, r.eye_position_um),
+                    (e.combined, e.device_time_us, e.eye_position_um),
+                    "{layout:?} sample {k}"
+                );
+                if let Some(g) = live.get(k) {
+                    assert_eq!(
+                        (g.combined, g.device_time_us, g.eye_position_um),
+                        (e.combined, e.device_time_us, e.eye_position_um),
+                        "{layout:?} live sample {k}"
+                    );
+                }
+            }
         }
     }
 

@@ -136,6 +136,21 @@ impl Value {
         Some(v as i64)
     }
 
+    /// The declared logical range of a single-field value, when it declares
+    /// one ([`Field::declared_range`]).
+    pub fn range(&self) -> Option<(i64, i64)> {
+        match self.fields.as_slice() {
+            [f] => f.declared_range(),
+            _ => None,
+        }
+    }
+
+    /// Whether `v` is a valid value of this field (always, for values of
+    /// several fields or without a declared range).
+    pub fn in_range(&self, v: i64) -> bool {
+        self.range().is_none_or(|(lo, hi)| (lo..=hi).contains(&v))
+    }
+
     /// Writes `v` into a report's data (the simulator, the control report).
     pub fn write(&self, data: &mut [u8], v: i64) {
         let mut rest = v as u64;
@@ -176,6 +191,18 @@ pub enum LayoutError {
     NoGaze,
 }
 
+/// The fields of `usage` on page 0x12 in a report of `kind` (optionally of
+/// `report_id`), inside the collection named `collection`.
+///
+/// Where no field is in such a collection, a field whose only named
+/// collection on page 0x12 is the Eye Tracker application itself (its
+/// logical collections carry no usage, as in Microsoft's virtual eye-gaze
+/// device) is taken instead: the usages looked up this way are unique in an
+/// eye tracker, and the Windows HID API finds a usage anywhere in its
+/// top-level collection. Fields in collections named otherwise are never
+/// taken, so descriptors with named collections locate exactly as before.
+/// Position X/Y/Z are not unique (gaze, eyes, head): they are only found in
+/// their named Gaze Point, Eye or Head Position collection.
 fn locate(
     fields: &[Field],
     kind: ReportKind,
@@ -183,25 +210,37 @@ fn locate(
     usage: u16,
     report_id: Option<u8>,
 ) -> Option<Value> {
-    let mine: Vec<Field> = fields
-        .iter()
-        .filter(|f| {
-            f.kind == kind
-                && f.variable
-                && f.usage_page == PAGE
-                && f.usage == usage
-                && f.innermost(PAGE) == Some(collection)
-                && report_id.is_none_or(|r| f.report_id == r)
+    let candidate = |f: &&Field| {
+        f.kind == kind
+            && f.variable
+            && f.usage_page == PAGE
+            && f.usage == usage
+            && report_id.is_none_or(|r| f.report_id == r)
+    };
+    let named = |f: &&Field| f.innermost(PAGE) == Some(collection);
+    let unnamed = |f: &&Field| {
+        f.collections.first() == Some(&(PAGE, usage::EYE_TRACKER))
+            && f.innermost(PAGE) == Some(usage::EYE_TRACKER)
+    };
+    let pick = |inside: &dyn Fn(&&Field) -> bool| -> Option<Value> {
+        let mut mine = fields.iter().filter(candidate).filter(|f| inside(f));
+        let id = mine.next()?.report_id;
+        let fields: Vec<Field> = fields
+            .iter()
+            .filter(candidate)
+            .filter(|f| inside(f) && f.report_id == id)
+            .cloned()
+            .collect();
+        Some(Value {
+            report_id: id,
+            fields,
         })
-        .cloned()
-        .collect();
-    let first = mine.first()?;
-    let id = first.report_id;
-    let mine: Vec<Field> = mine.into_iter().filter(|f| f.report_id == id).collect();
-    Some(Value {
-        report_id: id,
-        fields: mine,
-    })
+    };
+    let unique = !matches!(
+        usage,
+        usage::POSITION_X | usage::POSITION_Y | usage::POSITION_Z
+    );
+    pick(&named).or_else(|| unique.then(|| pick(&unnamed)).flatten())
 }
 
 impl TrackerLayout {
@@ -289,13 +328,33 @@ impl TrackerLayout {
         ids
     }
 
+    /// The Mode Request value sent for `mode`: `mode` itself when the
+    /// descriptor's logical range allows it, else the gaze point alone
+    /// (dropping eye and head positions) when that fits, else `mode` clamped
+    /// to the range (a device declaring 0..1 gets 1 for 3). A stop (0) is
+    /// sent as 0 whatever the range: clamping it would start the device.
+    /// `None` when the device has no Mode Request.
+    pub fn mode_value(&self, request: u32) -> Option<i64> {
+        let v = self.mode_request.as_ref()?;
+        let want = i64::from(request);
+        let gaze_only = i64::from(request & mode::GAZE_POINT);
+        Some(match v.range() {
+            None => want,
+            Some(_) if want == 0 || v.in_range(want) => want,
+            Some(_) if v.in_range(gaze_only) => gaze_only,
+            Some((lo, hi)) => want.clamp(lo, hi),
+        })
+    }
+
     /// The Control feature report asking for `mode` (0 stops streaming),
-    /// report ID first. `None` when the device has no Control report.
+    /// report ID first, the request clamped by [`mode_value`](Self::mode_value).
+    /// `None` when the device has no Control report.
     pub fn control_report(&self, mode: u32) -> Option<Vec<u8>> {
         let v = self.mode_request.as_ref()?;
+        let value = self.mode_value(mode)?;
         let len = self.descriptor.report_len(ReportKind::Feature, v.report_id);
         let mut data = vec![0u8; len];
-        v.write(&mut data, i64::from(mode));
+        v.write(&mut data, value);
         let mut out = vec![v.report_id];
         out.extend(data);
         Some(out)

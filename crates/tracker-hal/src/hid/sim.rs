@@ -3,8 +3,10 @@
 //!
 //! **Synthesised, not captured from a real device.** The descriptors follow
 //! the public facts of the interface (HUTRR74 usages, Microsoft's GazeHid /
-//! DMF VirtualEyeGaze reference layout); two layouts are provided so that the
-//! decoder is tested on field positions it cannot have hard-coded.
+//! DMF VirtualEyeGaze reference layout); several layouts are provided so
+//! that the decoder is tested on field positions it cannot have hard-coded,
+//! two of them ([`HidLayout::Named`], [`HidLayout::Unnamed`]) byte for byte
+//! the published descriptors of Microsoft's virtual eye-gaze device.
 //!
 //! Behaviour: the gaze script of [`crate::sim::gaze_script`] in µm on the
 //! display; no report during blinks (the device sees no eyes); one eye lost
@@ -30,6 +32,28 @@ pub enum HidLayout {
     /// Another implementation: 64-bit timestamp, Data fields, 4 bits of
     /// padding, the eyes before the gaze, no head position.
     Compact,
+    /// Microsoft's virtual eye-gaze device as DMF ships it now
+    /// ([`DMF_NAMED`]): named collections with units.
+    Named,
+    /// Its earlier descriptor ([`DMF_UNNAMED`]): unnamed logical
+    /// collections, no units, eight one-byte timestamp fields, positions
+    /// with Logical Minimum 0x80000000 (every 32-bit value valid, so a lost
+    /// eye cannot be flagged), Mode Request 0..1.
+    Unnamed,
+    /// Named collections without units, positions with Logical Minimum
+    /// 0x80000000, and a 64-bit timestamp declared after them that inherits
+    /// their 32-bit logical range.
+    Wide,
+}
+
+impl HidLayout {
+    pub const ALL: [HidLayout; 5] = [
+        HidLayout::Reference,
+        HidLayout::Compact,
+        HidLayout::Named,
+        HidLayout::Unnamed,
+        HidLayout::Wide,
+    ];
 }
 
 struct Desc(Vec<u8>);
@@ -70,14 +94,162 @@ impl Desc {
     }
 }
 
+/// Microsoft's virtual eye-gaze HID device, DMF
+/// `Dmf/Modules.Library/Dmf_VirtualEyeGaze.c` at
+/// bfac434fd3497259095a1f8d70ed734493228091 (github.com/microsoft/DMF):
+/// logical collections named by their usage, Unit and Unit Exponent items,
+/// positions in ±2,000,000 µm, a timestamp as eight one-byte fields, head
+/// position and direction, Status as feature and input, Mode Request 0..7.
+#[rustfmt::skip]
+pub const DMF_NAMED: &[u8] = &[
+    0x05, 0x12,                         // Usage Page (Eye and Head Trackers)
+    0x09, 0x01,                         // Usage (Eye Tracker)
+    0xA1, 0x01,                         // Collection (Application)
+    0x09, 0x10, 0xA1, 0x02,             //   Usage (Tracking Data), Collection (Logical)
+    0x85, 0x10,                         //     Report ID 0x10
+    0x15, 0x00, 0x26, 0xFF, 0x00,       //     Logical 0..255
+    0x75, 0x08,                         //     Report Size 8
+    0x09, 0x20,                         //     Usage (Sensor Timestamp)
+    0x66, 0x01, 0x10, 0x55, 0x0A,       //     Unit (SI linear, s), Exponent -6
+    0x95, 0x08, 0x81, 0x02,             //     8 × 8 bits, Input (Data,Var,Abs)
+    0x95, 0x01, 0x75, 0x20,             //     Report Count 1, Size 32
+    0x65, 0x11, 0x55, 0x0C,             //     Unit (cm), Exponent -4: µm
+    0x17, 0x80, 0x7B, 0xE1, 0xFF,       //     Logical Minimum -2000000
+    0x27, 0x80, 0x84, 0x1E, 0x00,       //     Logical Maximum 2000000
+    0x09, 0x24, 0xA1, 0x00,             //     Usage (Gaze Point), Collection (Physical)
+    0x95, 0x02, 0x09, 0x21, 0x09, 0x22, 0x81, 0x03, 0xC0,
+    0x09, 0x25, 0xA1, 0x00,             //     Usage (Left Eye Position)
+    0x95, 0x03, 0x09, 0x21, 0x09, 0x22, 0x09, 0x23, 0x81, 0x03, 0xC0,
+    0x09, 0x26, 0xA1, 0x00,             //     Usage (Right Eye Position)
+    0x95, 0x03, 0x09, 0x21, 0x09, 0x22, 0x09, 0x23, 0x81, 0x03, 0xC0,
+    0x09, 0x27, 0xA1, 0x00,             //     Usage (Head Position)
+    0x95, 0x03, 0x09, 0x21, 0x09, 0x22, 0x09, 0x23, 0x81, 0x03, 0xC0,
+    0x09, 0x28, 0xA1, 0x00,             //     Usage (Head Direction Point)
+    0x95, 0x03, 0x09, 0x29, 0x09, 0x2A, 0x09, 0x2B, 0x81, 0x03, 0xC0,
+    0xC0,                               //   End Collection
+    0x09, 0x11, 0xA1, 0x02,             //   Usage (Capabilities), Collection (Logical)
+    0x85, 0x11,
+    0x75, 0x08, 0x95, 0x01,
+    0x0A, 0x00, 0x01,                   //     Usage (Tracker Quality)
+    0x15, 0x00, 0x25, 0x01, 0x65, 0x00, 0x55, 0x00,
+    0xB1, 0x03,                         //     Feature (Const,Var,Abs)
+    0xA1, 0x00,                         //     Collection (Physical), no usage
+    0x95, 0x05, 0x75, 0x20,
+    0x17, 0x80, 0x7B, 0xE1, 0xFF, 0x27, 0x80, 0x84, 0x1E, 0x00,
+    0x65, 0x11, 0x55, 0x0C,
+    0x0A, 0x01, 0x01, 0x0A, 0x02, 0x01, 0x0A, 0x03, 0x01, 0x0A, 0x04, 0x01, 0x0A, 0x05, 0x01,
+    0xB1, 0x03, 0xC0,
+    0xC0,
+    0x09, 0x12, 0xA1, 0x02,             //   Usage (Configuration), Collection (Logical)
+    0x85, 0x12,
+    0x75, 0x08, 0x15, 0x00, 0x26, 0xFF, 0x00, 0x95, 0x01,
+    0x75, 0x10, 0x27, 0xFF, 0xFF, 0x00, 0x00, 0x65, 0x00, 0x55, 0x00,
+    0x0A, 0x00, 0x02, 0xB1, 0x03,       //     Display Manufacturer ID
+    0x0A, 0x01, 0x02, 0xB1, 0x03,       //     Display Product ID
+    0x75, 0x20, 0x27, 0xFF, 0xFF, 0xFF, 0x7F,
+    0x0A, 0x02, 0x02, 0xB1, 0x03,       //     Display Serial Number
+    0x75, 0x10, 0x15, 0x00, 0x27, 0xFF, 0xFF, 0x00, 0x00,
+    0x0A, 0x03, 0x02, 0xB1, 0x03,       //     Display Manufacturer Date
+    0xA1, 0x00,
+    0x65, 0x11, 0x55, 0x0C, 0x27, 0xFF, 0xFF, 0xFF, 0x7F, 0x75, 0x20,
+    0x0A, 0x04, 0x02, 0xB1, 0x03,       //     Calibrated Screen Width
+    0x0A, 0x05, 0x02, 0xB1, 0x03,       //     Calibrated Screen Height
+    0xC0,
+    0xC0,
+    0x09, 0x13, 0xA1, 0x02,             //   Usage (Status), Collection (Logical): feature
+    0x85, 0x13,
+    0x75, 0x08, 0x65, 0x00, 0x55, 0x00, 0x25, 0x04,
+    0x0A, 0x01, 0x03, 0xB1, 0x02,       //     Configuration Status
+    0x75, 0x10, 0x27, 0xFF, 0xFF, 0x00, 0x00, 0x66, 0x01, 0xF0, 0x55, 0x00,
+    0x0A, 0x00, 0x03, 0xB1, 0x02,       //     Sampling Frequency (Hz)
+    0xC0,
+    0x09, 0x13, 0xA1, 0x02,             //   Usage (Status), Collection (Logical): input
+    0x85, 0x13,
+    0x75, 0x08, 0x65, 0x00, 0x55, 0x00, 0x25, 0x04,
+    0x0A, 0x01, 0x03, 0x81, 0x02,
+    0x75, 0x10, 0x27, 0xFF, 0xFF, 0x00, 0x00, 0x66, 0x01, 0xF0, 0x55, 0x00,
+    0x0A, 0x00, 0x03, 0x81, 0x02,
+    0xC0,
+    0x09, 0x14, 0xA1, 0x02,             //   Usage (Control), Collection (Logical)
+    0x85, 0x14,
+    0x75, 0x08, 0x25, 0x07, 0x65, 0x00, 0x55, 0x00,
+    0x0A, 0x00, 0x04, 0xB1, 0x02,       //     Mode Request 0..7
+    0xC0,
+    0xC0,
+];
+
+/// The same device at DMF f2ff922ed7778dfa0de19ac2cb2e4c15190f4a91,
+/// `Dmf/Modules.Template/Dmf_VirtualEyeGaze.c`: logical collections
+/// *without* usages, no units, three reserved bytes, the timestamp as eight
+/// one-byte fields, positions with Logical Minimum 0x80000000, Mode Request
+/// 0..1. Encoded as the source declares it: that commit's item macros
+/// shifted left instead of right (`(v << 8) & 0xFF`) and gave
+/// `LOGICAL_MAXIMUM_DWORD` the minimum's tag, which DMF later corrected;
+/// these bytes are the corrected encoding of the same declarations.
+#[rustfmt::skip]
+pub const DMF_UNNAMED: &[u8] = &[
+    0x05, 0x12, 0x09, 0x01, 0xA1, 0x01, // Eye Tracker application
+    0xA1, 0x02,                         //   Collection (Logical), no usage
+    0x85, 0x10,
+    0x15, 0x00, 0x25, 0xFF,             //     Logical 0..0xFF (one byte: -1, read as 255)
+    0x75, 0x08, 0x95, 0x03, 0x81, 0x03, //     3 reserved bytes
+    0x09, 0x20, 0x95, 0x08, 0x81, 0x02, //     Timestamp: 8 × 8 bits
+    0x95, 0x01, 0x75, 0x20,
+    0x17, 0x00, 0x00, 0x00, 0x80,       //     Logical Minimum 0x80000000
+    0x27, 0xFF, 0xFF, 0xFF, 0x7F,       //     Logical Maximum 0x7FFFFFFF
+    0x09, 0x24, 0xA1, 0x00, 0x95, 0x02, 0x09, 0x21, 0x09, 0x22, 0x81, 0x02, 0xC0,
+    0x09, 0x25, 0xA1, 0x00, 0x95, 0x03, 0x09, 0x21, 0x09, 0x22, 0x09, 0x23, 0x81, 0x02, 0xC0,
+    0x09, 0x26, 0xA1, 0x00, 0x95, 0x03, 0x09, 0x21, 0x09, 0x22, 0x09, 0x23, 0x81, 0x02, 0xC0,
+    0xC0,
+    0xA1, 0x02, 0x85, 0x11,             //   Capabilities, unnamed
+    0x75, 0x08, 0x95, 0x01, 0x15, 0x01, 0x25, 0x04,
+    0x0A, 0x00, 0x01, 0xB1, 0x03,
+    0x95, 0x05, 0x75, 0x20, 0x15, 0x00, 0x27, 0xFF, 0xFF, 0xFF, 0x7F,
+    0x0A, 0x01, 0x01, 0x0A, 0x02, 0x01, 0x0A, 0x03, 0x01, 0x0A, 0x04, 0x01, 0x0A, 0x05, 0x01,
+    0xB1, 0x03,
+    0xC0,
+    0xA1, 0x02, 0x85, 0x12,             //   Configuration, unnamed
+    0x75, 0x08, 0x95, 0x01, 0xB1, 0x03, //     reserved byte
+    0x75, 0x10, 0x15, 0x00, 0x27, 0xFF, 0xFF, 0x00, 0x00,
+    0x0A, 0x00, 0x02, 0xB1, 0x03, 0x0A, 0x01, 0x02, 0xB1, 0x03,
+    0x75, 0x20, 0x15, 0x00, 0x27, 0xFF, 0xFF, 0xFF, 0x7F,
+    0x0A, 0x02, 0x02, 0xB1, 0x03,
+    0x75, 0x10, 0x15, 0x00, 0x27, 0xFF, 0xFF, 0x00, 0x00,
+    0x0A, 0x03, 0x02, 0xB1, 0x03,
+    0x75, 0x20, 0x95, 0x02, 0x15, 0x00, 0x27, 0xFF, 0xFF, 0xFF, 0x7F,
+    0x0A, 0x04, 0x02, 0x0A, 0x05, 0x02, 0xB1, 0x03,
+    0xC0,
+    0xA1, 0x02, 0x85, 0x13,             //   Status, unnamed
+    0x75, 0x08, 0x95, 0x01, 0xB1, 0x03, //     reserved byte
+    0x15, 0x00, 0x25, 0x04, 0x0A, 0x01, 0x03, 0xB1, 0x02,
+    0x75, 0x10, 0x15, 0x00, 0x26, 0xFF, 0x7F, 0x0A, 0x00, 0x03, 0xB1, 0x02,
+    0xC0,
+    0xA1, 0x02, 0x85, 0x14,             //   Control, unnamed
+    0x75, 0x08, 0x95, 0x01, 0x75, 0x08, 0x15, 0x00, 0x25, 0x01,
+    0x0A, 0x00, 0x04, 0xB1, 0x02,       //     Mode Request 0..1
+    0xC0,
+    0xC0,
+];
+
 const INPUT: u8 = 0x80;
 const FEATURE: u8 = 0xB0;
 
 /// The simulated device's report descriptor.
 pub fn descriptor(layout: HidLayout) -> Vec<u8> {
     use super::usage::*;
+    match layout {
+        HidLayout::Named => return DMF_NAMED.to_vec(),
+        HidLayout::Unnamed => return DMF_UNNAMED.to_vec(),
+        HidLayout::Reference | HidLayout::Compact | HidLayout::Wide => {}
+    }
     let mut d = Desc(Vec::new());
     let reference = layout == HidLayout::Reference;
+    let wide = layout == HidLayout::Wide;
+    let (lo, hi) = if wide {
+        (i32::MIN, i32::MAX)
+    } else {
+        (-2_000_000, 2_000_000)
+    };
     let flags = if reference { 3 } else { 2 }; // Const,Var or Data,Var
     d.item(0x04, i64::from(super::PAGE))
         .usage(EYE_TRACKER)
@@ -89,7 +261,7 @@ pub fn descriptor(layout: HidLayout) -> Vec<u8> {
         for &a in axes {
             d.usage(a);
         }
-        d.range(-2_000_000, 2_000_000)
+        d.range(lo, hi)
             .size_count(32, axes.len() as i64)
             .item(INPUT, flags)
             .end();
@@ -104,6 +276,14 @@ pub fn descriptor(layout: HidLayout) -> Vec<u8> {
         position(&mut d, LEFT_EYE_POSITION, &xyz);
         position(&mut d, RIGHT_EYE_POSITION, &xyz);
         position(&mut d, HEAD_POSITION, &xyz);
+    } else if wide {
+        position(&mut d, GAZE_POINT, &xyz[..2]);
+        position(&mut d, LEFT_EYE_POSITION, &xyz);
+        position(&mut d, RIGHT_EYE_POSITION, &xyz);
+        // No range of its own: the 32-bit one above is still in force.
+        d.usage(SENSOR_TIMESTAMP)
+            .size_count(64, 1)
+            .item(INPUT, flags);
     } else {
         position(&mut d, LEFT_EYE_POSITION, &xyz);
         position(&mut d, RIGHT_EYE_POSITION, &xyz);
@@ -261,13 +441,16 @@ pub fn simulate_hid(
         for l in feature_lines(&layout, screen_um, rate_hz) {
             out.push(format_line(&l), t);
         }
+        // The host's request, as the driver clamps it to the declared range.
+        let asked = super::mode::GAZE_POINT | super::mode::EYE_POSITION;
+        let sent = layout
+            .mode_value(asked)
+            .and_then(|m| u32::try_from(m).ok())
+            .unwrap_or(asked);
         out.chunks.push(Chunk {
             kind: ChunkKind::HostToDevice,
             time_us: t,
-            payload: format_line(&Line::Control(
-                super::mode::GAZE_POINT | super::mode::EYE_POSITION,
-            ))
-            .into_bytes(),
+            payload: format_line(&Line::Control(sent)).into_bytes(),
         });
     };
     let start = truth.first().map_or(0, |s| s.t_us.saturating_sub(50_000));
@@ -302,6 +485,14 @@ pub fn simulate_hid(
             eye(s.left.is_some(), -32_000.0),
             eye(s.right.is_some(), 32_000.0),
         );
+        // Where the logical range covers every 32-bit value (Logical Minimum
+        // 0x80000000) a lost eye cannot be flagged: the host reads the
+        // marker as a position.
+        let seen = |e: Option<[f64; 3]>, vs: &Option<[super::Value; 3]>| match (e, vs) {
+            (None, Some([x, ..])) if x.in_range(INVALID) => Some([INVALID as f64; 3]),
+            _ => e,
+        };
+        let (le_seen, re_seen) = (seen(le, &layout.left_eye), seen(re, &layout.right_eye));
         let gum = [g[0].round(), g[1].round()];
         let device_us = device_clock_us(s.t_us);
         let mut values: Vec<(&super::Value, i64)> =
@@ -343,7 +534,7 @@ pub fn simulate_hid(
             left: EyeSample::MISSING,
             right: EyeSample::MISSING,
             combined: Some(gum),
-            eye_position_um: [le, re],
+            eye_position_um: [le_seen, re_seen],
         });
     }
     SimStream::one_record_per_read(out.chunks, expected)
@@ -434,6 +625,89 @@ mod tests {
             assert_eq!(t.left_eye_um, Some([0.0, 0.0, 600_000.0]), "{kind:?}");
             assert_eq!(l.head.is_some(), kind == HidLayout::Reference);
         }
+    }
+
+    /// A value in `v`'s declared range: its minimum, its maximum or one in
+    /// between (any 32-bit value where it declares none).
+    fn pick(v: &super::super::Value, edge: u8, seed: u64) -> i64 {
+        let (lo, hi) = v
+            .range()
+            .unwrap_or((i64::from(i32::MIN), i64::from(i32::MAX)));
+        match edge {
+            0 => lo,
+            1 => hi,
+            _ => lo + (seed % (hi - lo + 1) as u64) as i64,
+        }
+    }
+
+    proptest::proptest! {
+        #![proptest_config(proptest::prelude::ProptestConfig::with_cases(2_000))]
+        /// Every descriptor shape the simulator emits round-trips through
+        /// parse → locate → write → decode, at the edges of every range.
+        #[test]
+        fn every_simulated_shape_round_trips(
+            k in 0..HidLayout::ALL.len(),
+            ts in proptest::prelude::any::<u64>(),
+            edges in proptest::array::uniform8(0..3u8),
+            seeds in proptest::array::uniform8(proptest::prelude::any::<u64>()),
+        ) {
+            let kind = HidLayout::ALL[k];
+            let l = TrackerLayout::from_descriptor(&descriptor(kind)).expect("valid");
+            let gaze = l.gaze.clone().expect("gaze");
+            let left = l.left_eye.clone().expect("left eye");
+            let right = l.right_eye.clone().expect("right eye");
+            let stamp = l.timestamp.clone().expect("timestamp");
+            proptest::prop_assert_eq!(stamp.bits(), 64);
+            let vals: Vec<i64> = gaze
+                .iter()
+                .chain(left.iter())
+                .chain(right.iter().take(3))
+                .enumerate()
+                .map(|(i, v)| pick(v, edges[i % 8], seeds[i % 8]))
+                .collect();
+            let mut set: Vec<(&super::super::Value, i64)> = gaze
+                .iter()
+                .chain(left.iter())
+                .chain(right.iter())
+                .zip(vals.iter().copied())
+                .collect();
+            set.push((&stamp, ts as i64));
+            let r = report(&l, super::super::descriptor::ReportKind::Input, 0x10, &set);
+            let t = l.tracking(&r[1..]).expect("decodes");
+            let f = |i: usize| vals[i] as f64;
+            proptest::prop_assert_eq!(t.timestamp_us, Some(ts));
+            proptest::prop_assert_eq!(t.gaze_um, Some([f(0), f(1)]));
+            proptest::prop_assert_eq!(t.left_eye_um, Some([f(2), f(3), f(4)]));
+            proptest::prop_assert_eq!(t.right_eye_um, Some([f(5), f(6), f(7)]));
+            // Just past a declared range that leaves room: invalid.
+            if let Some((_, hi)) = gaze[0].range().filter(|(_, hi)| *hi < i64::from(i32::MAX)) {
+                let r = report(
+                    &l,
+                    super::super::descriptor::ReportKind::Input,
+                    0x10,
+                    &[(&gaze[0], hi + 1), (&gaze[1], vals[1])],
+                );
+                proptest::prop_assert_eq!(l.tracking(&r[1..]).expect("decodes").gaze_um, None);
+            }
+        }
+    }
+
+    #[test]
+    fn the_dmf_descriptors_are_emitted_as_published() {
+        assert_eq!(descriptor(HidLayout::Named), DMF_NAMED);
+        assert_eq!(descriptor(HidLayout::Unnamed), DMF_UNNAMED);
+        let wide = TrackerLayout::from_descriptor(&descriptor(HidLayout::Wide)).expect("valid");
+        let ts = wide
+            .descriptor
+            .fields
+            .iter()
+            .find(|f| f.usage == super::super::usage::SENSOR_TIMESTAMP)
+            .expect("timestamp");
+        assert_eq!(
+            (ts.bit_size, ts.logical_min, ts.logical_max),
+            (64, i64::from(i32::MIN), i64::from(i32::MAX)),
+            "the 64-bit timestamp inherits the 32-bit range"
+        );
     }
 
     #[test]

@@ -140,6 +140,15 @@ pub enum HidLayoutArg {
     Reference,
     /// Another order, 64-bit timestamp, padding, no head position.
     Compact,
+    /// Microsoft's virtual eye-gaze device (DMF) as shipped now: named
+    /// collections with units.
+    Named,
+    /// Its earlier descriptor: unnamed logical collections, no units,
+    /// positions with Logical Minimum 0x80000000, Mode Request 0..1.
+    Unnamed,
+    /// Named collections without units, 32-bit positions from 0x80000000
+    /// and a 64-bit timestamp after them.
+    Wide,
 }
 
 /// The sample CSV of `replay` and `simulate`, with errors naming the file.
@@ -781,6 +790,9 @@ pub fn simulated(
             let layout = match args.hid_layout {
                 HidLayoutArg::Reference => HidLayout::Reference,
                 HidLayoutArg::Compact => HidLayout::Compact,
+                HidLayoutArg::Named => HidLayout::Named,
+                HidLayoutArg::Unnamed => HidLayout::Unnamed,
+                HidLayoutArg::Wide => HidLayout::Wide,
             };
             simulate_hid(layout, &truth, c.screen_um, rate, args.seed)
         }

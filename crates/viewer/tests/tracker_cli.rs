@@ -359,3 +359,78 @@ fn replay_hid_log(calibration: &std::path::Path, csv: &std::path::Path) -> std::
     .arg(csv);
     c
 }
+
+/// Every HID descriptor shape the simulator emits — the reference and
+/// compact layouts, Microsoft's virtual eye-gaze device with named
+/// collections and units, its earlier descriptor with unnamed collections
+/// and no units (eight one-byte timestamp fields, positions from
+/// 0x80000000), and 32-bit positions from 0x80000000 before a 64-bit
+/// timestamp — is written as a hid-log by `simulate` and decoded by
+/// `replay --format hid-log`: raw samples exactly the simulator's, and
+/// without `--raw` on the screen through the device's own screen size
+/// (before, the unnamed shape lost its screen size and gaze landed at
+/// 2265 px on a 1280-px display).
+#[test]
+fn replay_decodes_every_hid_descriptor_shape() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    for layout in ["reference", "compact", "named", "unnamed", "wide"] {
+        let log = dir.path().join(format!("{layout}.hidlog"));
+        let expected = dir.path().join(format!("{layout}-expected.csv"));
+        gazecast()
+            .args(["simulate", "--tracker", "config/trackers/tobii-hid.ron"])
+            .args(["--seconds", "2", "--hid-layout", layout, "--out"])
+            .arg(dir.path().join(format!("{layout}.gzrec")))
+            .arg("--hid-log")
+            .arg(&log)
+            .arg("--csv")
+            .arg(&expected)
+            .succeed();
+        let raw = dir.path().join(format!("{layout}-raw.csv"));
+        let replay = |csv: &std::path::Path, raw: bool| {
+            let mut c = gazecast();
+            c.args(["replay", "--tracker", "config/trackers/tobii-hid.ron"])
+                .args(["--format", "hid-log", "--input"])
+                .arg(&log)
+                .arg("--csv")
+                .arg(csv);
+            if raw {
+                c.arg("--raw");
+            }
+            c.succeed()
+        };
+        let out = replay(&raw, true);
+        let summary = String::from_utf8_lossy(&out.stderr);
+        assert!(
+            summary.contains("dropped_bytes=0 resyncs=0"),
+            "{layout}: {summary}"
+        );
+        assert_eq!(
+            std::fs::read_to_string(&raw).expect("raw"),
+            std::fs::read_to_string(&expected).expect("expected"),
+            "{layout}"
+        );
+        let px = dir.path().join(format!("{layout}-px.csv"));
+        replay(&px, false);
+        let text = std::fs::read_to_string(&px).expect("csv");
+        let header: Vec<&str> = text.lines().next().expect("header").split(',').collect();
+        let col = |name: &str| header.iter().position(|h| *h == name).expect(name);
+        let (xc, yc, vc) = (col("gaze_x"), col("gaze_y"), col("gaze_valid"));
+        let mut valid = 0;
+        for r in text
+            .lines()
+            .skip(1)
+            .map(|l| l.split(',').collect::<Vec<_>>())
+        {
+            if r[vc] != "1" {
+                continue;
+            }
+            valid += 1;
+            let (x, y): (f64, f64) = (r[xc].parse().expect("x"), r[yc].parse().expect("y"));
+            assert!(
+                (0.0..=1280.0).contains(&x) && (0.0..=1024.0).contains(&y),
+                "{layout}: gaze ({x}, {y}) off the 1280x1024 screen"
+            );
+        }
+        assert!(valid > 50, "{layout}: {valid} valid samples");
+    }
+}

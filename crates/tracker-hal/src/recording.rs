@@ -574,6 +574,15 @@ enum Message {
 struct Counters {
     lost_chunks: AtomicU64,
     lost_bytes: AtomicU64,
+    /// The writer's error, set the moment a write fails (a full disk, a
+    /// file size limit, a removed device): the writer stops there.
+    failure: std::sync::Mutex<Option<String>>,
+}
+
+impl Counters {
+    fn failure(&self) -> Option<String> {
+        self.failure.lock().ok().and_then(|f| f.clone())
+    }
 }
 
 /// The tracker thread's end of a recorder: cheap to clone, never blocks.
@@ -613,6 +622,12 @@ impl Tap {
     pub fn lost_chunks(&self) -> u64 {
         self.counters.lost_chunks.load(Ordering::Relaxed)
     }
+
+    /// The write error that stopped the recording, as soon as it happens
+    /// (see [`Recorder::failure`]).
+    pub fn failure(&self) -> Option<String> {
+        self.counters.failure()
+    }
 }
 
 /// Totals of a finished recording.
@@ -636,7 +651,19 @@ impl Recorder {
     /// channel of `capacity` chunks.
     pub fn start(path: &Path, header: &RecordingHeader, capacity: usize) -> Result<Self> {
         let io = |e: std::io::Error| Error::from_io(&format!("{}", path.display()), &e);
-        let mut file = BufWriter::new(std::fs::File::create(path).map_err(io)?);
+        let file = std::fs::File::create(path).map_err(io)?;
+        Self::start_on(file, path, header, capacity)
+    }
+
+    /// [`start`](Self::start) on any [`Sink`] (tests give one that fails).
+    fn start_on<W: Sink>(
+        file: W,
+        path: &Path,
+        header: &RecordingHeader,
+        capacity: usize,
+    ) -> Result<Self> {
+        let io = |e: std::io::Error| Error::from_io(&format!("{}", path.display()), &e);
+        let mut file = BufWriter::new(file);
         file.write_all(&MAGIC).map_err(io)?;
         let text = header_text(header)?;
         file.write_all(&encode_chunk(
@@ -652,7 +679,15 @@ impl Recorder {
         let display = path.display().to_string();
         let thread = std::thread::Builder::new()
             .name("gaze-recorder".into())
-            .spawn(move || write_loop(file, rx, writer_counters, &display))
+            .spawn(move || {
+                let result = write_loop(file, rx, &writer_counters, &display);
+                if let Err(e) = &result {
+                    if let Ok(mut f) = writer_counters.failure.lock() {
+                        *f = Some(e.to_string());
+                    }
+                }
+                result
+            })
             .map_err(|e| Error::from_io("starting the recorder thread", &e))?;
         Ok(Self {
             tap: Tap { tx, counters },
@@ -668,6 +703,16 @@ impl Recorder {
 
     pub fn path(&self) -> &Path {
         &self.path
+    }
+
+    /// The write error that stopped the recording, as soon as it happens:
+    /// the writer thread stops at the first failed write (a full disk, a
+    /// file size limit), the file keeps every chunk written before it (a
+    /// reader reports the torn tail), and later chunks are counted lost.
+    /// A caller polls this to report the failure at once rather than at
+    /// [`finish`](Self::finish).
+    pub fn failure(&self) -> Option<String> {
+        self.tap.counters.failure()
     }
 
     /// Writes what is queued, an overflow chunk if anything was lost, the end
@@ -690,27 +735,38 @@ impl Recorder {
     }
 }
 
-fn write_loop(
-    mut file: BufWriter<std::fs::File>,
+/// Where a recording's bytes go: a file, or in tests a writer that fails.
+trait Sink: Write + Send + 'static {
+    /// Makes what was written durable (`fsync` for a file).
+    fn sync(&self) -> std::io::Result<()>;
+}
+
+impl Sink for std::fs::File {
+    fn sync(&self) -> std::io::Result<()> {
+        self.sync_all()
+    }
+}
+
+fn write_loop<W: Sink>(
+    mut file: BufWriter<W>,
     rx: Receiver<Message>,
-    counters: Arc<Counters>,
+    counters: &Counters,
     path: &str,
 ) -> Result<(u64, u64)> {
     let io = |e: std::io::Error| Error::from_io(path, &e);
     let (mut chunks, mut bytes) = (0u64, 0u64);
     let mut reported_lost = 0u64;
     let mut last_time = 0u64;
-    let overflow =
-        |file: &mut BufWriter<std::fs::File>, t: u64, reported: &mut u64| -> std::io::Result<()> {
-            let lost = counters.lost_chunks.load(Ordering::Relaxed);
-            if lost != *reported {
-                let mut p = lost.to_le_bytes().to_vec();
-                p.extend_from_slice(&counters.lost_bytes.load(Ordering::Relaxed).to_le_bytes());
-                file.write_all(&encode_chunk(ChunkKind::Overflow, t, &p))?;
-                *reported = lost;
-            }
-            Ok(())
-        };
+    let overflow = |file: &mut BufWriter<W>, t: u64, reported: &mut u64| -> std::io::Result<()> {
+        let lost = counters.lost_chunks.load(Ordering::Relaxed);
+        if lost != *reported {
+            let mut p = lost.to_le_bytes().to_vec();
+            p.extend_from_slice(&counters.lost_bytes.load(Ordering::Relaxed).to_le_bytes());
+            file.write_all(&encode_chunk(ChunkKind::Overflow, t, &p))?;
+            *reported = lost;
+        }
+        Ok(())
+    };
     loop {
         let msg = match rx.recv() {
             Ok(m) => m,
@@ -734,7 +790,7 @@ fn write_loop(
                 file.write_all(&encode_chunk(ChunkKind::End, last_time, &[]))
                     .map_err(io)?;
                 file.flush().map_err(io)?;
-                file.get_ref().sync_all().map_err(io)?;
+                file.get_ref().sync().map_err(io)?;
                 return Ok((chunks, bytes));
             }
         }
@@ -756,6 +812,69 @@ mod tests {
             display: None,
             note: "test".into(),
         }
+    }
+
+    /// A writer that accepts `room` bytes, then fails as a full disk does.
+    struct FullAfter {
+        written: Arc<std::sync::Mutex<Vec<u8>>>,
+        room: usize,
+    }
+
+    impl Write for FullAfter {
+        fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
+            let mut w = self.written.lock().expect("lock");
+            let n = buf.len().min(self.room - w.len());
+            if n == 0 && !buf.is_empty() {
+                return Err(std::io::Error::from_raw_os_error(28)); // ENOSPC
+            }
+            w.extend_from_slice(&buf[..n]);
+            Ok(n)
+        }
+        fn flush(&mut self) -> std::io::Result<()> {
+            Ok(())
+        }
+    }
+
+    impl Sink for FullAfter {
+        fn sync(&self) -> std::io::Result<()> {
+            Ok(())
+        }
+    }
+
+    /// A full disk part-way through is known the moment it happens (not
+    /// only at `finish`), later chunks are counted lost, and what was
+    /// written before it reads back as a recording with a torn tail.
+    #[test]
+    fn a_write_error_is_known_at_once_and_what_was_written_reads_back() {
+        let written = Arc::new(std::sync::Mutex::new(Vec::new()));
+        let sink = FullAfter {
+            written: written.clone(),
+            room: 4096,
+        };
+        let rec = Recorder::start_on(sink, Path::new("full.gzrec"), &header(), 4).expect("start");
+        let tap = rec.tap();
+        let mut t = 0;
+        let deadline = std::time::Instant::now() + std::time::Duration::from_secs(10);
+        while rec.failure().is_none() {
+            assert!(std::time::Instant::now() < deadline, "no failure reported");
+            t += 1;
+            tap.device_to_host(t, &[7; 100]);
+            std::thread::sleep(std::time::Duration::from_millis(1));
+        }
+        let failure = rec.failure().expect("failure");
+        assert!(failure.contains("full.gzrec"), "{failure}");
+        assert_eq!(tap.failure(), Some(failure.clone()));
+        // The writer is gone: what is sent now is counted, not queued.
+        let lost = tap.lost_chunks();
+        tap.device_to_host(t + 1, &[7; 100]);
+        assert_eq!(tap.lost_chunks(), lost + 1);
+        let e = rec.finish().expect_err("finish reports it too");
+        assert!(e.to_string().contains("full.gzrec"), "{e}");
+        let bytes = written.lock().expect("lock").clone();
+        assert!(bytes.len() <= 4096);
+        let r = Recording::parse(&bytes).expect("what was written reads back");
+        assert!(!r.chunks.is_empty());
+        assert!(!r.summary().closed, "{:?}", r.summary());
     }
 
     #[test]

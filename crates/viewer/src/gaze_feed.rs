@@ -171,6 +171,8 @@ fn lock(f: &Mutex<Faults>) -> std::sync::MutexGuard<'_, Faults> {
 
 /// What the tracker thread was given.
 struct ThreadCtx {
+    /// The recording's tap, watched for a write error to report at once.
+    recording: Option<Tap>,
     map: Map,
     screen_px: Option<[f64; 2]>,
     tx: Sender<TrackerMsg>,
@@ -190,6 +192,7 @@ struct ThreadCtx {
 /// record), so `stop` is seen within a fraction of a second.
 fn tracker_thread(mut open: Opener, ctx: ThreadCtx) {
     let ThreadCtx {
+        recording,
         map,
         screen_px,
         tx,
@@ -207,6 +210,7 @@ fn tracker_thread(mut open: Opener, ctx: ThreadCtx) {
     // afresh, and its times are shifted (by a constant, so intervals stay)
     // to follow the previous connection's strictly.
     let mut last_mapped: Option<u64> = None;
+    let mut recording_failed = false;
     while !stop.load(Ordering::Relaxed) {
         let mut source = match open() {
             Ok(s) => s,
@@ -253,6 +257,12 @@ fn tracker_thread(mut open: Opener, ctx: ThreadCtx) {
             }
         };
         while !stop.load(Ordering::Relaxed) {
+            if let Some(e) = recording.as_ref().and_then(Tap::failure) {
+                if !recording_failed {
+                    recording_failed = true;
+                    let _ = tx.send(TrackerMsg::Status(recording_stopped(&e)));
+                }
+            }
             let next = source.next_sample();
             let stats = source.stats();
             if stats.bytes > seen_bytes {
@@ -511,6 +521,7 @@ impl GazeSetup {
         let (tx, rx) = crossbeam_channel::unbounded();
         let faults = Arc::new(Mutex::new(Faults::default()));
         let ctx = ThreadCtx {
+            recording: recorder.as_ref().map(Recorder::tap),
             map,
             screen_px: self.screen_px,
             tx,
@@ -699,7 +710,18 @@ impl GazeFeed {
     }
 }
 
+/// The line that reports a recording's write error.
+pub fn recording_stopped(error: &str) -> String {
+    format!("RECORDING STOPPED: {error}; what was written before it is kept, nothing after it is recorded")
+}
+
 impl GazeFeed {
+    /// The recording's write error, from the moment it happens (the
+    /// tracker thread also sends it once as a status line).
+    pub fn recording_failure(&self) -> Option<String> {
+        self.recorder.as_ref().and_then(Recorder::failure)
+    }
+
     /// The session log's lines about the tracker: how it stopped (after
     /// [`Self::finish`]) and every fault counted.
     pub fn report(&self) -> Vec<String> {

@@ -361,7 +361,11 @@ impl Viewer<'_> {
         if self.layers {
             frame.rgb = layers_rgb(&frame);
         }
-        if self.hud || !self.status.is_empty() {
+        let recording = self
+            .feed
+            .recording_failure()
+            .map(|e| crate::gaze_feed::recording_stopped(&e));
+        if self.hud || !self.status.is_empty() || recording.is_some() {
             let fps = self.frames as f64 / self.started.elapsed().as_secs_f64().max(1e-9);
             // The HUD's percentiles cover the last frames only: sorting the
             // whole session every frame would grow with its length.
@@ -372,11 +376,15 @@ impl Viewer<'_> {
                 "{fps:.1} fps  {} rays  gaze→submit p50 {a:.1} p95 {b:.1} p99 {c:.1} ms  beyond frame p95 {e95:.1} ms",
                 stats.rays_total,
             );
-            let lines: Vec<&str> = [self.hud.then_some(hud.as_str()), Some(self.status.as_str())]
-                .into_iter()
-                .flatten()
-                .filter(|l| !l.is_empty())
-                .collect();
+            let lines: Vec<&str> = [
+                self.hud.then_some(hud.as_str()),
+                Some(self.status.as_str()),
+                recording.as_deref(),
+            ]
+            .into_iter()
+            .flatten()
+            .filter(|l| !l.is_empty())
+            .collect();
             draw_text_lines(&mut frame.rgb, (frame.width_px, frame.height_px), &lines)
                 .map_err(|e| e.to_string())?;
         }

@@ -619,6 +619,11 @@ pub fn record(args: &RecordArgs, out: &mut dyn Write) -> Result<(), String> {
             interrupted = true;
             break Ok(());
         }
+        // A write error (a full disk) ends the recording at once: the
+        // device is stopped and the file closed with what it holds.
+        if let Some(e) = recorder.failure() {
+            break Err(crate::gaze_feed::recording_stopped(&e));
+        }
         if args
             .seconds
             .is_some_and(|s| start.elapsed().as_secs_f64() >= s)
@@ -639,7 +644,13 @@ pub fn record(args: &RecordArgs, out: &mut dyn Write) -> Result<(), String> {
         }
     };
     let _ = driver.stop();
-    let summary = recorder.finish().map_err(|e| e.to_string())?;
+    let summary = match (recorder.finish(), &outcome) {
+        (Ok(s), _) => s,
+        (Err(e), Ok(())) => return Err(e.to_string()),
+        // The loop's error already names a write error (it stopped there).
+        (Err(e), Err(o)) if o.contains(&e.to_string()) => return Err(o.clone()),
+        (Err(e), Err(o)) => return Err(format!("{o}; {e}")),
+    };
     let s = driver.stats();
     let _ = writeln!(
         out,

@@ -595,3 +595,55 @@ fn masks_follow_the_eye_distance_a_hid_tracker_measures_unless_fixed() {
         .succeed();
     assert!(!String::from_utf8_lossy(&mouse.stdout).contains("eye distance "));
 }
+
+/// A full disk during `view --record` is reported at once in the session
+/// log (and on the status line), the session goes on rendering without
+/// the recording, the file keeps what was written before the error, and
+/// the session ends with exit 1 naming it. The write error is real: the
+/// viewer runs under a 4 KiB file size limit with SIGXFSZ ignored (EFBIG,
+/// as a full disk gives ENOSPC).
+#[test]
+fn a_write_error_during_view_record_is_reported_at_once_and_rendering_goes_on() {
+    let x = Xvfb::start();
+    let dir = tempfile::tempdir().expect("tempdir");
+    let rec = dir.path().join("r.gzrec");
+    let mut c = small_view(&x, dir.path());
+    c.args([
+        "--replay",
+        "tests/data/mouse-120hz.gzrec",
+        "--frames",
+        "240",
+        "--record",
+    ])
+    .arg(&rec);
+    let mut limited = std::process::Command::new("bash");
+    limited
+        .arg("-c")
+        .arg("trap '' XFSZ; ulimit -f 4; exec \"$0\" \"$@\"")
+        .arg(c.get_program())
+        .args(c.get_args())
+        .current_dir(c.get_current_dir().expect("repository root"))
+        .env("DISPLAY", &x.display)
+        .env_remove("WAYLAND_DISPLAY");
+    let out = limited.output().expect("runs");
+    let log = String::from_utf8_lossy(&out.stdout);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{log}\n{err}");
+    assert!(
+        err.contains("--record") && err.contains("File too large"),
+        "{err}"
+    );
+    let lines: Vec<&str> = log.lines().collect();
+    let stopped = lines
+        .iter()
+        .position(|l| l.starts_with("RECORDING STOPPED") && l.contains("File too large"))
+        .unwrap_or_else(|| panic!("no RECORDING STOPPED line:\n{log}"));
+    let frames_after = lines[stopped..]
+        .iter()
+        .filter(|l| l.starts_with("frame "))
+        .count();
+    assert!(frames_after > 0, "no frame after the error:\n{log}");
+    let r = tracker_hal::Recording::read(&rec).expect("what was written reads back");
+    assert!(r.device_chunks().count() > 10, "{:?}", r.summary());
+    assert!(!r.summary().closed);
+}

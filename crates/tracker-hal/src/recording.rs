@@ -577,6 +577,9 @@ struct Counters {
     /// The writer's error, set the moment a write fails (a full disk, a
     /// file size limit, a removed device): the writer stops there.
     failure: std::sync::Mutex<Option<String>>,
+    /// Set when the writer has ended (closed the file, or stopped at an
+    /// error), for [`Tap::close_now`].
+    ended: (std::sync::Mutex<bool>, std::sync::Condvar),
 }
 
 impl Counters {
@@ -627,6 +630,27 @@ impl Tap {
     /// (see [`Recorder::failure`]).
     pub fn failure(&self) -> Option<String> {
         self.counters.failure()
+    }
+
+    /// Closes the recording from anywhere, now: asks the writer to write
+    /// what is queued and the end chunk and to sync, and waits up to
+    /// `limit` for it. For a process about to end without unwinding (the
+    /// X server went away, and Xlib exits): the file is closed as at a
+    /// normal end. Returns whether the writer ended in time.
+    pub fn close_now(&self, limit: std::time::Duration) -> bool {
+        let _ = self.tx.send_timeout(Message::Close, limit);
+        let (lock, cv) = &self.counters.ended;
+        let Ok(ended) = lock.lock() else {
+            return false;
+        };
+        cv.wait_timeout_while(ended, limit, |e| !*e)
+            .map(|(e, _)| *e)
+            .unwrap_or(false)
+    }
+
+    /// Whether `other` taps the same recording.
+    pub fn same_recording(&self, other: &Tap) -> bool {
+        Arc::ptr_eq(&self.counters, &other.counters)
     }
 }
 
@@ -686,6 +710,11 @@ impl Recorder {
                         *f = Some(e.to_string());
                     }
                 }
+                let (lock, cv) = &writer_counters.ended;
+                if let Ok(mut ended) = lock.lock() {
+                    *ended = true;
+                }
+                cv.notify_all();
                 result
             })
             .map_err(|e| Error::from_io("starting the recorder thread", &e))?;
@@ -875,6 +904,27 @@ mod tests {
         let r = Recording::parse(&bytes).expect("what was written reads back");
         assert!(!r.chunks.is_empty());
         assert!(!r.summary().closed, "{:?}", r.summary());
+    }
+
+    /// `close_now` from another thread closes the file as `finish` does
+    /// (end chunk, nothing lost), and `finish` afterwards still succeeds.
+    #[test]
+    fn close_now_closes_the_file_from_anywhere() {
+        let dir = tempfile::tempdir().expect("tempdir");
+        let path = dir.path().join("r.gzrec");
+        let rec = Recorder::start(&path, &header(), 16).expect("start");
+        let tap = rec.tap();
+        tap.device_to_host(1, &[1, 2, 3]);
+        let other = rec.tap();
+        assert!(other.same_recording(&tap));
+        let closed = std::thread::spawn(move || other.close_now(std::time::Duration::from_secs(5)))
+            .join()
+            .expect("thread");
+        assert!(closed);
+        let r = Recording::read(&path).expect("read");
+        assert!(r.summary().is_clean(), "{:?}", r.warnings());
+        assert_eq!(r.device_chunks().count(), 1);
+        rec.finish().expect("finish after close_now");
     }
 
     #[test]

@@ -541,7 +541,11 @@ pub fn run(args: &CalibrateArgs, out: &mut dyn Write) -> Result<(), String> {
     let setup = GazeSetup::resolve(args.tracker.as_deref(), args.replay.as_deref())?;
     let auto = args.yes || setup.is_replay();
     let source = setup.name.clone();
-    let event_loop = EventLoop::new().map_err(|e| {
+    let event_loop = {
+        crate::screen::close_recordings_if_the_x_server_goes();
+        EventLoop::new()
+    }
+    .map_err(|e| {
         format!("cannot open a window ({e}); the calibration screen needs a display (or Xvfb)")
     })?;
     crate::gaze_feed::catch_interrupts();

@@ -496,6 +496,9 @@ impl GazeSetup {
             None => None,
         };
         let tap = recorder.as_ref().map(Recorder::tap);
+        if let (Some(t), Ok(mut open)) = (&tap, OPEN_RECORDINGS.lock()) {
+            open.push(t.clone());
+        }
         let (cursor_tx, cursor_rx) = crossbeam_channel::unbounded();
         let (frame, mapping) = (self.tracker.frame(), self.tracker.mapping.clone());
         let map: Map = match calibration {
@@ -696,6 +699,7 @@ impl GazeFeed {
             return Ok(None);
         };
         let path = rec.path().display().to_string();
+        forget_recording(&rec.tap());
         let s = rec.finish().map_err(|e| format!("--record: {e}"))?;
         if s.lost_chunks > 0 {
             return Err(format!(
@@ -707,6 +711,27 @@ impl GazeFeed {
             "recorded {path}: {} chunks, {} bytes, closed",
             s.chunks_written, s.bytes_written
         )))
+    }
+}
+
+/// Every recording a [`GazeFeed`] has open, for [`close_recordings_now`].
+static OPEN_RECORDINGS: Mutex<Vec<Tap>> = Mutex::new(Vec::new());
+
+/// Closes every open recording now (end chunk written, file synced),
+/// waiting up to `limit` for each; returns how many closed. For a process
+/// that is about to end without unwinding (see
+/// [`crate::screen::close_recordings_if_the_x_server_goes`]).
+pub fn close_recordings_now(limit: Duration) -> usize {
+    let taps: Vec<Tap> = match OPEN_RECORDINGS.lock() {
+        Ok(t) => t.clone(),
+        Err(p) => p.into_inner().clone(),
+    };
+    taps.iter().filter(|t| t.close_now(limit)).count()
+}
+
+fn forget_recording(tap: &Tap) {
+    if let Ok(mut open) = OPEN_RECORDINGS.lock() {
+        open.retain(|t| !t.same_recording(tap));
     }
 }
 

@@ -576,8 +576,11 @@ pub fn run(opts: &LiveOptions, out: &mut dyn Write) -> Result<(), LiveError> {
         Some(p) => Some(config::load_calibration(p).map_err(|e| e.to_string())?),
         None => None,
     };
-    let event_loop =
-        EventLoop::new().map_err(|e| LiveError::NoWindow(crate::screen::plain_error(&e)))?;
+    let event_loop = {
+        crate::screen::close_recordings_if_the_x_server_goes();
+        EventLoop::new()
+    }
+    .map_err(|e| LiveError::NoWindow(crate::screen::plain_error(&e)))?;
     crate::gaze_feed::catch_interrupts();
     let header = format!(
         "gazecast view: {} on {}, gaze from {}{}",

@@ -10,6 +10,42 @@ use winit::event_loop::ActiveEventLoop;
 use winit::keyboard::Key;
 use winit::window::Window;
 
+/// Makes a lost X server close the open recordings before the process
+/// ends. Xlib ends the process itself when its connection breaks (the
+/// server was killed, a remote session dropped): no destructor runs, so a
+/// recording would be left without its end chunk. The handler closes
+/// every open recording ([`crate::gaze_feed::close_recordings_now`]),
+/// says so on stderr and exits with status 1. Called before a window
+/// opens; harmless where there is no Xlib (Wayland, no display).
+pub fn close_recordings_if_the_x_server_goes() {
+    #[cfg(target_os = "linux")]
+    {
+        static ONCE: std::sync::Once = std::sync::Once::new();
+        ONCE.call_once(|| {
+            if let Ok(xlib) = x11_dl::xlib::Xlib::open() {
+                // SAFETY: a plain C function pointer with Xlib's signature;
+                // the handler is process-wide state of libX11, which
+                // winit's own load of the library shares.
+                unsafe { (xlib.XSetIOErrorHandler)(Some(on_x_io_error)) };
+                // Keep libX11 loaded for the handler's lifetime.
+                std::mem::forget(xlib);
+            }
+        });
+    }
+}
+
+#[cfg(target_os = "linux")]
+unsafe extern "C" fn on_x_io_error(_display: *mut x11_dl::xlib::Display) -> std::os::raw::c_int {
+    let closed = crate::gaze_feed::close_recordings_now(std::time::Duration::from_secs(2));
+    use std::io::Write;
+    let _ = std::io::stdout().flush();
+    eprintln!(
+        "gazecast: the connection to the X server was lost; closed {closed} open recording(s)"
+    );
+    // Xlib's contract: the handler must not return.
+    std::process::exit(1)
+}
+
 /// What a window event means to gazecast's windows.
 pub enum Input {
     Close,

@@ -647,3 +647,60 @@ fn a_write_error_during_view_record_is_reported_at_once_and_rendering_goes_on() 
     assert!(r.device_chunks().count() > 10, "{:?}", r.summary());
     assert!(!r.summary().closed);
 }
+
+/// The X server going away mid-session (killed, a remote session dropped)
+/// ends the process from inside Xlib, where no destructor runs: gazecast's
+/// I/O error handler closes the recording first, so it ends with its end
+/// chunk like any other session, and says so. Before, the `.gzrec` was
+/// left without one ("not closed: the recorder was interrupted").
+#[test]
+fn a_lost_x_server_still_closes_the_recording() {
+    let x = Xvfb::start();
+    let dir = tempfile::tempdir().expect("tempdir");
+    let rec = dir.path().join("r.gzrec");
+    let mut c = small_view(&x, dir.path());
+    c.args([
+        "--replay",
+        "tests/data/mouse-120hz.gzrec",
+        "--frames",
+        "1000000",
+        "--record",
+    ])
+    .arg(&rec)
+    .stdout(std::process::Stdio::null())
+    .stderr(std::process::Stdio::piped());
+    let mut child = c.spawn().expect("view starts");
+    // Running: the recording holds some samples.
+    let deadline = std::time::Instant::now() + std::time::Duration::from_secs(60);
+    while std::fs::metadata(&rec).map_or(0, |m| m.len()) < 2000 {
+        assert!(
+            std::time::Instant::now() < deadline,
+            "view did not start recording"
+        );
+        assert!(
+            child.try_wait().expect("wait").is_none(),
+            "view ended early"
+        );
+        std::thread::sleep(std::time::Duration::from_millis(50));
+    }
+    drop(x);
+    let deadline = std::time::Instant::now() + std::time::Duration::from_secs(20);
+    while child.try_wait().expect("wait").is_none() {
+        if std::time::Instant::now() > deadline {
+            let _ = child.kill();
+            panic!("view went on for 20 s without its X server");
+        }
+        std::thread::sleep(std::time::Duration::from_millis(50));
+    }
+    let out = child.wait_with_output().expect("output");
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{err}");
+    assert!(
+        err.contains("connection to the X server was lost; closed 1 open recording"),
+        "{err}"
+    );
+    let r = tracker_hal::Recording::read(&rec).expect("reads");
+    assert!(r.summary().closed, "no end chunk: {:?}", r.warnings());
+    assert!(r.warnings().is_empty(), "{:?}", r.warnings());
+    assert!(r.device_chunks().count() > 10);
+}

@@ -150,6 +150,7 @@ fn two_simulated_participants_run_resume_and_are_analysed() {
                 rec.display()
             );
         }
+        times_increase_within_each_sitting(dir, sittings);
         assert!(dir.join("stimuli").join("trial-010.png").exists());
         assert!(std::fs::read_to_string(dir.join("session.json"))
             .expect("json")
@@ -187,6 +188,73 @@ fn two_simulated_participants_run_resume_and_are_analysed() {
     b.succeed();
     assert!(bids.join("dataset_description.json").exists());
     assert!(bids.join("participants.tsv").exists());
+    // One run per sitting, each strictly increasing: nothing goes backwards.
+    for (id, sittings) in [("P01", 2), ("P02", 1)] {
+        let beh = bids.join(format!("sub-{id}")).join("beh");
+        let runs: Vec<_> = std::fs::read_dir(&beh)
+            .unwrap_or_else(|e| panic!("{}: {e}", beh.display()))
+            .filter_map(|e| e.ok().map(|e| e.path()))
+            .filter(|p| p.to_string_lossy().ends_with("_physio.tsv.gz"))
+            .collect();
+        assert_eq!(runs.len(), sittings, "{runs:?}");
+        for run in runs {
+            let mut text = String::new();
+            let file = std::fs::File::open(&run).expect("physio");
+            std::io::Read::read_to_string(&mut flate2::read::GzDecoder::new(file), &mut text)
+                .expect("gzip");
+            let t: Vec<f64> = text
+                .lines()
+                .map(|l| {
+                    l.split('\t')
+                        .next()
+                        .unwrap_or("")
+                        .parse()
+                        .expect("timestamp")
+                })
+                .collect();
+            assert!(t.len() > 100, "{}", run.display());
+            assert!(t.windows(2).all(|w| w[1] > w[0]), "{}", run.display());
+        }
+    }
+}
+
+/// Within each sitting the timed samples' mapped times increase strictly
+/// and their intervals equal the device intervals within 0.1 ms; the
+/// session holds exactly the sittings it ran.
+fn times_increase_within_each_sitting(dir: &Path, sittings: u32) {
+    let path = dir.join("samples.tsv");
+    let col = |name| column(&path, name);
+    let (sitting, mapped, device, order) = (
+        col("sitting"),
+        col("mapped_us"),
+        col("device_us"),
+        col("time_order"),
+    );
+    let mut seen = std::collections::BTreeSet::new();
+    let mut last: Option<(u32, u32, u64, u64)> = None;
+    let segment = col("segment");
+    for k in 0..mapped.len() {
+        let s: u32 = sitting[k].parse().expect("sitting");
+        seen.insert(s);
+        if matches!(order[k].as_str(), "repeated" | "backwards" | "ahead") {
+            continue;
+        }
+        let m: u64 = mapped[k].parse().expect("mapped_us");
+        let d: u64 = device[k].parse().expect("device_us");
+        let g: u32 = segment[k].parse().expect("segment");
+        if let Some((ls, lg, lm, ld)) = last.filter(|l| l.0 == s) {
+            assert!(m > lm, "row {k}: mapped {m} after {lm}");
+            if lg == g && order[k] != "reset" {
+                let (dm, dd) = (m - lm, d.saturating_sub(ld));
+                assert!(
+                    dm.abs_diff(dd) <= 100,
+                    "row {k}: interval {dm} µs against {dd} µs on the device ({ls})"
+                );
+            }
+        }
+        last = Some((s, g, m, d));
+    }
+    assert_eq!(seen, (1..=sittings).collect(), "{}", dir.display());
 }
 
 /// The same protocol with an ISCAN on a pseudo-terminal that reports the

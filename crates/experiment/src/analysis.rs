@@ -28,7 +28,9 @@
 //! `report.md`, `conditions.csv`, `table-7.1.csv` (when the design has
 //! hybrid conditions), `fig-conditions.png`, `fig-7.3.png`, `fig-7.4.png`,
 //! and `scanpaths/<participant>-trial-NNN.png` for every trial that has a
-//! `stimuli/trial-NNN.png`.
+//! `stimuli/trial-NNN.png`. Files of these names that an earlier analyze
+//! left in `OUT` and this one does not write are removed (and listed in
+//! the report's warnings); no other file in `OUT` is touched.
 //!
 //! If any session is synthetic (simulated participant), the report's first
 //! line, every figure's title and the CSVs' first line and first column
@@ -1447,9 +1449,88 @@ fn write_outputs(
     }
     let report_path = w.path(REPORT_MD);
     outputs.push(report_path.clone());
+    remove_stale(w, &outputs, &mut report.warnings)?;
     report.outputs = outputs;
     let md = markdown(report);
     w.bytes(&report_path, md.as_bytes())?;
+    Ok(())
+}
+
+/// Whether `name` (a file in `OUT/`, or in `OUT/scanpaths/` when
+/// `scanpath`) is one that analyze writes: its fixed outputs, and
+/// `<participant>-trial-NNN.png` scanpaths.
+fn analyze_output_name(name: &str, scanpath: bool) -> bool {
+    if !scanpath {
+        return [
+            REPORT_MD,
+            CONDITIONS_CSV,
+            TRIALS_CSV,
+            TABLE_7_1_CSV,
+            FIG_CONDITIONS,
+            FIG_7_3,
+            FIG_7_4,
+        ]
+        .contains(&name);
+    }
+    let Some((who, trial)) = name
+        .strip_suffix(".png")
+        .and_then(|stem| stem.rsplit_once("-trial-"))
+    else {
+        return false;
+    };
+    !who.is_empty()
+        && who
+            .chars()
+            .all(|c| c.is_ascii_alphanumeric() || c == '-' || c == '_')
+        && trial.len() >= 3
+        && trial.chars().all(|c| c.is_ascii_digit())
+}
+
+/// Removes what an earlier analyze wrote into `OUT` and this one did not
+/// (a figure this design has no data for, another participant's
+/// scanpaths): they would sit beside a report that does not list them.
+/// Only files named as analyze names its outputs are touched, never
+/// another file; each removal is noted in the report's warnings.
+fn remove_stale(
+    w: &OutputWriter,
+    outputs: &[PathBuf],
+    warnings: &mut Vec<String>,
+) -> Result<(), AnalysisError> {
+    let err = |path: &Path, e: std::io::Error| AnalysisError::Output {
+        path: path.to_path_buf(),
+        message: format!("cannot remove this output of an earlier analyze: {e}"),
+    };
+    let scanpaths = w.path(SCANPATHS_DIR);
+    for (dir, scanpath) in [(w.out.clone(), false), (scanpaths.clone(), true)] {
+        let entries = match std::fs::read_dir(&dir) {
+            Ok(e) => e,
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => continue,
+            Err(e) => return Err(err(&dir, e)),
+        };
+        let mut stale = Vec::new();
+        for e in entries {
+            let e = e.map_err(|e| err(&dir, e))?;
+            let path = e.path();
+            let name = e.file_name().to_string_lossy().into_owned();
+            let is_file = e.file_type().map(|t| t.is_file()).unwrap_or(false);
+            if is_file && analyze_output_name(&name, scanpath) && !outputs.contains(&path) {
+                stale.push(path);
+            }
+        }
+        stale.sort();
+        for path in stale {
+            w.guard(&path)?;
+            std::fs::remove_file(&path).map_err(|e| err(&path, e))?;
+            warnings.push(format!(
+                "removed {} (written by an earlier analyze, not by this one)",
+                path.display()
+            ));
+        }
+    }
+    // An emptied scanpaths folder goes too (a folder with other files stays).
+    if !outputs.iter().any(|o| o.starts_with(&scanpaths)) {
+        let _ = std::fs::remove_dir(&scanpaths);
+    }
     Ok(())
 }
 

@@ -54,6 +54,16 @@
 //! - Participant labels: the participant id with every non-alphanumeric
 //!   character removed; an empty label, or two sessions with the same
 //!   label, is an error.
+//! - **Into an existing dataset** the export merges: the participants
+//!   already there keep their rows and folders, an exported participant
+//!   replaces its own row (never a second one) and the runs of its earlier
+//!   export that this one does not write. A dataset it cannot merge into
+//!   is refused before anything is written: not gazecast's, another
+//!   design or BIDS version, other `participants.tsv` columns or
+//!   `participants.json`, a `sub-*` folder without its row or a row
+//!   without its folder, or a label that is another participant id's.
+//!   Every file is written through a temporary file that is removed on
+//!   any error (a full disk included).
 
 use crate::analysis::{check_output_folder, OutputGuard};
 use crate::session::{
@@ -428,6 +438,13 @@ pub fn export_bids(dirs: &[PathBuf], out: &Path, task: &str) -> Result<BidsExpor
         }
         infos.push((dir.clone(), info, label));
     }
+    // An existing dataset is merged into (or refused) before anything is
+    // written: its participants stay, the exported ones are added or
+    // replace their own rows.
+    let design_name = infos[0].1.design_name.clone();
+    let labels: Vec<&str> = infos.iter().map(|(_, _, l)| l.as_str()).collect();
+    let existing = read_dataset(out, &design_name)?;
+    check_merge(out, &existing, &infos, &labels)?;
     std::fs::create_dir_all(out).map_err(|e| out_err(out, e))?;
     let synthetic_any = infos.iter().any(|(_, i, _)| i.synthetic);
     let mut export = BidsExport {
@@ -436,7 +453,6 @@ pub fn export_bids(dirs: &[PathBuf], out: &Path, task: &str) -> Result<BidsExpor
         samples: Vec::new(),
         warnings: Vec::new(),
     };
-    let design_name = infos[0].1.design_name.clone();
     let version = env!("CARGO_PKG_VERSION");
 
     let mut synthetic_trials_any = false;
@@ -614,42 +630,48 @@ pub fn export_bids(dirs: &[PathBuf], out: &Path, task: &str) -> Result<BidsExpor
             export.files.push(events_json_path);
         }
 
-        participants_rows.push(format!(
-            "sub-{label}\t{}\t{}\t{}\n",
-            field(&info.participant),
-            info.participant_index,
-            synthetic
-        ));
+        remove_stale_runs(&beh, label, task, &export.files)?;
+        participants_rows.push(ParticipantRow {
+            id: format!("sub-{label}"),
+            participant: field(&info.participant),
+            index: info.participant_index.to_string(),
+            synthetic,
+        });
         export.labels.push(label.clone());
         export.samples.push(written);
     }
-    let synthetic = synthetic_any || synthetic_trials_any;
+    // The dataset's rows: the existing ones in their order, each exported
+    // participant replacing its own row or appended.
+    let mut rows = existing.rows;
+    for r in participants_rows {
+        match rows.iter_mut().find(|e| e.id == r.id) {
+            Some(e) => *e = r,
+            None => rows.push(r),
+        }
+    }
+    let synthetic = synthetic_any || synthetic_trials_any || rows.iter().any(|r| r.synthetic);
 
-    let participants_path = out.join("participants.tsv");
-    let mut p = String::from("participant_id\tparticipant\tparticipant_index\tsynthetic\n");
-    for r in &participants_rows {
-        p.push_str(r);
+    let participants_path = out.join(PARTICIPANTS_TSV);
+    let mut p = PARTICIPANTS_COLUMNS.join("\t");
+    p.push('\n');
+    for r in &rows {
+        p.push_str(&format!(
+            "{}\t{}\t{}\t{}\n",
+            r.id, r.participant, r.index, r.synthetic
+        ));
     }
     write_text(&guard, &participants_path, &p)?;
     export.files.push(participants_path);
-    let pj = out.join("participants.json");
-    write_json(
-        &guard,
-        &pj,
-        &json!({
-            "participant": {"Description": "Participant id as recorded in session.json."},
-            "participant_index": {"Description": "Participant index (counterbalancing row)."},
-            "synthetic": {"Description": "Whether the participant was simulated.", "Levels": {"true": "simulated participant (not human data)", "false": "human participant"}},
-        }),
-    )?;
+    let pj = out.join(PARTICIPANTS_JSON);
+    write_json(&guard, &pj, &participants_json())?;
     export.files.push(pj);
 
     let name = if synthetic {
-        format!("SYNTHETIC DATA (simulated participants): {design_name} visual search with eye tracking")
+        format!("{SYNTHETIC_NAME}{design_name}{NAME_SUFFIX}")
     } else {
-        format!("{design_name} visual search with eye tracking")
+        format!("{design_name}{NAME_SUFFIX}")
     };
-    let dd = out.join("dataset_description.json");
+    let dd = out.join(DATASET_DESCRIPTION);
     write_json(
         &guard,
         &dd,
@@ -684,4 +706,258 @@ arrival_timestamp (host arrival, us)) and one event per search trial (`_run-N_ev
     write_text(&guard, &readme, &text)?;
     export.files.push(readme);
     Ok(export)
+}
+
+/// `participants.tsv`.
+pub const PARTICIPANTS_TSV: &str = "participants.tsv";
+/// `participants.json`.
+pub const PARTICIPANTS_JSON: &str = "participants.json";
+/// `dataset_description.json`.
+pub const DATASET_DESCRIPTION: &str = "dataset_description.json";
+/// The columns of `participants.tsv`, in order.
+pub const PARTICIPANTS_COLUMNS: [&str; 4] = [
+    "participant_id",
+    "participant",
+    "participant_index",
+    "synthetic",
+];
+const SYNTHETIC_NAME: &str = "SYNTHETIC DATA (simulated participants): ";
+const NAME_SUFFIX: &str = " visual search with eye tracking";
+
+fn participants_json() -> Value {
+    json!({
+        "participant": {"Description": "Participant id as recorded in session.json."},
+        "participant_index": {"Description": "Participant index (counterbalancing row)."},
+        "synthetic": {"Description": "Whether the participant was simulated.", "Levels": {"true": "simulated participant (not human data)", "false": "human participant"}},
+    })
+}
+
+/// One row of `participants.tsv`.
+#[derive(Debug, Clone, PartialEq)]
+struct ParticipantRow {
+    /// `sub-<label>`.
+    id: String,
+    participant: String,
+    index: String,
+    synthetic: bool,
+}
+
+/// The dataset already in the output folder (empty when there is none).
+#[derive(Debug, Default)]
+struct Dataset {
+    rows: Vec<ParticipantRow>,
+    /// The `sub-*` folders there.
+    folders: Vec<String>,
+}
+
+fn refuse(path: &Path, message: String) -> BidsError {
+    BidsError::Output {
+        path: path.to_path_buf(),
+        message: format!("{message}; cannot merge this export into it (export into a new folder)"),
+    }
+}
+
+/// Reads the dataset in `out`, if any, and checks that this export can
+/// merge into it: a gazecast export of design `design_name` in this BIDS
+/// version whose `participants.tsv` has this export's columns and whose
+/// `participants.json` describes them.
+fn read_dataset(out: &Path, design_name: &str) -> Result<Dataset, BidsError> {
+    let mut folders = Vec::new();
+    match std::fs::read_dir(out) {
+        Ok(entries) => {
+            for e in entries {
+                let e = e.map_err(|e| out_err(out, e))?;
+                let name = e.file_name().to_string_lossy().into_owned();
+                if name.starts_with("sub-") && e.path().is_dir() {
+                    folders.push(name);
+                }
+            }
+        }
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(Dataset::default()),
+        Err(e) => return Err(out_err(out, e)),
+    }
+    folders.sort();
+    let dd = out.join(DATASET_DESCRIPTION);
+    let pt = out.join(PARTICIPANTS_TSV);
+    let pj = out.join(PARTICIPANTS_JSON);
+    if !dd.exists() && !pt.exists() && !pj.exists() {
+        // No dataset yet (or one whose first export failed part-way: its
+        // folders must be exported again, [`check_merge`]).
+        return Ok(Dataset {
+            rows: Vec::new(),
+            folders,
+        });
+    }
+    // dataset_description.json: gazecast's, same design, same BIDS version.
+    let text = input_file::read_to_string(&dd, input_file::SESSION_TABLE)
+        .map_err(|e| refuse(&dd, e.to_string()))?;
+    let v: Value = serde_json::from_str(&text).map_err(|e| refuse(&dd, e.to_string()))?;
+    let generated = v
+        .get("GeneratedBy")
+        .and_then(|g| g.get(0))
+        .and_then(|g| g.get("Name"))
+        .and_then(Value::as_str);
+    if generated != Some("gazecast") {
+        return Err(refuse(
+            &dd,
+            format!("GeneratedBy {generated:?}: the dataset was not written by gazecast"),
+        ));
+    }
+    let version = v.get("BIDSVersion").and_then(Value::as_str);
+    if version != Some(BIDS_VERSION) {
+        return Err(refuse(
+            &dd,
+            format!("BIDSVersion {version:?}, this export writes {BIDS_VERSION:?}"),
+        ));
+    }
+    let name = v.get("Name").and_then(Value::as_str).unwrap_or("");
+    let theirs = name
+        .strip_prefix(SYNTHETIC_NAME)
+        .unwrap_or(name)
+        .strip_suffix(NAME_SUFFIX);
+    if theirs != Some(design_name) {
+        return Err(refuse(
+            &dd,
+            format!("the dataset is {name:?}, not an export of design {design_name:?}"),
+        ));
+    }
+    // participants.json: the columns this export describes.
+    let text = input_file::read_to_string(&pj, input_file::SESSION_TABLE)
+        .map_err(|e| refuse(&pj, e.to_string()))?;
+    let v: Value = serde_json::from_str(&text).map_err(|e| refuse(&pj, e.to_string()))?;
+    if v != participants_json() {
+        return Err(refuse(
+            &pj,
+            "it describes other columns than this export's (participant, participant_index, synthetic)".into(),
+        ));
+    }
+    // participants.tsv: these columns, one row per participant.
+    let text = input_file::read_to_string(&pt, input_file::SESSION_TABLE)
+        .map_err(|e| refuse(&pt, e.to_string()))?;
+    let mut lines = text.lines();
+    let header = lines.next().unwrap_or("");
+    if header.split('\t').collect::<Vec<_>>() != PARTICIPANTS_COLUMNS {
+        return Err(refuse(
+            &pt,
+            format!(
+                "line 1: columns {:?}, this export writes {:?}",
+                header.split('\t').collect::<Vec<_>>(),
+                PARTICIPANTS_COLUMNS
+            ),
+        ));
+    }
+    let mut rows: Vec<ParticipantRow> = Vec::new();
+    for (k, line) in lines.enumerate() {
+        let at = |m: String| refuse(&pt, format!("line {}: {m}", k + 2));
+        let cells: Vec<&str> = line.split('\t').collect();
+        let [id, participant, index, synthetic] = cells[..] else {
+            return Err(at(format!(
+                "{} cells, expected {}",
+                cells.len(),
+                PARTICIPANTS_COLUMNS.len()
+            )));
+        };
+        let label_ok = id
+            .strip_prefix("sub-")
+            .is_some_and(|l| !l.is_empty() && l.chars().all(|c| c.is_ascii_alphanumeric()));
+        if !label_ok {
+            return Err(at(format!("participant_id {id:?} is not sub-<label>")));
+        }
+        let synthetic = match synthetic {
+            "true" => true,
+            "false" => false,
+            other => return Err(at(format!("synthetic {other:?} is not true or false"))),
+        };
+        if rows.iter().any(|r| r.id == id) {
+            return Err(at(format!("{id} appears twice")));
+        }
+        rows.push(ParticipantRow {
+            id: id.to_string(),
+            participant: participant.to_string(),
+            index: index.to_string(),
+            synthetic,
+        });
+    }
+    Ok(Dataset { rows, folders })
+}
+
+/// The merge keeps the dataset consistent: every `sub-*` folder has its
+/// row and every row its folder once this export is in, and an exported
+/// label that is already there belongs to the same participant id.
+fn check_merge(
+    out: &Path,
+    existing: &Dataset,
+    infos: &[(PathBuf, SessionInfo, String)],
+    labels: &[&str],
+) -> Result<(), BidsError> {
+    let pt = out.join(PARTICIPANTS_TSV);
+    let exported = |id: &str| labels.iter().any(|l| id == format!("sub-{l}"));
+    for f in &existing.folders {
+        if !exported(f) && !existing.rows.iter().any(|r| &r.id == f) {
+            return Err(refuse(
+                &pt,
+                format!("{f} has no row (export its session folder together with these to repair the dataset)"),
+            ));
+        }
+    }
+    for r in &existing.rows {
+        if !exported(&r.id) && !existing.folders.contains(&r.id) {
+            return Err(refuse(
+                &pt,
+                format!("{} is listed but its folder is missing", r.id),
+            ));
+        }
+    }
+    for (dir, info, label) in infos {
+        let id = format!("sub-{label}");
+        if let Some(r) = existing.rows.iter().find(|r| r.id == id) {
+            if r.participant != field(&info.participant) {
+                return Err(refuse(
+                    &pt,
+                    format!(
+                        "{id} is participant {:?} there, but {} is participant {:?}",
+                        r.participant,
+                        dir.display(),
+                        info.participant
+                    ),
+                ));
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Removes the files an earlier export of this participant and task wrote
+/// in `beh` that this one did not (a run that has no file now): only
+/// names of the export's own scheme, `sub-<label>_task-<task>_run-<n>_…`.
+fn remove_stale_runs(
+    beh: &Path,
+    label: &str,
+    task: &str,
+    written: &[PathBuf],
+) -> Result<(), BidsError> {
+    let prefix = format!("sub-{label}_task-{task}_run-");
+    let entries = std::fs::read_dir(beh).map_err(|e| out_err(beh, e))?;
+    for e in entries {
+        let e = e.map_err(|e| out_err(beh, e))?;
+        let name = e.file_name().to_string_lossy().into_owned();
+        let Some(rest) = name.strip_prefix(&prefix) else {
+            continue;
+        };
+        let (run, suffix) = rest.split_once('_').unwrap_or((rest, ""));
+        let ours = !run.is_empty()
+            && run.chars().all(|c| c.is_ascii_digit())
+            && [
+                "recording-eye1_physio.tsv.gz",
+                "recording-eye1_physio.json",
+                "events.tsv",
+                "events.json",
+            ]
+            .contains(&suffix);
+        let path = e.path();
+        if ours && !written.contains(&path) {
+            std::fs::remove_file(&path).map_err(|e| out_err(&path, e))?;
+        }
+    }
+    Ok(())
 }

@@ -181,6 +181,62 @@ pub fn check_label(field: &str, value: &str) -> Result<(), DesignError> {
     Ok(())
 }
 
+/// Longest id that names a folder (characters): a participant id, a
+/// design's `name`.
+pub const MAX_ID_CHARS: usize = 64;
+
+/// The rule for every string that becomes a path component (a design's
+/// `name` names the folder `OUT/<name>`, a participant id the folder
+/// `sub-<id>`): 1 to [`MAX_ID_CHARS`] ASCII letters, digits, `-` and `_`.
+/// So never `.`, `..`, a separator or an absolute path: the component
+/// stays one folder inside the output folder. `Err` is the reason.
+pub fn check_id(value: &str) -> Result<(), String> {
+    let n = value.chars().count();
+    if n == 0 || n > MAX_ID_CHARS {
+        return Err(format!(
+            "{value:?}: must be 1 to {MAX_ID_CHARS} characters, got {n}"
+        ));
+    }
+    if let Some(c) = value
+        .chars()
+        .find(|c| !(c.is_ascii_alphanumeric() || *c == '-' || *c == '_'))
+    {
+        return Err(format!(
+            "{value:?}: {c:?} is not allowed (ASCII letters, digits, '-' and '_' only: it names a folder)"
+        ));
+    }
+    Ok(())
+}
+
+/// Most calibration targets a design may ask for: the 5×5 grid (the
+/// grids are 5 or a square number; Murphy 2007 used 9, a 3×3 grid).
+pub const MAX_CALIBRATION_POINTS: u32 = 25;
+/// Most validation targets a design may ask for (5×5).
+pub const MAX_VALIDATION_POINTS: u32 = 25;
+
+/// Whether `n` targets make one of the runner's grids: 5 (the centre and
+/// the corners) or a square number from 4 up to `max`.
+fn grid_points_ok(n: u32, max: u32) -> bool {
+    let k = (f64::from(n)).sqrt().round() as u32;
+    n <= max && (n == 5 || (n >= 4 && k * k == n))
+}
+
+/// Checks a calibration or validation target count; `Err` is the reason.
+pub fn check_points(n: u32, max: u32) -> Result<(), String> {
+    if grid_points_ok(n, max) {
+        return Ok(());
+    }
+    let grids: Vec<String> = (1..=max)
+        .filter(|&m| grid_points_ok(m, max))
+        .map(|m| m.to_string())
+        .collect();
+    Err(format!(
+        "{n} targets: must be one of {} (5 = the centre and the corners, a square number = a \
+         square grid; at most {max})",
+        grids.join(", ")
+    ))
+}
+
 /// Longest search a trial may record, seconds (an hour): the bound of a
 /// design's `response.max_search_s`, and of every `rt_s` that `analyze`
 /// reads (a longer one is invalid input, named by file and line).
@@ -237,9 +293,11 @@ pub struct Breaks {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Calibration {
-    /// Calibration targets (Murphy 2007: 9, a 3×3 grid).
+    /// Calibration targets (Murphy 2007: 9, a 3×3 grid): 5 or a square
+    /// number, at most [`MAX_CALIBRATION_POINTS`].
     pub points: u32,
-    /// Validation (accuracy confirmation) targets (Murphy 2007: 5).
+    /// Validation (accuracy confirmation) targets (Murphy 2007: 5): 5 or a
+    /// square number, at most [`MAX_VALIDATION_POINTS`].
     pub validation_points: u32,
     /// Mean validation error above which the runner recalibrates, in
     /// degrees of visual angle.
@@ -254,7 +312,9 @@ pub struct Calibration {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct DriftCheck {
-    /// Check before every `every_trials`-th trial (not before the first).
+    /// Check before every `every_trials`-th trial (not before the first):
+    /// 1 to trials per participant − 1. The check is one target at the
+    /// screen's centre (there is no point count to choose).
     pub every_trials: u32,
     /// Error above which the runner recalibrates, in degrees.
     pub threshold_deg: f64,
@@ -354,9 +414,14 @@ impl Design {
 
     /// Checks the rules serde cannot express; returns the first violation.
     pub fn validate(&self) -> Result<(), DesignError> {
-        if self.name.trim().is_empty() {
-            return Err(DesignError::invalid("name", "must not be empty"));
-        }
+        // The name names the session folder OUT/<name>: the id rule, so
+        // it can never reach outside OUT.
+        check_id(&self.name).map_err(|m| {
+            DesignError::invalid(
+                "name",
+                format!("{m}; the name is the session folder OUT/<name>"),
+            )
+        })?;
         self.validate_factors()?;
         self.validate_conditions()?;
         if self.runs == 0 {
@@ -444,18 +509,10 @@ impl Design {
             }
         }
         let c = &self.calibration;
-        if c.points == 0 {
-            return Err(DesignError::invalid(
-                "calibration.points",
-                "must be at least 1",
-            ));
-        }
-        if c.validation_points == 0 {
-            return Err(DesignError::invalid(
-                "calibration.validation_points",
-                "must be at least 1",
-            ));
-        }
+        check_points(c.points, MAX_CALIBRATION_POINTS)
+            .map_err(|m| DesignError::invalid("calibration.points", m))?;
+        check_points(c.validation_points, MAX_VALIDATION_POINTS)
+            .map_err(|m| DesignError::invalid("calibration.validation_points", m))?;
         positive_finite(
             c.accuracy_threshold_deg,
             "calibration.accuracy_threshold_deg",
@@ -467,10 +524,18 @@ impl Design {
             ));
         }
         if let Some(d) = &self.drift_check {
-            if d.every_trials == 0 {
+            // A drift check is one target at the centre; it comes before
+            // trial k·every_trials (k ≥ 1), so it must fall within the session.
+            let total = self.total_trials();
+            if d.every_trials == 0 || d.every_trials as usize >= total {
                 return Err(DesignError::invalid(
                     "drift_check.every_trials",
-                    "must be at least 1",
+                    format!(
+                        "must be between 1 and {} (trials per participant - 1: a larger value \
+                         never checks), got {}",
+                        total.saturating_sub(1),
+                        d.every_trials
+                    ),
                 ));
             }
             positive_finite(d.threshold_deg, "drift_check.threshold_deg")?;

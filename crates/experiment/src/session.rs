@@ -1328,9 +1328,20 @@ impl AtomicFile {
         })
     }
 
-    /// Flushes, syncs and renames the temporary file over the target.
+    /// Flushes, syncs and renames the temporary file over the target. On
+    /// any error (a full disk when the last bytes are flushed, a failed
+    /// sync or rename) the temporary file is removed and the target is
+    /// untouched.
     pub fn commit(mut self) -> io::Result<()> {
-        let file = self.file.take().expect("not yet committed");
+        let result = self.finish();
+        if result.is_err() {
+            let _ = std::fs::remove_file(&self.temp);
+        }
+        result
+    }
+
+    fn finish(&mut self) -> io::Result<()> {
+        let file = self.file.take().ok_or_else(committed)?;
         let file = file.into_inner().map_err(|e| e.into_error())?;
         file.sync_all()?;
         drop(file);
@@ -1338,18 +1349,25 @@ impl AtomicFile {
     }
 }
 
+fn committed() -> io::Error {
+    io::Error::other("the file was already committed")
+}
+
 impl Write for AtomicFile {
     fn write(&mut self, buf: &[u8]) -> io::Result<usize> {
-        self.file.as_mut().expect("not yet committed").write(buf)
+        self.file.as_mut().ok_or_else(committed)?.write(buf)
     }
     fn flush(&mut self) -> io::Result<()> {
-        self.file.as_mut().expect("not yet committed").flush()
+        self.file.as_mut().ok_or_else(committed)?.flush()
     }
 }
 
 impl Drop for AtomicFile {
     fn drop(&mut self) {
-        if self.file.take().is_some() {
+        if let Some(file) = self.file.take() {
+            // Unflushed bytes are discarded, not written (they may be
+            // what failed): the BufWriter is taken apart before the drop.
+            let _ = file.into_parts();
             let _ = std::fs::remove_file(&self.temp);
         }
     }

@@ -1205,3 +1205,59 @@ fn sessions_with_different_stimuli_are_not_pooled() {
     std::fs::write(b.join(DESIGN_RON), ron).unwrap();
     analyze(&[a, b], &out, &AnalyzeOptions::default()).expect("only the description differs");
 }
+
+/// Analysing into a folder an earlier analyze wrote: the outputs it does
+/// not write this time (another participant's scanpaths) are removed, so
+/// the folder holds what the report lists; a user's own files stay.
+#[test]
+fn a_second_analyze_leaves_no_stale_outputs_and_keeps_other_files() {
+    let tmp = tempfile::tempdir().unwrap();
+    let (dirs, _) = three_sessions(tmp.path());
+    let out = tmp.path().join("out");
+    analyze(&dirs, &out, &AnalyzeOptions::default()).unwrap();
+    let sp = out.join("scanpaths");
+    assert!(sp.join("P03-trial-000.png").is_file());
+    // The user's own files, some almost named like analyze's.
+    let mine = [
+        out.join("notes.md"),
+        out.join("report.md.bak"),
+        sp.join("my-sketch.png"),
+        sp.join("P03-trial-x.png"),
+    ];
+    for f in &mine {
+        std::fs::write(f, "mine").unwrap();
+    }
+    let report = analyze(&dirs[..2], &out, &AnalyzeOptions::default()).unwrap();
+    let listed: std::collections::BTreeSet<PathBuf> = report.outputs.iter().cloned().collect();
+    for e in std::fs::read_dir(&sp).unwrap() {
+        let p = e.unwrap().path();
+        assert!(
+            listed.contains(&p) || mine.contains(&p),
+            "{} is neither this run's output nor the user's",
+            p.display()
+        );
+    }
+    assert!(!sp.join("P03-trial-000.png").exists());
+    assert!(sp.join("P01-trial-000.png").is_file());
+    for f in &mine {
+        assert_eq!(
+            std::fs::read_to_string(f).unwrap(),
+            "mine",
+            "{}",
+            f.display()
+        );
+    }
+    let md = std::fs::read_to_string(out.join("report.md")).unwrap();
+    assert!(
+        md.contains("P03-trial-000.png") && md.contains("earlier analyze"),
+        "{md}"
+    );
+    // Without stimulus pictures at all, the whole scanpaths set goes.
+    let opts = AnalyzeOptions {
+        scanpaths: false,
+        ..Default::default()
+    };
+    analyze(&dirs[..2], &out, &opts).unwrap();
+    assert!(!sp.join("P01-trial-000.png").exists());
+    assert!(sp.join("my-sketch.png").is_file());
+}

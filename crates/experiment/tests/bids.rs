@@ -511,3 +511,203 @@ fn a_two_sitting_session_exports_one_monotonic_run_per_sitting() {
         );
     }
 }
+
+/// Every file under `dir`, relative, sorted.
+fn files_under(dir: &Path) -> Vec<String> {
+    let mut out = Vec::new();
+    let mut stack = vec![dir.to_path_buf()];
+    while let Some(d) = stack.pop() {
+        for e in std::fs::read_dir(&d).unwrap() {
+            let p = e.unwrap().path();
+            if p.is_dir() {
+                stack.push(p);
+            } else {
+                out.push(p.strip_prefix(dir).unwrap().display().to_string());
+            }
+        }
+    }
+    out.sort();
+    out
+}
+
+fn temporaries(dir: &Path) -> Vec<String> {
+    files_under(dir)
+        .into_iter()
+        .filter(|f| f.contains(".tmp-"))
+        .collect()
+}
+
+/// `participants.tsv`'s participant_id column.
+fn participant_ids(out: &Path) -> Vec<String> {
+    std::fs::read_to_string(out.join("participants.tsv"))
+        .unwrap()
+        .lines()
+        .skip(1)
+        .map(|l| l.split('\t').next().unwrap().to_string())
+        .collect()
+}
+
+/// Exporting into an existing dataset merges: the participants already
+/// there keep their rows, a participant exported again replaces its own
+/// row (never a second one), and every `sub-*` folder has its row.
+#[test]
+fn exporting_into_a_dataset_merges_its_participants() {
+    let tmp = tempfile::tempdir().unwrap();
+    let a = make(tmp.path(), "P01", false, 20);
+    let b = make(tmp.path(), "P02", true, 20);
+    let out = tmp.path().join("bids");
+    export_bids(std::slice::from_ref(&a.dir), &out, "search").unwrap();
+    export_bids(std::slice::from_ref(&b.dir), &out, "search").unwrap();
+    assert_eq!(participant_ids(&out), ["sub-P01", "sub-P02"]);
+    assert!(out.join("sub-P01").is_dir() && out.join("sub-P02").is_dir());
+    // P02 was simulated: the merged dataset says so, though P01 was first.
+    let dd = json(&out.join("dataset_description.json"));
+    assert!(
+        dd["Name"].as_str().unwrap().starts_with("SYNTHETIC"),
+        "{dd}"
+    );
+    // The same participant again (alone, then with the other): one row each.
+    export_bids(std::slice::from_ref(&a.dir), &out, "search").unwrap();
+    export_bids(&[b.dir.clone(), a.dir.clone()], &out, "search").unwrap();
+    assert_eq!(participant_ids(&out), ["sub-P01", "sub-P02"]);
+    let rows = std::fs::read_to_string(out.join("participants.tsv")).unwrap();
+    assert!(rows.contains("sub-P02\tP02\t2\ttrue\n"), "{rows}");
+    assert_eq!(
+        json(&out.join("participants.json"))
+            .as_object()
+            .unwrap()
+            .len(),
+        3
+    );
+    assert!(temporaries(&out).is_empty());
+}
+
+/// A dataset the export cannot merge into is refused before anything is
+/// written, naming the file and the reason: other columns, another
+/// design, a folder without its row, a label that is another id's.
+#[test]
+fn a_dataset_that_cannot_be_merged_is_refused_untouched() {
+    let tmp = tempfile::tempdir().unwrap();
+    let a = make(tmp.path(), "P01", false, 20);
+    let b = make(tmp.path(), "P02", false, 20);
+    let c = make(tmp.path(), "P-02", false, 20);
+    let fresh = |name: &str| {
+        let out = tmp.path().join(name);
+        export_bids(std::slice::from_ref(&a.dir), &out, "search").unwrap();
+        out
+    };
+    let cases: Vec<(PathBuf, &str, &str)> = vec![
+        {
+            let out = fresh("columns");
+            let p = out.join("participants.tsv");
+            let t = std::fs::read_to_string(&p).unwrap();
+            std::fs::write(&p, t.replacen("\tsynthetic\n", "\tsynthetic\tage\n", 1)).unwrap();
+            (out, "participants.tsv", "columns")
+        },
+        {
+            let out = fresh("design");
+            let p = out.join("dataset_description.json");
+            let t = std::fs::read_to_string(&p).unwrap();
+            std::fs::write(&p, t.replace("murphy2007-search", "other-design")).unwrap();
+            (out, "dataset_description.json", "other-design")
+        },
+        {
+            let out = fresh("orphan");
+            std::fs::create_dir_all(out.join("sub-X9/beh")).unwrap();
+            (out, "participants.tsv", "sub-X9 has no row")
+        },
+        {
+            let out = fresh("label");
+            export_bids(std::slice::from_ref(&b.dir), &out, "search").unwrap();
+            (out, "participants.tsv", "is participant \"P02\"")
+        },
+    ];
+    for (out, file, says) in cases {
+        let before: Vec<(String, Vec<u8>)> = files_under(&out)
+            .into_iter()
+            .map(|f| {
+                let bytes = std::fs::read(out.join(&f)).unwrap();
+                (f, bytes)
+            })
+            .collect();
+        let input = if says.contains("P02") { &c.dir } else { &b.dir };
+        let err = export_bids(std::slice::from_ref(input), &out, "search")
+            .unwrap_err()
+            .to_string();
+        assert!(
+            err.contains(file) && err.contains(says),
+            "{}: {err}",
+            out.display()
+        );
+        let after: Vec<(String, Vec<u8>)> = files_under(&out)
+            .into_iter()
+            .map(|f| {
+                let bytes = std::fs::read(out.join(&f)).unwrap();
+                (f, bytes)
+            })
+            .collect();
+        assert_eq!(before, after, "{}: nothing written", out.display());
+    }
+}
+
+/// A write that fails (the target is a folder, so the rename fails even
+/// for root) leaves no temporary file behind.
+#[test]
+fn a_failed_commit_leaves_no_temporary_file() {
+    let tmp = tempfile::tempdir().unwrap();
+    let a = make(tmp.path(), "P01", false, 20);
+    let out = tmp.path().join("bids");
+    let blocker = out.join("sub-P01/beh/sub-P01_task-search_run-1_events.tsv");
+    std::fs::create_dir_all(&blocker).unwrap();
+    std::fs::write(blocker.join("keep"), "x").unwrap();
+    let err = export_bids(std::slice::from_ref(&a.dir), &out, "search").unwrap_err();
+    assert!(err.to_string().contains("_events.tsv"), "{err}");
+    assert_eq!(temporaries(&out), Vec::<String>::new());
+}
+
+/// On a full disk no temporary file is left behind. The export runs in a
+/// child process of this test binary whose file-size limit is 1 KiB
+/// (`ulimit -f 1`, SIGXFSZ ignored): a write past it fails (EFBIG) as a
+/// write to a full disk does, root or not. The first file over 1 KiB is
+/// a JSON sidecar, buffered whole: it fails when the buffer is flushed.
+#[test]
+fn a_full_disk_leaves_no_temporary_file() {
+    const CHILD: &str = "GAZECAST_TEST_FULL_DISK";
+    if let Some(spec) = std::env::var_os(CHILD) {
+        let spec = PathBuf::from(spec);
+        let input = spec.join("in-P01");
+        let r = export_bids(std::slice::from_ref(&input), &spec.join("bids"), "search");
+        match r {
+            Err(e) => println!("EXPORT FAILED: {e}"),
+            Ok(_) => println!("EXPORT SUCCEEDED"),
+        }
+        return;
+    }
+    let tmp = tempfile::tempdir().unwrap();
+    make(tmp.path(), "P01", false, 5);
+    let exe = std::env::current_exe().unwrap();
+    let out = std::process::Command::new("bash")
+        .arg("-c")
+        .arg("trap '' XFSZ; ulimit -f 1; exec \"$0\" \"$@\"")
+        .arg(exe)
+        .args([
+            "--exact",
+            "a_full_disk_leaves_no_temporary_file",
+            "--nocapture",
+            "--test-threads=1",
+        ])
+        .env(CHILD, tmp.path())
+        .output()
+        .unwrap();
+    let log = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{log}{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(
+        log.contains("EXPORT FAILED") && log.contains("too large"),
+        "{log}"
+    );
+    assert_eq!(temporaries(&tmp.path().join("bids")), Vec::<String>::new());
+}

@@ -216,3 +216,92 @@ proptest::proptest! {
         }
     }
 }
+
+/// The seed design with `name`, `calibration.points`,
+/// `calibration.validation_points` and `drift_check` replaced.
+fn variant(name: &str, points: u32, validation: u32, drift: Option<u32>) -> String {
+    let text = murphy_text()
+        .replace(
+            "name: \"murphy2007-search\"",
+            &format!("name: {}", ron::to_string(name).expect("a RON string")),
+        )
+        .replace("points: 9,", &format!("points: {points},"))
+        .replace(
+            "validation_points: 5,",
+            &format!("validation_points: {validation},"),
+        );
+    match drift {
+        None => text,
+        Some(k) => text.replace(
+            "drift_check: None",
+            &format!("drift_check: Some((every_trials: {k}, threshold_deg: 1.5))"),
+        ),
+    }
+}
+
+#[test]
+fn a_name_that_would_leave_the_output_folder_is_refused() {
+    for bad in ["../escaped", "/tmp/abs", "a/b", ".", "..", "", "a b", "x.y"] {
+        let text = variant(bad, 9, 5, None);
+        assert_eq!(field_of(&text), "name", "{bad:?}");
+    }
+    let err = Design::from_ron_str(&variant("../escaped", 9, 5, None)).unwrap_err();
+    assert!(err.to_string().contains("not allowed"), "{err}");
+    assert!(Design::from_ron_str(&variant("murphy_2007-v2", 9, 5, None)).is_ok());
+}
+
+#[test]
+fn point_counts_have_upper_bounds() {
+    let t = variant("murphy2007-search", 1_000_000, 5, None);
+    assert_eq!(field_of(&t), "calibration.points");
+    let t = variant("murphy2007-search", 9, 1_000_000, None);
+    assert_eq!(field_of(&t), "calibration.validation_points");
+    // A drift check must fall within the session (44 trials).
+    assert_eq!(
+        field_of(&variant("murphy2007-search", 9, 5, Some(44))),
+        "drift_check.every_trials"
+    );
+    assert!(Design::from_ron_str(&variant("murphy2007-search", 9, 5, Some(1))).is_ok());
+    assert!(Design::from_ron_str(&variant("murphy2007-search", 9, 5, Some(43))).is_ok());
+}
+
+proptest::proptest! {
+    #![proptest_config(proptest::prelude::ProptestConfig::with_cases(200))]
+
+    /// An accepted name is exactly one plain folder under any output
+    /// folder: never `..`, a root, a separator or `.`.
+    #[test]
+    fn an_accepted_name_is_one_folder_inside_out(
+        name in "[a-zA-Z0-9_ ./\\\\:-]{0,10}|/[a-z]{1,5}|\\.\\.(/[a-z]{0,4})*|[a-z]{70}",
+    ) {
+        if let Ok(d) = Design::from_ron_str(&variant(&name, 9, 5, None)) {
+            let out = std::path::Path::new("/data/out");
+            let p = out.join(&d.name);
+            let rel = p.strip_prefix(out).expect("inside out");
+            let parts: Vec<_> = rel.components().collect();
+            proptest::prop_assert_eq!(parts.len(), 1);
+            proptest::prop_assert!(matches!(parts[0], std::path::Component::Normal(_)));
+            proptest::prop_assert!(!d.name.contains(['.', '/', '\\', ':', ' ']));
+        }
+    }
+
+    /// Calibration and validation targets: accepted exactly when they
+    /// make one of the grids (5, or a square number 4 to 25).
+    #[test]
+    fn point_counts_are_grids_of_at_most_25(
+        points in proptest::prop_oneof![0u32..40, 0u32..=u32::MAX],
+        validation in proptest::prop_oneof![0u32..40, 0u32..=u32::MAX],
+    ) {
+        let grid = |n: u32| [4, 5, 9, 16, 25].contains(&n);
+        let r = Design::from_ron_str(&variant("murphy2007-search", points, validation, None));
+        match r {
+            Ok(_) => proptest::prop_assert!(grid(points) && grid(validation)),
+            Err(DesignError::Invalid { field, .. }) => {
+                proptest::prop_assert!(!(grid(points) && grid(validation)));
+                let want = if grid(points) { "calibration.validation_points" } else { "calibration.points" };
+                proptest::prop_assert_eq!(field, want);
+            }
+            Err(e) => proptest::prop_assert!(false, "{e}"),
+        }
+    }
+}

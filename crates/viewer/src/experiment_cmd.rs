@@ -148,10 +148,12 @@ pub fn run(args: &ExperimentArgs, out: &mut dyn Write) -> Result<(), String> {
         ExperimentCommand::Plan(a) => {
             let display = crate::config::load_display(&a.display).map_err(|e| e.to_string())?;
             let geometry = display.geometry().map_err(|e| e.to_string())?;
-            let (_, (trials, _)) = crate::config::load_design_checked(&a.design, |d| {
-                runner::stimulus::plan_on_display(d, a.participant_index, &geometry)
+            // The very check `run` makes: what plan lists, run accepts.
+            let (_, checked) = crate::config::load_design_checked(&a.design, |d| {
+                runner::check_design(d, a.participant_index, &geometry)
             })
             .map_err(|e| e.to_string())?;
+            let trials = checked.trials;
             let w =
                 |out: &mut dyn Write, s: String| writeln!(out, "{s}").map_err(|e| e.to_string());
             w(out, "trial\trun\ttrial_in_run\tcondition\tseed\ttarget_mesh\ttarget_row\ttarget_col\tbefore".into())?;

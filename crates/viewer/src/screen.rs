@@ -26,9 +26,8 @@ pub fn close_recordings_if_the_x_server_goes() {
                 // SAFETY: a plain C function pointer with Xlib's signature;
                 // the handler is process-wide state of libX11, which
                 // winit's own load of the library shares.
+                // (x11-dl never unloads the library, so the handler stays.)
                 unsafe { (xlib.XSetIOErrorHandler)(Some(on_x_io_error)) };
-                // Keep libX11 loaded for the handler's lifetime.
-                std::mem::forget(xlib);
             }
         });
     }

@@ -563,3 +563,208 @@ fn a_design_that_does_not_fit_its_display_is_refused_before_the_session_folder()
         "{err}"
     );
 }
+
+fn small_design() -> String {
+    std::fs::read_to_string(
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("../../tests/data/experiment/design-small.ron"),
+    )
+    .expect("design")
+}
+
+/// The 1-based line of `text` that contains `needle`.
+fn line_of(text: &str, needle: &str) -> usize {
+    1 + text
+        .lines()
+        .position(|l| l.contains(needle))
+        .unwrap_or_else(|| panic!("no line has {needle:?}"))
+}
+
+/// Designs that must never run are refused by `plan` and by `run` alike,
+/// at load, naming the file, the line and the field, before any folder
+/// exists: a name that would put the session folder outside `--out`
+/// (`../escaped`, an absolute path) and point counts past their bounds
+/// (a million calibration or validation targets, a 6×6 grid).
+#[test]
+fn plan_and_run_refuse_escaping_names_and_unbounded_point_counts() {
+    let tmp = tempfile::tempdir().expect("tempdir");
+    let good = small_design();
+    let abs = tmp.path().join("abs");
+    let abs_name = format!("name: {:?}", abs.display().to_string());
+    let cases = [
+        (
+            "escape",
+            good.replace("name: \"small-search\"", "name: \"../escaped\""),
+            "name: \"../escaped\"",
+            "name",
+        ),
+        (
+            "absolute",
+            good.replace("name: \"small-search\"", &abs_name),
+            abs_name.as_str(),
+            "name",
+        ),
+        (
+            "million",
+            good.replace("        points: 5,", "        points: 1000000,"),
+            "points: 1000000",
+            "calibration.points",
+        ),
+        (
+            "thirtysix",
+            good.replace("        points: 5,", "        points: 36,"),
+            "points: 36",
+            "calibration.points",
+        ),
+        (
+            "validation",
+            good.replace("validation_points: 5,", "validation_points: 1000000,"),
+            "validation_points: 1000000",
+            "calibration.validation_points",
+        ),
+    ];
+    for (name, text, at, field) in cases {
+        assert_ne!(text, good, "{name}: the case changes the design");
+        let design = tmp.path().join(format!("{name}.ron"));
+        std::fs::write(&design, &text).expect("write");
+        let line = line_of(&text, at);
+        let out_dir = tmp.path().join("nest").join(format!("data-{name}"));
+        let started = std::time::Instant::now();
+        let run = common::gazecast()
+            .env_remove("DISPLAY")
+            .env_remove("WAYLAND_DISPLAY")
+            .args(["experiment", "run"])
+            .arg(&design)
+            .args([
+                "--participant",
+                "P01",
+                "--tracker",
+                "tests/data/mouse-participant.ron",
+                "--display",
+                "tests/data/experiment/display-small.ron",
+                "--simulate-participant",
+                "1",
+                "--out",
+            ])
+            .arg(&out_dir)
+            .output()
+            .expect("runs");
+        let plan = common::gazecast()
+            .args(["experiment", "plan"])
+            .arg(&design)
+            .args(["--display", "tests/data/experiment/display-small.ron"])
+            .output()
+            .expect("runs");
+        for (what, out) in [("run", run), ("plan", plan)] {
+            let err = String::from_utf8_lossy(&out.stderr);
+            assert_eq!(out.status.code(), Some(1), "{what} {name}: {err}");
+            let file_line = format!("{name}.ron:{line}:");
+            assert!(
+                err.contains(&file_line) && err.contains(&format!("field `{field}`")),
+                "{what} {name}: wants {file_line} and field `{field}`: {err}"
+            );
+        }
+        assert!(
+            started.elapsed().as_secs_f64() < 20.0,
+            "{name}: refused at once"
+        );
+        assert!(!out_dir.exists(), "{name}: no session folder");
+        assert!(!tmp.path().join("nest").join("escaped").exists());
+        assert!(!abs.exists(), "{name}: nothing outside --out");
+    }
+}
+
+/// `gazecast calibrate` has the design file's bounds on its target
+/// counts: a million targets are refused before any window opens.
+#[test]
+fn calibrate_refuses_point_counts_past_their_bounds() {
+    for (args, says) in [
+        (vec!["--points", "1000000"], "--points"),
+        (vec!["--points", "36"], "--points"),
+        (
+            vec!["--validation-points", "1000000"],
+            "--validation-points",
+        ),
+    ] {
+        let out = common::gazecast()
+            .env_remove("DISPLAY")
+            .env_remove("WAYLAND_DISPLAY")
+            .args([
+                "calibrate",
+                "--tracker",
+                "config/trackers/mouse.ron",
+                "--display",
+                "tests/data/experiment/display-small.ron",
+                "--out",
+                "/nonexistent/never-written.ron",
+            ])
+            .args(&args)
+            .output()
+            .expect("runs");
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(!out.status.success(), "{args:?}");
+        assert!(
+            err.contains(says) && err.contains("at most 25"),
+            "{args:?}: {err}"
+        );
+    }
+}
+
+/// A drift check before every trial (`every_trials: 1`), which `plan`
+/// accepts, `run` accepts and performs: a simulated participant's first
+/// trials each have a drift check after the first.
+#[test]
+fn a_drift_check_that_plan_accepts_run_performs() {
+    let tmp = tempfile::tempdir().expect("tempdir");
+    let design = tmp.path().join("drift.ron");
+    std::fs::write(
+        &design,
+        small_design().replace(
+            "drift_check: None",
+            "drift_check: Some((every_trials: 1, threshold_deg: 3.0))",
+        ),
+    )
+    .expect("write");
+    let plan = common::gazecast()
+        .args(["experiment", "plan"])
+        .arg(&design)
+        .args(["--display", "tests/data/experiment/display-small.ron"])
+        .succeed();
+    let listed = String::from_utf8_lossy(&plan.stdout);
+    assert!(listed.contains("DriftCheck"), "{listed}");
+    let x = Xvfb::start();
+    let out = tmp.path().join("data");
+    let run = windowed(&x)
+        .args(["experiment", "run"])
+        .arg(&design)
+        .args([
+            "--participant",
+            "D01",
+            "--tracker",
+            "tests/data/mouse-participant.ron",
+            "--display",
+            "tests/data/experiment/display-small.ron",
+            "--backend",
+            "cpu",
+            "--simulate-participant",
+            "4",
+            "--no-stimulus-pictures",
+            "--max-trials",
+            "3",
+            "--out",
+        ])
+        .arg(&out)
+        .output()
+        .expect("runs");
+    let log = String::from_utf8_lossy(&run.stdout);
+    assert!(
+        run.status.success(),
+        "{log}\n{}",
+        String::from_utf8_lossy(&run.stderr)
+    );
+    let markers = out.join("small-search/sub-D01/markers.tsv");
+    let drift_checks = column(&markers, "event")
+        .iter()
+        .filter(|e| *e == "start:drift-check")
+        .count();
+    assert!(drift_checks >= 2, "{drift_checks} drift checks");
+}

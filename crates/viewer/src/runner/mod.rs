@@ -116,6 +116,94 @@ pub fn index_from_id(id: &str) -> Option<usize> {
     n.checked_sub(1)
 }
 
+/// What [`check_design`] derives from a design on a display: all that
+/// `experiment run` needs from it before any folder or window exists.
+#[derive(Debug, Clone)]
+pub struct Checked {
+    /// The participant's trials.
+    pub trials: Vec<experiment::Trial>,
+    /// The search grid on the screen.
+    pub layout: Layout,
+    /// The calibration fit: a second-order polynomial follows an eye's
+    /// bow where there are points enough (9: the seed's); fewer points
+    /// fit a homography.
+    pub model: Model,
+    /// (calibration, validation) targets and timing.
+    pub cal_plans: (Plan, Plan),
+    /// The drift check's single target at the centre (designs with one).
+    pub drift_plan: Option<Plan>,
+}
+
+/// The one check of a design that `experiment plan` and `experiment run`
+/// share, so that they cannot disagree: the design's own rules
+/// ([`Design::validate`]), the trials on this display
+/// ([`stimulus::plan_on_display`]), the calibration and validation grids
+/// and the fit they feed, and the drift check's target. `Err((field,
+/// message))` names the design field (the caller adds the file and line).
+pub fn check_design(
+    design: &Design,
+    index: usize,
+    geometry: &ScreenGeometry,
+) -> Result<Checked, (String, String)> {
+    design.validate().map_err(|e| match e {
+        experiment::DesignError::Invalid { field, message } => (field, message),
+        other => ("name".to_string(), other.to_string()),
+    })?;
+    let (trials, layout) = stimulus::plan_on_display(design, index, geometry)?;
+    let size = (geometry.width_px, geometry.height_px);
+    let c = &design.calibration;
+    let plan = SessionPlan {
+        points: c.points as usize,
+        validation_points: c.validation_points as usize,
+        settle_ms: SETTLE_MS,
+        collect_ms: COLLECT_MS,
+        order: Order::RowMajor,
+    };
+    let cal_plans = plan.plans(size).map_err(|e| match e {
+        tracker_hal::calibration::PlanError::Validation(m) => {
+            ("calibration.validation_points".to_string(), m)
+        }
+        other => ("calibration.points".to_string(), other.to_string()),
+    })?;
+    let model = if c.points >= 9 {
+        Model::Polynomial2
+    } else {
+        Model::Homography
+    };
+    if cal_plans.0.targets_px.len() < model.min_points() {
+        return Err((
+            "calibration.points".into(),
+            format!(
+                "{} targets: the {model:?} fit needs at least {}",
+                cal_plans.0.targets_px.len(),
+                model.min_points()
+            ),
+        ));
+    }
+    let drift_plan = design.drift_check.as_ref().map(|_| drift_plan(geometry));
+    Ok(Checked {
+        trials,
+        layout,
+        model,
+        cal_plans,
+        drift_plan,
+    })
+}
+
+/// The drift check: one target at the screen's centre, timed as the
+/// calibration targets. (The calibration grids start at 4 points; a drift
+/// check is a single one.)
+fn drift_plan(geometry: &ScreenGeometry) -> Plan {
+    Plan {
+        targets_px: vec![geometry.centre_px()],
+        settle_ms: SETTLE_MS,
+        collect_ms: COLLECT_MS,
+        window_ms: 200.min(COLLECT_MS / 2),
+        min_samples: 5,
+        max_dispersion: f64::INFINITY,
+    }
+}
+
 /// Everything fixed for the session.
 struct Setup {
     design: Design,
@@ -129,6 +217,7 @@ struct Setup {
     screenshots: Option<PathBuf>,
     cal_plans: (Plan, Plan),
     drift_plan: Option<Plan>,
+    model: Model,
 }
 
 /// A calibration or validation in progress.
@@ -291,15 +380,8 @@ impl Runner<'_> {
         match phase {
             Phase::Calibration => {
                 let (cal, val) = self.setup.cal_plans.clone();
-                // A second-order polynomial follows an eye's bow where there
-                // are points enough (9: the seed's); 5 points fit a homography.
-                let model = if self.setup.design.calibration.points >= 9 {
-                    Model::Polynomial2
-                } else {
-                    Model::Homography
-                };
                 let s = Session::new(
-                    model,
+                    self.setup.model,
                     cal,
                     val,
                     self.setup.geometry,
@@ -844,10 +926,16 @@ pub fn run(opts: &RunOptions, out: &mut dyn Write) -> Result<(), String> {
         })?,
     };
     // The design on this display, before any folder or window exists.
-    let (design, (trials, layout)) = crate::config::load_design_checked(&opts.design, |d| {
-        stimulus::plan_on_display(d, index, &geometry)
-    })
-    .map_err(|e| e.to_string())?;
+    let (design, checked) =
+        crate::config::load_design_checked(&opts.design, |d| check_design(d, index, &geometry))
+            .map_err(|e| e.to_string())?;
+    let Checked {
+        trials,
+        layout,
+        model,
+        cal_plans,
+        drift_plan,
+    } = checked;
     let mut setup_gaze = GazeSetup::resolve(opts.tracker.as_deref(), None)?;
     // The simulated participant's ISCAN: a pseudo-terminal whose slave the
     // tracker opens in place of the file's port.
@@ -894,30 +982,6 @@ pub fn run(opts: &RunOptions, out: &mut dyn Write) -> Result<(), String> {
             trials.len()
         ));
     }
-    let plan = SessionPlan {
-        points: design.calibration.points as usize,
-        validation_points: design.calibration.validation_points as usize,
-        settle_ms: SETTLE_MS,
-        collect_ms: COLLECT_MS,
-        order: Order::RowMajor,
-    };
-    let size = (geometry.width_px, geometry.height_px);
-    let cal_plans = plan
-        .plans(size)
-        .map_err(|e| format!("{}: calibration: {e}", opts.design.display()))?;
-    let drift_plan = match &design.drift_check {
-        Some(_) => Some(
-            Plan::grid(1, size, 0.0, Order::RowMajor)
-                .map(|mut p| {
-                    p.settle_ms = SETTLE_MS;
-                    p.collect_ms = COLLECT_MS;
-                    p.window_ms = p.window_ms.min(COLLECT_MS / 2);
-                    p
-                })
-                .map_err(|e| format!("drift check: {e}"))?,
-        ),
-        None => None,
-    };
     let setup = Setup {
         layout,
         design,
@@ -930,6 +994,7 @@ pub fn run(opts: &RunOptions, out: &mut dyn Write) -> Result<(), String> {
         screenshots: opts.screenshots.clone(),
         cal_plans,
         drift_plan,
+        model,
     };
     if let Some(d) = &opts.screenshots {
         std::fs::create_dir_all(d).map_err(|e| format!("--screenshots {}: {e}", d.display()))?;
@@ -1028,4 +1093,105 @@ pub fn run(opts: &RunOptions, out: &mut dyn Write) -> Result<(), String> {
         return Err(e);
     }
     result.map_err(|e| format!("window: {e}"))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use experiment::design::DriftCheck;
+    use experiment::Step;
+    use proptest::prelude::*;
+
+    fn murphy() -> Design {
+        Design::load(concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/../../config/experiments/murphy2007-search.ron"
+        ))
+        .expect("design")
+    }
+
+    fn seed_display() -> ScreenGeometry {
+        crate::config::load_display(std::path::Path::new(concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/../../config/displays/tobii-et1750-17in.ron"
+        )))
+        .expect("display")
+        .geometry()
+        .expect("geometry")
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(64))]
+
+        /// Every design that `experiment plan` accepts, `experiment run`
+        /// accepts and can set up. `plan`'s trials-on-the-display check
+        /// accepting a design implies the shared check accepts it; and
+        /// what the shared check accepts gives run everything it builds
+        /// before the window: the calibration session (its fit has the
+        /// points it needs, at most 25 of each kind), the drift check's
+        /// single target wherever the plan puts a drift check, and a flow
+        /// that reaches its end.
+        #[test]
+        fn every_design_plan_accepts_run_accepts(
+            points in prop_oneof![0u32..30, Just(36u32), Just(1_000_000u32)],
+            validation in prop_oneof![0u32..30, Just(1_000_000u32)],
+            drift in proptest::option::of((0u32..50, prop_oneof![Just(f64::NAN), 0.1f64..5.0])),
+            at_start in any::<bool>(),
+            midpoint in any::<bool>(),
+            runs in 1u32..4,
+            index in 0usize..30,
+        ) {
+            let g = seed_display();
+            let mut d = murphy();
+            d.calibration.points = points;
+            d.calibration.validation_points = validation;
+            d.calibration.at_start = at_start;
+            d.calibration.validate_at_midpoint = midpoint;
+            d.runs = runs;
+            d.drift_check = drift.map(|(every_trials, threshold_deg)| DriftCheck {
+                every_trials,
+                threshold_deg,
+            });
+            let shared = check_design(&d, index, &g);
+            if stimulus::plan_on_display(&d, index, &g).is_ok() {
+                prop_assert!(shared.is_ok(), "{:?}", shared.err());
+            }
+            let Ok(c) = shared else {
+                return Ok(());
+            };
+            prop_assert!(d.validate().is_ok());
+            prop_assert_eq!(c.cal_plans.0.targets_px.len(), points as usize);
+            prop_assert_eq!(c.cal_plans.1.targets_px.len(), validation as usize);
+            prop_assert!(points <= 25 && validation <= 25);
+            prop_assert!(c.cal_plans.0.targets_px.len() >= c.model.min_points());
+            let _session = Session::new(
+                c.model,
+                c.cal_plans.0.clone(),
+                c.cal_plans.1.clone(),
+                g,
+                d.calibration.accuracy_threshold_deg,
+                true,
+            );
+            let drifts = c
+                .trials
+                .iter()
+                .filter(|t| t.before.contains(&Step::DriftCheck))
+                .count();
+            prop_assert_eq!(drifts > 0, d.drift_check.is_some());
+            if let Some(p) = &c.drift_plan {
+                prop_assert_eq!(p.targets_px.len(), 1);
+                let _ = Procedure::new(p.clone());
+            }
+            let mut flow = Flow::new(c.trials.clone(), 0, d.response.confirm_click, false);
+            let mut steps = 0usize;
+            while flow.phase() != Phase::Done {
+                if flow.phase() == Phase::DriftCheck {
+                    prop_assert!(c.drift_plan.is_some());
+                }
+                flow.advance();
+                steps += 1;
+                prop_assert!(steps < 10 * (c.trials.len() + 2) * 4);
+            }
+        }
+    }
 }

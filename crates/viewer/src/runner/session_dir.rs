@@ -16,9 +16,6 @@ use foveation::Display;
 use super::RunOptions;
 use crate::gaze_feed::GazeSetup;
 
-/// Largest participant id accepted (characters).
-const MAX_ID: usize = 64;
-
 /// The open session folder.
 pub struct SessionDir {
     path: PathBuf,
@@ -39,23 +36,19 @@ pub struct SessionDir {
     written_trials: usize,
 }
 
-/// A participant id usable as a folder name and a BIDS label: letters,
-/// digits, `-` and `_`, at most [`MAX_ID`] characters.
+/// A participant id usable as a folder name and a BIDS label: the rule
+/// of every string that becomes a path ([`experiment::design::check_id`]).
 pub fn check_id(id: &str) -> Result<(), String> {
-    if id.is_empty() || id.chars().count() > MAX_ID {
-        return Err(format!(
-            "--participant: give an id of 1 to {MAX_ID} characters, got {id:?}"
-        ));
-    }
-    if let Some(c) = id
-        .chars()
-        .find(|c| !(c.is_ascii_alphanumeric() || *c == '-' || *c == '_'))
-    {
-        return Err(format!(
-            "--participant {id:?}: {c:?} is not allowed (letters, digits, '-' and '_' only: the id names a folder)"
-        ));
-    }
-    Ok(())
+    experiment::design::check_id(id).map_err(|m| format!("--participant {m}"))
+}
+
+/// The session folder `out/<design name>/sub-<participant>`: both
+/// components checked by the id rule here as well (whatever validated
+/// them before), so the folder is always inside `out`.
+pub fn session_path(out: &Path, design_name: &str, participant: &str) -> Result<PathBuf, String> {
+    experiment::design::check_id(design_name).map_err(|m| format!("design name {m}"))?;
+    check_id(participant)?;
+    Ok(out.join(design_name).join(format!("sub-{participant}")))
 }
 
 fn io<E: std::fmt::Display>(path: &Path) -> impl Fn(E) -> String + '_ {
@@ -71,13 +64,9 @@ impl SessionDir {
         index: usize,
         gaze: &GazeSetup,
     ) -> Result<Self, String> {
-        check_id(&opts.participant)?;
+        let path = session_path(&opts.out, &design.name, &opts.participant)?;
         let design_text = input_file::read_to_string(&opts.design, input_file::DESIGN)
             .map_err(io(&opts.design))?;
-        let path = opts
-            .out
-            .join(&design.name)
-            .join(format!("sub-{}", opts.participant));
         let info_path = path.join(session::SESSION_JSON);
         let trials_path = path.join(session::TRIALS_TSV);
         let exists = info_path.exists() || trials_path.exists();
@@ -447,6 +436,27 @@ mod tests {
         }
         for bad in ["", "../P01", "P 01", "P/1", "é", &"x".repeat(65)] {
             assert!(check_id(bad).is_err(), "{bad:?}");
+        }
+    }
+
+    proptest::proptest! {
+        /// Whatever the design name and the participant id, the session
+        /// folder is either refused or exactly two levels inside `out`
+        /// (no `..`, no root, no separator in a component).
+        #[test]
+        fn the_session_folder_never_leaves_out(
+            name in "[a-zA-Z0-9_./\\-]{0,12}|/[a-z]{1,4}|\\.\\.(/[a-z]{1,3})?",
+            id in "[a-zA-Z0-9_./-]{0,8}",
+        ) {
+            let out = Path::new("/srv/data/out");
+            if let Ok(p) = session_path(out, &name, &id) {
+                let rel = p.strip_prefix(out).expect("inside out");
+                let parts: Vec<_> = rel.components().collect();
+                proptest::prop_assert_eq!(parts.len(), 2, "{}", p.display());
+                for c in parts {
+                    proptest::prop_assert!(matches!(c, std::path::Component::Normal(_)));
+                }
+            }
         }
     }
 }

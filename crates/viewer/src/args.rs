@@ -234,9 +234,31 @@ impl PlanArgs {
         }
     }
 
+    /// The target counts have the design file's bounds (5 or a square
+    /// number, at most 25): a million targets would calibrate until killed.
+    /// `calibrate` checks them before it loads anything; every command
+    /// that makes plans (`simulate --script calibration` too) through
+    /// [`Self::plans`].
+    pub fn check_counts(&self) -> Result<(), String> {
+        use experiment::design::{check_points, MAX_CALIBRATION_POINTS, MAX_VALIDATION_POINTS};
+        for (flag, n, max) in [
+            ("--points", self.points, MAX_CALIBRATION_POINTS),
+            (
+                "--validation-points",
+                self.validation_points,
+                MAX_VALIDATION_POINTS,
+            ),
+        ] {
+            let n = u32::try_from(n).unwrap_or(u32::MAX);
+            check_points(n, max).map_err(|m| format!("{flag} {m}"))?;
+        }
+        Ok(())
+    }
+
     /// (calibration plan, validation plan) on a `w × h` px screen; errors
     /// name the option to change.
     pub fn plans(&self, screen_px: (u32, u32)) -> Result<(Plan, Plan), String> {
+        self.check_counts()?;
         self.session_plan()
             .plans(screen_px)
             .map_err(|e| match e {

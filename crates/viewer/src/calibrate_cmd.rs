@@ -526,20 +526,7 @@ pub fn run(args: &CalibrateArgs, out: &mut dyn Write) -> Result<(), String> {
             args.max_error_deg
         ));
     }
-    // The target counts have the design file's bounds (5 or a square
-    // number, at most 25): a million targets would calibrate until killed.
-    use experiment::design::{check_points, MAX_CALIBRATION_POINTS, MAX_VALIDATION_POINTS};
-    for (flag, n, max) in [
-        ("--points", args.plan.points, MAX_CALIBRATION_POINTS),
-        (
-            "--validation-points",
-            args.plan.validation_points,
-            MAX_VALIDATION_POINTS,
-        ),
-    ] {
-        let n = u32::try_from(n).unwrap_or(u32::MAX);
-        check_points(n, max).map_err(|m| format!("{flag} {m}"))?;
-    }
+    args.plan.check_counts()?;
     let display = config::load_display(&args.display).map_err(|e| e.to_string())?;
     let geometry = display.geometry().map_err(|e| e.to_string())?;
     let size = display.resolution_px;

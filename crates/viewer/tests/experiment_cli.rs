@@ -706,6 +706,29 @@ fn calibrate_refuses_point_counts_past_their_bounds() {
             err.contains(says) && err.contains("at most 25"),
             "{args:?}: {err}"
         );
+        // The simulator's calibration script plans the same targets.
+        let dir = tempfile::tempdir().expect("tempdir");
+        let out = common::gazecast()
+            .args([
+                "simulate",
+                "--tracker",
+                "config/trackers/mouse.ron",
+                "--script",
+                "calibration",
+                "--display",
+                "tests/data/experiment/display-small.ron",
+                "--out",
+            ])
+            .arg(dir.path().join("never.gzrec"))
+            .args(&args)
+            .output()
+            .expect("runs");
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(!out.status.success(), "simulate {args:?}");
+        assert!(
+            err.contains(says) && err.contains("at most 25"),
+            "simulate {args:?}: {err}"
+        );
     }
 }
 

@@ -205,6 +205,18 @@ fn a_lost_or_ended_tracker_keeps_the_viewer_rendering_with_a_status_line() {
     );
 }
 
+/// Reads a child's pipe to its end on a thread, so the child never blocks
+/// on a full pipe.
+fn drain<R: std::io::Read + Send + 'static>(pipe: Option<R>) -> std::thread::JoinHandle<String> {
+    std::thread::spawn(move || {
+        let mut s = String::new();
+        if let Some(mut p) = pipe {
+            let _ = p.read_to_string(&mut s);
+        }
+        s
+    })
+}
+
 /// A 640×512 display with the seed's pixel pitch (a quarter of the pixels,
 /// so the CPU renderer keeps up in a debug build).
 fn small_display(dir: &std::path::Path) -> std::path::PathBuf {
@@ -283,6 +295,10 @@ fn a_live_session_survives_a_disconnect_and_ctrl_c_leaves_a_valid_recording() {
         .stderr(std::process::Stdio::piped())
         .spawn()
         .expect("viewer starts");
+    // The session log is read as it is written: a pipe nobody reads fills
+    // (64 KiB, a few hundred frame lines) and blocks the viewer's log.
+    let out_reader = drain(child.stdout.take());
+    let err_reader = drain(child.stderr.take());
     // The driver's start command (0x84) says the viewer has the port open.
     let deadline = Instant::now() + Duration::from_secs(60);
     let mut byte = [0u8; 1];
@@ -319,19 +335,22 @@ fn a_live_session_survives_a_disconnect_and_ctrl_c_leaves_a_valid_recording() {
     assert!(ok.success());
     let deadline = Instant::now() + Duration::from_secs(60);
     while child.try_wait().expect("wait").is_none() {
-        assert!(
-            Instant::now() < deadline,
-            "the viewer did not stop on Ctrl-C"
-        );
+        if Instant::now() > deadline {
+            let _ = child.kill();
+            let _ = child.wait();
+            panic!(
+                "the viewer did not stop on Ctrl-C:\n{}\n{}",
+                out_reader.join().expect("stdout"),
+                err_reader.join().expect("stderr")
+            );
+        }
         std::thread::sleep(Duration::from_millis(50));
     }
-    let out = child.wait_with_output().expect("output");
-    let text = String::from_utf8_lossy(&out.stdout);
-    assert!(
-        out.status.success(),
-        "{text}\n{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    let status = child.wait().expect("wait");
+    let stdout = out_reader.join().expect("stdout");
+    let stderr = err_reader.join().expect("stderr");
+    let text = stdout.as_str();
+    assert!(status.success(), "{text}\n{stderr}");
     // Rendering went on after the disconnect, with a status line.
     let lines: Vec<&str> = text.lines().collect();
     let lost = lines

@@ -142,19 +142,19 @@ struct Saccade {
 #[derive(Debug, Clone)]
 pub struct MouseEmulator {
     config: MouseConfig,
-    rng: ChaCha8Rng,
     history: VecDeque<CursorEvent>,
+    /// The cursor event the eye is following now, for the jitter's key.
+    current: Option<CursorEvent>,
     eye: Option<[f64; 2]>,
     saccade: Option<Saccade>,
 }
 
 impl MouseEmulator {
     pub fn new(config: MouseConfig) -> Self {
-        let rng = ChaCha8Rng::seed_from_u64(config.seed);
         Self {
             config,
-            rng,
             history: VecDeque::new(),
+            current: None,
             eye: None,
             saccade: None,
         }
@@ -176,6 +176,7 @@ impl MouseEmulator {
             self.history.pop_front();
         }
         let cursor = *self.history.front().filter(|e| e.t_us <= effective)?;
+        self.current = Some(cursor);
         let target = cursor.position_px;
         let eye = match self.saccade {
             Some(sac) if sac.to == target => {
@@ -203,13 +204,28 @@ impl MouseEmulator {
                         if amplitude_deg >= self.config.saccade_threshold_deg {
                             let duration_us = (crate::sim::main_sequence_duration_ms(amplitude_deg)
                                 * 1000.0) as u64;
+                            // The saccade starts when the cursor moved, not
+                            // at the first tick after: the eye's path is
+                            // the same whatever the sampling phase.
+                            let start_us = cursor.t_us.min(effective);
                             self.saccade = Some(Saccade {
                                 from,
                                 to: target,
-                                start_us: effective,
+                                start_us,
                                 duration_us,
                             });
-                            from
+                            let p = effective.saturating_sub(start_us) as f64
+                                / duration_us.max(1) as f64;
+                            if p >= 1.0 {
+                                self.saccade = None;
+                                target
+                            } else {
+                                let k = crate::sim::saccade_profile(p);
+                                [
+                                    from[0] + (target[0] - from[0]) * k,
+                                    from[1] + (target[1] - from[1]) * k,
+                                ]
+                            }
                         } else {
                             target
                         }
@@ -226,19 +242,40 @@ impl MouseEmulator {
         }
     }
 
+    /// The jitter's random source for the sample at `t_us`: keyed by the
+    /// seed, the cursor event the eye follows and the sample's index since
+    /// it (its period of the nominal rate), never by how many samples came
+    /// before. A simulated participant whose looks are dated by a plan so
+    /// gets the same eye, noise included, on a quiet and on a loaded
+    /// machine, whenever the session's earlier screens ended.
+    fn jitter_rng(&self, t_us: u64) -> ChaCha8Rng {
+        let (event_t, [x, y]) = self
+            .current
+            .map_or((0, [0.0, 0.0]), |c| (c.t_us, c.position_px));
+        let period_us = 1e6 / self.config.rate_hz.max(1e-3);
+        let effective = t_us.saturating_sub((self.config.latency_ms * 1000.0).round() as u64);
+        let k = (effective.saturating_sub(event_t) as f64 / period_us).floor() as u64;
+        let mut key = self.config.seed ^ 0x9E37_79B9_7F4A_7C15;
+        for word in [event_t, x.to_bits(), y.to_bits(), k] {
+            key = (key ^ word)
+                .wrapping_mul(0xBF58_476D_1CE4_E5B9)
+                .rotate_left(31);
+        }
+        ChaCha8Rng::seed_from_u64(key)
+    }
+
     /// Samples the emulated eye at device time `t_us` and encodes the record.
     pub fn tick(&mut self, t_us: u64) -> [u8; RECORD_LEN] {
-        let point = self.state_at(t_us).map(|p| {
+        let state = self.state_at(t_us);
+        let point = state.map(|p| {
             if self.config.jitter_rms_deg > 0.0 {
                 // RMS of the 2-D displacement = jitter → σ per axis = rms/√2.
                 let sigma = self.config.jitter_rms_deg * self.config.pixels_per_degree
                     / std::f64::consts::SQRT_2;
                 let n = Normal::new(0.0, sigma)
                     .unwrap_or_else(|_| unreachable!("sigma is finite and positive"));
-                [
-                    p[0] + n.sample(&mut self.rng),
-                    p[1] + n.sample(&mut self.rng),
-                ]
+                let mut rng = self.jitter_rng(t_us);
+                [p[0] + n.sample(&mut rng), p[1] + n.sample(&mut rng)]
             } else {
                 p
             }
@@ -641,6 +678,78 @@ mod tests {
         assert_eq!(d(m.tick(25_000)), Some([5.0, 5.0]));
         assert_eq!(d(m.tick(30_000)), Some([50.0, 50.0]));
         assert_eq!(d(m.tick(61_000)), None);
+    }
+
+    /// The eye follows a dated plan the same way whatever the sampling
+    /// phase and however many samples came before: two emulators that
+    /// start at different times, one of them a whole second earlier, give
+    /// each fixation's k-th sample the same jitter, and a saccade starts
+    /// when the cursor moved (a loaded machine changes neither).
+    #[test]
+    fn a_dated_plan_gives_the_same_eye_at_any_phase_and_history() {
+        let config = MouseConfig {
+            rate_hz: 120.0,
+            pixels_per_degree: 35.7,
+            jitter_rms_deg: 0.15,
+            saccades: true,
+            saccade_threshold_deg: 1.0,
+            latency_ms: 12.0,
+            seed: 9,
+            ..MouseConfig::default()
+        };
+        let plan = [
+            (2_000_000u64, [400.0, 300.0]),
+            (2_400_000, [900.0, 700.0]),
+            (2_900_000, [905.0, 702.0]),
+        ];
+        let run = |first_us: u64| {
+            let mut m = MouseEmulator::new(config.clone());
+            m.cursor(CursorEvent {
+                t_us: 0,
+                position_px: [640.0, 512.0],
+                blink: false,
+            });
+            for (t, p) in plan {
+                m.cursor(CursorEvent {
+                    t_us: t,
+                    position_px: p,
+                    blink: false,
+                });
+            }
+            let period = 1e6 / 120.0;
+            (0..)
+                .map(|n| first_us + (n as f64 * period).round() as u64)
+                .take_while(|&t| t < 3_300_000)
+                .map(|t| {
+                    let r = m.tick(t);
+                    let f = |b: &[u8]| f32::from_le_bytes([b[0], b[1], b[2], b[3]]);
+                    (t, [f(&r[11..15]), f(&r[15..19])])
+                })
+                .collect::<Vec<_>>()
+        };
+        let a = run(3_000);
+        let b = run(1_007_777 - 1_000_000);
+        // The k-th sample after each event's effect (latency included).
+        let kth = |v: &[(u64, [f32; 2])], event: u64, k: usize| {
+            v.iter()
+                .filter(|(t, _)| t.saturating_sub(12_000) >= event)
+                .nth(k)
+                .map(|s| s.1)
+        };
+        for (event, _) in plan {
+            for k in 0..20 {
+                let (pa, pb) = (kth(&a, event, k), kth(&b, event, k));
+                if event < 2_900_000 && k < 12 {
+                    // Inside the saccade the phase moves the sample along
+                    // the same path: close, not equal.
+                    let (pa, pb) = (pa.expect("a"), pb.expect("b"));
+                    let d = (pa[0] - pb[0]).hypot(pa[1] - pb[1]);
+                    assert!(d < 150.0, "{event} {k}: {pa:?} {pb:?}");
+                    continue;
+                }
+                assert_eq!(pa, pb, "event {event} sample {k}");
+            }
+        }
     }
 
     #[test]

@@ -61,8 +61,21 @@ fix() { awk -F'\t' 'NR > 1 && $3 == "fixation"' "$OUT/$1/murphy2007-search/sub-P
 q=$(fix quiet)
 l=$(fix loaded)
 echo "fixations: quiet $q, loaded $l (loaded/quiet $(python3 -c "print(f'{$l / $q:.4f}')"))"
+# The clock model at the end of each session (clock.tsv's last row).
 for s in quiet loaded; do
-  grep -m1 "^at the end: tracker clock" "$OUT/$s.log" | sed "s/^/$s: /" || true
+  awk -F'\t' -v s="$s" 'NR == 1 { for (i = 1; i <= NF; i++) c[$i] = i } END {
+      printf "%s: clock model after %s samples: drift %+.3f ppm, offset (mapped - device) %.1f us, delay %.1f us, %s causality corrections\n",
+        s, $c["samples"], $c["drift_ppm"], $c["offset_us"], $c["delay_us"], $c["corrections"] }' \
+    "$OUT/$s/murphy2007-search/sub-P01/clock.tsv"
 done
-target/pm-venv/bin/python bench/ivt_compare.py \
-  "$OUT/quiet/murphy2007-search/sub-P01" "$OUT/loaded/murphy2007-search/sub-P01"
+# Over whole trials and over the searches alone (fixations ending after
+# the search onset): the searches are on the participant's dated plan; the
+# screens before them last as long as the machine takes to show them, so a
+# loaded run looks at them for longer. First with the speed gazecast's
+# I-VT uses (the angle between lines of sight), then with pymovements'
+# per-axis degrees (pix2deg).
+for v in angle pix2deg; do
+  echo "pymovements I-VT, speed: $v"
+  target/pm-venv/bin/python bench/ivt_compare.py --velocity "$v" \
+    "$OUT/quiet/murphy2007-search/sub-P01" "$OUT/loaded/murphy2007-search/sub-P01" | grep -v '^\['
+done

@@ -695,7 +695,6 @@ mod tests {
             saccade_threshold_deg: 1.0,
             latency_ms: 12.0,
             seed: 9,
-            ..MouseConfig::default()
         };
         let plan = [
             (2_000_000u64, [400.0, 300.0]),

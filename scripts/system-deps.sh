@@ -8,8 +8,10 @@ set -euo pipefail
 # mesa-vulkan-drivers: the software Vulkan (lavapipe) the GPU tests run on;
 # glmark2-data: the Stanford bunny (/usr/share/glmark2/models/bunny.obj);
 # xvfb + libxcursor1 libxi6 libxkbcommon-x11-0: the viewer's window (winit,
-# X11), which the tests open under a virtual X server.
-packages=(gcc libc6-dev pkg-config libudev-dev mesa-vulkan-drivers glmark2-data xvfb libxcursor1 libxi6 libxkbcommon-x11-0)
+# X11), which the tests open under a virtual X server; python3 +
+# python3-venv: the virtual environments of the tests' outside peers
+# (pylsl for the Lab Streaming Layer).
+packages=(gcc libc6-dev pkg-config libudev-dev mesa-vulkan-drivers glmark2-data xvfb libxcursor1 libxi6 libxkbcommon-x11-0 python3 python3-venv)
 
 missing=()
 for p in "${packages[@]}"; do

@@ -309,22 +309,7 @@ fn a_killed_realtime_replay_keeps_the_rows_it_played() {
 #[test]
 fn ctrl_c_stops_record_cleanly() {
     let dir = tempfile::tempdir().expect("tempdir");
-    let (mut master, slave) = serialport::TTYPort::pair().expect("pty pair");
-    let slave_name = slave.name().expect("pty name");
-    drop(slave); // ports are locked exclusively: `record` opens it by path
-    master
-        .set_timeout(Duration::from_millis(100))
-        .expect("timeout");
-    let tracker = dir.path().join("iscan.ron");
-    std::fs::write(
-        &tracker,
-        std::fs::read_to_string(repo("config/trackers/iscan-binary.ron"))
-            .expect("tracker")
-            .replace("Some(\"/dev/ttyUSB0\")", &format!("Some({slave_name:?})")),
-    )
-    .expect("write tracker");
-    let device = tracker_hal::Recording::read(&repo("tests/data/iscan-binary-60hz.gzrec"))
-        .expect("device stream");
+    let (mut master, tracker, device) = iscan_on_pty(dir.path());
     let out_path = dir.path().join("session.gzrec");
     let mut child = gazecast()
         .args(["record", "--tracker"])
@@ -421,22 +406,7 @@ fn with_file_limit(cmd: &std::process::Command, kib: u32) -> std::process::Comma
 #[test]
 fn a_write_error_stops_record_at_once_and_keeps_what_was_written() {
     let dir = tempfile::tempdir().expect("tempdir");
-    let (mut master, slave) = serialport::TTYPort::pair().expect("pty pair");
-    let slave_name = slave.name().expect("pty name");
-    drop(slave);
-    master
-        .set_timeout(Duration::from_millis(100))
-        .expect("timeout");
-    let tracker = dir.path().join("iscan.ron");
-    std::fs::write(
-        &tracker,
-        std::fs::read_to_string(repo("config/trackers/iscan-binary.ron"))
-            .expect("tracker")
-            .replace("Some(\"/dev/ttyUSB0\")", &format!("Some({slave_name:?})")),
-    )
-    .expect("write tracker");
-    let device = tracker_hal::Recording::read(&repo("tests/data/iscan-binary-60hz.gzrec"))
-        .expect("device stream");
+    let (mut master, tracker, device) = iscan_on_pty(dir.path());
     let out_path = dir.path().join("session.gzrec");
     let mut record = gazecast();
     // --seconds 600: only the write error can end it within the test.
@@ -494,4 +464,26 @@ fn a_write_error_stops_record_at_once_and_keeps_what_was_written() {
     let rec = tracker_hal::Recording::read(&out_path).expect("what was written reads");
     assert!(rec.device_chunks().count() > 5, "{:?}", rec.summary());
     assert!(std::fs::metadata(&out_path).expect("meta").len() <= 4096);
+}
+
+/// An ISCAN tracker file in `dir` on a fresh pseudo-terminal (the master
+/// end, 100 ms timeouts, is the device) and the stream a device sends.
+fn iscan_on_pty(dir: &Path) -> (serialport::TTYPort, PathBuf, tracker_hal::Recording) {
+    let (mut master, slave) = serialport::TTYPort::pair().expect("pty pair");
+    let slave_name = slave.name().expect("pty name");
+    drop(slave); // ports are locked exclusively: `record` opens it by path
+    master
+        .set_timeout(Duration::from_millis(100))
+        .expect("timeout");
+    let tracker = dir.join("iscan.ron");
+    std::fs::write(
+        &tracker,
+        std::fs::read_to_string(repo("config/trackers/iscan-binary.ron"))
+            .expect("tracker")
+            .replace("Some(\"/dev/ttyUSB0\")", &format!("Some({slave_name:?})")),
+    )
+    .expect("write tracker");
+    let device = tracker_hal::Recording::read(&repo("tests/data/iscan-binary-60hz.gzrec"))
+        .expect("device stream");
+    (master, tracker, device)
 }

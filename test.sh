@@ -17,6 +17,11 @@ echo "== cargo test" >&2
 # probe prints "XDG_RUNTIME_DIR is invalid" on headless machines unless the
 # variable names some directory (the gazecast binary does the same).
 export XDG_RUNTIME_DIR="${XDG_RUNTIME_DIR:-${TMPDIR:-/tmp}}"
+# The Lab Streaming Layer tests talk to pylsl (the reference liblsl) as an
+# outside peer, in a virtual environment made here; LSL stays on 127.0.0.1.
+GAZECAST_PYLSL=$(scripts/lsl-venv.sh)
+export GAZECAST_PYLSL
+export LSLAPICFG="$PWD/tests/lsl/lsl_api.cfg"
 log=$(mktemp)
 trap 'rm -f "$log"' EXIT
 cargo test --workspace --quiet 2>&1 | tee "$log"

@@ -4,6 +4,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::hid::{HidConfig, HidLogDecoder};
 use crate::iscan::{IscanConfig, IscanDecoder};
+use crate::lsl::{LslConfig, LslDecoder};
 use crate::mapping::Mapping;
 use crate::mouse::{MouseConfig, MouseDecoder};
 use crate::source::Decoder;
@@ -20,6 +21,8 @@ pub enum Driver {
     /// the point of regard, through the mouse emulator's stream (so its
     /// samples are timestamped, recorded and replayed like any others).
     Attention(AttentionSourceConfig),
+    /// A Lab Streaming Layer gaze stream ([`crate::lsl`]).
+    Lsl(Box<LslConfig>),
 }
 
 /// Smallest and largest saliency map side of the attention source (Lee's
@@ -100,6 +103,7 @@ impl TrackerConfig {
             Driver::Mouse(c) => c.validate().map_err(|e| scoped("driver", e))?,
             Driver::TobiiHid(c) => c.validate().map_err(|e| scoped("driver", e))?,
             Driver::Attention(c) => c.validate().map_err(|e| scoped("driver", e))?,
+            Driver::Lsl(c) => c.validate().map_err(|(f, m)| (format!("driver.{f}"), m))?,
         }
         self.mapping
             .check_range(self.range())
@@ -117,6 +121,7 @@ impl TrackerConfig {
             Driver::Iscan(c) => Some(c.frame),
             Driver::Mouse(_) | Driver::Attention(_) => None,
             Driver::TobiiHid(c) => Some(c.screen_um),
+            Driver::Lsl(c) => Some(c.frame()),
         }
     }
 
@@ -126,6 +131,7 @@ impl TrackerConfig {
             Driver::Iscan(c) => Box::new(IscanDecoder::new(c.clone())),
             Driver::Mouse(_) | Driver::Attention(_) => Box::new(MouseDecoder::new()),
             Driver::TobiiHid(_) => Box::new(HidLogDecoder::new()),
+            Driver::Lsl(c) => Box::new(LslDecoder::new((**c).clone())),
         }
     }
 
@@ -136,6 +142,7 @@ impl TrackerConfig {
             Driver::Iscan(c) => c.frame,
             Driver::Mouse(_) | Driver::Attention(_) => (f64::INFINITY, f64::INFINITY),
             Driver::TobiiHid(c) => c.screen_um,
+            Driver::Lsl(c) => c.frame(),
         }
     }
 
@@ -146,6 +153,7 @@ impl TrackerConfig {
             Driver::Mouse(_) => "mouse",
             Driver::TobiiHid(_) => "tobii-hid",
             Driver::Attention(_) => "attention",
+            Driver::Lsl(_) => "lsl",
         }
     }
 }

@@ -29,6 +29,9 @@
 //!
 //! - [`iscan`]: ISCAN DQW serial output, binary and ASCII (format and
 //!   timestamp derivation documented there).
+//! - [`lsl`]: a Lab Streaming Layer gaze stream; its inlet (feature `lsl`,
+//!   on by default) frames each sample as a record, so LSL sessions record
+//!   and replay like the others.
 //! - [`mouse`]: mouse-emulated gaze, a simulated device thread with optional
 //!   jitter, main-sequence saccades, latency and blinks.
 //!
@@ -84,6 +87,7 @@ pub mod events;
 mod framing;
 pub mod hid;
 pub mod iscan;
+pub mod lsl;
 pub mod mapping;
 pub mod mouse;
 pub mod recording;

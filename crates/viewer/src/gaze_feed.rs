@@ -511,7 +511,12 @@ impl GazeSetup {
             _ => None,
         };
         let stop = Arc::new(AtomicBool::new(false));
-        let binocular = !matches!(self.tracker.driver, Driver::Mouse(_) | Driver::Attention(_));
+        let binocular = match &self.tracker.driver {
+            Driver::Mouse(_) | Driver::Attention(_) => false,
+            // A stream with one gaze point copies it into both eyes.
+            Driver::Lsl(c) => c.binocular(),
+            _ => true,
+        };
         let mouse_timing = Arc::new(Mutex::new(None));
         let open = opener(
             self.tracker,
@@ -626,6 +631,21 @@ fn opener(
                 StreamDriver::new(port, tracker.decoder(), Box::new(MonotonicClock)),
                 &tap,
             )) as Source)
+        }),
+        // Each open resolves the stream again: after a lost stream (its
+        // outlet ended or went silent for `silence_ms`) the tracker thread
+        // reopens, finding a restarted outlet by the same query.
+        #[cfg(feature = "lsl")]
+        Driver::Lsl(c) => Box::new(move || {
+            let t = tracker_hal::lsl::inlet::LslTransport::open(&c).map_err(|e| e.to_string())?;
+            Ok(Box::new(tapped(
+                StreamDriver::new(t, tracker.decoder(), Box::new(MonotonicClock)),
+                &tap,
+            )) as Source)
+        }),
+        #[cfg(not(feature = "lsl"))]
+        Driver::Lsl(_) => Box::new(|| {
+            Err("this gazecast was built without the `lsl` feature: it replays LSL recordings but cannot read a live LSL stream".into())
         }),
         Driver::TobiiHid(c) => Box::new(move || {
             let t = tracker_hal::hid::driver::hidapi_transport::HidApiTransport::open(&c)

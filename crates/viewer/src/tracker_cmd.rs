@@ -569,6 +569,42 @@ pub fn replay(args: &ReplayArgs, err: &mut dyn Write) -> Result<(), String> {
     Ok(())
 }
 
+/// A device link `record` reads: a serial port, an LSL inlet.
+trait Link: std::io::Read + std::io::Write + Send {}
+impl<T: std::io::Read + std::io::Write + Send> Link for T {}
+
+/// Opens a live link again after it was lost.
+type Reopen = Box<dyn Fn() -> Result<Box<dyn Link>, String>>;
+
+/// A link that has ended (what `record` holds when a lost stream did not
+/// come back before the end).
+struct Closed;
+
+impl std::io::Read for Closed {
+    fn read(&mut self, _: &mut [u8]) -> std::io::Result<usize> {
+        Ok(0)
+    }
+}
+
+impl std::io::Write for Closed {
+    fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
+        Ok(buf.len())
+    }
+    fn flush(&mut self) -> std::io::Result<()> {
+        Ok(())
+    }
+}
+
+fn add_stats(a: tracker_hal::DecodeStats, b: tracker_hal::DecodeStats) -> tracker_hal::DecodeStats {
+    tracker_hal::DecodeStats {
+        bytes: a.bytes + b.bytes,
+        records: a.records + b.records,
+        dropped_bytes: a.dropped_bytes + b.dropped_bytes,
+        resyncs: a.resyncs + b.resyncs,
+        invalid_values: a.invalid_values + b.invalid_values,
+    }
+}
+
 /// Runs `gazecast record`.
 pub fn record(args: &RecordArgs, out: &mut dyn Write) -> Result<(), String> {
     if let Some(s) = args.seconds {
@@ -580,29 +616,56 @@ pub fn record(args: &RecordArgs, out: &mut dyn Write) -> Result<(), String> {
     }
     crate::output::refuse_inputs(&[("--out", &args.out)], &[("--tracker", &args.tracker)])?;
     let tracker = load_tracker(&args.tracker)?;
-    let Driver::Iscan(iscan) = &tracker.driver else {
-        return Err(format!(
-            "{}: `record` talks to a serial tracker; the {} driver needs the viewer window: gazecast view --record FILE (or calibrate --record FILE)",
-            args.tracker.display(),
-            tracker.driver_name()
-        ));
+    // The device link: a serial port, or an LSL inlet (which is opened
+    // again, re-resolving the stream, when the stream is lost).
+    let (link, note, reopen): (Box<dyn Link>, String, Option<Reopen>) = match &tracker.driver {
+        Driver::Iscan(iscan) => {
+            let port_name = iscan.port.clone().ok_or_else(|| {
+                format!(
+                    "{}: field `port` is needed to record from a serial tracker",
+                    args.tracker.display()
+                )
+            })?;
+            let port =
+                tracker_hal::serial::open(&port_name, iscan.baud, Duration::from_millis(250))
+                    .map_err(|e| e.to_string())?;
+            (Box::new(port), format!("recorded from {port_name}"), None)
+        }
+        #[cfg(feature = "lsl")]
+        Driver::Lsl(c) => {
+            use tracker_hal::lsl::inlet::{describe, LslTransport};
+            let open = {
+                let c = c.clone();
+                move || -> Result<Box<dyn Link>, String> {
+                    Ok(Box::new(LslTransport::open(&c).map_err(|e| e.to_string())?))
+                }
+            };
+            let first = open()?;
+            (
+                first,
+                format!("recorded from the {}", describe(c)),
+                Some(Box::new(open) as Reopen),
+            )
+        }
+        _ => {
+            return Err(format!(
+                "{}: `record` talks to a serial tracker or an LSL stream; the {} driver needs the viewer window: gazecast view --record FILE (or calibrate --record FILE)",
+                args.tracker.display(),
+                tracker.driver_name()
+            ))
+        }
     };
-    let port_name = iscan.port.clone().ok_or_else(|| {
-        format!(
-            "{}: field `port` is needed to record from a serial tracker",
-            args.tracker.display()
-        )
-    })?;
-    let port = tracker_hal::serial::open(&port_name, iscan.baud, Duration::from_millis(250))
-        .map_err(|e| e.to_string())?;
     let header = RecordingHeader {
         tracker: tracker.clone(),
         display: None,
-        note: format!("recorded from {port_name}"),
+        note,
     };
     let recorder = Recorder::start(&args.out, &header, 8192).map_err(|e| e.to_string())?;
-    let mut driver = StreamDriver::new(port, tracker.decoder(), Box::new(MonotonicClock))
+    let mut driver = StreamDriver::new(link, tracker.decoder(), Box::new(MonotonicClock))
         .with_tap(recorder.tap());
+    // Decoder totals of the connections before this one.
+    let mut before = tracker_hal::DecodeStats::default();
+    let mut reconnects = 0u64;
     // Ctrl-C and SIGTERM end the loop below (within one read timeout), so
     // the device is stopped and the recording closed as at the end of
     // --seconds.
@@ -640,6 +703,42 @@ pub fn record(args: &RecordArgs, out: &mut dyn Write) -> Result<(), String> {
                 interrupted = true;
                 break Ok(());
             }
+            Err(e) if e.kind == tracker_hal::ErrorKind::Disconnected && reopen.is_some() => {
+                let _ = writeln!(out, "{e}; opening it again");
+                before = add_stats(before, driver.stats());
+                let Some(open) = &reopen else {
+                    break Err(e.to_string());
+                };
+                // Try until it is back, the time is up or an interrupt.
+                let link = loop {
+                    if crate::gaze_feed::interrupted()
+                        || args
+                            .seconds
+                            .is_some_and(|s| start.elapsed().as_secs_f64() >= s)
+                    {
+                        break None;
+                    }
+                    match open() {
+                        Ok(l) => break Some(l),
+                        Err(e) => {
+                            let _ = writeln!(out, "{e}; retrying");
+                            std::thread::sleep(Duration::from_millis(250));
+                        }
+                    }
+                };
+                let Some(link) = link else {
+                    driver = StreamDriver::new(
+                        Box::new(Closed) as Box<dyn Link>,
+                        tracker.decoder(),
+                        Box::new(MonotonicClock),
+                    );
+                    continue;
+                };
+                reconnects += 1;
+                let _ = writeln!(out, "reconnected ({reconnects})");
+                driver = StreamDriver::new(link, tracker.decoder(), Box::new(MonotonicClock))
+                    .with_tap(recorder.tap());
+            }
             Err(e) => break Err(e.to_string()),
         }
     };
@@ -651,17 +750,22 @@ pub fn record(args: &RecordArgs, out: &mut dyn Write) -> Result<(), String> {
         (Err(e), Err(o)) if o.contains(&e.to_string()) => return Err(o.clone()),
         (Err(e), Err(o)) => return Err(format!("{o}; {e}")),
     };
-    let s = driver.stats();
+    let s = add_stats(before, driver.stats());
     let _ = writeln!(
         out,
-        "{}: records={} dropped_bytes={} resyncs={} read_timeouts={} chunks={} bytes={}",
+        "{}: records={} dropped_bytes={} resyncs={} read_timeouts={} chunks={} bytes={}{}",
         args.out.display(),
         s.records,
         s.dropped_bytes,
         s.resyncs,
         timeouts,
         summary.chunks_written,
-        summary.bytes_written
+        summary.bytes_written,
+        if reopen.is_some() {
+            format!(" reconnects={reconnects}")
+        } else {
+            String::new()
+        }
     );
     if interrupted {
         let _ = writeln!(
@@ -715,6 +819,9 @@ pub fn devices(out: &mut dyn Write) -> Result<(), String> {
     Ok(())
 }
 
+/// Why `simulate` refuses an LSL tracker file.
+const NO_LSL_SIM: &str = "gazecast simulate has no simulated LSL stream: record one from an LSL outlet (gazecast record --tracker lsl.ron; tests/lsl/outlet_gaze.py is a pylsl outlet)";
+
 /// The simulated stream the arguments describe, with its recording header.
 pub fn simulated(
     tracker: &TrackerConfig,
@@ -765,6 +872,7 @@ pub fn simulated(
         Driver::Attention(c) => c.rate_hz,
         // The seed's Tobii ET-1750 ran at 50 Hz (Murphy 2007 §7.1).
         Driver::TobiiHid(_) => 50.0,
+        Driver::Lsl(_) => return Err(NO_LSL_SIM.into()),
     });
     // Checked before anything is generated: the stream's size follows the
     // rate.
@@ -807,6 +915,7 @@ pub fn simulated(
             };
             simulate_hid(layout, &truth, c.screen_um, rate, args.seed)
         }
+        Driver::Lsl(_) => return Err(NO_LSL_SIM.into()),
     };
     let header = RecordingHeader {
         tracker: tracker.clone(),

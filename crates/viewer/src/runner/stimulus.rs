@@ -270,7 +270,10 @@ fn cell_mm(r: u32, c: u32, rows: u32, cols: u32, spacing: f64) -> (f64, f64) {
 
 /// The effects a condition's scene lists: the full-resolution control
 /// none (the pipeline then renders every pixel), the hybrid method the
-/// CSF mask, with silhouette refinement when edges are kept.
+/// CSF mask, with silhouette refinement when edges are kept, and the
+/// image method the CSF mask too (it blurs each pixel to the mask's level
+/// there; without it the pipeline renders the full-resolution frame, and
+/// an image condition was rendered as the control).
 pub fn effects_for(condition: &Condition) -> Vec<Effect> {
     match condition.method.as_str() {
         "hybrid" => {
@@ -280,6 +283,7 @@ pub fn effects_for(condition: &Condition) -> Vec<Effect> {
             }
             e
         }
+        "image" => vec![Effect::FoveatedSampling],
         _ => Vec::new(),
     }
 }
@@ -425,6 +429,46 @@ mod tests {
         assert_eq!(l.cell_at([f64::NAN, 5.0]), None);
     }
 
+    /// Every method a condition may name renders as that method: the
+    /// search scene lists what the method needs, and the renderer built
+    /// for it runs it (an image condition used to run as the
+    /// full-resolution control, silently: its scene had no foveated
+    /// sampling). An unknown name is an error, not the control.
+    #[test]
+    fn each_condition_method_renders_as_named() {
+        use pipeline::{BackendChoice, Method, Options, Renderer};
+        let mut d = murphy();
+        let geometry = seed_display();
+        let l = Layout::new(&d, &geometry);
+        let trial = experiment::plan(&d, 0).expect("plan")[1].clone();
+        for name in experiment::design::METHODS {
+            let c = &mut d.conditions[trial.condition];
+            c.method = name.to_string();
+            c.inset_deg = (*name == "hybrid").then_some(5.0);
+            c.silhouette_edges = false;
+            let file = search_scene(&d, &trial, &l);
+            let scene = raycast::Scene::build(&file, std::path::Path::new(".")).expect("scene");
+            let method = super::super::trial::condition_method(name).expect("known");
+            let model = pipeline::sampling_model(geometry, 1.0).expect("model");
+            let options = Options {
+                method,
+                backend: BackendChoice::Cpu,
+                ..Options::default()
+            };
+            let r = Renderer::new(&scene, raycast::Camera::new(&geometry), model, &options)
+                .expect("renderer");
+            assert_eq!(r.method(), method, "{name}");
+            let expect = match *name {
+                "full" => Method::Full,
+                "hybrid" => Method::Hybrid,
+                _ => Method::Image,
+            };
+            assert_eq!(r.method(), expect, "{name}");
+        }
+        let e = super::super::trial::condition_method("imag").expect_err("unknown");
+        assert!(e.contains("imag") && e.contains("image"), "{e}");
+    }
+
     #[test]
     fn scenes_place_the_plan_and_list_only_the_condition_effects() {
         let d = murphy();
@@ -438,7 +482,10 @@ mod tests {
             let c = &d.conditions[t.condition];
             let e = effects_for(c);
             assert_eq!(s.effects, e);
-            assert_eq!(e.contains(&Effect::FoveatedSampling), c.method == "hybrid");
+            assert_eq!(
+                e.contains(&Effect::FoveatedSampling),
+                c.method == "hybrid" || c.method == "image"
+            );
             assert_eq!(
                 e.contains(&Effect::SilhouetteRefinement),
                 c.silhouette_edges

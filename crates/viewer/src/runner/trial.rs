@@ -93,11 +93,8 @@ impl TrialState {
             .map_err(|e| format!("conditions[{}].inset_deg: {e}", trial.condition))?;
         let scene = build(&stimulus::search_scene(design, trial, &setup.layout))?;
         let options = Options {
-            method: match condition.method.as_str() {
-                "hybrid" => Method::Hybrid,
-                "image" => Method::Image,
-                _ => Method::Full,
-            },
+            method: condition_method(&condition.method)
+                .map_err(|e| format!("conditions[{}].method: {e}", trial.condition))?,
             backend: setup.backend,
             // Fixations re-cast only what the cache lacks (same frames).
             reuse: true,
@@ -411,4 +408,19 @@ pub fn target_screen(
         let _ = root.draw(&Text::new(line.clone(), ((w / 2) as i32, y), style));
     }
     let _ = root.present();
+}
+
+/// The renderer's method for a condition's `method` (one of
+/// `experiment::design::METHODS`); any other name is an error, never the
+/// full-resolution control in disguise.
+pub fn condition_method(name: &str) -> Result<Method, String> {
+    match name {
+        "full" => Ok(Method::Full),
+        "hybrid" => Ok(Method::Hybrid),
+        "image" => Ok(Method::Image),
+        other => Err(format!(
+            "unknown method {other:?}; known: {}",
+            experiment::design::METHODS.join(", ")
+        )),
+    }
 }

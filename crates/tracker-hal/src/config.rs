@@ -182,4 +182,10 @@ impl Decoder for Box<dyn Decoder> {
     fn frame_hint(&self) -> Option<(f64, f64)> {
         (**self).frame_hint()
     }
+    // Forwarded like every other method: the default (`Device`) made a
+    // boxed ISCAN decoder, whose device times are its record counter,
+    // claim the tracker's own timestamps in the session and the log.
+    fn device_clock(&self) -> crate::DeviceClock {
+        (**self).device_clock()
+    }
 }

@@ -8,7 +8,9 @@
 //! scope, 127.0.0.1 only). The Python interpreter is $GAZECAST_PYLSL, else
 //! what scripts/lsl-venv.sh prints.
 
-use std::io::{BufRead, BufReader};
+mod common;
+
+use std::io::{BufRead, BufReader, Read};
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Output, Stdio};
 use std::sync::mpsc;
@@ -144,12 +146,13 @@ impl Drop for Outlet {
     }
 }
 
-fn tracker_file(dir: &Path, name: &str, source_id: &str) -> PathBuf {
+fn tracker_file(dir: &Path, name: &str, source_id: &str, screen_px: (u32, u32)) -> PathBuf {
     let p = dir.join("lsl.ron");
     std::fs::write(
         &p,
         format!(
-            "Tracker(\n  driver: Lsl((\n    name: Some({name:?}),\n    stream_type: Some(\"Gaze\"),\n    source_id: Some({source_id:?}),\n    combined: Some((x: Label(\"ScreenX\"), y: Label(\"ScreenY\"), pupil: Some(Label(\"PupilDiameter\")))),\n    units: Normalized,\n  )),\n  mapping: Frame(screen_px: (1920, 1080)),\n)\n"
+            "Tracker(\n  driver: Lsl((\n    name: Some({name:?}),\n    stream_type: Some(\"Gaze\"),\n    source_id: Some({source_id:?}),\n    combined: Some((x: Label(\"ScreenX\"), y: Label(\"ScreenY\"), pupil: Some(Label(\"PupilDiameter\")))),\n    units: Normalized,\n  )),\n  mapping: Frame(screen_px: ({}, {})),\n)\n",
+            screen_px.0, screen_px.1
         ),
     )
     .expect("write the tracker file");
@@ -298,7 +301,7 @@ fn a_pylsl_stream_records_and_replays_exactly() {
     let dir = tempfile::tempdir().expect("tempdir");
     let name = format!("gz-inlet-a-{}", std::process::id());
     let source = format!("{name}-src");
-    let tracker = tracker_file(dir.path(), &name, &source);
+    let tracker = tracker_file(dir.path(), &name, &source, (1920, 1080));
     let mut outlet = Outlet::start(&name, &source, 360, 0, false);
     outlet.wait_line("ready", Duration::from_secs(20));
     let rec = dir.path().join("x.gzrec");
@@ -333,7 +336,7 @@ fn a_killed_and_restarted_outlet_is_reconnected_without_loss() {
     let dir = tempfile::tempdir().expect("tempdir");
     let name = format!("gz-inlet-b-{}", std::process::id());
     let source = format!("{name}-src");
-    let tracker = tracker_file(dir.path(), &name, &source);
+    let tracker = tracker_file(dir.path(), &name, &source, (1920, 1080));
     let mut first = Outlet::start(&name, &source, 240, 0, true);
     first.wait_line("ready", Duration::from_secs(20));
     let rec = dir.path().join("x.gzrec");
@@ -358,5 +361,121 @@ fn a_killed_and_restarted_outlet_is_reconnected_without_loss() {
     sent.extend(second.sent());
     assert_eq!(sent.len(), 480);
     let (_, rows) = replay(&rec, &dir.path().join("a.csv"));
+    check(&sent, &rows);
+}
+
+/// A pylsl outlet's 120 Hz gaze drives the live viewer (under Xvfb) like
+/// any tracker: rendering follows it, `--record` keeps it, the outlet
+/// killed mid-session is a disconnect in the status and the log, a new
+/// outlet under the same source id is a reconnect, and the recording
+/// replays to every sample both outlets sent, exactly.
+#[test]
+fn a_pylsl_stream_drives_the_viewer_through_a_restart() {
+    loopback();
+    let x = common::Xvfb::start();
+    let dir = tempfile::tempdir().expect("tempdir");
+    let name = format!("gz-inlet-v-{}", std::process::id());
+    let source = format!("{name}-src");
+    let tracker = tracker_file(dir.path(), &name, &source, (640, 512));
+    let display = dir.path().join("small.ron");
+    std::fs::write(
+        &display,
+        "Display(name: \"small\", resolution_px: (640, 512), size_mm: (168.95, 135.15), eye_distance_mm: 600.0)",
+    )
+    .expect("display");
+    let mut first = Outlet::start(&name, &source, 360, 0, true);
+    first.wait_line("ready", Duration::from_secs(20));
+    let rec = dir.path().join("view.gzrec");
+    let mut viewer = gazecast()
+        .current_dir(repo("."))
+        .env("DISPLAY", &x.display)
+        .env_remove("WAYLAND_DISPLAY")
+        .args([
+            "view",
+            "--scene",
+            "config/scenes/search-task.ron",
+            "--backend",
+            "cpu",
+        ])
+        .arg("--display")
+        .arg(&display)
+        .arg("--tracker")
+        .arg(&tracker)
+        .arg("--record")
+        .arg(&rec)
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("the viewer starts");
+    // The log is read as it is written (a full pipe would block the viewer).
+    let drain = |pipe: Option<Box<dyn Read + Send>>| {
+        std::thread::spawn(move || {
+            let mut s = String::new();
+            if let Some(mut p) = pipe {
+                let _ = p.read_to_string(&mut s);
+            }
+            s
+        })
+    };
+    let out_reader = drain(
+        viewer
+            .stdout
+            .take()
+            .map(|p| Box::new(p) as Box<dyn Read + Send>),
+    );
+    let err_reader = drain(
+        viewer
+            .stderr
+            .take()
+            .map(|p| Box::new(p) as Box<dyn Read + Send>),
+    );
+    first.wait_line("done", Duration::from_secs(60));
+    std::thread::sleep(Duration::from_millis(500));
+    let _ = first.child.kill();
+    let _ = first.child.wait();
+    let mut sent = first.sent();
+    // Silent for over 2 s: the viewer reports the loss and reconnects.
+    std::thread::sleep(Duration::from_millis(3000));
+    let mut second = Outlet::start(&name, &source, 240, 1000, false);
+    second.wait_line("done", Duration::from_secs(60));
+    std::thread::sleep(Duration::from_millis(1000));
+    let ok = Command::new("kill")
+        .args(["-INT", &viewer.id().to_string()])
+        .status()
+        .expect("kill runs");
+    assert!(ok.success());
+    let deadline = Instant::now() + Duration::from_secs(30);
+    while viewer.try_wait().expect("wait").is_none() {
+        if Instant::now() > deadline {
+            let _ = viewer.kill();
+            panic!("the viewer did not stop on Ctrl-C");
+        }
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    let status = viewer.wait().expect("wait");
+    let log = out_reader.join().expect("stdout");
+    let err = err_reader.join().expect("stderr");
+    assert!(status.success(), "{log}\n{err}");
+    let lines: Vec<&str> = log.lines().collect();
+    let lost = lines
+        .iter()
+        .position(|l| l.starts_with("tracker: ") && l.contains("reconnecting"))
+        .unwrap_or_else(|| panic!("no disconnect in the log:\n{log}"));
+    assert!(
+        lines[..lost].iter().any(|l| l.starts_with("frame ")),
+        "frames before the loss:\n{log}"
+    );
+    assert!(
+        lines[lost..].iter().any(|l| l.starts_with("frame ")),
+        "rendering went on after the loss:\n{log}"
+    );
+    let reconnects = lines
+        .iter()
+        .find(|l| l.contains("reconnects"))
+        .unwrap_or_else(|| panic!("no fault summary:\n{log}"));
+    assert!(!reconnects.contains(" 0 reconnects"), "{reconnects}");
+    sent.extend(second.sent());
+    assert_eq!(sent.len(), 600);
+    let (_, rows) = replay(&rec, &dir.path().join("v.csv"));
     check(&sent, &rows);
 }

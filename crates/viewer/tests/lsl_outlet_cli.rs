@@ -350,13 +350,14 @@ fn view_replay_publishes_every_gaze_sample_and_a_marker_per_frame() {
         }
         let want = lsl_of(&field("present_us="), offset);
         worst = worst.max((ts(m) - want).abs());
-        // Pushed after its present: received later on pylsl's own clock.
+        // Pushed after its present, pulled soon after (pylsl's own clock).
         let recv = m["recv"].as_f64().expect("recv");
         assert!(
             recv >= ts(m) - 1e-3,
             "received {recv} before stamped {}",
             ts(m)
         );
+        assert!(recv - ts(m) < 2.0, "received {recv}, stamped {}", ts(m));
     }
     assert!(worst < 1e-3, "frame stamps off by {worst} s");
     eprintln!(
@@ -440,6 +441,7 @@ fn experiment_run_publishes_the_session_files_rows() {
             "received {recv} before stamped {}",
             ts(m)
         );
+        assert!(recv - ts(m) < 2.0, "received {recv}, stamped {}", ts(m));
     }
     assert!(worst < 1e-3, "event stamps off by {worst} s");
     eprintln!(
@@ -497,4 +499,35 @@ fn experiment_run_publishes_the_session_files_rows() {
         gaze.len(),
         worst * 1e6
     );
+}
+
+#[test]
+fn lsl_wait_needs_lsl_and_a_sane_number_of_seconds() {
+    let view = |extra: &[&str]| {
+        let out = common::gazecast()
+            .args([
+                "view",
+                "--scene",
+                "config/scenes/search-task.ron",
+                "--display",
+                "config/displays/tobii-et1750-17in.ron",
+                "--explain",
+            ])
+            .args(extra)
+            .env("LSLAPICFG", lsl_cfg())
+            .output()
+            .expect("runs");
+        (
+            out.status.success(),
+            String::from_utf8_lossy(&out.stderr).to_string(),
+        )
+    };
+    let (ok, err) = view(&["--lsl-wait", "5"]);
+    assert!(!ok && err.contains("--lsl"), "{err}");
+    for bad in ["-1", "nan", "601", "soon"] {
+        let (ok, err) = view(&["--lsl", &format!("--lsl-wait={bad}")]);
+        assert!(!ok && err.contains("seconds from 0 to 600"), "{bad}: {err}");
+    }
+    let (ok, err) = view(&["--lsl", "--lsl-wait", "0"]);
+    assert!(ok, "{err}");
 }

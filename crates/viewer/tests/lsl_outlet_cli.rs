@@ -531,3 +531,40 @@ fn lsl_wait_needs_lsl_and_a_sane_number_of_seconds() {
     let (ok, err) = view(&["--lsl", "--lsl-wait", "0"]);
     assert!(ok, "{err}");
 }
+
+/// The windowed demo (the mouse as the gaze) publishes its own streams;
+/// everything it says it pushed arrives.
+#[test]
+fn windowed_demo_publishes_under_its_own_ids() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let x = Xvfb::start();
+    let (log, j) = run_with_inlet(
+        &x,
+        &["demo", "--frames", "10"],
+        &["gazecast-demo-gaze:Gaze", "gazecast-demo-frames:Markers"],
+        dir.path(),
+    );
+    let xml = check_info(
+        &j,
+        "gazecast-demo-gaze",
+        "Gaze",
+        "float32",
+        "gazecast-demo-gaze",
+    );
+    check_gaze_channels(&xml);
+    check_info(
+        &j,
+        "gazecast-demo-frames",
+        "Markers",
+        "string",
+        "gazecast-demo-frames",
+    );
+    let (g, f) = (
+        samples(&j, "gazecast-demo-gaze").len(),
+        samples(&j, "gazecast-demo-frames").len(),
+    );
+    assert_eq!(f, 10);
+    assert!(g > 0, "{log}");
+    let pushed = format!("lsl: pushed {g} gaze samples, {f} frame markers");
+    assert!(log.contains(&pushed), "{pushed} not in\n{log}");
+}

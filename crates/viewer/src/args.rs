@@ -273,3 +273,55 @@ impl PlanArgs {
             })
     }
 }
+
+/// `--lsl` and `--lsl-wait` (`view`, `demo`, `experiment run`).
+#[derive(Debug, Clone, Copy, Default, clap::Args)]
+pub struct LslArgs {
+    /// Publish Lab Streaming Layer streams: the gaze (every sample, at its
+    /// capture time), a marker per presented frame and, in an experiment,
+    /// the session's markers (see the `lsl_out` module for names and
+    /// channels). Needs the cargo feature `lsl` (on by default).
+    #[arg(long)]
+    pub lsl: bool,
+    /// With --lsl: before the session starts, wait up to SECONDS for a
+    /// consumer (e.g. LabRecorder) on every stream; LSL delivers a consumer
+    /// only what is pushed after it connected.
+    #[arg(long, value_name = "SECONDS", default_value_t = 0.0, requires = "lsl",
+          value_parser = parse_lsl_wait)]
+    pub lsl_wait: f64,
+}
+
+/// `--lsl-wait SECONDS`: 0 to 600.
+pub fn parse_lsl_wait(s: &str) -> Result<f64, String> {
+    s.trim()
+        .parse::<f64>()
+        .ok()
+        .filter(|d| d.is_finite() && (0.0..=600.0).contains(d))
+        .ok_or_else(|| format!("`{s}`: expected seconds from 0 to 600"))
+}
+
+impl LslArgs {
+    /// Refuses --lsl at once when this gazecast was built without LSL.
+    pub fn check(&self) -> Result<(), String> {
+        if self.lsl && !crate::lsl_out::BUILT_IN {
+            return Err("--lsl: this gazecast was built without LSL (cargo feature `lsl` of gazecast-viewer)".into());
+        }
+        Ok(())
+    }
+
+    /// The outlets' options for `command` (`view`, `demo`, `experiment`),
+    /// `None` without --lsl.
+    pub fn options(
+        &self,
+        command: &str,
+        source_suffix: String,
+        events: bool,
+    ) -> Option<crate::lsl_out::LslOptions> {
+        self.lsl.then(|| crate::lsl_out::LslOptions {
+            command: command.into(),
+            source_suffix,
+            wait_s: self.lsl_wait,
+            events,
+        })
+    }
+}

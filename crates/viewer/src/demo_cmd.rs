@@ -47,6 +47,9 @@ pub struct DemoArgs {
     /// Lee's attention model predicts it from each frame, no tracker).
     #[arg(long, value_name = "FILE.ron", default_value = MOUSE)]
     pub tracker: PathBuf,
+    /// Window mode only (the headless scanpath publishes nothing).
+    #[command(flatten)]
+    pub lsl: crate::args::LslArgs,
 }
 
 const MOUSE: &str = "config/trackers/mouse.ron";
@@ -79,6 +82,7 @@ pub fn run(args: &DemoArgs, out: &mut dyn Write) -> Result<(), String> {
     if !(1..=120).contains(&args.fps) {
         return Err(format!("--fps {}: must be in 1..=120", args.fps));
     }
+    args.lsl.check()?;
     let line = |out: &mut dyn Write, s: String| writeln!(out, "{s}").map_err(|e| e.to_string());
     if !args.headless && has_display() {
         line(
@@ -105,6 +109,7 @@ pub fn run(args: &DemoArgs, out: &mut dyn Write) -> Result<(), String> {
             method: args.method,
             model: args.model.into(),
             gaze_tolerance_deg: args.gaze_tolerance,
+            lsl: args.lsl.options("demo", String::new(), false),
             ..LiveOptions::default()
         };
         match live::run(&session, out) {
@@ -128,6 +133,12 @@ pub fn run(args: &DemoArgs, out: &mut dyn Write) -> Result<(), String> {
             }
         ),
     )?;
+    if args.lsl.lsl {
+        line(
+            out,
+            "--lsl: the headless demo publishes no LSL streams (the window's does)".into(),
+        )?;
+    }
     let scene = load_scene(Path::new(SCENE))?;
     let (file, _): (SceneFile, String) =
         config::load(Path::new(SCENE)).map_err(|e| e.to_string())?;

@@ -79,6 +79,8 @@ pub struct RunArgs {
     /// Save the first frame of each kind of screen to DIR/<screen>.png.
     #[arg(long, value_name = "DIR")]
     pub screenshots: Option<PathBuf>,
+    #[command(flatten)]
+    pub lsl: crate::args::LslArgs,
 }
 
 #[derive(Debug, Clone, clap::Args)]
@@ -127,6 +129,7 @@ pub struct ExportArgs {
 pub fn run(args: &ExperimentArgs, out: &mut dyn Write) -> Result<(), String> {
     match &args.command {
         ExperimentCommand::Run(a) => {
+            a.lsl.check()?;
             let opts = RunOptions {
                 design: a.design.clone(),
                 participant: a.participant.clone(),
@@ -142,6 +145,7 @@ pub fn run(args: &ExperimentArgs, out: &mut dyn Write) -> Result<(), String> {
                 stimulus_pictures: !a.no_stimulus_pictures,
                 max_trials: a.max_trials,
                 screenshots: a.screenshots.clone(),
+                lsl: a.lsl,
             };
             runner::run(&opts, out)
         }

@@ -11,6 +11,7 @@ pub mod demo_cmd;
 pub mod experiment_cmd;
 pub mod gaze_feed;
 pub mod live;
+pub mod lsl_out;
 pub mod mask_cmd;
 pub mod output;
 pub mod picture;

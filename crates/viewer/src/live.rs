@@ -73,6 +73,8 @@ pub struct LiveOptions {
     pub fullscreen: bool,
     /// Fullscreen on this monitor (0-based).
     pub monitor: Option<usize>,
+    /// Publish LSL streams (`--lsl`; [`crate::lsl_out`]).
+    pub lsl: Option<crate::lsl_out::LslOptions>,
 }
 
 /// `--eye-distance`: which eye-to-screen distance the ray masks are built
@@ -204,6 +206,10 @@ struct Viewer<'a> {
     /// When the session was asked to end (frames reached, Esc, the window
     /// closed, an error), host monotonic µs.
     stop_us: Option<u64>,
+    /// The LSL outlets (`--lsl`), and how a replay's times reach this
+    /// process's clock.
+    lsl: Option<crate::lsl_out::Outlets>,
+    lsl_shift: crate::lsl_out::ReplayShift,
 }
 
 /// Interocular distance for vergence, mm: the adult mean (Dodgson 2004);
@@ -258,11 +264,23 @@ pub struct Newest {
 /// keep the last valid gaze.
 pub fn drain_newest(
     rx: &Receiver<TrackerMsg>,
+    on_status: impl FnMut(String),
+    on_clock: impl FnMut(tracker_hal::ClockState, tracker_hal::DeviceClock),
+) -> Option<Newest> {
+    drain_newest_each(rx, |_| {}, on_status, on_clock)
+}
+
+/// [`drain_newest`], handing every message to `on_each` first (every gaze
+/// sample, valid or not: the LSL gaze stream takes them all).
+pub fn drain_newest_each(
+    rx: &Receiver<TrackerMsg>,
+    mut on_each: impl FnMut(&TrackerMsg),
     mut on_status: impl FnMut(String),
     mut on_clock: impl FnMut(tracker_hal::ClockState, tracker_hal::DeviceClock),
 ) -> Option<Newest> {
     let mut newest = None;
     for m in rx.try_iter() {
+        on_each(&m);
         match m {
             TrackerMsg::Gaze {
                 received_us,
@@ -298,8 +316,32 @@ impl Viewer<'_> {
     fn drain(&mut self) {
         let (out, log_error, status) = (&mut *self.out, &mut self.log_error, &mut self.status);
         let clock = &mut self.clock;
-        let newest = drain_newest(
+        let (lsl, shift) = (&mut self.lsl, &mut self.lsl_shift);
+        let newest = drain_newest_each(
             &self.feed.rx,
+            |m| {
+                if let (
+                    Some(o),
+                    TrackerMsg::Gaze {
+                        received_us,
+                        arrival_us,
+                        mapped_us,
+                        gaze_px,
+                        eyes_px,
+                        ..
+                    },
+                ) = (lsl.as_mut(), m)
+                {
+                    let t = shift.host_us(*received_us, *arrival_us, *mapped_us);
+                    o.gaze(
+                        t,
+                        crate::lsl_out::GazeValues {
+                            gaze_px: *gaze_px,
+                            eyes_px: *eyes_px,
+                        },
+                    );
+                }
+            },
             |s| {
                 if !s.is_empty() {
                     emit(out, log_error, &s);
@@ -432,6 +474,18 @@ impl Viewer<'_> {
             "frame {} gaze ({:.1}, {:.1}) age {age} rays {} render {:.1} ms{reused}",
             self.frames, gaze[0], gaze[1], stats.rays_total, stats.time_ms
         ));
+        if let Some(o) = &mut self.lsl {
+            let text = format!(
+                "frame={} method={} rays={} gaze_x={:.1} gaze_y={:.1} fresh={} present_us={present_us}",
+                self.frames,
+                self.renderer.method().name(),
+                stats.rays_total,
+                gaze[0],
+                gaze[1],
+                u8::from(fresh),
+            );
+            o.frame(present_us, &text);
+        }
         self.frames += 1;
         // The previous frame's buffers serve the next one.
         if let Some((old, _)) = self.last.replace((frame, stats)) {
@@ -582,6 +636,13 @@ pub fn run(opts: &LiveOptions, out: &mut dyn Write) -> Result<(), LiveError> {
     }
     .map_err(|e| LiveError::NoWindow(crate::screen::plain_error(&e)))?;
     crate::gaze_feed::catch_interrupts();
+    let (lsl, lsl_lines) = match &opts.lsl {
+        Some(o) => {
+            let (outlets, lines) = crate::lsl_out::Outlets::open(o)?;
+            (Some(outlets), lines)
+        }
+        None => (None, Vec::new()),
+    };
     let header = format!(
         "gazecast view: {} on {}, gaze from {}{}",
         scene.name,
@@ -626,8 +687,13 @@ pub fn run(opts: &LiveOptions, out: &mut dyn Write) -> Result<(), LiveError> {
         started: Instant::now(),
         error: None,
         stop_us: None,
+        lsl,
+        lsl_shift: crate::lsl_out::ReplayShift::new(opts.replay.is_some()),
     };
     viewer.say(&header);
+    for l in &lsl_lines {
+        viewer.say(l);
+    }
     let result = event_loop.run_app(&mut viewer);
     // Shut the tracker down and close the recording; then the last statuses.
     let recorded = viewer.feed.finish();
@@ -667,6 +733,11 @@ pub fn run(opts: &LiveOptions, out: &mut dyn Write) -> Result<(), LiveError> {
     }
     if let Ok(Some(line)) = &recorded {
         viewer.say(line);
+    }
+    if let Some(o) = &viewer.lsl {
+        o.linger();
+        let line = o.summary();
+        viewer.say(&line);
     }
     recorded?;
     if let Some(e) = viewer.error.take() {

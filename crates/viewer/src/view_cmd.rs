@@ -70,6 +70,8 @@ pub struct ViewArgs {
     /// Print the passes the scene's effects make the pipeline run, and exit.
     #[arg(long)]
     pub explain: bool,
+    #[command(flatten)]
+    pub lsl: crate::args::LslArgs,
 }
 
 impl ViewArgs {
@@ -92,6 +94,7 @@ impl ViewArgs {
             eye_distance: self.eye_distance,
             fullscreen: self.fullscreen,
             monitor: self.monitor,
+            lsl: self.lsl.options("view", String::new(), false),
         }
     }
 }
@@ -121,6 +124,7 @@ fn check_tracker_against_replay(args: &ViewArgs) -> Result<(), String> {
 
 /// Runs `gazecast view`.
 pub fn run(args: &ViewArgs, out: &mut dyn Write) -> Result<(), String> {
+    args.lsl.check()?;
     let mut outputs = Vec::new();
     outputs.extend(args.record.as_deref().map(|p| ("--record", p)));
     outputs.extend(args.screenshot.as_deref().map(|p| ("--screenshot", p)));

@@ -99,6 +99,8 @@ pub struct RunOptions {
     /// Save the first frame shown of each kind of screen here
     /// (`<phase>.png`: instructions, calibration, preview, search, …).
     pub screenshots: Option<PathBuf>,
+    /// `--lsl`: publish the samples, frames and markers as LSL streams.
+    pub lsl: crate::args::LslArgs,
 }
 
 /// The counterbalancing index from a participant id: its trailing number
@@ -960,6 +962,18 @@ pub fn run(opts: &RunOptions, out: &mut dyn Write) -> Result<(), String> {
         }
     }
     let mut dir = SessionDir::open(opts, &design, &display, index, &setup_gaze)?;
+    let suffix = format!(
+        "{}-{}",
+        crate::lsl_out::id_part(&design.name),
+        crate::lsl_out::id_part(&opts.participant)
+    );
+    if let Some(o) = opts.lsl.options("experiment", suffix, true) {
+        let (outlets, lines) = crate::lsl_out::Outlets::open(&o)?;
+        for l in lines {
+            let _ = writeln!(out, "{l}");
+        }
+        dir.attach_lsl(outlets);
+    }
     let start = dir.next_trial();
     if let Some((trial, sitting)) = dir.aborted_trial().filter(|(t, _)| *t < trials.len()) {
         // The trial the last sitting did not finish runs again now: its
@@ -1085,6 +1099,9 @@ pub fn run(opts: &RunOptions, out: &mut dyn Write) -> Result<(), String> {
     }
     if let Ok(Some(line)) = &recorded {
         runner.say(line);
+    }
+    if let Some(line) = runner.dir.lsl_summary() {
+        runner.say(&line);
     }
     let summary = runner.dir.close();
     runner.say(&summary);

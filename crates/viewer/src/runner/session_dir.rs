@@ -34,6 +34,11 @@ pub struct SessionDir {
     /// The first write that failed (the runner then stops).
     error: Option<String>,
     written_trials: usize,
+    /// The LSL outlets (`--lsl`): every sample, marker and frame row
+    /// written here is also pushed there, with the row's time.
+    lsl: Option<crate::lsl_out::Outlets>,
+    /// Frames pushed to LSL this sitting.
+    lsl_frames: u64,
 }
 
 /// A participant id usable as a folder name and a BIDS label: the rule
@@ -226,6 +231,8 @@ impl SessionDir {
             path,
             error: None,
             written_trials: 0,
+            lsl: None,
+            lsl_frames: 0,
         })
     }
 
@@ -288,6 +295,27 @@ impl SessionDir {
     pub fn sample(&mut self, row: &SampleRow) {
         let r = self.samples.write(row);
         self.keep(r);
+        if let Some(o) = &mut self.lsl {
+            let xy = row.x_px.zip(row.y_px).map(|(x, y)| [x, y]);
+            let g = crate::lsl_out::GazeValues {
+                gaze_px: xy,
+                eyes_px: None,
+            };
+            o.gaze(row.mapped_us, g);
+        }
+    }
+
+    /// Publishes the rows from now on to these LSL outlets too.
+    pub fn attach_lsl(&mut self, outlets: crate::lsl_out::Outlets) {
+        self.lsl = Some(outlets);
+    }
+
+    /// The LSL outlets' closing line, if any.
+    pub fn lsl_summary(&self) -> Option<String> {
+        self.lsl.as_ref().map(|o| {
+            o.linger();
+            o.summary()
+        })
     }
 
     /// The trial an earlier sitting left unfinished (it is run again in
@@ -299,11 +327,28 @@ impl SessionDir {
     pub fn marker(&mut self, row: &MarkerRow) {
         let r = self.markers.write(row);
         self.keep(r);
+        if let Some(o) = &mut self.lsl {
+            let text = crate::lsl_out::event_text(&row.event, row.trial, &row.detail);
+            o.event(row.host_us, &text);
+        }
     }
 
     pub fn frame(&mut self, row: &FrameRow) {
         let r = self.frames.write(row);
         self.keep(r);
+        if let Some(o) = &mut self.lsl {
+            let trial = row.trial.map_or("-".to_string(), |t| t.to_string());
+            let text = format!(
+                "frame={} phase={} trial={trial} rays={} render_ms={:.2} late={}",
+                self.lsl_frames,
+                row.phase,
+                row.rays,
+                row.render_ms,
+                u8::from(row.late)
+            );
+            o.frame(row.host_us, &text);
+            self.lsl_frames += 1;
+        }
     }
 
     pub fn event(&mut self, row: &EventRow) {

@@ -8,6 +8,8 @@
 //! scope, 127.0.0.1 only). The Python interpreter is $GAZECAST_PYLSL, else
 //! what scripts/lsl-venv.sh prints.
 
+#![cfg(feature = "lsl")]
+
 mod common;
 
 use std::io::{BufRead, BufReader, Read};

@@ -66,8 +66,11 @@ fn run_with_inlet(x: &Xvfb, args: &[&str], streams: &[&str], dir: &Path) -> (Str
         .args([
             "--resolve-timeout",
             "60",
+            // The inlet stops when gazecast's outlets are gone (lost);
+            // a loaded machine can keep every stream quiet for seconds
+            // while a trial is built, so silence alone must not end it.
             "--idle",
-            "5",
+            "60",
             "--duration",
             "300",
         ])

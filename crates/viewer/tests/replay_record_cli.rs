@@ -320,17 +320,8 @@ fn ctrl_c_stops_record_cleanly() {
         .stderr(Stdio::piped())
         .spawn()
         .expect("record starts");
-    // The start command (0x84) says `record` has the port open.
-    let deadline = Instant::now() + Duration::from_secs(30);
     let mut byte = [0u8; 1];
-    loop {
-        assert!(Instant::now() < deadline, "no start command from record");
-        if let Ok(1) = master.read(&mut byte) {
-            if byte[0] == 0x84 {
-                break;
-            }
-        }
-    }
+    wait_for_start(&mut master);
     let mut sent = 0;
     for c in device.device_chunks().take(30) {
         master.write_all(&c.payload).expect("write to the pty");
@@ -377,27 +368,6 @@ fn ctrl_c_stops_record_cleanly() {
     assert_eq!(host, [0x84, 0x88], "start and stop commands recorded");
 }
 
-/// `cmd` under a file size limit of `kib` KiB with SIGXFSZ ignored, so a
-/// write past it fails with EFBIG as a full disk fails with ENOSPC: a real
-/// write error part-way through a recording, without mounting anything.
-fn with_file_limit(cmd: &std::process::Command, kib: u32) -> std::process::Command {
-    let mut c = std::process::Command::new("bash");
-    c.arg("-c")
-        .arg(format!("trap '' XFSZ; ulimit -f {kib}; exec \"$0\" \"$@\""))
-        .arg(cmd.get_program())
-        .args(cmd.get_args());
-    if let Some(d) = cmd.get_current_dir() {
-        c.current_dir(d);
-    }
-    for (k, v) in cmd.get_envs() {
-        match v {
-            Some(v) => c.env(k, v),
-            None => c.env_remove(k),
-        };
-    }
-    c
-}
-
 /// A full disk during `record` is reported at once, not when the
 /// recording would have ended: `record` stops by itself within seconds
 /// of the error (sending the device its stop command), exits 1 naming it, and the file
@@ -415,21 +385,13 @@ fn a_write_error_stops_record_at_once_and_keeps_what_was_written() {
         .arg(&tracker)
         .arg("--out")
         .arg(&out_path);
-    let mut child = with_file_limit(&record, 4)
+    let mut child = common::with_file_limit(&record, 4)
         .stdout(Stdio::piped())
         .stderr(Stdio::piped())
         .spawn()
         .expect("record starts");
-    let deadline = Instant::now() + Duration::from_secs(30);
     let mut byte = [0u8; 1];
-    loop {
-        assert!(Instant::now() < deadline, "no start command from record");
-        if let Ok(1) = master.read(&mut byte) {
-            if byte[0] == 0x84 {
-                break;
-            }
-        }
-    }
+    wait_for_start(&mut master);
     // Far more than 4 KiB of device data, paced so the writer sees it.
     master
         .set_timeout(Duration::from_millis(5))
@@ -486,4 +448,19 @@ fn iscan_on_pty(dir: &Path) -> (serialport::TTYPort, PathBuf, tracker_hal::Recor
     let device = tracker_hal::Recording::read(&repo("tests/data/iscan-binary-60hz.gzrec"))
         .expect("device stream");
     (master, tracker, device)
+}
+
+/// Waits up to 30 s for the start command (0x84): `record` has the port
+/// open.
+fn wait_for_start(master: &mut serialport::TTYPort) {
+    let deadline = Instant::now() + Duration::from_secs(30);
+    let mut byte = [0u8; 1];
+    loop {
+        assert!(Instant::now() < deadline, "no start command from record");
+        if let Ok(1) = master.read(&mut byte) {
+            if byte[0] == 0x84 {
+                return;
+            }
+        }
+    }
 }

@@ -638,15 +638,7 @@ fn a_write_error_during_view_record_is_reported_at_once_and_rendering_goes_on() 
         "--record",
     ])
     .arg(&rec);
-    let mut limited = std::process::Command::new("bash");
-    limited
-        .arg("-c")
-        .arg("trap '' XFSZ; ulimit -f 4; exec \"$0\" \"$@\"")
-        .arg(c.get_program())
-        .args(c.get_args())
-        .current_dir(c.get_current_dir().expect("repository root"))
-        .env("DISPLAY", &x.display)
-        .env_remove("WAYLAND_DISPLAY");
+    let mut limited = common::with_file_limit(&c, 4);
     let out = limited.output().expect("runs");
     let log = String::from_utf8_lossy(&out.stdout);
     let err = String::from_utf8_lossy(&out.stderr);

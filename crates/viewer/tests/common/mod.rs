@@ -105,3 +105,24 @@ pub fn succeed_windowed(x: &mut Xvfb, args: &[&str]) -> Output {
     *x = Xvfb::start();
     windowed(x).args(args).succeed()
 }
+
+/// `cmd` under a file size limit of `kib` KiB with SIGXFSZ ignored, so a
+/// write past it fails with EFBIG as a full disk fails with ENOSPC: a real
+/// write error part-way through a recording, without mounting anything.
+pub fn with_file_limit(cmd: &std::process::Command, kib: u32) -> std::process::Command {
+    let mut c = std::process::Command::new("bash");
+    c.arg("-c")
+        .arg(format!("trap '' XFSZ; ulimit -f {kib}; exec \"$0\" \"$@\""))
+        .arg(cmd.get_program())
+        .args(cmd.get_args());
+    if let Some(d) = cmd.get_current_dir() {
+        c.current_dir(d);
+    }
+    for (k, v) in cmd.get_envs() {
+        match v {
+            Some(v) => c.env(k, v),
+            None => c.env_remove(k),
+        };
+    }
+    c
+}

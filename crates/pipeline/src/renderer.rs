@@ -727,6 +727,27 @@ impl<'s> Renderer<'s> {
             .collect()
     }
 
+    /// One line that says what this renderer draws, for every frame's
+    /// record (`frames.tsv`, `trials.tsv`, the live view's log): the method
+    /// that runs, the backend, and the passes in order with where each
+    /// runs, e.g. `image-based on gpu; passes: image-based foveation (gpu)
+    /// → POR box (cpu)`. No tabs or line breaks.
+    pub fn provenance(&self) -> String {
+        let gpu = self.gpu_pass_names().into_iter().map(|n| format!("{n} (gpu)"));
+        let cpu = self.passes.iter().map(|p| format!("{} (cpu)", p.name()));
+        let passes: Vec<String> = gpu.chain(cpu).collect();
+        format!(
+            "{} on {}; passes: {}",
+            self.method.name(),
+            self.backend_name(),
+            if passes.is_empty() {
+                "none".to_string()
+            } else {
+                passes.join(" → ")
+            }
+        )
+    }
+
     /// What runs for one frame, as `view --explain` prints it.
     pub fn explain(&self) -> Vec<String> {
         let s = self.scene;

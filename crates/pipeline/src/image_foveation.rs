@@ -107,6 +107,70 @@ pub struct ImageFoveation {
     corners: Vec<(f32, bool)>,
 }
 
+/// Image-based foveation as the image method's pass in the frame plan:
+/// the filter under the frame's sampling model
+/// ([`Pass::prepare`](crate::effects::Pass::prepare)), timed.
+#[derive(Debug, Clone, Default)]
+pub struct ImagePass {
+    pub(crate) filter: ImageFoveation,
+    pub(crate) model: Option<SamplingModel>,
+    /// Wall time of the last frame's filter (on the GPU: its level map), ms.
+    pub(crate) ms: f64,
+}
+
+impl ImagePass {
+    /// The filter (its level map and pyramid).
+    pub fn filter(&self) -> &ImageFoveation {
+        &self.filter
+    }
+
+    /// Wall time of the last frame's filter, ms (on the GPU backend: the
+    /// CPU's level map only; the blur is in the GPU frame).
+    pub fn ms(&self) -> f64 {
+        self.ms
+    }
+
+    /// The model's largest ray spacing, px (NaN before the first frame).
+    pub fn max_spacing_px(&self) -> f64 {
+        self.model.map_or(f64::NAN, |m| m.max_spacing_px)
+    }
+}
+
+impl crate::effects::Pass for ImagePass {
+    fn name(&self) -> &'static str {
+        "image-based foveation"
+    }
+
+    fn as_any(&self) -> &dyn std::any::Any {
+        self
+    }
+
+    fn role(&self) -> crate::plan::Role {
+        crate::plan::Role::MethodPass
+    }
+
+    fn owns(&self) -> String {
+        "the level map and the pyramid's levels down to the deepest needed".into()
+    }
+
+    fn prepare(&mut self, model: &SamplingModel) {
+        self.model = Some(*model);
+    }
+
+    fn run(&mut self, frame: &mut Frame, input: &crate::effects::PassInput<'_>) {
+        let Some(model) = self.model else { return };
+        let started = std::time::Instant::now();
+        self.filter.apply(frame, &model, input.gaze_px);
+        self.ms = started.elapsed().as_secs_f64() * 1e3;
+    }
+
+    fn into_gpu(
+        self: Box<Self>,
+    ) -> Result<Box<dyn crate::effects::GpuPass>, Box<dyn crate::effects::Pass>> {
+        Ok(Box::new(crate::gpu::GpuImagePass::new(*self)))
+    }
+}
+
 /// The side of the blocks whose level is interpolated from their corners.
 pub const BLOCK: usize = 8;
 

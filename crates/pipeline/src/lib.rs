@@ -1,31 +1,41 @@
 //! # pipeline — one entry for a frame
 //!
-//! Every command that renders (`render`, `view`, `demo`, `bench`, and what
-//! comes) goes through [`Renderer`]:
+//! Every command that renders (`render`, `view`, `demo`, `bench`, the
+//! experiment runner) goes through [`Renderer`]:
 //!
 //! ```text
-//! gaze ──► Renderer::render ──► method (Method::Full | Hybrid | Image) on a
-//!          backend (CPU | GPU) fills the G-buffer Frame
-//!          ──► the scene's effects run as passes over it ──► Frame
+//! gaze ──► Renderer::render ──► the frame plan, decided once in Renderer::new:
+//!          1. the method (Method::Full | Hybrid | Image | Simplify | Lod | Ulod)
+//!             fills the G-buffer Frame on a backend (CPU | GPU)
+//!          2. the GPU passes, chained between the cast and the read-back
+//!          3. the CPU passes, after it ──► Frame
 //! ```
 //!
-//! - A **method** ([`Method`]) is a value dispatched in exactly one place,
-//!   [`Renderer::render`]. A new rendering method is one module and one arm
-//!   there (and a variant of [`Method`]).
+//! - A **method** ([`Method`]) is chosen in one place,
+//!   [`Method::for_scene`], and its state is one value made for it alone.
 //! - The **G-buffer** is [`raycast::Frame`]: colour, hit, depth (eye distance,
 //!   mm), object id, normal and layer per pixel, filled identically by both
-//!   backends.
-//! - **Effects** are passes ([`effects::Pass`]) assembled from the scene's
-//!   effect list by [`effects::passes_for`]: a new effect is one module and
-//!   one registration arm there. An effect the scene does not list
-//!   allocates nothing and runs no pass. The refinement effects
-//!   (`FoveatedSampling`, `SilhouetteRefinement`, …) are not passes: they
-//!   configure the hybrid method.
-//! - On the **GPU backend** depth of field and image-based foveation run on
-//!   the GPU frame's buffers before the read-back (`gpu`, WGSL twins of the
-//!   CPU passes, which stay the reference), and so does the per-pixel part
-//!   of Lee's attention model when depth of field focuses on the attended
-//!   object ([`gpu_attention`] states the split and its tolerance).
+//!   backends ([`plan::Channels`] names them).
+//! - **Passes** ([`effects::Pass`]) are assembled from the scene's effect
+//!   list by [`effects::passes_for`] (a new effect is one module and one
+//!   registration arm there); a method's own pass (image-based foveation's
+//!   blur) goes first. Each declares what it reads and writes and what it
+//!   owns. An effect the scene does not list allocates nothing and runs no
+//!   pass. The refinement effects (`FoveatedSampling`,
+//!   `SilhouetteRefinement`, …) are not passes: they configure the hybrid
+//!   method.
+//! - **The frame plan** ([`plan::FramePlan`], [`Renderer::plan`]): on the
+//!   GPU backend every pass from the first on that has a GPU implementation
+//!   ([`effects::Pass::into_gpu`]: image-based foveation, both depth-of-field
+//!   passes without foreground smoothing, the POR box) runs on the GPU in
+//!   order; the first pass with only a CPU implementation forces the
+//!   read-back, and it and the passes after it run on the CPU. The plan is
+//!   built from the lists `Renderer::render` walks, `explain` prints it,
+//!   and [`Renderer::provenance`] puts it in one line for every frame's
+//!   record. The GPU implementations (`gpu`, WGSL twins of the CPU passes,
+//!   which stay the reference) include the per-pixel part of Lee's
+//!   attention model when depth of field focuses on the attended object
+//!   ([`gpu_attention`] states the split and its tolerance).
 
 pub mod backend;
 pub mod colour;
@@ -37,10 +47,12 @@ pub mod image_foveation;
 pub mod method;
 pub mod model;
 pub mod model_based;
+pub mod plan;
 pub mod renderer;
 pub mod ulod;
 
 pub use backend::BackendChoice;
 pub use method::Method;
 pub use model::sampling_model;
+pub use plan::FramePlan;
 pub use renderer::{Options, RenderError, Renderer, EYE_DISTANCE_RANGE_MM, EYE_DISTANCE_STEP};

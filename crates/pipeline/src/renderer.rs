@@ -7,23 +7,24 @@ use raycast::render::{Mode, Scratch, Settings, StageTimes, Stats, Triggers};
 use raycast::{Camera, Frame, Scene};
 
 use crate::backend::{Backend, BackendChoice};
-use crate::effects::depth_of_field::{DepthOfField, FOCUS_WINDOW_PX};
+use crate::effects::depth_of_field::DepthOfField;
 use crate::effects::dof_splat::DepthOfFieldSplat;
 use crate::effects::por_overlay::PorOverlay;
-use crate::effects::{pass_for, passes_for, Pass, PassInput};
-use crate::gpu::{FramePost, GpuDof, GpuImage, GpuSplat};
-use crate::image_foveation::ImageFoveation;
+use crate::effects::{pass_for, passes_for, GpuPass, Pass, PassInput};
+use crate::gpu::Chain;
+use crate::image_foveation::{ImageFoveation, ImagePass};
 use crate::method::Method;
 use crate::model_based::{ModelBased, ModelOptions, RasterOn};
+use crate::plan::{Channels, FramePlan, Role, Side, Stage};
 use raycast::scene::Effect;
 
 /// Why a frame could not be rendered.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum RenderError {
     /// The gaze (or the sampling model) cannot give a ray mask.
-    #[error("--gaze: {0}")]
+    #[error("the point of regard: {0}")]
     Gaze(#[from] foveation::ParamError),
-    #[error("--backend gpu: {0}")]
+    #[error("the GPU backend: {0}")]
     Gpu(#[from] GpuError),
     #[error("{0}")]
     Unsupported(String),
@@ -105,6 +106,8 @@ pub struct Renderer<'s> {
     settings: Settings,
     method: Method,
     backend: Backend,
+    /// The passes that run on the CPU, after the read-back on the GPU
+    /// backend, in order.
     passes: Vec<Box<dyn Pass>>,
     note: Option<String>,
     /// Fill the surface buffers whatever the passes need.
@@ -117,30 +120,53 @@ pub struct Renderer<'s> {
     scratch: Scratch,
     /// The wall clock [`Renderer::render`] times frames by (its origin).
     clock: std::time::Instant,
-    /// `Method::Ulod`'s levels and attention model; `None` for other methods.
-    ulod: Option<Box<crate::ulod::Ulod>>,
-    /// `Method::Ulod`: the model's time on the last frame, ms (it set this
-    /// frame's levels).
-    ulod_attention_ms: f64,
-    /// The model-based methods' trees and cuts; `None` for other methods.
-    model_based: Option<ModelBased>,
-    /// The image-based method's pyramid; `None` for every other method.
-    image: Option<ImageFoveation>,
-    /// Wall time of the last frame's image-based blur, ms (0 otherwise).
-    image_ms: f64,
+    /// The method's own state: one value for the method that runs.
+    state: MethodState,
     /// The next frame's vergence depth ([`Renderer::set_vergence_mm`]).
     vergence_mm: Option<f64>,
-    /// Depth of field on the GPU, before the read-back: on the GPU backend
-    /// when the scene lists `DepthOfField` and no CPU pass precedes it
-    /// (then it is not among `passes`); `None` otherwise.
-    gpu_dof: Option<GpuDof>,
-    /// Depth of field by splatting (Lee ch. 5) on the GPU, its hidden image
-    /// cast there too: on the GPU backend when the scene lists
-    /// `DepthOfField(method: Splat)` as its first pass; `None` otherwise.
-    gpu_splat: Option<GpuSplat>,
-    /// Image-based foveation on the GPU (the level map stays `image`'s):
-    /// on the GPU backend for `Method::Image` only.
-    gpu_image: Option<GpuImage>,
+    /// Whether the method's GPU frame takes passes between its cast and its
+    /// read-back (the ray-cast methods on the GPU backend; the raster path
+    /// has no such hook).
+    gpu_hook: bool,
+    /// The passes that run on the GPU between the cast and the read-back,
+    /// in order: the longest run of passes from the first that have a GPU
+    /// implementation ([`Pass::into_gpu`]); empty on the CPU backend.
+    gpu_passes: Vec<Box<dyn GpuPass>>,
+}
+
+/// A method's state, made for the method that runs and no other.
+enum MethodState {
+    /// Full, hybrid and image-based frames keep theirs in `Scratch` and
+    /// the passes.
+    Cast,
+    /// The model-based methods' trees and cuts.
+    ModelBased(Box<ModelBased>),
+    /// `Method::Ulod`'s levels and attention model, and the model's time on
+    /// the last frame (ms; it set this frame's levels).
+    Ulod(Box<crate::ulod::Ulod>, f64),
+}
+
+/// The passes split between the GPU (before the read-back) and the CPU.
+type SplitPasses = (Vec<Box<dyn GpuPass>>, Vec<Box<dyn Pass>>);
+
+/// Moves every pass it can to the GPU: the longest run from the first
+/// whose passes have a GPU implementation; the first without one (and all
+/// after it) stay on the CPU, after the read-back. With no GPU hook,
+/// every pass stays on the CPU.
+fn split_passes(passes: Vec<Box<dyn Pass>>, gpu_hook: bool) -> SplitPasses {
+    let mut gpu = Vec::new();
+    let mut cpu: Vec<Box<dyn Pass>> = Vec::new();
+    for pass in passes {
+        if gpu_hook && cpu.is_empty() {
+            match pass.into_gpu() {
+                Ok(g) => gpu.push(g),
+                Err(p) => cpu.push(p),
+            }
+        } else {
+            cpu.push(pass);
+        }
+    }
+    (gpu, cpu)
 }
 
 impl<'s> Renderer<'s> {
@@ -159,9 +185,9 @@ impl<'s> Renderer<'s> {
         let method = options.method.for_scene(scene);
         if scene.is_moving() && (method.is_model_based() || method == Method::Ulod) {
             return Err(RenderError::Unsupported(format!(
-                "--method {}: this scene moves (a camera path or object motion), and the \
-                 model-based methods build their levels from the scene once; use --method \
-                 full, hybrid or image",
+                "method {}: this scene moves (a camera path or object motion), and the \
+                 model-based methods build their levels from the scene once; choose the \
+                 full, hybrid or image method",
                 method.name()
             )));
         }
@@ -170,11 +196,11 @@ impl<'s> Renderer<'s> {
         let (backend, note) = if method == Method::Ulod {
             if options.backend == BackendChoice::Gpu {
                 return Err(RenderError::Unsupported(
-                    "--method ulod rasterises on the CPU only; use --backend cpu or auto".into(),
+                    "method ulod rasterises on the CPU only; choose the CPU backend or auto".into(),
                 ));
             }
             let note = (options.backend == BackendChoice::Auto)
-                .then(|| "--method ulod rasterises on the CPU".to_string());
+                .then(|| "auto: method ulod rasterises on the CPU".to_string());
             (Backend::Cpu, note)
         } else if scene.is_moving() {
             // The GPU core keeps the scene it uploaded; a moving scene is
@@ -182,8 +208,8 @@ impl<'s> Renderer<'s> {
             match options.backend {
                 BackendChoice::Gpu => {
                     return Err(RenderError::Unsupported(
-                        "--backend gpu: this scene moves (a camera path or object motion) and \
-                         renders on the CPU only; use --backend cpu or auto"
+                        "backend gpu: this scene moves (a camera path or object motion) and \
+                         renders on the CPU only; choose the CPU backend or auto"
                             .into(),
                     ))
                 }
@@ -210,55 +236,34 @@ impl<'s> Renderer<'s> {
             test: options.test,
             check_coverage: options.check_coverage,
         };
-        let mut passes = passes_for(scene, options.por_overlay);
-        // The GPU raster path has no post-pass hook: with a model-based
-        // method every effect pass runs on the CPU after the read-back.
-        let on_gpu = matches!(backend, Backend::Gpu(_)) && !method.is_model_based();
-        // Depth of field moves to the GPU when it is the first pass (what
-        // runs before it would have to run on the GPU too).
-        let gpu_dof = match scene.effect(Effect::DEPTH_OF_FIELD) {
-            Some(e) if on_gpu => DepthOfField::from_effect(e)
-                .filter(|d| passes.first().is_some_and(|p| p.name() == d.name()))
-                // Foreground smoothing has no GPU path: CPU.
-                .filter(|d| !d.smooth_foreground)
-                .map(|d| {
-                    passes.remove(0);
-                    GpuDof::new(d)
-                }),
-            _ => None,
-        };
-        let gpu_splat = match scene.effect(Effect::DEPTH_OF_FIELD) {
-            Some(e) if on_gpu => DepthOfFieldSplat::from_effect(e)
-                .filter(|d| passes.first().is_some_and(|p| p.name() == d.name()))
-                .map(|d| {
-                    passes.remove(0);
-                    GpuSplat::new(d)
-                }),
-            _ => None,
-        };
-        let gpu_image = (on_gpu && method == Method::Image).then(GpuImage::default);
-        let model_based = if method.is_model_based() {
-            Some(
+        // The method's passes, then the scene's, in its file's order.
+        let mut passes: Vec<Box<dyn Pass>> = Vec::new();
+        if method == Method::Image {
+            passes.push(Box::<ImagePass>::default());
+        }
+        passes.extend(passes_for(scene, options.por_overlay));
+        let gpu_hook = matches!(backend, Backend::Gpu(_)) && !method.is_model_based();
+        let (gpu_passes, passes) = split_passes(passes, gpu_hook);
+        let state = match method {
+            Method::Simplify | Method::Lod => MethodState::ModelBased(Box::new(
                 ModelBased::new(scene, &camera, method, options.model)
                     .map_err(RenderError::Unsupported)?,
-            )
-        } else {
-            None
-        };
-        let ulod = if method == Method::Ulod {
-            let levels =
-                crate::ulod::scene_levels(scene, ULOD_LEVELS).map_err(RenderError::Unsupported)?;
-            Some(Box::new(
-                crate::ulod::Ulod::new(levels, ULOD_LEVELS, ULOD_MAP_SIZE)
-                    .map_err(RenderError::Unsupported)?,
-            ))
-        } else {
-            None
+            )),
+            Method::Ulod => {
+                let levels = crate::ulod::scene_levels(scene, ULOD_LEVELS)
+                    .map_err(RenderError::Unsupported)?;
+                MethodState::Ulod(
+                    Box::new(
+                        crate::ulod::Ulod::new(levels, ULOD_LEVELS, ULOD_MAP_SIZE)
+                            .map_err(RenderError::Unsupported)?,
+                    ),
+                    0.0,
+                )
+            }
+            Method::Full | Method::Hybrid | Method::Image => MethodState::Cast,
         };
         Ok(Self {
-            model_based,
-            ulod,
-            ulod_attention_ms: 0.0,
+            state,
             scene,
             posed: None,
             camera,
@@ -277,17 +282,16 @@ impl<'s> Renderer<'s> {
                 Scratch::default()
             },
             clock: std::time::Instant::now(),
-            image: (method == Method::Image).then(ImageFoveation::default),
-            image_ms: 0.0,
             vergence_mm: None,
-            gpu_dof,
-            gpu_splat,
-            gpu_image,
+            gpu_hook,
+            gpu_passes,
         })
     }
 
     /// Whether this frame's method must fill the surface buffers.
     fn wants_surface(&self) -> bool {
+        // On the GPU backend this is what comes back: the GPU passes read
+        // the frame's buffers where they are.
         self.surface || self.passes.iter().any(|p| p.needs_surface())
     }
 
@@ -354,6 +358,11 @@ impl<'s> Renderer<'s> {
     /// origin) instead of the wall clock: scripted, deterministic frames.
     /// A NaN or infinite time is refused by the passes with dynamics (they
     /// hold their state).
+    ///
+    /// The frame walks the plan ([`Renderer::plan`]): the method, the GPU
+    /// passes chained between its cast and its read-back, then the CPU
+    /// passes. The passes that belong to the method (image-based
+    /// foveation's blur) count in its time.
     pub fn render_at(
         &mut self,
         gaze_px: [f64; 2],
@@ -370,7 +379,7 @@ impl<'s> Renderer<'s> {
         let scene: &Scene = self.posed.as_ref().unwrap_or(self.scene);
         // The vergence depth holds for this frame only.
         let vergence_mm = self.vergence_mm.take();
-        if self.image.is_some() {
+        if self.method == Method::Image {
             for (name, v) in [("gaze.x", gaze_px[0]), ("gaze.y", gaze_px[1])] {
                 if !v.is_finite() {
                     return Err(RenderError::Gaze(foveation::ParamError::new(
@@ -381,32 +390,36 @@ impl<'s> Renderer<'s> {
                 }
             }
         }
-        let (mut frame, mut stats) = match (self.method, &mut self.backend) {
-            (Method::Ulod, _) => {
+        for pass in &mut self.gpu_passes {
+            pass.prepare(&self.model);
+        }
+        for pass in &mut self.passes {
+            pass.prepare(&self.model);
+        }
+        let input = PassInput {
+            scene,
+            camera: &self.camera,
+            gaze_px,
+            time_s: Some(time_s),
+            vergence_mm,
+        };
+        let (mut frame, mut stats) = match (&mut self.state, &mut self.backend) {
+            (MethodState::Ulod(u, attention_ms), _) => {
                 let mut frame = self.spare.take().unwrap_or_default();
-                let u = self
-                    .ulod
-                    .as_mut()
-                    .ok_or_else(|| RenderError::Unsupported("no ULOD state".into()))?;
                 let started = std::time::Instant::now();
                 let t = time_s.is_finite().then_some(time_s);
-                let attention_ms = self.ulod_attention_ms;
-                u.draw(scene, &self.camera, attention_ms, &mut frame);
+                u.draw(scene, &self.camera, *attention_ms, &mut frame);
                 // The next frame's levels come from this frame, read now,
                 // before any pass draws on it (Lee's previous frame).
-                self.ulod_attention_ms = u.observe(scene, &frame, t);
+                *attention_ms = u.observe(scene, &frame, t);
                 let stats = Stats {
                     time_ms: started.elapsed().as_secs_f64() * 1e3,
                     ..Stats::default()
                 };
                 (frame, stats)
             }
-            (Method::Simplify | Method::Lod, backend) => {
+            (MethodState::ModelBased(m), backend) => {
                 let mut frame = self.spare.take().unwrap_or_default();
-                let m = self
-                    .model_based
-                    .as_mut()
-                    .ok_or_else(|| RenderError::Unsupported("no model-based state".into()))?;
                 m.set_vergence_mm(vergence_mm);
                 let on = match backend {
                     Backend::Cpu => RasterOn::Cpu,
@@ -417,7 +430,7 @@ impl<'s> Renderer<'s> {
                     .map_err(RenderError::Unsupported)?;
                 (frame, stats)
             }
-            (Method::Full | Method::Hybrid | Method::Image, Backend::Cpu) => {
+            (MethodState::Cast, Backend::Cpu) => {
                 let mut frame = self.spare.take().unwrap_or_default();
                 let stats = raycast::render::render_with(
                     scene,
@@ -431,48 +444,15 @@ impl<'s> Renderer<'s> {
                 )?;
                 (frame, stats)
             }
-            (Method::Full | Method::Image | Method::Hybrid, Backend::Gpu(g)) => {
+            (MethodState::Cast, Backend::Gpu(g)) => {
                 g.set_surface(surface);
                 // The GPU passes, encoded between the cast and the read-back.
-                let image = match (&mut self.image, &mut self.gpu_image) {
-                    (Some(cpu), Some(state)) => {
-                        let started = std::time::Instant::now();
-                        let size = (
-                            self.camera.width_px as usize,
-                            self.camera.height_px as usize,
-                        );
-                        let needed = cpu.levels_for(&self.model, gaze_px, size);
-                        self.image_ms = started.elapsed().as_secs_f64() * 1e3;
-                        Some(crate::gpu::ImageFrame {
-                            state,
-                            levels: cpu.levels(),
-                            needed,
-                            gaze_px,
-                        })
-                    }
-                    _ => None,
+                let mut chain = Chain {
+                    passes: &mut self.gpu_passes,
+                    input: &input,
                 };
-                let dof = self.gpu_dof.as_mut().map(|state| crate::gpu::DofFrame {
-                    state,
-                    camera: &self.camera,
-                    scene,
-                    gaze_px,
-                    time_s: Some(time_s),
-                    vergence_mm,
-                });
-                let background = scene.background.to_array();
-                let splat = self.gpu_splat.as_mut().map(|state| crate::gpu::SplatFrame {
-                    state,
-                    camera: &self.camera,
-                    scene,
-                    background,
-                    gaze_px,
-                    time_s: Some(time_s),
-                    vergence_mm,
-                });
-                let mut post = FramePost { image, dof, splat };
-                let post = (post.image.is_some() || post.dof.is_some() || post.splat.is_some())
-                    .then_some(&mut post as &mut dyn raycast::gpu::GpuPost);
+                let post = (!chain.passes.is_empty())
+                    .then_some(&mut chain as &mut dyn raycast::gpu::GpuPost);
                 if self.method == Method::Hybrid {
                     // The mask kept across frames (the same gaze, or one
                     // within the model's tolerance): the GPU keeps its
@@ -496,25 +476,14 @@ impl<'s> Renderer<'s> {
                 }
             }
         };
-        if let Some(image) = &mut self.image {
-            if matches!(self.backend, Backend::Cpu) {
-                let started = std::time::Instant::now();
-                image.apply(&mut frame, &self.model, gaze_px);
-                self.image_ms = started.elapsed().as_secs_f64() * 1e3;
-            }
-            // The method is the cast and the blur: its time holds both (on
-            // the GPU the blur is in the frame's time, the level map here).
-            stats.time_ms += self.image_ms;
-        }
-        let input = PassInput {
-            scene,
-            camera: &self.camera,
-            gaze_px,
-            time_s: Some(time_s),
-            vergence_mm,
-        };
         for pass in &mut self.passes {
+            let started = std::time::Instant::now();
             pass.run(&mut frame, &input);
+            if pass.role() == Role::MethodPass {
+                // The method is the cast and its own passes (on the GPU
+                // they are in the frame's time already).
+                stats.time_ms += started.elapsed().as_secs_f64() * 1e3;
+            }
         }
         Ok((frame, stats))
     }
@@ -577,33 +546,62 @@ impl<'s> Renderer<'s> {
     /// `Method::Ulod`'s state (levels, attention, last frame's counts), when
     /// it runs; `None` otherwise (nothing of it is built for other methods).
     pub fn ulod(&self) -> Option<&crate::ulod::Ulod> {
-        self.ulod.as_deref()
+        match &self.state {
+            MethodState::Ulod(u, _) => Some(u),
+            _ => None,
+        }
     }
 
     /// The model-based method's state (trees, cuts, last frame's counts),
     /// when a model-based method runs; `None` otherwise.
     pub fn model_based(&self) -> Option<&ModelBased> {
-        self.model_based.as_ref()
+        match &self.state {
+            MethodState::ModelBased(m) => Some(m),
+            _ => None,
+        }
+    }
+
+    /// Every pass in the plan's order, as its CPU reference: the GPU
+    /// passes' references, then the CPU passes.
+    fn all_passes(&self) -> impl Iterator<Item = &dyn Pass> {
+        self.gpu_passes
+            .iter()
+            .map(|p| p.reference())
+            .chain(self.passes.iter().map(|p| p.as_ref()))
+    }
+
+    /// The GPU pass whose CPU reference is a `P`.
+    fn gpu_pass<P: 'static>(&self) -> Option<&dyn GpuPass> {
+        self.gpu_passes
+            .iter()
+            .find(|p| p.reference().as_any().is::<P>())
+            .map(|p| p.as_ref())
+    }
+
+    /// The image-based method's pass (on either side), when it runs.
+    fn image_pass(&self) -> Option<&ImagePass> {
+        self.all_passes().find_map(|p| p.as_any().downcast_ref())
     }
 
     /// Wall time of the last frame's image-based blur (ms), after the full
     /// frame the method casts first (on the GPU backend: the CPU's level
     /// map only, the blur runs in the frame); 0 for other methods.
     pub fn image_ms(&self) -> f64 {
-        self.image_ms
+        self.image_pass().map_or(0.0, |p| p.ms())
     }
 
     /// The image-based method's filter (its pyramid and level map), when
     /// that method runs; `None` otherwise: no other method allocates it.
     pub fn image_foveation(&self) -> Option<&ImageFoveation> {
-        self.image.as_ref()
+        self.image_pass().map(|p| p.filter())
     }
 
     /// Whether the GPU backend holds depth of field's buffers (the colour
     /// pyramid and its depth and blur mips; false on the CPU backend): only
     /// a scene that lists `DepthOfField` makes them, with its first frame.
     pub fn has_dof_buffers(&self) -> bool {
-        self.gpu_dof.as_ref().is_some_and(|d| d.has_buffers())
+        self.gpu_pass::<DepthOfField>()
+            .is_some_and(|p| p.has_buffers())
     }
 
     /// Whether the GPU backend holds the splat pass's buffers (V and H
@@ -611,7 +609,8 @@ impl<'s> Renderer<'s> {
     /// backend): only a scene that lists `DepthOfField(method: Splat)` makes
     /// them, with its first frame.
     pub fn has_splat_buffers(&self) -> bool {
-        self.gpu_splat.as_ref().is_some_and(|d| d.has_buffers())
+        self.gpu_pass::<DepthOfFieldSplat>()
+            .is_some_and(|p| p.has_buffers())
     }
 
     /// Whether the GPU backend holds the attention model's shader and
@@ -619,50 +618,30 @@ impl<'s> Renderer<'s> {
     /// back): only depth of field with `focus: Attention` makes them, with
     /// its first frame.
     pub fn has_attention_buffers(&self) -> bool {
-        let dof = self
-            .gpu_dof
-            .as_ref()
-            .and_then(|d| d.pass.attention())
-            .is_some_and(|a| a.has_gpu_buffers());
-        let splat = self
-            .gpu_splat
-            .as_ref()
-            .and_then(|d| d.pass.attention())
-            .is_some_and(|a| a.has_gpu_buffers());
-        dof || splat
+        self.gpu_passes.iter().any(|p| p.has_attention_buffers())
     }
 
     /// Whether the GPU backend holds image-based foveation's pyramid and
     /// level-map buffers (false on the CPU backend, whose pyramid is
     /// [`Renderer::image_foveation`]'s): only `Method::Image` makes them.
     pub fn has_image_pyramid_buffers(&self) -> bool {
-        self.gpu_image.as_ref().is_some_and(|i| i.has_buffers())
+        self.gpu_pass::<ImagePass>()
+            .is_some_and(|p| p.has_buffers())
     }
 
     /// The passes that run on the GPU between the cast and the read-back,
     /// in order (empty on the CPU backend).
     pub fn gpu_pass_names(&self) -> Vec<&'static str> {
-        let mut out = Vec::new();
-        if self.gpu_image.is_some() {
-            out.push("image-based foveation");
-        }
-        if let Some(d) = &self.gpu_dof {
-            out.push(d.pass.name());
-        }
-        if let Some(d) = &self.gpu_splat {
-            out.push(d.pass.name());
-        }
-        out
+        self.gpu_passes
+            .iter()
+            .map(|p| p.reference().name())
+            .collect()
     }
 
     /// The focal depth of the last frame depth of field blurred (mm, after
     /// the refocusing dynamics), when it runs on the GPU; `None` otherwise.
     pub fn gpu_focal_depth_mm(&self) -> Option<f64> {
-        match (&self.gpu_dof, &self.gpu_splat) {
-            (Some(d), _) => d.pass.focal_depth_mm(),
-            (None, Some(d)) => d.pass.focal_depth_mm(),
-            (None, None) => None,
-        }
+        self.gpu_passes.iter().find_map(|p| p.focal_depth_mm())
     }
 
     /// Whether the GPU backend holds the raster path's pipelines and
@@ -690,41 +669,121 @@ impl<'s> Renderer<'s> {
     }
 
     /// Turns the POR box on or off (the viewer's `P` key), whether or not
-    /// the scene lists `PorOverlay`.
+    /// the scene lists `PorOverlay`. It goes last in the plan: on the GPU
+    /// when every pass before it is there.
     pub fn set_por_overlay(&mut self, on: bool) {
-        let name = PorOverlay::default().name();
-        self.passes.retain(|p| p.name() != name);
+        let is_por = |p: &dyn Pass| p.as_any().is::<PorOverlay>();
+        self.passes.retain(|p| !is_por(p.as_ref()));
+        self.gpu_passes.retain(|p| !is_por(p.reference()));
         if on {
             let pass = match self.scene.effect(Effect::POR_OVERLAY) {
                 Some(e) => pass_for(e),
                 None => Some(Box::new(PorOverlay::default()) as Box<dyn Pass>),
             };
-            self.passes.extend(pass);
+            let (gpu, cpu) = split_passes(
+                pass.into_iter().collect(),
+                self.gpu_hook && self.passes.is_empty(),
+            );
+            self.gpu_passes.extend(gpu);
+            self.passes.extend(cpu);
         }
     }
 
     /// Whether the POR box is drawn.
     pub fn por_overlay(&self) -> bool {
-        let name = PorOverlay::default().name();
-        self.passes.iter().any(|p| p.name() == name)
+        self.all_passes().any(|p| p.as_any().is::<PorOverlay>())
     }
 
-    /// The depth-of-field pass, when the scene lists it (its focus and the
-    /// last frame's CoC and mip-level maps).
+    /// The depth-of-field pass, when the scene lists it and it runs on the
+    /// CPU (its focus and the last frame's CoC and mip-level maps).
     pub fn depth_of_field(&self) -> Option<&crate::effects::depth_of_field::DepthOfField> {
         self.passes.iter().find_map(|p| p.as_any().downcast_ref())
     }
 
-    /// The effect passes that run after the method, in order: on the GPU
-    /// backend depth of field, first, runs on the GPU before the read-back
-    /// ([`Renderer::gpu_pass_names`]), the others on the CPU after it.
+    /// The effect passes that run after the method, in order, on either
+    /// side ([`Renderer::gpu_pass_names`] names those on the GPU).
     pub fn pass_names(&self) -> Vec<&'static str> {
-        let gpu = self.gpu_dof.as_ref().map(|d| d.pass.name());
-        let splat = self.gpu_splat.as_ref().map(|d| d.pass.name());
-        gpu.into_iter()
-            .chain(splat)
-            .chain(self.passes.iter().map(|p| p.name()))
+        self.all_passes()
+            .filter(|p| p.role() == Role::Effect)
+            .map(|p| p.name())
             .collect()
+    }
+
+    /// The frame plan: the method's stage, then every pass in the order
+    /// they run, each with what it reads, writes and owns and its side;
+    /// [`FramePlan::readback`] says where the GPU frame comes back. Built
+    /// from the lists `render_at` walks.
+    pub fn plan(&self) -> FramePlan {
+        let side = match self.backend {
+            Backend::Cpu => Side::Cpu,
+            Backend::Gpu(_) => Side::Gpu,
+        };
+        let surface = if self.wants_surface()
+            || self
+                .gpu_passes
+                .iter()
+                .any(|p| p.reference().needs_surface())
+        {
+            Channels::SURFACE
+        } else {
+            Channels::NONE
+        };
+        let layer = if self.method == Method::Hybrid {
+            Channels::LAYER
+        } else {
+            Channels::NONE
+        };
+        let owns = match (self.method, side) {
+            (Method::Full | Method::Image, _) => "nothing besides the frame".to_string(),
+            (Method::Hybrid, Side::Cpu) => {
+                "the ray mask, vertex hits, cell classes and pixel owners".to_string()
+            }
+            (Method::Hybrid, Side::Gpu) => {
+                "the ray mask and pixel owners (CPU), uploaded; vertex and cell buffers (GPU)"
+                    .to_string()
+            }
+            (Method::Simplify | Method::Lod, _) => "each object's vertex tree and cut".to_string(),
+            (Method::Ulod, _) => {
+                format!("{ULOD_LEVELS} levels per object and {ULOD_MAP_SIZE}² attention maps")
+            }
+        };
+        let mut stages = vec![Stage {
+            name: self.method.name().to_string(),
+            role: Role::Method,
+            side,
+            reads: Channels::NONE,
+            writes: Channels::COLOUR | Channels::HIT | surface | layer,
+            owns,
+            detail: self.method_detail(),
+        }];
+        for p in &self.gpu_passes {
+            let r = p.reference();
+            stages.push(Stage {
+                name: r.name().to_string(),
+                role: r.role(),
+                side: Side::Gpu,
+                reads: r.reads(),
+                writes: r.writes(),
+                owns: p.owns(),
+                detail: p.detail(),
+            });
+        }
+        for p in &self.passes {
+            stages.push(Stage {
+                name: p.name().to_string(),
+                role: p.role(),
+                side: Side::Cpu,
+                reads: p.reads(),
+                writes: p.writes(),
+                owns: p.owns(),
+                detail: p.name().to_string(),
+            });
+        }
+        FramePlan {
+            method: self.method.name(),
+            backend: side,
+            stages,
+        }
     }
 
     /// One line that says what this renderer draws, for every frame's
@@ -733,93 +792,67 @@ impl<'s> Renderer<'s> {
     /// runs, e.g. `image-based on gpu; passes: image-based foveation (gpu)
     /// → POR box (cpu)`. No tabs or line breaks.
     pub fn provenance(&self) -> String {
-        let gpu = self.gpu_pass_names().into_iter().map(|n| format!("{n} (gpu)"));
-        let cpu = self.passes.iter().map(|p| format!("{} (cpu)", p.name()));
-        let passes: Vec<String> = gpu.chain(cpu).collect();
-        format!(
-            "{} on {}; passes: {}",
-            self.method.name(),
-            self.backend_name(),
-            if passes.is_empty() {
-                "none".to_string()
-            } else {
-                passes.join(" → ")
-            }
-        )
+        self.plan().provenance()
     }
 
-    /// What runs for one frame, as `view --explain` prints it.
-    pub fn explain(&self) -> Vec<String> {
-        let s = self.scene;
-        let on = match &self.backend {
-            Backend::Cpu => "cpu".to_string(),
-            Backend::Gpu(g) => format!("gpu ({})", g.adapter()),
-        };
-        let mut out = vec![
-            format!("scene {}: effects {:?}", s.name, s.effects),
-            format!("method: {} on {on}", self.method.name()),
-        ];
-        if let Some(m) = s.motion_summary() {
-            out.push(format!(
-                "scene moves: {m}; posed for each frame's time, every vertex placed and the BVH rebuilt on the CPU"
-            ));
-        }
+    /// What the method does per frame, for `explain`.
+    fn method_detail(&self) -> String {
         match (self.method, &self.backend) {
-            (Method::Full, _) => out.push(
-                "per frame: cast and shade every pixel (no mask, no foveated buffers)".into(),
-            ),
-            (Method::Ulod, _) => out.push(format!(
+            (Method::Full, _) => {
+                "per frame: cast and shade every pixel (no mask, no foveated buffers)".into()
+            }
+            (Method::Ulod, _) => format!(
                 "per frame: Lee's attention model ({ULOD_MAP_SIZE}² maps) on the previous frame sets each object's level L = {}(1 − S_o/max S_o) (Lee eq. 7.3); level ⌊L⌋ drawn opaque and ⌊L⌋+1 blended over it with opacity L − ⌊L⌋ (ULOD), levels of 4^−l of the triangles by quadric simplification; CPU z-buffer",
                 ULOD_LEVELS - 1
-            )),
-            (Method::Simplify | Method::Lod, backend) => out.push(format!(
-                "per frame: select each object's vertex-tree cut incrementally ({}, CPU), \
-                 then rasterise the active triangles with the ray caster's shading ({})",
-                {
-                    let options = self.model_based.as_ref().map(|m| m.options()).unwrap_or_default();
-                    let mode = match (self.method, options.budget) {
-                        (Method::Simplify, Some(b)) => format!(
-                            "Luebke–Hallen best-effort mode under a budget of {b} triangles, Geisler–Perry thresholds"
-                        ),
-                        (Method::Simplify, None) => {
-                            "Luebke–Hallen imperceptible mode, Geisler–Perry thresholds".to_string()
+            ),
+            (Method::Simplify | Method::Lod, backend) => {
+                let options = self.model_based().map(|m| m.options()).unwrap_or_default();
+                let mode = match (self.method, options.budget) {
+                    (Method::Simplify, Some(b)) => format!(
+                        "Luebke–Hallen best-effort mode under a budget of {b} triangles, Geisler–Perry thresholds"
+                    ),
+                    (Method::Simplify, None) => {
+                        "Luebke–Hallen imperceptible mode, Geisler–Perry thresholds".to_string()
+                    }
+                    _ => "Murphy–Duchowski Table 1 levels".to_string(),
+                };
+                let mode = if options.ignore_gaze {
+                    format!("{mode}, without the gaze: every node foveal")
+                } else {
+                    mode
+                };
+                format!(
+                    "per frame: select each object's vertex-tree cut incrementally ({mode}, CPU), \
+                     then rasterise the active triangles with the ray caster's shading ({})",
+                    match backend {
+                        Backend::Cpu => "CPU z-buffer",
+                        Backend::Gpu(_) => {
+                            "GPU render pipeline: triangles uploaded per frame, off-axis frustum, \
+                             depth buffer; effect passes on the CPU (the raster path has no \
+                             GPU pass hook)"
                         }
-                        _ => "Murphy–Duchowski Table 1 levels".to_string(),
-                    };
-                    if options.ignore_gaze {
-                        format!("{mode}, without the gaze: every node foveal")
-                    } else {
-                        mode
                     }
-                },
-                match backend {
-                    Backend::Cpu => "CPU z-buffer",
-                    Backend::Gpu(_) => {
-                        "GPU render pipeline: triangles uploaded per frame, off-axis frustum, \
-                         depth buffer; effect passes on the CPU"
-                    }
-                }
-            )),
-            (Method::Image, Backend::Gpu(_)) => out.push(format!(
+                )
+            }
+            (Method::Image, Backend::Gpu(_)) => {
                 "per frame: cast and shade every pixel, then image-based foveation on the GPU \
-                 before the read-back: level log2(ray spacing) per pixel (spacing ≤ {} px) \
-                 from the CPU, uploaded when the gaze moves; decode → Gaussian pyramid \
-                 (REDUCE, rows then columns) → blend of adjacent levels",
-                self.model.max_spacing_px
-            )),
-            (Method::Image, _) => out.push(format!(
+                 (its pass below)"
+                    .to_string()
+            }
+            (Method::Image, Backend::Cpu) => format!(
                 "per frame: cast and shade every pixel, then image-based foveation (CPU): \
                  level log2(ray spacing) per pixel (spacing ≤ {} px), Gaussian pyramid, \
                  blend of adjacent levels",
                 self.model.max_spacing_px
-            )),
+            ),
             (Method::Hybrid, backend) => {
                 let t = &self.settings.triggers;
+                let mut out = Vec::new();
                 let stages: Vec<&str> = match backend {
                     Backend::Gpu(_) => {
                         out.push(
                             "per new mask (CPU): ray mask and pixel ownership, uploaded to the GPU core"
-                                .into(),
+                                .to_string(),
                         );
                         gpu::foveated_stages(t).iter().map(|s| s.name()).collect()
                     }
@@ -868,66 +901,47 @@ impl<'s> Renderer<'s> {
                         triggers.join(", ")
                     }
                 ));
+                out.join("\n")
             }
         }
-        if let Some(d) = &self.gpu_dof {
-            let focus = match d.pass.focus {
-                raycast::scene::DofFocus::Gaze => format!(
-                    "median depth of the {FOCUS_WINDOW_PX}×{FOCUS_WINDOW_PX} window at the gaze, \
-                     read back after the cast (one wait), refocus on the CPU"
-                ),
-                raycast::scene::DofFocus::Fixed { depth_mm } => format!("fixed at {depth_mm} mm"),
-                raycast::scene::DofFocus::Vergence => format!(
-                    "the vergence depth, else the median depth of the \
-                     {FOCUS_WINDOW_PX}×{FOCUS_WINDOW_PX} window at the gaze read back after the cast; \
-                     refocus on the CPU"
-                ),
-                raycast::scene::DofFocus::Attention => format!(
-                    "the attended object: Lee's attention model ({}² maps) on the frame's \
-                     colour, depth and ids on the GPU, per-object statistics read back (one \
-                     wait), contexts, Kalman filter and ranking on the CPU; refocus on the CPU",
-                    crate::effects::depth_of_field::ATTENTION_MAP_SIZE
-                ),
-            };
+    }
+
+    /// What runs for one frame, as `view --explain` prints it: the method,
+    /// what it does, each GPU pass, the effect passes, then the frame plan
+    /// itself (every stage with what it reads, writes and owns, and the
+    /// read-back).
+    pub fn explain(&self) -> Vec<String> {
+        let s = self.scene;
+        let on = match &self.backend {
+            Backend::Cpu => "cpu".to_string(),
+            Backend::Gpu(g) => format!("gpu ({})", g.adapter()),
+        };
+        let plan = self.plan();
+        let mut out = vec![
+            format!("scene {}: effects {:?}", s.name, s.effects),
+            format!("method: {} on {on}", self.method.name()),
+        ];
+        if let Some(m) = s.motion_summary() {
             out.push(format!(
-                "GPU pass before the read-back: {} — focus {focus}; level 0 (colour, depth, σ) \
-                 → anisotropic Gaussian pyramid → 9-point circular blend of two levels",
-                d.pass.name()
+                "scene moves: {m}; posed for each frame's time, every vertex placed and the BVH rebuilt on the CPU"
             ));
         }
-        if let Some(d) = &self.gpu_splat {
-            let focus = match d.pass.focus {
-                raycast::scene::DofFocus::Gaze | raycast::scene::DofFocus::Vergence => format!(
-                    "the median depth of the {FOCUS_WINDOW_PX}×{FOCUS_WINDOW_PX} window at the gaze \
-                     (or the vergence depth) read back after the cast, refocus on the CPU"
-                ),
-                raycast::scene::DofFocus::Fixed { depth_mm } => format!("fixed at {depth_mm} mm"),
-                raycast::scene::DofFocus::Attention => format!(
-                    "the attended object: Lee's attention model ({}² maps) on the GPU frame, \
-                     per-object statistics read back, finished on the CPU",
-                    crate::effects::depth_of_field::ATTENTION_MAP_SIZE
-                ),
-            };
-            out.push(format!(
-                "GPU pass before the read-back: {} — focus {focus}; V with signed CoC and \
-                 eq. 5.1 → hidden image cast on the GPU (first other object along the ray) → \
-                 scatter into three layers (fixed-point atomics, 2^-24) → composition \
-                 and normalisation",
-                d.pass.name()
-            ));
+        for stage in &plan.stages {
+            match (stage.role, stage.side) {
+                (Role::Method, _) => out.extend(stage.detail.lines().map(str::to_string)),
+                (_, Side::Gpu) => {
+                    out.push(format!("GPU pass before the read-back: {}", stage.detail))
+                }
+                (_, Side::Cpu) => {}
+            }
         }
-        let gpu_dof = self
-            .gpu_dof
-            .as_ref()
-            .map(|d| format!("{} (GPU)", d.pass.name()));
-        let gpu_splat = self
-            .gpu_splat
-            .as_ref()
-            .map(|d| format!("{} (GPU)", d.pass.name()));
-        let passes: Vec<String> = gpu_dof
-            .into_iter()
-            .chain(gpu_splat)
-            .chain(self.passes.iter().map(|p| p.name().to_string()))
+        let passes: Vec<String> = plan
+            .passes()
+            .filter(|p| p.role == Role::Effect)
+            .map(|p| match p.side {
+                Side::Gpu => format!("{} (GPU)", p.name),
+                Side::Cpu => p.name.clone(),
+            })
             .collect();
         out.push(format!(
             "effect passes: {}",
@@ -937,6 +951,7 @@ impl<'s> Renderer<'s> {
                 passes.join(" → ")
             }
         ));
+        out.extend(plan.lines());
         out
     }
 }

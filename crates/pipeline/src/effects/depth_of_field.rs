@@ -88,6 +88,7 @@ use rayon::prelude::*;
 use super::refocus::Refocus;
 use super::{Pass, PassInput};
 use crate::colour;
+use crate::plan::Channels;
 use raycast::scene::DofRefocus;
 
 /// Side of the square around the gaze whose depths' median is the focus
@@ -543,8 +544,25 @@ impl Pass for DepthOfField {
         self
     }
 
-    fn needs_surface(&self) -> bool {
-        true
+    fn reads(&self) -> Channels {
+        let ids = if self.focus == DofFocus::Attention {
+            Channels::ID
+        } else {
+            Channels::NONE
+        };
+        Channels::COLOUR | Channels::HIT | Channels::DEPTH | ids
+    }
+
+    fn owns(&self) -> String {
+        "a colour pyramid with its depth and blur mips, the CoC and level maps".into()
+    }
+
+    fn into_gpu(self: Box<Self>) -> Result<Box<dyn super::GpuPass>, Box<dyn Pass>> {
+        // Foreground smoothing has no GPU implementation.
+        if self.smooth_foreground {
+            return Err(self);
+        }
+        Ok(Box::new(crate::gpu::GpuDof::new(*self)))
     }
 
     fn run(&mut self, frame: &mut Frame, input: &PassInput<'_>) {

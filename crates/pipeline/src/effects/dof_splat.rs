@@ -107,6 +107,7 @@ use super::depth_of_field::{coc_px, screen_of, Focuser};
 use super::refocus::Refocus;
 use super::{Pass, PassInput};
 use crate::colour;
+use crate::plan::Channels;
 
 /// Largest CoC diameter splatted, px; larger ones are splatted at this size.
 pub const MAX_COC_PX: f32 = 64.0;
@@ -460,8 +461,17 @@ impl Pass for DepthOfFieldSplat {
         self
     }
 
-    fn needs_surface(&self) -> bool {
-        true
+    fn reads(&self) -> Channels {
+        // The hidden image needs the object ids whatever the focus.
+        Channels::COLOUR | Channels::HIT | Channels::DEPTH | Channels::ID
+    }
+
+    fn owns(&self) -> String {
+        "the V and H samples, the hidden image and three accumulation layers".into()
+    }
+
+    fn into_gpu(self: Box<Self>) -> Result<Box<dyn super::GpuPass>, Box<dyn Pass>> {
+        Ok(Box::new(crate::gpu::GpuSplat::new(*self)))
     }
 
     fn run(&mut self, frame: &mut Frame, input: &PassInput<'_>) {

@@ -4,7 +4,9 @@
 //!
 //! Adding an effect: a variant of `raycast::scene::Effect` (with its
 //! parameters, parsed from the scene file), a module here implementing
-//! [`Pass`], and one arm in [`pass_for`].
+//! [`Pass`], and one arm in [`pass_for`]. A pass with a GPU implementation
+//! says so in [`Pass::into_gpu`]; the frame plan (`crate::plan`) puts it on
+//! the GPU when every pass before it is there too.
 
 pub mod depth_of_field;
 pub mod dof_reference;
@@ -12,8 +14,12 @@ pub mod dof_splat;
 pub mod por_overlay;
 pub mod refocus;
 
+use foveation::SamplingModel;
+use raycast::gpu::{wgpu, GpuError, GpuFrame};
 use raycast::scene::{DofMethod, Effect};
 use raycast::{Camera, Frame, Scene};
+
+use crate::plan::{Channels, Role};
 
 /// What a pass may read besides the frame.
 #[derive(Debug, Clone, Copy)]
@@ -44,9 +50,84 @@ pub trait Pass: Send {
     /// The pass itself, for callers that inspect a known pass (debug maps).
     fn as_any(&self) -> &dyn std::any::Any;
 
+    /// The G-buffer channels the pass reads.
+    fn reads(&self) -> Channels {
+        Channels::COLOUR
+    }
+
+    /// The G-buffer channels the pass writes.
+    fn writes(&self) -> Channels {
+        Channels::COLOUR
+    }
+
     /// Whether the pass reads the frame's surface buffers (depth, object
     /// id, normal); the method fills them only when some pass does.
     fn needs_surface(&self) -> bool {
+        self.reads().intersects(Channels::SURFACE)
+    }
+
+    /// The buffers the pass allocates (with its first frame), in words.
+    fn owns(&self) -> String {
+        "nothing".into()
+    }
+
+    /// What the pass is in the frame plan: an effect, or part of the method.
+    fn role(&self) -> Role {
+        Role::Effect
+    }
+
+    /// The sampling model this frame is rendered under (before every
+    /// frame); a pass that follows the CSF reads it here.
+    fn prepare(&mut self, _model: &SamplingModel) {}
+
+    /// The pass moved into its GPU implementation, when it has one for its
+    /// settings; the pass itself back otherwise (it then runs on the CPU,
+    /// after the read-back).
+    fn into_gpu(self: Box<Self>) -> Result<Box<dyn GpuPass>, Box<dyn Pass>>;
+}
+
+/// A pass's GPU implementation: the same filter encoded on a GPU frame's
+/// buffers between its cast and its read-back. The CPU pass it implements
+/// ([`GpuPass::reference`]) is the reference it equals within its stated
+/// tolerance, and holds the parameters and the state (focus, refocusing).
+pub trait GpuPass: Send {
+    /// The CPU pass this implements.
+    fn reference(&self) -> &dyn Pass;
+
+    /// The sampling model this frame is rendered under.
+    fn prepare(&mut self, _model: &SamplingModel) {}
+
+    /// Encodes the pass on `frame` into `encoder` (which it may submit,
+    /// going on in a new one) and returns the encoder the next pass or the
+    /// read-back is appended to.
+    fn encode(
+        &mut self,
+        frame: &GpuFrame<'_>,
+        encoder: wgpu::CommandEncoder,
+        input: &PassInput<'_>,
+    ) -> Result<wgpu::CommandEncoder, GpuError>;
+
+    /// Whether its GPU buffers exist (made by its first frame).
+    fn has_buffers(&self) -> bool;
+
+    /// What it does on the GPU, for `explain`.
+    fn detail(&self) -> String {
+        self.reference().name().to_string()
+    }
+
+    /// The GPU buffers it allocates, in words.
+    fn owns(&self) -> String {
+        self.reference().owns()
+    }
+
+    /// The focal depth of the last frame it blurred (mm), for a
+    /// depth-of-field pass.
+    fn focal_depth_mm(&self) -> Option<f64> {
+        None
+    }
+
+    /// Whether it holds the attention model's GPU buffers.
+    fn has_attention_buffers(&self) -> bool {
         false
     }
 }

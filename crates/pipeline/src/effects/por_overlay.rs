@@ -30,6 +30,12 @@ impl Pass for PorOverlay {
         "POR box"
     }
 
+    fn into_gpu(self: Box<Self>) -> Result<Box<dyn super::GpuPass>, Box<dyn Pass>> {
+        crate::gpu::GpuPor::new(*self)
+            .map(|g| Box::new(g) as Box<dyn super::GpuPass>)
+            .ok_or(self)
+    }
+
     fn run(&mut self, frame: &mut Frame, input: &PassInput<'_>) {
         draw_box(
             &mut frame.rgb,

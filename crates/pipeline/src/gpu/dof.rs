@@ -11,8 +11,10 @@ use raycast::Camera;
 use super::{dispatch, level_layout, Kernels, Words, SLOT};
 use crate::effects::depth_of_field::{
     circular_weights, coc_px, level_for_coc, pyramid_taps, screen_of, top_level, DepthOfField,
-    ANISO_DELTA_PX, CIRCLE, MAX_LEVELS, SIGMA_CAP_PX,
+    ANISO_DELTA_PX, ATTENTION_MAP_SIZE, CIRCLE, FOCUS_WINDOW_PX, MAX_LEVELS, SIGMA_CAP_PX,
 };
+use crate::effects::{GpuPass, Pass, PassInput};
+use raycast::scene::DofFocus;
 
 /// Bytes of `Params` in `dof.wgsl`.
 const PARAMS_BYTES: u64 = 112 + 16 * (MAX_LEVELS as u64 + 1);
@@ -43,7 +45,7 @@ pub(crate) struct GpuDof {
 }
 
 /// One frame's depth of field.
-pub(crate) struct DofFrame<'a> {
+struct DofFrame<'a> {
     pub state: &'a mut GpuDof,
     pub camera: &'a Camera,
     /// The scene as rendered (`focus: Attention` reads its objects).
@@ -62,10 +64,69 @@ impl GpuDof {
             buffers: None,
         }
     }
+}
 
-    /// Whether the pyramid buffers exist (made by the first frame).
-    pub fn has_buffers(&self) -> bool {
+impl GpuPass for GpuDof {
+    fn reference(&self) -> &dyn Pass {
+        &self.pass
+    }
+
+    fn has_buffers(&self) -> bool {
         self.buffers.is_some()
+    }
+
+    fn focal_depth_mm(&self) -> Option<f64> {
+        self.pass.focal_depth_mm()
+    }
+
+    fn has_attention_buffers(&self) -> bool {
+        self.pass.attention().is_some_and(|a| a.has_gpu_buffers())
+    }
+
+    fn owns(&self) -> String {
+        "the colour, depth and σ pyramids (GPU)".into()
+    }
+
+    fn detail(&self) -> String {
+        let focus = match self.pass.focus {
+            DofFocus::Gaze => format!(
+                "median depth of the {FOCUS_WINDOW_PX}×{FOCUS_WINDOW_PX} window at the gaze, \
+                 read back after the cast (one wait), refocus on the CPU"
+            ),
+            DofFocus::Fixed { depth_mm } => format!("fixed at {depth_mm} mm"),
+            DofFocus::Vergence => format!(
+                "the vergence depth, else the median depth of the \
+                 {FOCUS_WINDOW_PX}×{FOCUS_WINDOW_PX} window at the gaze read back after the cast; \
+                 refocus on the CPU"
+            ),
+            DofFocus::Attention => format!(
+                "the attended object: Lee's attention model ({ATTENTION_MAP_SIZE}² maps) on the \
+                 frame's colour, depth and ids on the GPU, per-object statistics read back (one \
+                 wait), contexts, Kalman filter and ranking on the CPU; refocus on the CPU"
+            ),
+        };
+        format!(
+            "{} — focus {focus}; level 0 (colour, depth, σ) → anisotropic Gaussian pyramid → \
+             9-point circular blend of two levels",
+            self.pass.name()
+        )
+    }
+
+    fn encode(
+        &mut self,
+        frame: &GpuFrame<'_>,
+        encoder: wgpu::CommandEncoder,
+        input: &PassInput<'_>,
+    ) -> Result<wgpu::CommandEncoder, GpuError> {
+        DofFrame {
+            state: self,
+            camera: input.camera,
+            scene: input.scene,
+            gaze_px: input.gaze_px,
+            time_s: input.time_s,
+            vergence_mm: input.vergence_mm,
+        }
+        .encode(frame, encoder)
     }
 }
 
@@ -125,7 +186,7 @@ fn f32_above(v: f64) -> f32 {
 }
 
 impl DofFrame<'_> {
-    pub fn encode(
+    fn encode(
         &mut self,
         frame: &GpuFrame<'_>,
         mut encoder: wgpu::CommandEncoder,

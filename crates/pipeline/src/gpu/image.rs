@@ -7,7 +7,9 @@ use raycast::gpu::wgpu;
 use raycast::gpu::{GpuError, GpuFrame};
 
 use super::{dispatch, level_layout, Kernels, Words, SLOT};
-use crate::image_foveation::MAX_LEVEL;
+use crate::effects::{GpuPass, Pass, PassInput};
+use crate::image_foveation::{ImagePass, MAX_LEVEL};
+use foveation::SamplingModel;
 
 /// Bytes of `Params` in `image_foveation.wgsl`.
 const PARAMS_BYTES: u64 = 16 + 16 * (MAX_LEVEL as u64 + 1);
@@ -35,7 +37,7 @@ struct Buffers {
 /// The GPU state of image-based foveation: made when the method is
 /// `Image` on the GPU backend, its buffers with the first frame.
 #[derive(Default)]
-pub(crate) struct GpuImage {
+struct GpuImage {
     kernels: Option<Kernels>,
     buffers: Option<Buffers>,
     /// The gaze and size whose level map is on the GPU.
@@ -44,22 +46,84 @@ pub(crate) struct GpuImage {
 
 /// One frame's image-based foveation: the state, the CPU's level map and
 /// the deepest level it needs (`None`: nothing to blur).
-pub(crate) struct ImageFrame<'a> {
+struct ImageFrame<'a> {
     pub state: &'a mut GpuImage,
     pub levels: &'a [f32],
     pub needed: Option<usize>,
     pub gaze_px: [f64; 2],
 }
 
-impl GpuImage {
-    /// Whether the pyramid buffers exist (made by the first frame).
-    pub fn has_buffers(&self) -> bool {
-        self.buffers.is_some()
+/// Image-based foveation's pass on the GPU: the CPU pass (whose filter
+/// computes the level map, uploaded when the gaze moves, and never builds
+/// its CPU pyramid) and the GPU state.
+pub(crate) struct GpuImagePass {
+    pass: ImagePass,
+    state: GpuImage,
+}
+
+impl GpuImagePass {
+    pub fn new(pass: ImagePass) -> Self {
+        Self {
+            pass,
+            state: GpuImage::default(),
+        }
+    }
+}
+
+impl GpuPass for GpuImagePass {
+    fn reference(&self) -> &dyn Pass {
+        &self.pass
+    }
+
+    fn prepare(&mut self, model: &SamplingModel) {
+        self.pass.prepare(model);
+    }
+
+    fn has_buffers(&self) -> bool {
+        self.state.buffers.is_some()
+    }
+
+    fn owns(&self) -> String {
+        "the level map (CPU and GPU), the GPU pyramid and REDUCE rows".into()
+    }
+
+    fn detail(&self) -> String {
+        format!(
+            "image-based foveation on the GPU: level log2(ray spacing) per \
+             pixel (spacing ≤ {} px) from the CPU, uploaded when the gaze moves; decode → \
+             Gaussian pyramid (REDUCE, rows then columns) → blend of adjacent levels",
+            self.pass.max_spacing_px()
+        )
+    }
+
+    fn encode(
+        &mut self,
+        frame: &GpuFrame<'_>,
+        encoder: wgpu::CommandEncoder,
+        input: &PassInput<'_>,
+    ) -> Result<wgpu::CommandEncoder, GpuError> {
+        let Some(model) = self.pass.model else {
+            return Ok(encoder);
+        };
+        let started = std::time::Instant::now();
+        let size = (
+            input.camera.width_px as usize,
+            input.camera.height_px as usize,
+        );
+        let needed = self.pass.filter.levels_for(&model, input.gaze_px, size);
+        self.pass.ms = started.elapsed().as_secs_f64() * 1e3;
+        ImageFrame {
+            state: &mut self.state,
+            levels: self.pass.filter.levels(),
+            needed,
+            gaze_px: input.gaze_px,
+        }
+        .encode(frame, encoder)
     }
 }
 
 impl ImageFrame<'_> {
-    pub fn encode(
+    fn encode(
         &mut self,
         frame: &GpuFrame<'_>,
         mut encoder: wgpu::CommandEncoder,

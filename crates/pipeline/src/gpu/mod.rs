@@ -38,18 +38,21 @@
 mod attention;
 mod dof;
 mod image;
+mod por;
 mod splat;
 
 pub(crate) use attention::{made_on_this_thread, GpuSaliency, PrepareError, SaliencyInput};
-pub(crate) use dof::{DofFrame, GpuDof};
-pub(crate) use image::{GpuImage, ImageFrame};
-pub(crate) use splat::{GpuSplat, SplatFrame};
+pub(crate) use dof::GpuDof;
+pub(crate) use image::GpuImagePass;
+pub(crate) use por::GpuPor;
+pub(crate) use splat::GpuSplat;
 
 use raycast::gpu::wgpu;
 use raycast::gpu::{GpuError, GpuFrame, GpuPost};
 
 use crate::colour;
 use crate::effects::depth_of_field::{focus_window, median_depth};
+use crate::effects::{GpuPass, PassInput};
 
 /// Bytes of one uniform slot (one dispatch's params, a dynamic offset).
 const SLOT: u64 = 256;
@@ -321,30 +324,21 @@ pub(super) fn level_layout(w: u32, h: u32, n: usize) -> (Vec<[u32; 3]>, u64) {
     (out, off)
 }
 
-/// Both passes of one frame, as the hook between the cast and the
-/// read-back: image-based foveation first, then depth of field (the CPU
-/// order).
-pub(crate) struct FramePost<'a> {
-    pub image: Option<image::ImageFrame<'a>>,
-    pub dof: Option<dof::DofFrame<'a>>,
-    /// Depth of field by splatting (Lee ch. 5), where the scene asks for it.
-    pub splat: Option<splat::SplatFrame<'a>>,
+/// A frame's GPU passes in the plan's order, as the hook between the cast
+/// and the read-back.
+pub(crate) struct Chain<'a, 'b> {
+    pub passes: &'a mut [Box<dyn GpuPass>],
+    pub input: &'a PassInput<'b>,
 }
 
-impl GpuPost for FramePost<'_> {
+impl GpuPost for Chain<'_, '_> {
     fn encode(
         &mut self,
         frame: &GpuFrame<'_>,
         mut encoder: wgpu::CommandEncoder,
     ) -> Result<wgpu::CommandEncoder, GpuError> {
-        if let Some(i) = &mut self.image {
-            encoder = i.encode(frame, encoder)?;
-        }
-        if let Some(d) = &mut self.dof {
-            encoder = d.encode(frame, encoder)?;
-        }
-        if let Some(s) = &mut self.splat {
-            encoder = s.encode(frame, encoder)?;
+        for pass in self.passes.iter_mut() {
+            encoder = pass.encode(frame, encoder, self.input)?;
         }
         Ok(encoder)
     }

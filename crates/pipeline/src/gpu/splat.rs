@@ -46,6 +46,7 @@ use crate::effects::depth_of_field::{coc_px, screen_of};
 use crate::effects::dof_splat::{
     kn_table, signed_coc_px, spiral, DepthOfFieldSplat, COC_STEPS_PER_PX, DELTA, MAX_COC_PX,
 };
+use crate::effects::{GpuPass, Pass, PassInput};
 
 /// Bytes of `Params` in `splat.wgsl`.
 const PARAMS_BYTES: u64 = 192;
@@ -80,7 +81,7 @@ pub(crate) struct GpuSplat {
 }
 
 /// One frame's splat pass.
-pub(crate) struct SplatFrame<'a> {
+struct SplatFrame<'a> {
     pub state: &'a mut GpuSplat,
     pub camera: &'a Camera,
     /// The scene as rendered (`focus: Attention` reads its objects).
@@ -100,10 +101,67 @@ impl GpuSplat {
             buffers: None,
         }
     }
+}
 
-    /// Whether the splat buffers exist (made by the first frame).
-    pub fn has_buffers(&self) -> bool {
+impl GpuPass for GpuSplat {
+    fn reference(&self) -> &dyn Pass {
+        &self.pass
+    }
+
+    fn has_buffers(&self) -> bool {
         self.buffers.is_some()
+    }
+
+    fn focal_depth_mm(&self) -> Option<f64> {
+        self.pass.focal_depth_mm()
+    }
+
+    fn has_attention_buffers(&self) -> bool {
+        self.pass.attention().is_some_and(|a| a.has_gpu_buffers())
+    }
+
+    fn owns(&self) -> String {
+        "the V and H samples, the hidden image and three fixed-point layers (GPU)".into()
+    }
+
+    fn detail(&self) -> String {
+        use crate::effects::depth_of_field::{ATTENTION_MAP_SIZE, FOCUS_WINDOW_PX};
+        use raycast::scene::DofFocus;
+        let focus = match self.pass.focus {
+            DofFocus::Gaze | DofFocus::Vergence => format!(
+                "the median depth of the {FOCUS_WINDOW_PX}×{FOCUS_WINDOW_PX} window at the gaze \
+                 (or the vergence depth) read back after the cast, refocus on the CPU"
+            ),
+            DofFocus::Fixed { depth_mm } => format!("fixed at {depth_mm} mm"),
+            DofFocus::Attention => format!(
+                "the attended object: Lee's attention model ({ATTENTION_MAP_SIZE}² maps) on the \
+                 GPU frame, per-object statistics read back, finished on the CPU"
+            ),
+        };
+        format!(
+            "{} — focus {focus}; V with signed CoC and eq. 5.1 → hidden image cast on the GPU \
+             (first other object along the ray) → scatter into three layers (fixed-point atomics, \
+             2^-24) → composition and normalisation",
+            self.pass.name()
+        )
+    }
+
+    fn encode(
+        &mut self,
+        frame: &GpuFrame<'_>,
+        encoder: wgpu::CommandEncoder,
+        input: &PassInput<'_>,
+    ) -> Result<wgpu::CommandEncoder, GpuError> {
+        SplatFrame {
+            state: self,
+            camera: input.camera,
+            scene: input.scene,
+            background: input.scene.background.to_array(),
+            gaze_px: input.gaze_px,
+            time_s: input.time_s,
+            vergence_mm: input.vergence_mm,
+        }
+        .encode(frame, encoder)
     }
 }
 
@@ -143,7 +201,7 @@ fn f32_from(v: f64, or_equal: bool) -> f32 {
 }
 
 impl SplatFrame<'_> {
-    pub fn encode(
+    fn encode(
         &mut self,
         frame: &GpuFrame<'_>,
         mut encoder: wgpu::CommandEncoder,

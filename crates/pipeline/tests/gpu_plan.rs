@@ -1,0 +1,228 @@
+//! The frame plan on both backends: passes with a GPU implementation chain
+//! on the GPU in the scene's order (a second GPU effect after the first —
+//! depth of field, then the POR box — runs there too); the first pass with
+//! only a CPU implementation forces the read-back, and the plan says so;
+//! the GPU POR box equals the CPU's pixel for pixel. Runs on whatever
+//! adapter the machine has (Mesa's lavapipe without a GPU); small frames.
+
+use std::path::Path;
+
+use foveation::{Display, SamplingModel};
+use pipeline::effects::por_overlay::draw_box;
+use pipeline::plan::{Channels, Role, Side};
+use pipeline::{BackendChoice, Method, Options, Renderer};
+use raycast::{Camera, Frame, Scene, SceneFile};
+
+const W: u32 = 160;
+const H: u32 = 128;
+const GAZE: [f64; 2] = [60.0, 70.0];
+const DOF: &str = "depth of field (Lee ch. 4, focus at the gaze's depth)";
+
+fn display() -> Display {
+    Display {
+        name: "17in at 160x128".into(),
+        resolution_px: (W, H),
+        size_mm: (337.9, 270.3),
+        eye_distance_mm: 540.0,
+        eye_point_px: None,
+    }
+}
+
+fn model() -> SamplingModel {
+    pipeline::sampling_model(display().geometry().expect("geometry"), 1.0).expect("model")
+}
+
+fn camera() -> Camera {
+    Camera::new(&display().geometry().expect("geometry"))
+}
+
+/// Three balls at different depths (the depth-of-field tests' scene).
+fn scene(effects: &str) -> Scene {
+    let text = format!(
+        r#"Scene(
+    name: "plan",
+    meshes: {{ "ball": Bumpy(triangles: 800, amplitude: 0.12, seed: 3) }},
+    objects: [
+        (mesh: "ball", translate_mm: (-80.0, 0.0, 0.0), scale_mm: 35.0),
+        (mesh: "ball", translate_mm: (30.0, 40.0, 270.0), scale_mm: 12.0),
+        (mesh: "ball", translate_mm: (150.0, -100.0, -1500.0), scale_mm: 100.0),
+    ],
+    effects: [{effects}],
+)"#
+    );
+    let file: SceneFile = ron::from_str(&text).expect("parses");
+    Scene::build(&file, Path::new(".")).expect("builds")
+}
+
+fn renderer(scene: &Scene, method: Method, backend: BackendChoice) -> Renderer<'_> {
+    Renderer::new(
+        scene,
+        camera(),
+        model(),
+        &Options {
+            method,
+            backend,
+            ..Options::default()
+        },
+    )
+    .unwrap_or_else(|e| {
+        panic!("{e} — install Mesa's software Vulkan (Debian: mesa-vulkan-drivers; scripts/system-deps.sh does)")
+    })
+}
+
+fn worst_diff(a: &Frame, b: &Frame) -> u8 {
+    assert_eq!(a.rgb.len(), b.rgb.len());
+    a.rgb
+        .iter()
+        .zip(&b.rgb)
+        .map(|(x, y)| x.abs_diff(*y))
+        .max()
+        .unwrap_or(0)
+}
+
+#[test]
+fn a_second_gpu_effect_after_the_first_runs_on_the_gpu() {
+    let s = scene("DepthOfField(pupil_mm: 8.0), PorOverlay(half_px: 20)");
+    let mut gpu = renderer(&s, Method::Full, BackendChoice::Gpu);
+    let mut cpu = renderer(&s, Method::Full, BackendChoice::Cpu);
+    assert_eq!(gpu.gpu_pass_names(), [DOF, "POR box"]);
+    assert_eq!(gpu.pass_names(), [DOF, "POR box"]);
+    assert!(cpu.gpu_pass_names().is_empty());
+    let plan = gpu.plan();
+    let (at, carries) = plan.readback().expect("the GPU backend reads back");
+    assert_eq!(at, plan.stages.len(), "every stage runs on the GPU");
+    assert_eq!(carries, Channels::COLOUR | Channels::HIT, "{plan:?}");
+    assert!(plan.stages.iter().all(|s| s.side == Side::Gpu));
+    assert_eq!(
+        gpu.provenance(),
+        format!("full on gpu; passes: {DOF} (gpu) → POR box (gpu)")
+    );
+    let text = gpu.explain().join("\n");
+    assert!(
+        text.contains("GPU pass before the read-back: POR box"),
+        "{text}"
+    );
+    assert!(
+        text.contains("read-back of the finished frame (colour, hit)"),
+        "{text}"
+    );
+    let (g, _) = gpu.render_at(GAZE, 0.0).expect("GPU frame");
+    let (c, _) = cpu.render_at(GAZE, 0.0).expect("CPU frame");
+    // Depth of field's GPU tolerance (tests/gpu_effects.rs): 1/255.
+    assert!(worst_diff(&g, &c) <= 1, "{}", worst_diff(&g, &c));
+    // The box, drawn last, is exact on both.
+    for (x, y) in [(40, 50), (80, 70), (60, 90), (41, 70)] {
+        let i = 3 * (y * W as usize + x);
+        assert_eq!(g.rgb[i..i + 3], [255, 220, 0], "({x}, {y})");
+        assert_eq!(c.rgb[i..i + 3], [255, 220, 0], "({x}, {y})");
+    }
+    assert!(gpu.has_dof_buffers());
+}
+
+#[test]
+fn the_gpu_box_is_the_cpu_box_pixel_for_pixel() {
+    let plain = scene("");
+    let mut bare = renderer(&plain, Method::Full, BackendChoice::Gpu);
+    let cases = [
+        (1i64, [80.4, 63.6]),
+        (2, [0.0, 0.0]),
+        (32, [10.0, 10.0]),
+        (32, [-33.0, 40.0]),
+        (32, [159.5, 127.5]),
+        (32, [-35.0, 40.0]),
+        (32, [f64::NAN, 40.0]),
+        (500, [80.0, 64.0]),
+        (4096, [80.0, 64.0]),
+        (4096, [-4000.0, 64.0]),
+    ];
+    for (half, gaze) in cases {
+        let s = scene(&format!("PorOverlay(half_px: {half})"));
+        let mut r = renderer(&s, Method::Full, BackendChoice::Gpu);
+        assert_eq!(r.gpu_pass_names(), ["POR box"], "{half}");
+        let (got, _) = r.render_at(gaze, 0.0).expect("boxed");
+        let (mut expected, _) = bare.render_at(gaze, 0.0).expect("bare");
+        draw_box(&mut expected.rgb, W, H, gaze, half);
+        assert_eq!(got.rgb, expected.rgb, "half {half}, gaze {gaze:?}");
+        assert_eq!(got.hit, expected.hit, "the hit flags are kept");
+    }
+}
+
+#[test]
+fn a_pass_without_a_gpu_implementation_forces_the_read_back_it_needs() {
+    // Foreground smoothing has no GPU path: the box before it runs on the
+    // GPU, depth of field (and anything after it) on the CPU.
+    let s = scene("PorOverlay(half_px: 8), DepthOfField(pupil_mm: 8.0, smooth_foreground: true)");
+    let mut r = renderer(&s, Method::Full, BackendChoice::Gpu);
+    assert_eq!(r.gpu_pass_names(), ["POR box"]);
+    let plan = r.plan();
+    let sides: Vec<Side> = plan.stages.iter().map(|s| s.side).collect();
+    assert_eq!(sides, [Side::Gpu, Side::Gpu, Side::Cpu]);
+    let (at, carries) = plan.readback().expect("GPU");
+    assert_eq!(at, 2);
+    assert!(
+        carries.contains(Channels::DEPTH),
+        "depth of field reads depth: {carries}"
+    );
+    let text = r.explain().join("\n");
+    assert!(
+        text.contains("read-back to the CPU (colour, hit, depth"),
+        "{text}"
+    );
+    let (frame, _) = r.render_at(GAZE, 0.0).expect("frame");
+    assert!(
+        frame.has_surface(),
+        "the read-back carries what the CPU pass reads"
+    );
+    // The P key turns the box off; turned on again it goes last, after the
+    // CPU pass, so on the CPU.
+    r.set_por_overlay(false);
+    assert!(r.gpu_pass_names().is_empty());
+    r.set_por_overlay(true);
+    assert_eq!(r.pass_names().last(), Some(&"POR box"));
+    assert!(r.gpu_pass_names().is_empty());
+    // The model-based raster has no GPU pass hook: everything on the CPU.
+    let s = scene("FoveatedSampling, PorOverlay(half_px: 8)");
+    let r = renderer(&s, Method::Lod, BackendChoice::Gpu);
+    assert!(r.gpu_pass_names().is_empty());
+    assert_eq!(r.plan().readback().map(|(at, _)| at), Some(1));
+}
+
+#[test]
+fn the_plan_is_what_runs_and_pays_per_use() {
+    // A plain scene: one stage, the method; nothing else is made.
+    let plain = scene("");
+    for backend in [BackendChoice::Cpu, BackendChoice::Gpu] {
+        let r = renderer(&plain, Method::Full, backend);
+        let plan = r.plan();
+        assert_eq!(plan.stages.len(), 1, "{backend:?}");
+        assert_eq!(plan.stages[0].role, Role::Method);
+        assert!(!plan.stages[0].writes.intersects(Channels::SURFACE));
+    }
+    // The image method: its blur is a stage of the method, first.
+    let s = scene("FoveatedSampling, PorOverlay(half_px: 8)");
+    for (backend, side) in [
+        (BackendChoice::Cpu, Side::Cpu),
+        (BackendChoice::Gpu, Side::Gpu),
+    ] {
+        let mut r = renderer(&s, Method::Image, backend);
+        let plan = r.plan();
+        let names: Vec<&str> = plan.stages.iter().map(|s| s.name.as_str()).collect();
+        assert_eq!(names, ["image-based", "image-based foveation", "POR box"]);
+        assert_eq!(plan.stages[1].role, Role::MethodPass);
+        assert!(plan.stages.iter().all(|s| s.side == side), "{backend:?}");
+        assert_eq!(
+            r.provenance(),
+            format!(
+                "image-based on {}; passes: image-based foveation ({0}) → POR box ({0})",
+                side.name()
+            )
+        );
+        r.render_at(GAZE, 0.0).expect("frame");
+        // The P key moves the box out and back without touching the rest.
+        r.set_por_overlay(false);
+        assert!(r.pass_names().is_empty() && !r.por_overlay());
+        r.set_por_overlay(true);
+        assert_eq!(r.plan().stages.len(), 3);
+        assert!(r.plan().stages.iter().all(|s| s.side == side));
+    }
+}

@@ -11,7 +11,7 @@ struct Params {
     n_lights: u32,
     n_triangles: u32,
     eye: vec4<f32>,          // xyz
-    pitch: vec4<f32>,        // x, y
+    pitch: vec4<f32>,        // x, y; z, w: the window's centre (mm), 0 for the display's camera
     background: vec4<f32>,   // linear rgb
     background_rgb8: vec4<u32>,
 };
@@ -261,9 +261,12 @@ struct Sample {
 };
 
 fn screen_point(p: vec2<f32>) -> vec3<f32> {
+    let x = (p.x - f32(params.width) / 2.0) * params.pitch.x;
+    let y = (f32(params.height) / 2.0 - p.y) * params.pitch.y;
+    // `Camera::screen_point`: a zero offset adds nothing, not even a sign.
     return vec3<f32>(
-        (p.x - f32(params.width) / 2.0) * params.pitch.x,
-        (f32(params.height) / 2.0 - p.y) * params.pitch.y,
+        select(x + params.pitch.z, x, params.pitch.z == 0.0),
+        select(y + params.pitch.w, y, params.pitch.w == 0.0),
         0.0);
 }
 

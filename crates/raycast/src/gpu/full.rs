@@ -54,7 +54,7 @@ impl GpuRenderer {
             n_lights: self.scene.n_lights,
             n_triangles: self.scene.n_triangles,
             eye: [cam.eye.x, cam.eye.y, cam.eye.z, 0.0],
-            pitch: [pitch[0], pitch[1], 0.0, 0.0],
+            pitch: [pitch[0], pitch[1], cam.offset_mm()[0], cam.offset_mm()[1]],
             background: [
                 self.background[0],
                 self.background[1],

@@ -74,6 +74,7 @@ use rayon::prelude::*;
 
 use crate::camera::Camera;
 use crate::frame::{Frame, Layer, NO_OBJECT};
+use crate::ray::{plane_hit, WatertightRay};
 use crate::scene::{Scene, WorldTriangle};
 use crate::shade::{shade, to_rgb8};
 
@@ -438,89 +439,12 @@ fn setup(ctx: &Ctx<'_>, tri: &WorldTriangle) -> Result<Setup, Prep> {
     Ok(Setup { parts, y0, y1 })
 }
 
-/// The eye ray through a pixel centre, set up as
-/// [`crate::ray::WatertightRay`] sets up the caster's ray through it.
-struct PixelRay {
-    origin: Vec3,
-    kx: usize,
-    ky: usize,
-    kz: usize,
-    sx: f32,
-    sy: f32,
-    sz: f32,
-}
-
-impl PixelRay {
-    /// The ray and its direction `screen_point − eye` (not normalised).
-    #[inline]
-    fn new(cam: &Camera, x: usize, y: usize) -> (Self, Vec3) {
-        let dir = cam.screen_point([x as f32 + 0.5, y as f32 + 0.5]) - cam.eye;
-        let a = dir.abs();
-        let kz = if a.x > a.y {
-            if a.x > a.z {
-                0
-            } else {
-                2
-            }
-        } else if a.y > a.z {
-            1
-        } else {
-            2
-        };
-        let mut kx = (kz + 1) % 3;
-        let mut ky = (kx + 1) % 3;
-        if dir[kz] < 0.0 {
-            std::mem::swap(&mut kx, &mut ky);
-        }
-        let dz = dir[kz];
-        let r = Self {
-            origin: cam.eye,
-            kx,
-            ky,
-            kz,
-            sx: dir[kx] / dz,
-            sy: dir[ky] / dz,
-            sz: 1.0 / dz,
-        };
-        (r, dir)
-    }
-
-    /// Where the ray meets the plane of `p`: `(t, u, v)` with the
-    /// barycentrics `u`, `v` of corners 1 and 2, by the arithmetic of
-    /// [`crate::ray::watertight`] (bit for bit) without its inside test;
-    /// None when the ray runs along the plane.
-    #[inline]
-    fn plane_hit(&self, p: &[Vec3; 3]) -> Option<(f32, f32, f32)> {
-        let a = p[0] - self.origin;
-        let b = p[1] - self.origin;
-        let c = p[2] - self.origin;
-        let (kx, ky, kz) = (self.kx, self.ky, self.kz);
-        let ax = a[kx] - self.sx * a[kz];
-        let ay = a[ky] - self.sy * a[kz];
-        let bx = b[kx] - self.sx * b[kz];
-        let by = b[ky] - self.sy * b[kz];
-        let cx = c[kx] - self.sx * c[kz];
-        let cy = c[ky] - self.sy * c[kz];
-        let mut u = cx * by - cy * bx;
-        let mut v = ax * cy - ay * cx;
-        let mut w = bx * ay - by * ax;
-        if u == 0.0 || v == 0.0 || w == 0.0 {
-            u = (f64::from(cx) * f64::from(by) - f64::from(cy) * f64::from(bx)) as f32;
-            v = (f64::from(ax) * f64::from(cy) - f64::from(ay) * f64::from(cx)) as f32;
-            w = (f64::from(bx) * f64::from(ay) - f64::from(by) * f64::from(ax)) as f32;
-        }
-        let det = u + v + w;
-        if det == 0.0 {
-            return None;
-        }
-        let az = self.sz * a[kz];
-        let bz = self.sz * b[kz];
-        let cz = self.sz * c[kz];
-        let t_scaled = u * az + v * bz + w * cz;
-        let inv = 1.0 / det;
-        let t = t_scaled * inv;
-        (t > 0.0 && t.is_finite()).then_some((t, v * inv, w * inv))
-    }
+/// The eye ray through the centre of pixel (x, y), set up as the caster
+/// sets up its ray through it, and its direction `screen_point − eye`.
+#[inline]
+fn pixel_ray(cam: &Camera, x: usize, y: usize) -> (WatertightRay, Vec3) {
+    let ray = cam.ray([x as f32 + 0.5, y as f32 + 0.5]);
+    (WatertightRay::new(&ray), ray.dir)
 }
 
 /// One band's part of the frame's buffers (the surface ones empty when the
@@ -631,8 +555,8 @@ fn band(
                         continue;
                     }
                     fragments += 1;
-                    let (ray, _) = PixelRay::new(ctx.cam, x, y);
-                    let Some((t, _, _)) = ray.plane_hit(&tri.p) else {
+                    let (ray, _) = pixel_ray(ctx.cam, x, y);
+                    let Some((t, _, _)) = plane_hit(&ray, tri.p[0], tri.p[1], tri.p[2]) else {
                         continue;
                     };
                     let k = row + x;
@@ -651,8 +575,8 @@ fn band(
     for (k, &i) in zi.iter().enumerate() {
         let (x, y) = (k % w, y_start + k / w);
         let shaded = (i != NONE).then(|| &ctx.tris[i as usize]).and_then(|tri| {
-            let (ray, dir) = PixelRay::new(ctx.cam, x, y);
-            let (t, u, v) = ray.plane_hit(&tri.p)?;
+            let (ray, dir) = pixel_ray(ctx.cam, x, y);
+            let (t, u, v) = plane_hit(&ray, tri.p[0], tri.p[1], tri.p[2])?;
             // As `Scene::intersect` makes `Hit::normal`.
             let n = tri.n[0] * (1.0 - u - v) + tri.n[1] * u + tri.n[2] * v;
             let face = (tri.p[1] - tri.p[0]).cross(tri.p[2] - tri.p[0]);

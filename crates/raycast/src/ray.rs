@@ -192,19 +192,12 @@ pub struct TriHit {
     pub v: f32,
 }
 
-/// Watertight ray/triangle intersection (Woop, Benthin & Wald 2013), with
-/// the paper's double-precision fallback when an edge function is exactly 0.
-/// Edges are closed on both sides, so a ray through a shared edge or vertex
-/// hits at least one of the triangles. Returns hits with `t_min < t < t_max`.
+/// The sheared edge functions `(u, v, w)` of triangle `p0 p1 p2` for
+/// the ray, with the paper's double-precision fallback when one is exactly
+/// 0, and the sheared z of each corner (Woop, Benthin & Wald 2013, §3):
+/// the one arithmetic the watertight test and the raster's plane hit share.
 #[inline]
-pub fn watertight(
-    r: &WatertightRay,
-    p0: Vec3,
-    p1: Vec3,
-    p2: Vec3,
-    t_min: f32,
-    t_max: f32,
-) -> Option<TriHit> {
+fn sheared_edges(r: &WatertightRay, p0: Vec3, p1: Vec3, p2: Vec3) -> ([f32; 3], [f32; 3]) {
     let a = p0 - r.origin;
     let b = p1 - r.origin;
     let c = p2 - r.origin;
@@ -223,6 +216,40 @@ pub fn watertight(
         v = (f64::from(ax) * f64::from(cy) - f64::from(ay) * f64::from(cx)) as f32;
         w = (f64::from(bx) * f64::from(ay) - f64::from(by) * f64::from(ax)) as f32;
     }
+    ([u, v, w], [r.sz * a[kz], r.sz * b[kz], r.sz * c[kz]])
+}
+
+/// Where the ray meets the plane of `p0 p1 p2`: `(t, u, v)` with the
+/// barycentrics `u`, `v` of corners 1 and 2, by [`watertight`]'s
+/// arithmetic (bit for bit, the same function) without its inside test;
+/// `None` when the ray runs along the plane or meets it behind the origin.
+#[inline]
+pub fn plane_hit(r: &WatertightRay, p0: Vec3, p1: Vec3, p2: Vec3) -> Option<(f32, f32, f32)> {
+    let ([u, v, w], [az, bz, cz]) = sheared_edges(r, p0, p1, p2);
+    let det = u + v + w;
+    if det == 0.0 {
+        return None;
+    }
+    let t_scaled = u * az + v * bz + w * cz;
+    let inv = 1.0 / det;
+    let t = t_scaled * inv;
+    (t > 0.0 && t.is_finite()).then_some((t, v * inv, w * inv))
+}
+
+/// Watertight ray/triangle intersection (Woop, Benthin & Wald 2013), with
+/// the paper's double-precision fallback when an edge function is exactly 0.
+/// Edges are closed on both sides, so a ray through a shared edge or vertex
+/// hits at least one of the triangles. Returns hits with `t_min < t < t_max`.
+#[inline]
+pub fn watertight(
+    r: &WatertightRay,
+    p0: Vec3,
+    p1: Vec3,
+    p2: Vec3,
+    t_min: f32,
+    t_max: f32,
+) -> Option<TriHit> {
+    let ([u, v, w], [az, bz, cz]) = sheared_edges(r, p0, p1, p2);
     if (u < 0.0 || v < 0.0 || w < 0.0) && (u > 0.0 || v > 0.0 || w > 0.0) {
         return None;
     }
@@ -230,9 +257,6 @@ pub fn watertight(
     if det == 0.0 {
         return None; // degenerate (zero-area in projection)
     }
-    let az = r.sz * a[kz];
-    let bz = r.sz * b[kz];
-    let cz = r.sz * c[kz];
     let t_scaled = u * az + v * bz + w * cz;
     // Compare t·det against the range without dividing (sign-aware).
     let (lo, hi) = if det > 0.0 {

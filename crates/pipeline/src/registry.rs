@@ -1,0 +1,137 @@
+//! Method modules and debug maps, registered by one line each.
+//!
+//! A new rendering method is a module that implements [`FrameMethod`] and
+//! declares a [`MethodModule`] (its name, aliases, help, seed, whether it
+//! follows the gaze and whether it has a GPU path), plus one line in
+//! [`METHODS`]. From there the method is a [`Method`](crate::Method)
+//! everywhere: the command line's `--method`, an experiment condition's
+//! `method:`, `explain`, the frame plan and every frame's provenance. A new
+//! debug map (a per-pixel quantity drawn as a picture, `render --map`) is a
+//! [`DebugMap`] and one line in [`MAPS`].
+
+use std::fmt;
+
+use foveation::SamplingModel;
+use raycast::gpu::GpuRenderer;
+use raycast::ray::TriangleTest;
+use raycast::render::Stats;
+use raycast::{Camera, Frame, Scene};
+
+/// What a method module's frame gets.
+pub struct MethodFrame<'a> {
+    /// The scene as posed for this frame.
+    pub scene: &'a Scene,
+    pub camera: &'a Camera,
+    /// The sampling model this frame is rendered under (the CSF at the
+    /// display's geometry and the measured eye distance).
+    pub model: &'a SamplingModel,
+    pub test: TriangleTest,
+    pub gaze_px: [f64; 2],
+    /// The frame's time, s.
+    pub time_s: f64,
+    /// Fill the surface buffers (depth, id, normal): a later pass reads them.
+    pub surface: bool,
+    /// The GPU core, when the method renders on the GPU backend.
+    pub gpu: Option<&'a mut GpuRenderer>,
+}
+
+/// A method module's state: made once per renderer, then one frame at a time.
+pub trait FrameMethod: Send {
+    /// Fills `frame` (sized to the camera) for this frame.
+    fn render(&mut self, input: MethodFrame<'_>, frame: &mut Frame) -> Result<Stats, String>;
+    /// What it does per frame, for `explain` (may span lines).
+    fn detail(&self) -> String;
+    /// The buffers it owns, in words.
+    fn owns(&self) -> String;
+    /// The state itself, for callers that inspect a known method.
+    fn as_any(&self) -> &dyn std::any::Any;
+}
+
+/// What a method module is made from.
+pub struct MethodSetup<'a> {
+    pub scene: &'a Scene,
+    pub camera: &'a Camera,
+    pub model: &'a SamplingModel,
+}
+
+/// A registered method.
+pub struct MethodModule {
+    /// The name on the command line, in designs and in reports.
+    pub name: &'static str,
+    /// Other names accepted for it.
+    pub aliases: &'static [&'static str],
+    /// One line of help.
+    pub help: &'static str,
+    /// Whether it follows the gaze: without the scene's `FoveatedSampling`
+    /// the scene is rendered at full resolution instead, like every
+    /// foveated method.
+    pub foveated: bool,
+    /// Whether it renders on the GPU backend (its frame gets
+    /// [`MethodFrame::gpu`]); without, `backend gpu` is refused and `auto`
+    /// renders it on the CPU.
+    pub gpu: bool,
+    /// Makes its state for a renderer.
+    pub make: fn(&MethodSetup<'_>) -> Result<Box<dyn FrameMethod>, String>,
+}
+
+impl PartialEq for MethodModule {
+    fn eq(&self, other: &Self) -> bool {
+        self.name == other.name
+    }
+}
+
+impl Eq for MethodModule {}
+
+impl fmt::Debug for MethodModule {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.debug_struct("MethodModule")
+            .field("name", &self.name)
+            .finish_non_exhaustive()
+    }
+}
+
+/// The registered method modules.
+pub static METHODS: &[&MethodModule] = &[];
+
+/// What a debug map is drawn for.
+pub struct MapInput<'a> {
+    pub model: &'a SamplingModel,
+    pub gaze_px: [f64; 2],
+    pub width_px: u32,
+    pub height_px: u32,
+}
+
+/// A per-pixel quantity, row-major.
+#[derive(Debug, Clone, PartialEq)]
+pub struct MapValues {
+    pub width_px: u32,
+    pub height_px: u32,
+    pub values: Vec<f32>,
+    /// The quantity's unit, for the picture's caption.
+    pub unit: &'static str,
+}
+
+/// A registered debug map.
+pub struct DebugMap {
+    /// The name `render --map NAME=FILE.png` takes.
+    pub name: &'static str,
+    /// One line of help (with its seed figure).
+    pub help: &'static str,
+    pub make: fn(&MapInput<'_>) -> Result<MapValues, String>,
+}
+
+impl fmt::Debug for DebugMap {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.debug_struct("DebugMap")
+            .field("name", &self.name)
+            .finish_non_exhaustive()
+    }
+}
+
+/// The registered debug maps.
+pub static MAPS: &[&DebugMap] = &[];
+
+/// The registered map called `name`.
+pub fn map(name: &str) -> Option<&'static DebugMap> {
+    MAPS.iter().copied().find(|m| m.name == name)
+}

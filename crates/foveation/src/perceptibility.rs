@@ -264,9 +264,16 @@ impl ThresholdTable {
 }
 
 /// Indices bracketing `x` in sorted `axis` and the interpolation weight,
-/// clamped to the ends.
-fn bracket(axis: &[f64], x: f64) -> (usize, usize, f64) {
-    let last = axis.len() - 1;
+/// clamped to the ends: the one lookup of every threshold table (this
+/// module's and `lod`'s envelope). A NaN `x` gives weight NaN at index 0
+/// (NaN in, NaN out); an empty axis gives `(0, 0, NaN)`.
+pub fn bracket(axis: &[f64], x: f64) -> (usize, usize, f64) {
+    let Some(last) = axis.len().checked_sub(1) else {
+        return (0, 0, f64::NAN);
+    };
+    if x.is_nan() {
+        return (0, 0, f64::NAN);
+    }
     if x <= axis[0] {
         return (0, 0, 0.0);
     }
@@ -281,6 +288,22 @@ fn bracket(axis: &[f64], x: f64) -> (usize, usize, f64) {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn bracket_clamps_interpolates_and_passes_nan_through() {
+        let axis = [1.0, 2.0, 4.0];
+        assert_eq!(bracket(&axis, 0.0), (0, 0, 0.0));
+        assert_eq!(bracket(&axis, 9.0), (2, 2, 0.0));
+        assert_eq!(bracket(&axis, 3.0), (1, 2, 0.5));
+        assert_eq!(bracket(&axis, 2.0), (1, 2, 0.0));
+        assert_eq!(bracket(&axis, f64::INFINITY), (2, 2, 0.0));
+        assert_eq!(bracket(&axis, f64::NEG_INFINITY), (0, 0, 0.0));
+        let (lo, hi, w) = bracket(&axis, f64::NAN);
+        assert_eq!((lo, hi), (0, 0));
+        assert!(w.is_nan());
+        assert!(bracket(&[], 1.0).2.is_nan());
+        assert_eq!(bracket(&[5.0], 1.0), (0, 0, 0.0));
+    }
 
     #[test]
     fn model_table_reproduces_the_model_at_grid_points() {

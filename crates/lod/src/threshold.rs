@@ -11,7 +11,7 @@
 //! `ThresholdTable::from_model` is — T* = T, so the test is exactly
 //! `!table.is_perceptible(..)`.
 
-use foveation::perceptibility::ThresholdTable;
+use foveation::perceptibility::{bracket, ThresholdTable};
 
 #[derive(Debug, Clone)]
 pub(crate) struct MonotoneThreshold {
@@ -119,21 +119,6 @@ impl MonotoneThreshold {
         let lt = self.log_threshold(frequency_cpd, ecc_deg);
         contrast.is_nan() || lt.is_nan() || contrast.ln() >= lt
     }
-}
-
-/// As in `foveation::perceptibility` (private there): indices bracketing
-/// `x` in sorted `axis` and the weight, clamped to the ends.
-fn bracket(axis: &[f64], x: f64) -> (usize, usize, f64) {
-    let last = axis.len() - 1;
-    if x <= axis[0] {
-        return (0, 0, 0.0);
-    }
-    if x >= axis[last] {
-        return (last, last, 0.0);
-    }
-    let hi = axis.partition_point(|&a| a <= x).min(last);
-    let lo = hi - 1;
-    (lo, hi, (x - axis[lo]) / (axis[hi] - axis[lo]))
 }
 
 #[cfg(test)]

@@ -104,6 +104,12 @@ fn make(root: &Path, participant: &str, synthetic: bool, n_samples: usize) -> Ma
             frames_late: 0,
             mean_rays: 1.0,
             synthetic,
+            plan: [
+                Some("full on cpu; passes: none"),
+                Some("foveated on gpu; passes: POR box (cpu)"),
+                None,
+            ][k]
+                .map(String::from),
         })
         .collect();
     for t in &trials {

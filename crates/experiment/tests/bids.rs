@@ -255,6 +255,13 @@ fn export_writes_a_bids_eyetracking_dataset() {
     assert_eq!(col(lines[2], "correct"), "0");
     assert_eq!(col(lines[3], "correct"), "n/a");
     assert_eq!(col(lines[1], "inset_deg"), "n/a");
+    // What rendered each trial, from trials.tsv's plan (n/a without one).
+    assert_eq!(col(lines[1], "plan"), "full on cpu; passes: none");
+    assert_eq!(
+        col(lines[2], "plan"),
+        "foveated on gpu; passes: POR box (cpu)"
+    );
+    assert_eq!(col(lines[3], "plan"), "n/a");
 
     let ej = json(&beh.join("sub-P01_task-visualSearch_run-1_events.json"));
     let sp = &ej["StimulusPresentation"];

@@ -618,7 +618,7 @@ pub fn export_bids(dirs: &[PathBuf], out: &Path, task: &str) -> Result<BidsExpor
                 "trial_type": {"Description": "Condition (scene type) name from the design file."},
                 "trial": {"Description": "Trial index within the session, from 0."},
                 "run": {"Description": "Run (repetition of all conditions) of the design, from 0; the file's run- entity is the sitting instead."},
-                "method": {"Description": "Rendering method.", "Levels": {"full": "full-resolution ray casting (control)", "hybrid": "hybrid gaze-contingent rendering"}},
+                "method": {"Description": "Rendering method (the condition's method in the design file; the plan column says what ran).", "Levels": {"full": "full-resolution ray casting (control)", "hybrid": "hybrid gaze-contingent rendering", "image": "image-based foveation: every pixel cast, then blurred by a Gaussian pyramid at the ray mask's level per pixel"}},
                 "inset_deg": {"Description": "Diameter of the full-resolution inset around the point of regard; n/a for the full method.", "Units": "deg"},
                 "silhouette_edges": {"Description": "Whether silhouette edges were kept in the periphery.", "Levels": {"1": "edges kept", "0": "edges discarded"}},
                 "target_row": {"Description": "Row of the target cell in the search grid, from 0."},

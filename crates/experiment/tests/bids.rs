@@ -280,6 +280,13 @@ fn export_writes_a_bids_eyetracking_dataset() {
     for h in &header {
         assert!(ej.get(*h).is_some(), "events.json does not describe {h}");
     }
+    // Every method a design may name is a described level.
+    for m in experiment::design::METHODS {
+        assert!(
+            ej["method"]["Levels"].get(*m).is_some(),
+            "events.json's method has no level {m}"
+        );
+    }
     // Nothing but what the export lists (and no temporary files).
     let mut on_disk = Vec::new();
     let mut stack = vec![out.clone()];

@@ -570,13 +570,13 @@ pub fn export_bids(dirs: &[PathBuf], out: &Path, task: &str) -> Result<BidsExpor
             }
             // Trials → events.tsv.
             let mut ev = String::from(
-                "onset\tduration\ttrial_type\ttrial\trun\tmethod\tinset_deg\tsilhouette_edges\ttarget_row\ttarget_col\tresponse_time\tcorrect\n",
+                "onset\tduration\ttrial_type\ttrial\trun\tmethod\tinset_deg\tsilhouette_edges\ttarget_row\ttarget_col\tresponse_time\tcorrect\tplan\n",
             );
             for t in &run_trials {
                 let onset = (t.search_onset_us as f64 - t0 as f64) / 1e6;
                 let duration = t.response_us.saturating_sub(t.search_onset_us) as f64 / 1e6;
                 ev.push_str(&format!(
-                    "{onset:.6}\t{duration:.6}\t{}\t{}\t{}\t{}\t{}\t{}\t{}\t{}\t{}\t{}\n",
+                    "{onset:.6}\t{duration:.6}\t{}\t{}\t{}\t{}\t{}\t{}\t{}\t{}\t{}\t{}\t{}\n",
                     field(&t.condition),
                     t.trial,
                     t.run,
@@ -595,6 +595,7 @@ pub fn export_bids(dirs: &[PathBuf], out: &Path, task: &str) -> Result<BidsExpor
                         Some(false) => "0",
                         None => "n/a",
                     },
+                    t.plan.as_deref().map_or("n/a".into(), field),
                 ));
             }
             let events_path = beh.join(format!("{stem}_events.tsv"));
@@ -617,13 +618,14 @@ pub fn export_bids(dirs: &[PathBuf], out: &Path, task: &str) -> Result<BidsExpor
                 "trial_type": {"Description": "Condition (scene type) name from the design file."},
                 "trial": {"Description": "Trial index within the session, from 0."},
                 "run": {"Description": "Run (repetition of all conditions) of the design, from 0; the file's run- entity is the sitting instead."},
-                "method": {"Description": "Rendering method.", "Levels": {"full": "full-resolution ray casting (control)", "hybrid": "hybrid gaze-contingent rendering"}},
+                "method": {"Description": "Rendering method (the condition's method in the design file; the plan column says what ran).", "Levels": {"full": "full-resolution ray casting (control)", "hybrid": "hybrid gaze-contingent rendering", "image": "image-based foveation: every pixel cast, then blurred by a Gaussian pyramid at the ray mask's level per pixel"}},
                 "inset_deg": {"Description": "Diameter of the full-resolution inset around the point of regard; n/a for the full method.", "Units": "deg"},
                 "silhouette_edges": {"Description": "Whether silhouette edges were kept in the periphery.", "Levels": {"1": "edges kept", "0": "edges discarded"}},
                 "target_row": {"Description": "Row of the target cell in the search grid, from 0."},
                 "target_col": {"Description": "Column of the target cell in the search grid, from 0."},
                 "response_time": {"Description": "Search time as recorded by the runner.", "Units": "s"},
                 "correct": {"Description": "Whether the clicked cell was the target.", "Levels": {"1": "correct", "0": "incorrect", "n/a": "no click recorded"}},
+                "plan": {"Description": "What rendered the search display: gazecast's provenance line of the trial's renderer (trials.tsv plan): the method that ran, the backend, and the passes in order with where each ran, e.g. \"image-based on gpu; passes: image-based foveation (gpu)\" or \"foveated on cpu; passes: none\". Plans that changed during the search are joined by \" | \". n/a for a session recorded before gazecast wrote it."},
             });
             let events_json_path = beh.join(format!("{stem}_events.json"));
             write_json(&guard, &events_json_path, &events_json)?;

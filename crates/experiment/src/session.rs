@@ -6,11 +6,11 @@
 //! <session>/
 //!   session.json          SessionInfo (who, what design, which display and tracker)
 //!   design.ron            a copy of the design file (Design::load)
-//!   trials.tsv            TrialRow, one per completed trial
+//!   trials.tsv            TrialRow, one per completed trial (with its plan)
 //!   samples.tsv           SampleRow, every gaze sample
 //!   events.tsv            EventRow, fixations / saccades / blinks
 //!   markers.tsv           MarkerRow, phase starts, keys, clicks, calibration results
-//!   frames.tsv            FrameRow, every rendered frame
+//!   frames.tsv            FrameRow, every frame shown (with the plan that drew it)
 //!   clock.tsv             ClockRow, the tracker clock model as it was updated
 //!   gaze-N.gzrec          every tracker byte of sitting N, with arrival times
 //!   stimuli/trial-NNN.png the search display of trial NNN (optional, RGB)
@@ -41,6 +41,24 @@
 //! `--max-trials`) is run again in the next one: its samples in the
 //! earlier sitting are *aborted* ([`aborted`]) and left out of the
 //! analysis and the export.
+//!
+//! # Provenance: the `plan` columns
+//!
+//! Every frame says what drew it, so that a lab can show what each
+//! condition rendered: `frames.tsv`'s `plan` is the provenance line of the
+//! renderer that drew the frame (`pipeline::Renderer::provenance`: the
+//! method that ran, the backend, and the passes in order with where each
+//! ran), e.g. `image-based on gpu; passes: image-based foveation (gpu)` or
+//! `foveated on cpu; passes: none`; `n/a` for a screen no renderer drew
+//! (text, calibration targets). `trials.tsv`'s `plan` is the plan of the
+//! trial's search frames (the condition's renderer). The line never holds
+//! a tab or a line break, and is never empty or `n/a` itself.
+//!
+//! The column came after the files' first version: a file written before
+//! it has a header that stops short of it ([`TsvRow::LATER_COLUMNS`]).
+//! Such a file is read with `plan` missing (`None`), and a sitting resumed
+//! on it first adds the column (`n/a` in the earlier rows) — see
+//! [`read_tsv`] and [`TsvLog::append_to`].
 //!
 //! # The TSV files
 //!
@@ -178,6 +196,13 @@ pub struct TrialRow {
     pub mean_rays: f64,
     /// The participant was simulated.
     pub synthetic: bool,
+    /// What drew the search display: the renderer's provenance line
+    /// (`pipeline::Renderer::provenance`, e.g. `image-based on cpu;
+    /// passes: none`) of the trial's search frames; should it have changed
+    /// during the search, each plan in the order they ran, joined by
+    /// ` | `. `n/a` in a file written before the column existed.
+    #[serde(default, with = "na")]
+    pub plan: Option<String>,
 }
 
 /// One gaze sample (`samples.tsv`).
@@ -297,6 +322,13 @@ pub struct FrameRow {
     pub interval_ms: Option<f64>,
     /// The frame missed its deadline.
     pub late: bool,
+    /// What drew the frame: the provenance line of its renderer
+    /// (`pipeline::Renderer::provenance`: method, backend, passes), e.g.
+    /// `foveated on cpu; passes: none`; `n/a` for a screen no renderer drew
+    /// (text, calibration targets) and in a file written before the
+    /// column existed.
+    #[serde(default, with = "na")]
+    pub plan: Option<String>,
 }
 
 /// One update of the tracker's clock model (`clock.tsv`): how the
@@ -335,10 +367,28 @@ pub trait TsvRow: Serialize + DeserializeOwned {
     const FILE: &'static str;
     /// The header: the serde field names, in order.
     const COLUMNS: &'static [&'static str];
+    /// How many of the last [`TsvRow::COLUMNS`] were added after the
+    /// file's first version (each `Option` with a serde default). A file
+    /// written before has a header that stops short of them: [`read_tsv`]
+    /// reads its rows with those fields `None`, and [`TsvLog::append_to`]
+    /// adds them (`n/a`) to its rows before appending.
+    const LATER_COLUMNS: usize = 0;
 
     /// The header line without its `\n`.
     fn header_line() -> String {
         Self::COLUMNS.join("\t")
+    }
+
+    /// How many columns a file with this header line has: all of
+    /// [`TsvRow::COLUMNS`] for the current header, fewer for the header of
+    /// a file written before the [`TsvRow::LATER_COLUMNS`]; `None` for any
+    /// other header.
+    fn header_columns(found: &str) -> Option<usize> {
+        let all = Self::COLUMNS.len();
+        let oldest = all - Self::LATER_COLUMNS.min(all);
+        (oldest..=all)
+            .rev()
+            .find(|&n| n > 0 && found == Self::COLUMNS[..n].join("\t"))
     }
 }
 
@@ -367,7 +417,9 @@ impl TsvRow for TrialRow {
         "frames_late",
         "mean_rays",
         "synthetic",
+        "plan",
     ];
+    const LATER_COLUMNS: usize = 1;
 }
 
 impl TsvRow for SampleRow {
@@ -439,7 +491,9 @@ impl TsvRow for FrameRow {
         "render_ms",
         "interval_ms",
         "late",
+        "plan",
     ];
+    const LATER_COLUMNS: usize = 1;
 }
 
 /// `session.json`: who, which design, which display and tracker.
@@ -727,7 +781,9 @@ fn shown(bytes: &[u8]) -> String {
 
 /// Reads every row of a session TSV file.
 ///
-/// The header must be exactly [`TsvRow::COLUMNS`]. A last line without its
+/// The header must be exactly [`TsvRow::COLUMNS`], or the header of a file
+/// written before the [`TsvRow::LATER_COLUMNS`] (those columns left off
+/// the end: their fields read as `None`). A last line without its
 /// `\n` (a killed writer) is skipped with a warning, whatever it holds;
 /// every other problem is an error naming the file, the line and, where
 /// known, the column.
@@ -791,7 +847,10 @@ pub fn visit_tsv<T: TsvRow>(
     let expected = T::header_line();
     let header = rdr.headers().map_err(|e| csv_error(path, e, T::COLUMNS))?;
     let found = header.iter().collect::<Vec<_>>().join("\t");
-    if found != expected {
+    // An older file without the later columns: its rows have fewer fields
+    // (csv holds every record to the header's length), and the missing
+    // ones take their serde default.
+    if T::header_columns(&found).is_none() {
         return Err(SessionFileError::Header {
             path: path.to_path_buf(),
             expected: expected.replace('\t', " | "),
@@ -888,6 +947,7 @@ pub struct TsvLog<T: TsvRow> {
     flush_interval: Duration,
     last_flush: Instant,
     dropped: Option<String>,
+    added: &'static [&'static str],
     _row: PhantomData<fn(&T)>,
 }
 
@@ -898,10 +958,18 @@ impl<T: TsvRow> TsvLog<T> {
     /// naming the file). A half-written last line left by a killed writer
     /// is cut off first (see [`TsvLog::dropped_partial_line`]); an
     /// incomplete header line is rewritten.
+    ///
+    /// A file written before the [`TsvRow::LATER_COLUMNS`] (its header
+    /// stops short of them) gets them first: the file is rewritten whole
+    /// (through a temporary file and a rename) with the current header and
+    /// `n/a` for those columns at the end of every row, every other byte
+    /// kept ([`TsvLog::added_columns`] names them). A row whose field count
+    /// is not its header's is an error, and the file is left untouched.
     pub fn append_to(path: impl AsRef<Path>) -> Result<Self, SessionFileError> {
         let path = path.as_ref();
         let io_err = |e| SessionFileError::io(path, e);
         let expected = T::header_line();
+        let (added, upgrade_dropped) = add_later_columns::<T>(path)?;
         let mut file = OpenOptions::new()
             .read(true)
             .write(true)
@@ -974,9 +1042,16 @@ impl<T: TsvRow> TsvLog<T> {
             flush_rows: 1,
             flush_interval: Duration::ZERO,
             last_flush: Instant::now(),
-            dropped,
+            dropped: dropped.or(upgrade_dropped),
+            added,
             _row: PhantomData,
         })
+    }
+
+    /// The columns [`TsvLog::append_to`] added to an older file's rows
+    /// (`n/a` in each), or none.
+    pub fn added_columns(&self) -> &'static [&'static str] {
+        self.added
     }
 
     /// Batches rows: hand them to the OS when `rows` rows are pending or
@@ -1051,6 +1126,86 @@ impl<T: TsvRow> Drop for TsvLog<T> {
     fn drop(&mut self) {
         let _ = self.flush();
     }
+}
+
+/// [`TsvLog::append_to`]'s first step: when `path` exists with the header
+/// of a file written before the [`TsvRow::LATER_COLUMNS`], rewrites it
+/// with the current header and `\tn/a` for each missing column at the end
+/// of every complete row. Returns the columns added and the half-written
+/// last line cut off, if any; nothing for any other file (a new one, the
+/// current header, a header `append_to` refuses).
+fn add_later_columns<T: TsvRow>(
+    path: &Path,
+) -> Result<(&'static [&'static str], Option<String>), SessionFileError> {
+    let io_err = |e| SessionFileError::io(path, e);
+    let mut file = match File::open(path) {
+        Ok(f) => f,
+        Err(e) if e.kind() == io::ErrorKind::NotFound => return Ok((&[], None)),
+        Err(e) => return Err(io_err(e)),
+    };
+    let len = file.metadata().map_err(io_err)?.len();
+    let good = complete_len(&mut file, len).map_err(io_err)?;
+    if good == 0 {
+        return Ok((&[], None));
+    }
+    file.seek(SeekFrom::Start(0)).map_err(io_err)?;
+    let mut reader = BufReader::new((&mut file).take(good));
+    let mut line = Vec::new();
+    reader.read_until(b'\n', &mut line).map_err(io_err)?;
+    let found = String::from_utf8_lossy(&line);
+    let found = found.trim_end_matches('\n').trim_end_matches('\r');
+    let all = T::COLUMNS.len();
+    let n = match T::header_columns(found) {
+        Some(n) if n < all => n,
+        _ => return Ok((&[], None)),
+    };
+    let added = &T::COLUMNS[n..];
+    let fill: String = added.iter().map(|_| format!("\t{NA}")).collect();
+    let mut out = AtomicFile::create(path).map_err(io_err)?;
+    writeln!(out, "{}", T::header_line()).map_err(io_err)?;
+    let mut number = 1u64;
+    loop {
+        line.clear();
+        if reader.read_until(b'\n', &mut line).map_err(io_err)? == 0 {
+            break;
+        }
+        number += 1;
+        let body = line.strip_suffix(b"\n").unwrap_or(&line);
+        // A `\r\n` line end stays one, after the added fields.
+        let (body, cr) = match body.strip_suffix(b"\r") {
+            Some(b) => (b, &b"\r"[..]),
+            None => (body, &b""[..]),
+        };
+        let fields = 1 + body.iter().filter(|&&b| b == b'\t').count();
+        if fields != n {
+            return Err(SessionFileError::Parse {
+                path: path.to_path_buf(),
+                line: number,
+                column: None,
+                message: format!(
+                    "{fields} fields, expected {n} (its header's); the file is left as it is, without the added column{} {}",
+                    if added.len() == 1 { "" } else { "s" },
+                    added.join(", ")
+                ),
+            });
+        }
+        out.write_all(body).map_err(io_err)?;
+        out.write_all(fill.as_bytes()).map_err(io_err)?;
+        out.write_all(cr).map_err(io_err)?;
+        out.write_all(b"\n").map_err(io_err)?;
+    }
+    drop(reader);
+    let dropped = if good < len {
+        let mut tail = Vec::new();
+        file.seek(SeekFrom::Start(good)).map_err(io_err)?;
+        file.read_to_end(&mut tail).map_err(io_err)?;
+        Some(String::from_utf8_lossy(&tail).into_owned())
+    } else {
+        None
+    };
+    drop(file);
+    out.commit().map_err(io_err)?;
+    Ok((added, dropped))
 }
 
 /// The row as one TSV line with its `\n`, or the offending column and why.
@@ -1274,6 +1429,17 @@ pub mod na {
         )*};
     }
     na_int!(u32, u64, usize);
+
+    /// Text (a field written `n/a` or left empty reads back as `None`, so
+    /// a `Some` of either does not round-trip).
+    impl NaValue for String {
+        fn to_field(&self) -> String {
+            self.clone()
+        }
+        fn from_field(s: &str) -> Result<Self, String> {
+            Ok(s.to_string())
+        }
+    }
 
     /// `None` → `n/a`.
     pub fn serialize<T: NaValue, S: Serializer>(v: &Option<T>, s: S) -> Result<S::Ok, S::Error> {

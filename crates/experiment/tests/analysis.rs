@@ -143,6 +143,7 @@ fn make_session(dir: &Path, g: &Gen) -> Vec<TrialRow> {
             frames_late: 1,
             mean_rays: 50_000.0,
             synthetic: g.synthetic,
+            plan: None,
         };
         trials.write(&row).unwrap();
         if g.stimuli.contains(&t.index) {
@@ -769,6 +770,7 @@ fn a_design_without_the_factors_gets_the_per_condition_table_only() {
                 frames_late: 0,
                 mean_rays: 0.0,
                 synthetic: false,
+                plan: None,
             })
             .unwrap();
         }

@@ -104,6 +104,12 @@ fn make(root: &Path, participant: &str, synthetic: bool, n_samples: usize) -> Ma
             frames_late: 0,
             mean_rays: 1.0,
             synthetic,
+            plan: [
+                Some("full on cpu; passes: none"),
+                Some("foveated on gpu; passes: POR box (cpu)"),
+                None,
+            ][k]
+                .map(String::from),
         })
         .collect();
     for t in &trials {
@@ -249,6 +255,13 @@ fn export_writes_a_bids_eyetracking_dataset() {
     assert_eq!(col(lines[2], "correct"), "0");
     assert_eq!(col(lines[3], "correct"), "n/a");
     assert_eq!(col(lines[1], "inset_deg"), "n/a");
+    // What rendered each trial, from trials.tsv's plan (n/a without one).
+    assert_eq!(col(lines[1], "plan"), "full on cpu; passes: none");
+    assert_eq!(
+        col(lines[2], "plan"),
+        "foveated on gpu; passes: POR box (cpu)"
+    );
+    assert_eq!(col(lines[3], "plan"), "n/a");
 
     let ej = json(&beh.join("sub-P01_task-visualSearch_run-1_events.json"));
     let sp = &ej["StimulusPresentation"];
@@ -266,6 +279,13 @@ fn export_writes_a_bids_eyetracking_dataset() {
     assert_eq!(sp["ScreenOrigin"], serde_json::json!(["top", "left"]));
     for h in &header {
         assert!(ej.get(*h).is_some(), "events.json does not describe {h}");
+    }
+    // Every method a design may name is a described level.
+    for m in experiment::design::METHODS {
+        assert!(
+            ej["method"]["Levels"].get(*m).is_some(),
+            "events.json's method has no level {m}"
+        );
     }
     // Nothing but what the export lists (and no temporary files).
     let mut on_disk = Vec::new();

@@ -36,6 +36,7 @@ fn trial(i: usize) -> TrialRow {
         frames_late: 2,
         mean_rays: 123456.5,
         synthetic: true,
+        plan: Some("foveated on cpu; passes: POR box (cpu)".into()),
     }
 }
 
@@ -62,7 +63,7 @@ fn header_lines_are_the_documented_ones() {
     type Writer = Box<dyn Fn(&Path)>;
     let cases: [(&str, Writer); 5] = [
         (
-            "participant\tsitting\trun\ttrial\ttrial_in_run\tcondition\tmethod\tinset_deg\tsilhouette_edges\ttarget_mesh\ttarget_row\ttarget_col\tsearch_onset_us\tresponse_us\trt_s\tclicked_row\tclicked_col\tcorrect\tframes\tframes_late\tmean_rays\tsynthetic",
+            "participant\tsitting\trun\ttrial\ttrial_in_run\tcondition\tmethod\tinset_deg\tsilhouette_edges\ttarget_mesh\ttarget_row\ttarget_col\tsearch_onset_us\tresponse_us\trt_s\tclicked_row\tclicked_col\tcorrect\tframes\tframes_late\tmean_rays\tsynthetic\tplan",
             Box::new(|p| write_rows(p, &[trial(0)])),
         ),
         (
@@ -78,7 +79,7 @@ fn header_lines_are_the_documented_ones() {
             Box::new(|p| write_rows::<MarkerRow>(p, &[])),
         ),
         (
-            "sitting\thost_us\ttrial\tphase\trays\trender_ms\tinterval_ms\tlate",
+            "sitting\thost_us\ttrial\tphase\trays\trender_ms\tinterval_ms\tlate\tplan",
             Box::new(|p| write_rows::<FrameRow>(p, &[])),
         ),
     ];
@@ -162,6 +163,7 @@ fn columns_are_the_serde_field_names() {
         render_ms: 0.0,
         interval_ms: None,
         late: false,
+        plan: None,
     };
     assert_eq!(serde_header(&f), cols::<FrameRow>());
 }
@@ -173,7 +175,7 @@ fn missing_values_are_written_n_a() {
     write_rows(&p, &[trial(0)]);
     let text = std::fs::read_to_string(&p).unwrap();
     let row: Vec<&str> = text.lines().nth(1).unwrap().split('\t').collect();
-    assert_eq!(row.len(), 22);
+    assert_eq!(row.len(), 23);
     assert_eq!(row[0], "P 01", "spaces kept, no quoting");
     assert_eq!(row[1], "1", "sitting");
     assert_eq!(row[7], "2.0");
@@ -181,6 +183,7 @@ fn missing_values_are_written_n_a() {
     assert_eq!(row[16], "4");
     assert_eq!(row[17], "n/a", "correct None");
     assert_eq!(row[21], "true");
+    assert_eq!(row[22], "foveated on cpu; passes: POR box (cpu)");
     // An empty field reads as None too (hand-edited files).
     let edited = text.replace("\tn/a\t4\tn/a\t", "\t\t4\t\t");
     std::fs::write(&p, edited).unwrap();
@@ -233,6 +236,16 @@ fn text() -> impl Strategy<Value = String> {
     ]
 }
 
+/// A plan column's value: `None` (`n/a`) or a provenance-like line
+/// (never empty and never `n/a` itself, which read back as `None`).
+fn plan() -> impl Strategy<Value = Option<String>> {
+    proptest::option::of(prop_oneof![
+        "[^\t\n\r]{1,60}".prop_filter("n/a reads as None", |s| s != "n/a"),
+        Just("image-based on gpu; passes: image-based foveation (gpu) → POR box (cpu)".to_string()),
+        Just("foveated on cpu; passes: none".to_string()),
+    ])
+}
+
 fn trial_row() -> impl Strategy<Value = TrialRow> {
     (
         (
@@ -256,7 +269,7 @@ fn trial_row() -> impl Strategy<Value = TrialRow> {
             proptest::option::of(any::<u32>()),
             proptest::option::of(any::<bool>()),
         ),
-        (any::<u64>(), any::<u64>(), any_f64(), any::<bool>()),
+        (any::<u64>(), any::<u64>(), any_f64(), any::<bool>(), plan()),
     )
         .prop_map(
             |(
@@ -264,7 +277,7 @@ fn trial_row() -> impl Strategy<Value = TrialRow> {
                 (inset_deg, silhouette_edges, target_mesh, target_row, target_col),
                 (search_onset_us, response_us, rt_s),
                 (clicked_row, clicked_col, correct),
-                (frames, frames_late, mean_rays, synthetic),
+                (frames, frames_late, mean_rays, synthetic, plan),
             )| TrialRow {
                 participant,
                 sitting: (run % 7) as u32 + 1,
@@ -288,6 +301,7 @@ fn trial_row() -> impl Strategy<Value = TrialRow> {
                 frames_late,
                 mean_rays,
                 synthetic,
+                plan,
             },
         )
 }
@@ -452,9 +466,10 @@ fn frame_row() -> impl Strategy<Value = FrameRow> {
         any_f64(),
         proptest::option::of(any_f64()),
         any::<bool>(),
+        plan(),
     )
         .prop_map(
-            |(host_us, trial, phase, rays, render_ms, interval_ms, late)| FrameRow {
+            |(host_us, trial, phase, rays, render_ms, interval_ms, late, plan)| FrameRow {
                 sitting: 2,
                 host_us,
                 trial,
@@ -463,6 +478,7 @@ fn frame_row() -> impl Strategy<Value = FrameRow> {
                 render_ms,
                 interval_ms,
                 late,
+                plan,
             },
         )
 }
@@ -475,6 +491,7 @@ fn frame_same(a: &FrameRow, b: &FrameRow) -> bool {
         && same_f64(a.render_ms, b.render_ms)
         && same_opt(a.interval_ms, b.interval_ms)
         && a.late == b.late
+        && a.plan == b.plan
 }
 
 /// Writes `rows` in two sessions of the log (reopened in between, as a
@@ -581,6 +598,7 @@ fn nan_and_infinities_round_trip() {
             render_ms: v,
             interval_ms: Some(v),
             late: false,
+            plan: None,
         })
         .collect();
     write_rows(&p, &rows);
@@ -649,6 +667,182 @@ fn a_half_header_is_a_warning_and_is_rewritten() {
     std::fs::write(&p, "").unwrap();
     let read = read_tsv::<MarkerRow>(&p).unwrap();
     assert!(read.rows.is_empty() && read.warnings.len() == 1);
+}
+
+/// `text` as a file written before the `plan` column: the last field of
+/// every line left off.
+fn without_last_column(text: &str) -> String {
+    text.lines()
+        .map(|l| l.rsplit_once('\t').expect("a tab").0.to_string() + "\n")
+        .collect()
+}
+
+fn frame(k: u64, plan: Option<&str>) -> FrameRow {
+    FrameRow {
+        sitting: 1,
+        host_us: 1_000 + k,
+        trial: (k > 0).then_some(k as usize),
+        phase: if k > 0 { "search" } else { "instructions" }.into(),
+        rays: 10 * k,
+        render_ms: 0.5,
+        interval_ms: (k > 0).then_some(16.5),
+        late: false,
+        plan: plan.map(String::from),
+    }
+}
+
+/// Session folders written before the `plan` column (its header one column
+/// short) still read: every row with `plan` `None`, everything else as
+/// written. A header missing more than the later columns is still refused.
+#[test]
+fn files_without_the_plan_column_read_with_no_plan() {
+    let dir = tempfile::tempdir().unwrap();
+    let t = dir.path().join("trials.tsv");
+    write_rows(&t, &[trial(0), trial(1)]);
+    let old = without_last_column(&std::fs::read_to_string(&t).unwrap());
+    assert!(!old.contains("plan") && old.lines().next().unwrap().ends_with("\tsynthetic"));
+    std::fs::write(&t, &old).unwrap();
+    let back = read_tsv::<TrialRow>(&t).unwrap();
+    let want: Vec<TrialRow> = (0..2)
+        .map(|i| TrialRow {
+            plan: None,
+            ..trial(i)
+        })
+        .collect();
+    assert_eq!(back.rows, want);
+    assert!(back.warnings.is_empty());
+
+    let f = dir.path().join("frames.tsv");
+    write_rows(
+        &f,
+        &[
+            frame(0, None),
+            frame(1, Some("image-based on cpu; passes: none")),
+        ],
+    );
+    std::fs::write(
+        &f,
+        without_last_column(&std::fs::read_to_string(&f).unwrap()),
+    )
+    .unwrap();
+    let back = read_tsv::<FrameRow>(&f).unwrap();
+    assert_eq!(back.rows, vec![frame(0, None), frame(1, None)]);
+
+    // One column fewer than that is no known header.
+    std::fs::write(&t, without_last_column(&old)).unwrap();
+    assert!(matches!(
+        read_tsv::<TrialRow>(&t),
+        Err(SessionFileError::Header { .. })
+    ));
+    // Nor is a row one field short under the current header.
+    let mut text = std::fs::read_to_string(&f).unwrap();
+    let current = FrameRow::header_line();
+    let (_, rows) = text.split_once('\n').unwrap();
+    text = format!("{current}\n{rows}");
+    std::fs::write(&f, text).unwrap();
+    assert!(matches!(
+        read_tsv::<FrameRow>(&f),
+        Err(SessionFileError::Parse { line: 2, .. })
+    ));
+}
+
+/// A sitting resumed on a file written before the `plan` column adds the
+/// column first: the current header, `n/a` at the end of each earlier row
+/// (every other byte kept), a killed writer's half line cut off and
+/// reported; then the new rows append under the one header.
+#[test]
+fn resuming_an_old_file_adds_the_plan_column() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = dir.path().join("frames.tsv");
+    write_rows(&p, &[frame(0, None), frame(1, None), frame(2, None)]);
+    let old = without_last_column(&std::fs::read_to_string(&p).unwrap());
+    let half = "1\t5000\t3\tsea";
+    std::fs::write(&p, format!("{old}{half}")).unwrap();
+
+    let mut log = TsvLog::<FrameRow>::append_to(&p).unwrap();
+    assert_eq!(log.added_columns(), &["plan"]);
+    assert_eq!(log.dropped_partial_line(), Some(half));
+    assert_eq!(log.rows(), 3);
+    let new = frame(
+        3,
+        Some("image-based on gpu; passes: image-based foveation (gpu)"),
+    );
+    log.write(&new).unwrap();
+    drop(log);
+
+    let text = std::fs::read_to_string(&p).unwrap();
+    let lines: Vec<&str> = text.lines().collect();
+    assert_eq!(lines[0], FrameRow::header_line());
+    for (k, l) in old.lines().skip(1).enumerate() {
+        assert_eq!(lines[1 + k], format!("{l}\tn/a"));
+    }
+    assert!(lines[4].ends_with("\timage-based on gpu; passes: image-based foveation (gpu)"));
+    let back = read_tsv::<FrameRow>(&p).unwrap();
+    assert_eq!(
+        back.rows,
+        vec![frame(0, None), frame(1, None), frame(2, None), new]
+    );
+    assert!(back.warnings.is_empty());
+    // No temporary file is left beside it.
+    let names: Vec<String> = std::fs::read_dir(dir.path())
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    assert_eq!(names, vec!["frames.tsv".to_string()]);
+    // Reopening the upgraded file adds nothing.
+    let log = TsvLog::<FrameRow>::append_to(&p).unwrap();
+    assert!(log.added_columns().is_empty());
+    assert_eq!(log.rows(), 4);
+
+    // An old trial table as a resume finds it.
+    let t = dir.path().join("trials.tsv");
+    write_rows(&t, &[trial(0)]);
+    std::fs::write(
+        &t,
+        without_last_column(&std::fs::read_to_string(&t).unwrap()),
+    )
+    .unwrap();
+    let mut log = TsvLog::<TrialRow>::append_to(&t).unwrap();
+    assert_eq!(log.added_columns(), &["plan"]);
+    log.write(&trial(1)).unwrap();
+    drop(log);
+    let back = read_tsv::<TrialRow>(&t).unwrap().rows;
+    assert_eq!(
+        back,
+        vec![
+            TrialRow {
+                plan: None,
+                ..trial(0)
+            },
+            trial(1)
+        ]
+    );
+}
+
+/// An old file with a row of the wrong length is not rewritten: the error
+/// names the file and line, and the file is left as it was.
+#[test]
+fn an_old_file_with_a_bad_row_is_left_untouched() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = dir.path().join("frames.tsv");
+    write_rows(&p, &[frame(0, None), frame(1, None)]);
+    let mut old = without_last_column(&std::fs::read_to_string(&p).unwrap());
+    old.push_str("1\t2\tn/a\n");
+    std::fs::write(&p, &old).unwrap();
+    let err = match TsvLog::<FrameRow>::append_to(&p) {
+        Err(e) => e,
+        Ok(_) => panic!("a bad row was accepted"),
+    };
+    match &err {
+        SessionFileError::Parse { path, line, .. } => {
+            assert_eq!(path, &p);
+            assert_eq!(*line, 4);
+        }
+        other => panic!("unexpected {other:?}"),
+    }
+    assert!(err.to_string().contains("plan"), "{err}");
+    assert_eq!(std::fs::read_to_string(&p).unwrap(), old);
+    assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 1);
 }
 
 #[test]

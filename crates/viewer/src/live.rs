@@ -15,6 +15,12 @@
 //!
 //! Keys: `P` POR box, `L` layers view, `H` HUD, `S` screenshot (to
 //! `gazecast-screenshot.png`), `Esc` quit.
+//!
+//! The session log says what drew every frame: a `plan: …` line with the
+//! renderer's provenance (`pipeline::Renderer::provenance`: method,
+//! backend, passes) before the first frame, a `plan changed: …` line
+//! before the first frame of each new plan (`P` adds or removes the POR
+//! box pass), and each frame's line ends `[plan: …]`.
 
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -168,6 +174,8 @@ struct Viewer<'a> {
     /// The first failure to write the log (the session goes on).
     log_error: Option<String>,
     renderer: Renderer<'a>,
+    /// The plan the log last named ([`PlanLog`]).
+    plan: PlanLog,
     feed: GazeFeed,
     screen: Option<Screen>,
     gaze: [f64; 2],
@@ -305,6 +313,36 @@ pub fn drain_newest_each(
         }
     }
     newest
+}
+
+/// The renderer's plan as the session log names it: a line when the
+/// session starts and whenever the plan changes, and the current plan for
+/// every frame's line.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct PlanLog {
+    current: String,
+}
+
+impl PlanLog {
+    /// Starts with the renderer's plan; the log's line for it.
+    pub fn new(plan: String) -> (Self, String) {
+        let line = format!("plan: {plan}");
+        (Self { current: plan }, line)
+    }
+
+    /// The plan that drew a frame: the log's line if it changed.
+    pub fn frame(&mut self, plan: String) -> Option<String> {
+        if plan == self.current {
+            return None;
+        }
+        self.current = plan;
+        Some(format!("plan changed: {}", self.current))
+    }
+
+    /// The plan of the last frame (or of the start).
+    pub fn current(&self) -> &str {
+        &self.current
+    }
 }
 
 impl Viewer<'_> {
@@ -470,9 +508,17 @@ impl Viewer<'_> {
         } else if stats.rays_mask > 0 && !reuse.mask_reused {
             self.new_masks += 1;
         }
+        if let Some(line) = self.plan.frame(self.renderer.provenance()) {
+            self.say(&line);
+        }
         self.say(&format!(
-            "frame {} gaze ({:.1}, {:.1}) age {age} rays {} render {:.1} ms{reused}",
-            self.frames, gaze[0], gaze[1], stats.rays_total, stats.time_ms
+            "frame {} gaze ({:.1}, {:.1}) age {age} rays {} render {:.1} ms{reused} [plan: {}]",
+            self.frames,
+            gaze[0],
+            gaze[1],
+            stats.rays_total,
+            stats.time_ms,
+            self.plan.current()
         ));
         if let Some(o) = &mut self.lsl {
             let text = format!(
@@ -658,11 +704,13 @@ pub fn run(opts: &LiveOptions, out: &mut dyn Write) -> Result<(), LiveError> {
         calibration,
         opts.record.as_deref().map(|p| (p, display.name.as_str())),
     )?;
+    let (plan, plan_line) = PlanLog::new(renderer.provenance());
     let mut viewer = Viewer {
         opts,
         out,
         log_error: None,
         renderer,
+        plan,
         feed,
         screen: None,
         gaze: geometry.centre_px(),
@@ -691,6 +739,7 @@ pub fn run(opts: &LiveOptions, out: &mut dyn Write) -> Result<(), LiveError> {
         lsl_shift: crate::lsl_out::ReplayShift::new(opts.replay.is_some()),
     };
     viewer.say(&header);
+    viewer.say(&plan_line);
     for l in &lsl_lines {
         viewer.say(l);
     }
@@ -865,6 +914,38 @@ mod tests {
         );
         assert_eq!(vergence_mm(&cam, [[600.0, 512.0], [900.0, 512.0]]), None);
         assert_eq!(vergence_mm(&cam, [[f64::NAN, 0.0], centre]), None);
+    }
+
+    /// The session log names the plan at the start and again whenever it
+    /// changes: `P` adds the POR box pass, and takes it away.
+    #[test]
+    fn the_log_names_the_plan_at_the_start_and_at_each_change() {
+        let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
+        let opts = LiveOptions {
+            scene: root.join("config/scenes/search-task.ron"),
+            display: root.join("config/displays/tobii-et1750-17in.ron"),
+            backend: BackendChoice::Cpu,
+            method: pipeline::Method::Image,
+            gaze_tolerance_deg: 0.5,
+            ..LiveOptions::default()
+        };
+        let loaded = Loaded::new(&opts).expect("scene and display");
+        let mut renderer = loaded.renderer(&opts, false).expect("renderer");
+        let (mut log, line) = PlanLog::new(renderer.provenance());
+        assert_eq!(line, "plan: image-based on cpu; passes: none");
+        assert_eq!(log.frame(renderer.provenance()), None);
+        renderer.set_por_overlay(true);
+        assert_eq!(
+            log.frame(renderer.provenance()).as_deref(),
+            Some("plan changed: image-based on cpu; passes: POR box (cpu)")
+        );
+        assert_eq!(log.current(), "image-based on cpu; passes: POR box (cpu)");
+        assert_eq!(log.frame(renderer.provenance()), None);
+        renderer.set_por_overlay(false);
+        assert_eq!(
+            log.frame(renderer.provenance()).as_deref(),
+            Some("plan changed: image-based on cpu; passes: none")
+        );
     }
 
     #[test]

@@ -791,3 +791,169 @@ fn a_drift_check_that_plan_accepts_run_performs() {
         .count();
     assert!(drift_checks >= 2, "{drift_checks} drift checks");
 }
+
+/// Every frame records what drew it: a design whose conditions are the
+/// full control, the hybrid method and `method: "image"` runs with a
+/// simulated participant; `frames.tsv`'s `plan` says image-based for the
+/// image condition's search frames (foveated and full for the others, the
+/// preview's full-resolution renderer for the preview, `n/a` for text and
+/// targets) and `trials.tsv`'s `plan` the same per trial. The first
+/// sitting's files are then cut back to the columns an older gazecast
+/// wrote: the resume adds the column (`n/a` in the old rows, a marker
+/// says so), and the BIDS export carries the plans into `events.tsv`.
+#[test]
+fn an_image_condition_renders_image_based_and_its_frames_say_so() {
+    let tmp = tempfile::tempdir().expect("tempdir");
+    let design = tmp.path().join("plans.ron");
+    let small = small_design();
+    let start = small.find("    conditions: [").expect("conditions");
+    let end = start + small[start..].find("    ],\n").expect("end") + "    ],\n".len();
+    let text = format!(
+        "{}{}{}",
+        &small[..start],
+        r#"    conditions: [
+        (name: "control", method: "full"),
+        (name: "NE2", method: "hybrid", inset_deg: Some(2.0), silhouette_edges: false, levels: {"inset_deg": "2", "silhouette_edges": "discarded"}),
+        (name: "IMG", method: "image"),
+    ],
+"#,
+        &small[end..]
+    )
+    .replace("break_after_trials: Some(6)", "break_after_trials: None");
+    std::fs::write(&design, text).expect("write");
+    let x = Xvfb::start();
+    let out = tmp.path().join("data");
+    let run = |seed: &str, extra: &[&str]| {
+        let o = windowed(&x)
+            .args(["experiment", "run"])
+            .arg(&design)
+            .args([
+                "--participant",
+                "P01",
+                "--tracker",
+                "tests/data/mouse-participant.ron",
+                "--display",
+                "tests/data/experiment/display-small.ron",
+                "--backend",
+                "cpu",
+                "--simulate-participant",
+                seed,
+                "--no-stimulus-pictures",
+                "--out",
+            ])
+            .arg(&out)
+            .args(extra)
+            .output()
+            .expect("runs");
+        let log = String::from_utf8_lossy(&o.stdout).into_owned();
+        assert!(
+            o.status.success(),
+            "{log}\n{}",
+            String::from_utf8_lossy(&o.stderr)
+        );
+        log
+    };
+    let dir = out.join("small-search/sub-P01");
+    let (trials, frames) = (dir.join("trials.tsv"), dir.join("frames.tsv"));
+    const FULL: &str = "full on cpu; passes: none";
+
+    // Sitting 1: the first trial (the control, row 0 of the Latin square).
+    run("5", &["--max-trials", "1"]);
+    assert_eq!(column(&trials, "condition"), ["control"]);
+    assert_eq!(column(&trials, "plan"), [FULL]);
+    let phases = column(&frames, "phase");
+    let plans = column(&frames, "plan");
+    for (phase, plan) in phases.iter().zip(&plans) {
+        match phase.as_str() {
+            "search" | "preview" | "confirm" => assert_eq!(plan, FULL, "{phase}"),
+            _ => assert_eq!(plan, "n/a", "{phase}"),
+        }
+    }
+    assert!(phases.iter().any(|p| p == "search"));
+
+    // As a gazecast before the plan column wrote them.
+    for f in [&trials, &frames] {
+        let cut: String = lines(f)
+            .iter()
+            .map(|l| l.rsplit_once('\t').expect("a tab").0.to_string() + "\n")
+            .collect();
+        assert!(!cut.contains("plan") && !cut.contains("on cpu"));
+        std::fs::write(f, cut).expect("write");
+    }
+
+    // Sitting 2: the rest, on the old files.
+    let log = run("6", &["--resume"]);
+    assert!(
+        log.contains("trials.tsv: written before its column plan existed")
+            && log.contains("frames.tsv: written before its column plan existed"),
+        "{log}"
+    );
+    assert_eq!(
+        column(&dir.join("markers.tsv"), "event")
+            .iter()
+            .filter(|e| *e == "file-columns-added")
+            .count(),
+        2
+    );
+    let conditions = column(&trials, "condition");
+    assert_eq!(conditions, ["control", "NE2", "IMG"]);
+    let trial_plans = column(&trials, "plan");
+    assert_eq!(
+        trial_plans[0], "n/a",
+        "the first sitting's row, from before"
+    );
+    assert!(
+        trial_plans[1].starts_with("foveated on cpu; passes: "),
+        "{trial_plans:?}"
+    );
+    // The done-when: the image condition rendered image-based foveation.
+    assert!(
+        trial_plans[2].starts_with("image-based on cpu; passes: "),
+        "{trial_plans:?}"
+    );
+    let (sitting, trial, phases, plans) = (
+        column(&frames, "sitting"),
+        column(&frames, "trial"),
+        column(&frames, "phase"),
+        column(&frames, "plan"),
+    );
+    let mut search_frames = [0usize; 3];
+    for k in 0..phases.len() {
+        let (phase, plan) = (phases[k].as_str(), plans[k].as_str());
+        if sitting[k] == "1" {
+            assert_eq!(plan, "n/a", "row {k}: an old row gets n/a");
+            continue;
+        }
+        match phase {
+            "search" | "confirm" => {
+                let t: usize = trial[k].parse().expect("a trial");
+                assert_eq!(plan, trial_plans[t], "row {k}: {phase} of trial {t}");
+                if phase == "search" {
+                    search_frames[t] += 1;
+                }
+            }
+            "preview" => assert_eq!(plan, FULL, "row {k}"),
+            _ => assert_eq!(plan, "n/a", "row {k}: {phase}"),
+        }
+    }
+    assert!(
+        search_frames[1] > 0 && search_frames[2] > 0,
+        "{search_frames:?}"
+    );
+
+    // The BIDS export: each trial's plan in events.tsv, described in events.json.
+    let bids = tmp.path().join("bids");
+    common::gazecast()
+        .args(["experiment", "export-bids"])
+        .arg(&dir)
+        .arg("--out")
+        .arg(&bids)
+        .succeed();
+    let beh = bids.join("sub-P01/beh");
+    let events = |run: u32| beh.join(format!("sub-P01_task-search_run-{run}_events.tsv"));
+    assert_eq!(column(&events(1), "plan"), ["n/a"]);
+    assert_eq!(column(&events(2), "plan"), &trial_plans[1..]);
+    let sidecar =
+        std::fs::read_to_string(beh.join("sub-P01_task-search_run-2_events.json")).expect("json");
+    assert!(sidecar.contains("\"plan\""), "{sidecar}");
+}

@@ -43,6 +43,21 @@ fn a_replayed_session_renders_in_a_window_with_the_por_box_at_the_gaze() {
     let frames: Vec<&str> = text.lines().filter(|l| l.starts_with("frame ")).collect();
     assert_eq!(frames.len(), 4, "{text}");
     assert!(text.contains("gaze age at submit p50"), "{text}");
+    // What drew the frames: the plan before the first frame, and on each
+    // frame's line (it never changed: no key was pressed).
+    let plan = text
+        .lines()
+        .find_map(|l| l.strip_prefix("plan: "))
+        .unwrap_or_else(|| panic!("no plan line: {text}"));
+    assert_eq!(plan, "foveated on cpu; passes: POR box (cpu)", "{text}");
+    assert!(
+        text.find("\nplan: ") < text.find("\nframe 0 "),
+        "the plan comes before the first frame: {text}"
+    );
+    assert!(!text.contains("plan changed"), "{text}");
+    for f in &frames {
+        assert!(f.ends_with(&format!(" [plan: {plan}]")), "{f}");
+    }
     // The last frame's gaze, from the session log: "frame 3 gaze (x, y) …".
     let last = frames[3];
     let inner = &last[last.find('(').expect("(") + 1..last.find(')').expect(")")];

@@ -21,7 +21,11 @@
 //! detected on the tracker's clock (tracker-hal `events`) over its samples
 //! captured up to the response: its end waits for the tracker to deliver
 //! them. Every frame is logged (`frames.tsv`), late when its interval
-//! exceeds 1.5 periods of the nominal refresh rate.
+//! exceeds 1.5 periods of the nominal refresh rate, with the plan that
+//! drew it (`pipeline::Renderer::provenance`: the search renderer's for the
+//! search and confirm screens, the full-resolution renderer's for the
+//! preview, `n/a` for text and targets); a trial's row has its search
+//! frames' plan.
 //!
 //! Keys: `Space` go on (instructions, breaks, the preview) and "found"
 //! (the search); a left click confirms the object found (designs with
@@ -762,6 +766,14 @@ impl Runner<'_> {
             (Some(t), Phase::Preview | Phase::Search | Phase::Confirm) => t.rgb(phase),
             _ => &self.canvas,
         };
+        // What drew the picture: a renderer for the trial's screens; the
+        // text and target screens are drawn without one (`n/a`).
+        let plan = match (&self.trial, phase) {
+            (Some(t), Phase::Preview | Phase::Search | Phase::Confirm) => {
+                Some(t.plan(phase).to_string())
+            }
+            _ => None,
+        };
         let size = self.size();
         if let Some(dir) = &self.setup.screenshots {
             if self.shot.insert(phase.name()) {
@@ -820,6 +832,7 @@ impl Runner<'_> {
             render_ms,
             interval_ms,
             late,
+            plan,
         });
         Ok(())
     }
@@ -973,6 +986,16 @@ pub fn run(opts: &RunOptions, out: &mut dyn Write) -> Result<(), String> {
             let _ = writeln!(out, "{l}");
         }
         dir.attach_lsl(outlets);
+    }
+    for line in dir.upgraded().to_vec() {
+        let _ = writeln!(out, "{}: {line}", dir.path().display());
+        dir.marker(&MarkerRow {
+            sitting: dir.sitting(),
+            host_us: monotonic_us(),
+            trial: None,
+            event: "file-columns-added".into(),
+            detail: line,
+        });
     }
     let start = dir.next_trial();
     if let Some((trial, sitting)) = dir.aborted_trial().filter(|(t, _)| *t < trials.len()) {

@@ -30,6 +30,9 @@ pub struct SessionDir {
     clock: TsvLog<ClockRow>,
     /// The clock model's newest state, for `session.json` at the close.
     last_clock: Option<ClockRow>,
+    /// What opening the files changed in them (columns added to the files
+    /// of an earlier gazecast), one line each.
+    upgraded: Vec<String>,
     aborted_trial: Option<(usize, u32)>,
     /// The first write that failed (the runner then stops).
     error: Option<String>,
@@ -210,22 +213,40 @@ impl SessionDir {
         let open = |name: &str| path.join(name);
         let err = |e: session::SessionFileError| e.to_string();
         let every = Duration::from_millis(200);
+        let trials = TsvLog::append_to(open(session::TRIALS_TSV)).map_err(err)?;
+        let frames = TsvLog::append_to(open(session::FRAMES_TSV))
+            .map_err(err)?
+            .flush_every(64, every);
+        // A session begun by a gazecast without the later columns: they
+        // were added to its files (n/a in the earlier sittings' rows).
+        let upgraded = [
+            (session::TRIALS_TSV, trials.added_columns()),
+            (session::FRAMES_TSV, frames.added_columns()),
+        ]
+        .into_iter()
+        .filter(|(_, added)| !added.is_empty())
+        .map(|(file, added)| {
+            format!(
+                "{file}: written before its column {} existed; added, n/a in the rows of the earlier sittings",
+                added.join(", ")
+            )
+        })
+        .collect();
         Ok(Self {
             participant: opts.participant.clone(),
             next_trial,
             sitting,
-            trials: TsvLog::append_to(open(session::TRIALS_TSV)).map_err(err)?,
+            trials,
             samples: TsvLog::append_to(open(session::SAMPLES_TSV))
                 .map_err(err)?
                 .flush_every(256, every),
             events: TsvLog::append_to(open(session::EVENTS_TSV)).map_err(err)?,
             markers: TsvLog::append_to(open(session::MARKERS_TSV)).map_err(err)?,
-            frames: TsvLog::append_to(open(session::FRAMES_TSV))
-                .map_err(err)?
-                .flush_every(64, every),
+            frames,
             clock: TsvLog::append_to(open(session::CLOCK_TSV))
                 .map_err(err)?
                 .flush_every(64, every),
+            upgraded,
             last_clock: None,
             aborted_trial,
             path,
@@ -238,6 +259,12 @@ impl SessionDir {
 
     pub fn path(&self) -> &Path {
         &self.path
+    }
+
+    /// What opening the files changed in them, one line each (columns
+    /// added to the files of a session begun by an earlier gazecast).
+    pub fn upgraded(&self) -> &[String] {
+        &self.upgraded
     }
 
     /// This sitting's number (1 for a new session).

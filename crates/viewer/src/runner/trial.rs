@@ -34,6 +34,14 @@ self_cell::self_cell!(
 pub struct TrialState {
     search: SearchScene,
     preview_rgb: Vec<u8>,
+    /// What drew the preview (`Renderer::provenance` of the
+    /// full-resolution CPU renderer).
+    preview_plan: String,
+    /// What drew the search frames, each plan once in the order they ran
+    /// (one, unless the renderer's plan changed during the search).
+    search_plans: Vec<String>,
+    /// What drew the last search frame.
+    last_plan: Option<String>,
     confirm_rgb: Option<Vec<u8>>,
     last: Option<Frame>,
     onset_us: Option<u64>,
@@ -59,8 +67,9 @@ const CONGRUENT_GAP_US: u64 = 250_000;
 const MAX_TRIAL_SAMPLES: usize = 3_600_000;
 
 /// `scene` at full resolution on the CPU (the preview, the stimulus
-/// pictures): the same picture on every machine.
-fn full_resolution(scene: &Scene, setup: &Setup) -> Result<Frame, String> {
+/// pictures): the same picture on every machine; with the renderer's
+/// provenance line.
+fn full_resolution(scene: &Scene, setup: &Setup) -> Result<(Frame, String), String> {
     let model = pipeline::sampling_model(setup.geometry, 1.0).map_err(|e| e.to_string())?;
     let options = Options {
         method: Method::Full,
@@ -72,7 +81,7 @@ fn full_resolution(scene: &Scene, setup: &Setup) -> Result<Frame, String> {
     let (frame, _) = full
         .render(setup.geometry.centre_px())
         .map_err(|e| e.to_string())?;
-    Ok(frame)
+    Ok((frame, full.provenance()))
 }
 
 fn build(file: &raycast::SceneFile) -> Result<Scene, String> {
@@ -86,7 +95,7 @@ impl TrialState {
         let condition = &design.conditions[trial.condition];
         let camera = Camera::new(&setup.geometry);
         let preview = build(&stimulus::preview_scene(design, trial, &setup.layout))?;
-        let frame = full_resolution(&preview, setup)?;
+        let (frame, preview_plan) = full_resolution(&preview, setup)?;
         let search_model = pipeline::sampling_model(setup.geometry, design.contrast)
             .map_err(|e| format!("contrast: {e}"))?
             .with_inset_deg(condition.inset_deg.unwrap_or(0.0))
@@ -106,6 +115,9 @@ impl TrialState {
         Ok(Self {
             search,
             preview_rgb: frame.rgb,
+            preview_plan,
+            search_plans: Vec::new(),
+            last_plan: None,
             confirm_rgb: None,
             last: None,
             onset_us: None,
@@ -142,17 +154,40 @@ impl TrialState {
     /// Renders the search display for `gaze`: (rays, render ms).
     pub fn render_search(&mut self, gaze: [f64; 2]) -> Result<(u64, f64), String> {
         let old = self.last.take();
-        let (frame, stats) = self
+        let (frame, stats, plan) = self
             .search
             .with_dependent_mut(|_, r| {
                 if let Some(f) = old {
                     r.recycle(f);
                 }
-                r.render(gaze)
+                r.render(gaze).map(|(f, s)| (f, s, r.provenance()))
             })
             .map_err(|e| e.to_string())?;
         self.last = Some(frame);
+        if !self.search_plans.contains(&plan) {
+            self.search_plans.push(plan.clone());
+        }
+        self.last_plan = Some(plan);
         Ok((stats.rays_total, stats.time_ms))
+    }
+
+    /// What drew the picture of `phase` ([`TrialState::rgb`]): the search
+    /// renderer's plan for its frames (also under the confirm overlay),
+    /// the full-resolution renderer's for the preview.
+    pub fn plan(&self, phase: Phase) -> &str {
+        let search = self.last_plan.as_deref();
+        match phase {
+            Phase::Confirm if self.confirm_rgb.is_some() => search,
+            Phase::Search if self.last.is_some() => search,
+            _ => None,
+        }
+        .unwrap_or(&self.preview_plan)
+    }
+
+    /// What drew the search frames: their plan, or each plan they had in
+    /// order joined by ` | ` (`trials.tsv`'s `plan`); `None` before any.
+    pub fn search_plan(&self) -> Option<String> {
+        (!self.search_plans.is_empty()).then(|| self.search_plans.join(" | "))
     }
 
     /// The picture of `phase`.
@@ -311,6 +346,7 @@ impl TrialState {
             frames_late: self.late,
             mean_rays: self.rays as f64 / (self.frames.max(1)) as f64,
             synthetic,
+            plan: self.search_plan(),
         };
         dir.trial(&row)?;
         if setup.stimulus_pictures {
@@ -340,7 +376,7 @@ impl TrialState {
     /// The search display at full resolution, for the scanpath pictures:
     /// written to a temporary file and renamed.
     fn stimulus_picture(&self, setup: &Setup, trial: &Trial, dir: &Path) -> Result<(), String> {
-        let f = full_resolution(self.search.borrow_owner(), setup)?;
+        let (f, _) = full_resolution(self.search.borrow_owner(), setup)?;
         let path = session::stimulus_path(dir, trial.index);
         let tmp = path.with_extension("png.part");
         save_png(&tmp, (f.width_px, f.height_px), &f.rgb)

@@ -9,7 +9,7 @@ use foveation::mask::{RayMask, NO_VERTEX};
 use super::buffers::{FovParams, FoveatedTarget};
 use super::readback::{copy_out, read_back, read_frame};
 use super::timer::begin_pass;
-use super::{GpuError, GpuFrame, GpuPost, GpuRenderer};
+use super::{GpuError, GpuPost, GpuRenderer};
 use crate::camera::Camera;
 use crate::frame::Frame;
 use crate::render::{Stats, Triggers};
@@ -266,24 +266,7 @@ impl GpuRenderer {
                 Stage::CastListed => pass.dispatch_workgroups_indirect(&ft.dispatch, 0),
             }
         }
-        if let Some(post) = post {
-            let frame = GpuFrame {
-                device: &device,
-                queue: &queue,
-                pixels: &target.out.pixels,
-                depth: &target.out.depth,
-                object: &target.out.object,
-                width: w,
-                height: h,
-                max_binding: self.max_binding,
-                hidden: super::hidden::HiddenHook {
-                    layouts: &self.layouts,
-                    cast_group: &target.bind_group,
-                    cast: &self.hidden,
-                },
-            };
-            encoder = post.encode(&frame, encoder)?;
-        }
+        encoder = self.encode_post(target, post, (w, h), encoder)?;
         copy_out(&mut encoder, &target.out, &target.readback, pixels);
         if let Some(t) = &timer {
             t.resolve(&mut encoder, stages.len() as u32);

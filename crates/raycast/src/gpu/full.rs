@@ -7,7 +7,7 @@ use std::time::Instant;
 use super::buffers::{FrameTarget, Params};
 use super::readback::{copy_out, read_frame};
 use super::timer::begin_pass;
-use super::{GpuError, GpuFrame, GpuPost, GpuRenderer};
+use super::{GpuError, GpuPost, GpuRenderer};
 use crate::camera::Camera;
 use crate::frame::Frame;
 use crate::render::Stats;
@@ -88,7 +88,6 @@ impl GpuRenderer {
         let timer = self.timer.clone();
         let pipeline = self.pipelines.full.clone();
         let surface = self.surface;
-        let max_binding = self.max_binding;
         self.frame_target(pixels)?;
         let target = self
             .target
@@ -103,24 +102,7 @@ impl GpuRenderer {
             pass.set_bind_group(0, &target.bind_group, &[]);
             pass.dispatch_workgroups(w.div_ceil(8), h.div_ceil(8), 1);
         }
-        if let Some(post) = post {
-            let frame = GpuFrame {
-                device: &device,
-                queue: &queue,
-                pixels: &target.out.pixels,
-                depth: &target.out.depth,
-                object: &target.out.object,
-                width: w,
-                height: h,
-                max_binding,
-                hidden: super::hidden::HiddenHook {
-                    layouts: &self.layouts,
-                    cast_group: &target.bind_group,
-                    cast: &self.hidden,
-                },
-            };
-            encoder = post.encode(&frame, encoder)?;
-        }
+        encoder = self.encode_post(target, post, (w, h), encoder)?;
         copy_out(&mut encoder, &target.out, &target.readback, pixels);
         if let Some(t) = &timer {
             t.resolve(&mut encoder, 1);

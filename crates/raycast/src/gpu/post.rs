@@ -172,3 +172,35 @@ pub trait GpuPost {
         encoder: wgpu::CommandEncoder,
     ) -> Result<wgpu::CommandEncoder, GpuError>;
 }
+
+impl super::GpuRenderer {
+    /// Encodes `post`'s passes on the frame target's buffers, between the
+    /// cast and the read-back: the one hook every method's GPU frame uses.
+    pub(super) fn encode_post(
+        &self,
+        target: &super::buffers::FrameTarget,
+        post: Option<&mut dyn GpuPost>,
+        (width, height): (u32, u32),
+        encoder: wgpu::CommandEncoder,
+    ) -> Result<wgpu::CommandEncoder, GpuError> {
+        let Some(post) = post else {
+            return Ok(encoder);
+        };
+        let frame = GpuFrame {
+            device: &self.device,
+            queue: &self.queue,
+            pixels: &target.out.pixels,
+            depth: &target.out.depth,
+            object: &target.out.object,
+            width,
+            height,
+            max_binding: self.max_binding,
+            hidden: super::hidden::HiddenHook {
+                layouts: &self.layouts,
+                cast_group: &target.bind_group,
+                cast: &self.hidden,
+            },
+        };
+        post.encode(&frame, encoder)
+    }
+}

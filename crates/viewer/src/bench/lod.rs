@@ -22,22 +22,22 @@
 //! Writes `lod.md` (the tables), `lod.csv` (one row per mesh, method and
 //! frame) and `lod.json` (the summaries).
 
-use std::collections::BTreeMap;
 use std::fmt::Write as _;
 use std::io::Write;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::time::Instant;
 
 use foveation::Display;
 use glam::{Quat, Vec3};
 use pipeline::{BackendChoice, Method, Options, Renderer};
 use raycast::raster::{self, RasterScratch};
-use raycast::scene::{Effect, Light, MeshSource, Object};
-use raycast::{Camera, Frame, Scene, SceneFile};
+use raycast::scene::Effect;
+use raycast::{Camera, Frame, Scene};
 use serde::Serialize;
 
 use crate::bench::report::{create_dir, write_file};
 use crate::bench::scaling::scaling_display;
+use crate::bench::torus::{torus_scene, Placement};
 use crate::config::{self, load_scene};
 
 /// Most scanpath frames.
@@ -139,35 +139,11 @@ const SCANPATH: &str =
 /// A torus of `2·segments·sides` faces, tilted, about 22° across from a
 /// 600 mm eye distance (M&D's objects subtended 18°–26°).
 pub fn lod_torus(segments: u32, sides: u32) -> Result<Scene, String> {
-    let file = SceneFile {
-        name: format!("torus-{}", 2 * u64::from(segments) * u64::from(sides)),
-        background: (0.07, 0.07, 0.09),
-        meshes: BTreeMap::from([(
-            "torus".to_string(),
-            MeshSource::Torus {
-                major_radius: 1.0,
-                minor_radius: 0.35,
-                segments,
-                sides,
-            },
-        )]),
-        materials: BTreeMap::new(),
-        objects: vec![Object {
-            mesh: "torus".into(),
-            material: None,
-            translate_mm: (0.0, 0.0, -100.0),
-            rotate_deg: (60.0, 20.0, 0.0),
-            scale_mm: 95.0,
-            importance: 1.0,
-            motion: None,
-        }],
-        lights: vec![Light::Headlight { intensity: 1.0 }],
-        effects: vec![Effect::FoveatedSampling],
-        crease_deg: 30.0,
-        depth_jump: 0.05,
-        camera: None,
+    let at = Placement {
+        translate_mm: (0.0, 0.0, -100.0),
+        scale_mm: 95.0,
     };
-    Scene::build(&file, Path::new(".")).map_err(|e| e.to_string())
+    torus_scene(segments, sides, at, vec![Effect::FoveatedSampling])
 }
 
 /// The synthetic scanpath: `n` gazes on a 3:2 Lissajous figure over 90 %

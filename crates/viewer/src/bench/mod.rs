@@ -28,6 +28,7 @@ pub mod report;
 pub mod scaling;
 pub mod stages;
 pub mod summary;
+pub mod torus;
 pub mod ulod;
 
 use std::io::Write;

@@ -2,17 +2,16 @@
 //! against triangle count and against resolution, on a procedural scene
 //! and display whose size stays while the pixels change.
 
-use std::collections::BTreeMap;
 use std::io::Write;
-use std::path::Path;
 
 use foveation::Display;
 use pipeline::{BackendChoice, Method, Options, Renderer};
-use raycast::scene::{Effect, Light, MeshSource, Object};
-use raycast::{Camera, Scene, SceneFile};
+use raycast::scene::Effect;
+use raycast::{Camera, Scene};
 
 use crate::bench::measure::{progress, timed};
 use crate::bench::report::{create_dir, scaling_csv, scaling_report, write_file};
+use crate::bench::torus::{torus_scene, Placement};
 use crate::bench::ScalingArgs;
 use crate::plots;
 use crate::stats::log_log_slope;
@@ -23,39 +22,16 @@ pub fn scaling_scene(triangles: u64) -> Result<Scene, String> {
     // segments × sides × 2 triangles, sides ≈ segments / 1.25.
     let segments = ((triangles as f64 / 2.0 * 1.25).sqrt().round() as u32).max(3);
     let sides = ((triangles as f64 / 2.0 / f64::from(segments)).round() as u32).max(3);
-    let file = SceneFile {
-        name: format!("torus-{}", 2 * u64::from(segments) * u64::from(sides)),
-        background: (0.07, 0.07, 0.09),
-        meshes: BTreeMap::from([(
-            "torus".to_string(),
-            MeshSource::Torus {
-                major_radius: 1.0,
-                minor_radius: 0.35,
-                segments,
-                sides,
-            },
-        )]),
-        materials: BTreeMap::new(),
-        objects: vec![Object {
-            mesh: "torus".into(),
-            material: None,
-            translate_mm: (40.0, 0.0, -150.0),
-            rotate_deg: (60.0, 20.0, 0.0),
-            scale_mm: 150.0,
-            importance: 1.0,
-            motion: None,
-        }],
-        lights: vec![Light::Headlight { intensity: 1.0 }],
-        effects: vec![
-            Effect::FoveatedSampling,
-            Effect::SilhouetteRefinement,
-            Effect::CreaseRefinement,
-        ],
-        crease_deg: 30.0,
-        depth_jump: 0.05,
-        camera: None,
+    let at = Placement {
+        translate_mm: (40.0, 0.0, -150.0),
+        scale_mm: 150.0,
     };
-    Scene::build(&file, Path::new(".")).map_err(|e| e.to_string())
+    let effects = vec![
+        Effect::FoveatedSampling,
+        Effect::SilhouetteRefinement,
+        Effect::CreaseRefinement,
+    ];
+    torus_scene(segments, sides, at, effects)
 }
 
 /// A 27" 16:9 panel at 60 cm with `w×h` pixels: the physical size (and so

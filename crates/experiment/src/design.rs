@@ -16,9 +16,12 @@ use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 use std::path::Path;
 
-/// The rendering methods a condition may name: the names of
-/// `pipeline::Method` (`Method::name`). Kept as strings here so that this
-/// crate stays free of the renderer.
+/// The rendering methods whose parameters a condition states here (an
+/// inset, kept silhouette edges): names of `pipeline::Method`
+/// (`Method::key`). A condition may also name any other method the
+/// renderer registers, without parameters; the viewer checks the name
+/// against `pipeline::Method::all` when it loads the design. Kept as
+/// strings so that this crate stays free of the renderer.
 pub const METHODS: &[&str] = &["full", "hybrid", "image"];
 
 /// An experiment design, as read from `config/experiments/*.ron`.
@@ -635,10 +638,28 @@ impl Design {
                     }
                 }
                 other => {
-                    return Err(DesignError::invalid(
-                        at("method"),
-                        format!("unknown method {other:?}; known: {}", METHODS.join(", ")),
-                    ))
+                    // Another method the renderer registers (a method
+                    // module): a name, no parameters of the three above.
+                    // Whether the renderer knows it is checked where the
+                    // design is run (`gazecast experiment plan/run`).
+                    check_id(other).map_err(|m| DesignError::invalid(at("method"), m))?;
+                    if c.inset_deg.is_some() {
+                        return Err(DesignError::invalid(
+                            at("inset_deg"),
+                            format!(
+                                "only the hybrid and image methods take an inset; {other:?} has \
+                                 none"
+                            ),
+                        ));
+                    }
+                    if c.silhouette_edges {
+                        return Err(DesignError::invalid(
+                            at("silhouette_edges"),
+                            format!(
+                                "only the hybrid method keeps silhouette edges; {other:?} does not"
+                            ),
+                        ));
+                    }
                 }
             }
             for (factor, level) in &c.levels {

@@ -83,10 +83,16 @@ fn negative_inset_names_the_field() {
     assert!(err.to_string().contains("-15"), "{err}");
 }
 
+/// A method name that is not an identifier is refused here; whether the
+/// renderer knows a well-formed name is checked where the design is run
+/// (the viewer's `config::load_design`, tested in crates/viewer). A method
+/// without parameters takes no inset.
 #[test]
 fn unknown_method_names_the_field() {
-    let text = murphy_text().replacen(r#"method: "hybrid""#, r#"method: "hybird""#, 1);
+    let text = murphy_text().replacen(r#"method: "hybrid""#, r#"method: "hy bird""#, 1);
     assert_eq!(field_of(&text), "conditions[1].method");
+    let text = murphy_text().replacen(r#"method: "hybrid""#, r#"method: "layers""#, 1);
+    assert_eq!(field_of(&text), "conditions[1].inset_deg");
 }
 
 #[test]

@@ -8,8 +8,8 @@ use raycast::Scene;
 
 use crate::renderer::RenderError;
 
-/// The backend asked for on a command line.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, clap::ValueEnum)]
+/// The backend asked for (on a command line, in a bench configuration).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum BackendChoice {
     /// rayon on the CPU: every method, structure and intersector.
     Cpu,
@@ -41,8 +41,9 @@ impl Backend {
             (BackendChoice::Cpu, _) => (Backend::Cpu, None),
             (BackendChoice::Gpu, false) => {
                 return Err(RenderError::Unsupported(
-                    "--backend gpu: the GPU core has the BVH and the watertight test only; \
-                     use --backend cpu for --accel grid or --intersector moller-trumbore"
+                    "backend gpu: the GPU core has the BVH and the watertight test only; \
+                     choose the CPU backend for the grid accelerator or the Möller–Trumbore \
+                     test"
                         .into(),
                 ))
             }
@@ -58,7 +59,7 @@ impl Backend {
                     Backend::Cpu,
                     Some(format!(
                         "auto: the only adapter is a software one ({name}), slower than the CPU \
-                         backend; rendering on the CPU (--backend gpu forces it)"
+                         backend; rendering on the CPU (backend gpu forces it)"
                     )),
                 ),
                 Ok(_) => match open(scene) {
@@ -74,5 +75,38 @@ impl Backend {
                 ),
             },
         })
+    }
+}
+
+impl BackendChoice {
+    /// Every choice with its name and help, in the order `--help` lists them.
+    pub const ALL: [(BackendChoice, &'static str, &'static str); 3] = [
+        (
+            BackendChoice::Cpu,
+            "cpu",
+            "rayon on the CPU: every method, structure and intersector",
+        ),
+        (
+            BackendChoice::Gpu,
+            "gpu",
+            "wgpu: every method, with the BVH and the watertight test (compute; the \
+             model-based methods' raster in a render pipeline)",
+        ),
+        (
+            BackendChoice::Auto,
+            "auto",
+            "A real GPU where one can render the scene, else the CPU; says which",
+        ),
+    ];
+}
+
+impl std::str::FromStr for BackendChoice {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        Self::ALL
+            .iter()
+            .find(|(_, name, _)| *name == s)
+            .map(|(b, ..)| *b)
+            .ok_or_else(|| format!("unknown backend {s:?}; known: cpu, gpu, auto"))
     }
 }

@@ -1,54 +1,177 @@
-//! Rendering methods: what fills the G-buffer.
+//! Rendering methods: what fills the G-buffer, and the one place a method
+//! is chosen — by name ([`Method::from_name`]: the command line, an
+//! experiment condition, a bench configuration) and for a scene
+//! ([`Method::for_scene`]).
+
+use std::fmt;
+use std::str::FromStr;
 
 use raycast::scene::Effect;
 use raycast::Scene;
 
+use crate::registry::{MethodModule, METHODS};
+
 /// How a frame's G-buffer is filled.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, clap::ValueEnum)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum Method {
     /// One ray per pixel (the control condition).
     Full,
     /// Murphy 2007's hybrid: the CSF ray mask, reconstruction from the
     /// intermediate mesh, refinement where the scene's effects ask.
     #[default]
-    #[value(alias = "foveated")]
     Hybrid,
     /// Image-based foveation (Geisler & Perry 1998): every pixel cast, then
     /// blurred by a Gaussian pyramid to the level the CSF allows at its
     /// eccentricity.
-    #[value(alias = "image-based")]
     Image,
     /// Model-based: Luebke & Hallen 2001's perceptual simplification
     /// (imperceptible mode: every fold the Geisler–Perry table judges
-    /// invisible at its eccentricity), rasterised on the CPU.
-    #[value(alias = "luebke-hallen")]
+    /// invisible at its eccentricity), rasterised.
     Simplify,
     /// Model-based: Murphy & Duchowski 2001's gaze-contingent level of
-    /// detail (Table 1's levels by eccentricity), rasterised on the CPU.
-    #[value(alias = "murphy-duchowski")]
+    /// detail (Table 1's levels by eccentricity), rasterised.
     Lod,
     /// Lee 2009 ch. 7: attention-guided level of detail with ULOD's blend
-    /// of adjacent levels (`ULOD5`: 1, 1/4, … 1/256 of each object's
-    /// triangles by quadric simplification), levels set by Lee's attention
-    /// model on the previous frame; no eye tracker needed. CPU raster.
-    #[value(alias = "attention-lod")]
+    /// of adjacent levels, levels set by Lee's attention model on the
+    /// previous frame; no eye tracker needed. CPU raster.
     Ulod,
+    /// A method module registered in [`crate::registry::METHODS`].
+    Module(&'static MethodModule),
+}
+
+/// The built-in methods with their command-line names, aliases and help.
+const BUILT_IN: [(Method, &str, &[&str], &str); 6] = [
+    (
+        Method::Full,
+        "full",
+        &[],
+        "One ray per pixel (the control condition)",
+    ),
+    (
+        Method::Hybrid,
+        "hybrid",
+        &["foveated"],
+        "Murphy 2007's hybrid: the CSF ray mask, reconstruction from the intermediate mesh, \
+         refinement where the scene's effects ask",
+    ),
+    (
+        Method::Image,
+        "image",
+        &["image-based"],
+        "Image-based foveation (Geisler & Perry 1998): every pixel cast, then blurred by a \
+         Gaussian pyramid to the level the CSF allows at its eccentricity",
+    ),
+    (
+        Method::Simplify,
+        "simplify",
+        &["luebke-hallen"],
+        "Model-based: Luebke & Hallen 2001's perceptual simplification (imperceptible mode: \
+         every fold the Geisler–Perry table judges invisible at its eccentricity), rasterised \
+         (CPU or GPU)",
+    ),
+    (
+        Method::Lod,
+        "lod",
+        &["murphy-duchowski"],
+        "Model-based: Murphy & Duchowski 2001's gaze-contingent level of detail (Table 1's \
+         levels by eccentricity), rasterised (CPU or GPU)",
+    ),
+    (
+        Method::Ulod,
+        "ulod",
+        &["attention-lod"],
+        "Lee 2009 ch. 7: attention-guided level of detail with ULOD's blend of adjacent levels \
+         (`ULOD5`: 1, 1/4, … 1/256 of each object's triangles by quadric simplification), \
+         levels set by Lee's attention model on the previous frame; no eye tracker \
+         needed. CPU raster",
+    ),
+];
+
+/// A method name nobody registered.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error("unknown method {name:?}; known: {known}")]
+pub struct UnknownMethod {
+    pub name: String,
+    /// The known names, comma-separated.
+    pub known: String,
 }
 
 impl Method {
-    /// The method that will run for `scene` when `self` is asked for: the
-    /// foveated methods (hybrid, image-based, model-based) need the scene to list
-    /// `FoveatedSampling`; without it the scene is rendered at full
-    /// resolution, on every backend. `Ulod` follows attention, not the
-    /// gaze, and runs whatever the scene lists.
-    pub fn for_scene(self, scene: &Scene) -> Method {
+    /// Every method: the built-in ones, then the registered modules, in
+    /// the order `--help` lists them.
+    pub fn all() -> impl Iterator<Item = Method> {
+        BUILT_IN
+            .iter()
+            .map(|(m, ..)| *m)
+            .chain(METHODS.iter().map(|m| Method::Module(m)))
+    }
+
+    /// The name on the command line and in experiment designs.
+    pub fn key(self) -> &'static str {
         match self {
-            Method::Hybrid | Method::Image | Method::Simplify | Method::Lod
-                if !scene.has(Effect::FoveatedSampling) =>
-            {
-                Method::Full
-            }
-            m => m,
+            Method::Module(m) => m.name,
+            m => BUILT_IN
+                .iter()
+                .find(|(b, ..)| *b == m)
+                .map_or("", |(_, key, ..)| key),
+        }
+    }
+
+    /// Other names the command line and designs accept for it.
+    pub fn aliases(self) -> &'static [&'static str] {
+        match self {
+            Method::Module(m) => m.aliases,
+            m => BUILT_IN
+                .iter()
+                .find(|(b, ..)| *b == m)
+                .map_or(&[], |(_, _, aliases, _)| aliases),
+        }
+    }
+
+    /// One line of help.
+    pub fn help(self) -> &'static str {
+        match self {
+            Method::Module(m) => m.help,
+            m => BUILT_IN
+                .iter()
+                .find(|(b, ..)| *b == m)
+                .map_or("", |(.., help)| help),
+        }
+    }
+
+    /// The method called `name` (its key or an alias, exactly).
+    pub fn from_name(name: &str) -> Result<Method, UnknownMethod> {
+        Method::all()
+            .find(|m| m.key() == name || m.aliases().contains(&name))
+            .ok_or_else(|| UnknownMethod {
+                name: name.to_string(),
+                known: Method::all()
+                    .map(Method::key)
+                    .collect::<Vec<_>>()
+                    .join(", "),
+            })
+    }
+
+    /// The method that will run for `scene` when `self` is asked for: the
+    /// methods that follow the gaze (hybrid, image-based, model-based, and
+    /// modules that say so) need the scene to list `FoveatedSampling`;
+    /// without it the scene is rendered at full resolution, on every
+    /// backend. `Ulod` follows attention, not the gaze, and runs whatever
+    /// the scene lists.
+    pub fn for_scene(self, scene: &Scene) -> Method {
+        if self.follows_gaze() && !scene.has(Effect::FoveatedSampling) {
+            Method::Full
+        } else {
+            self
+        }
+    }
+
+    /// Whether the method renders by the gaze.
+    pub fn follows_gaze(self) -> bool {
+        match self {
+            Method::Hybrid | Method::Image | Method::Simplify | Method::Lod => true,
+            Method::Full | Method::Ulod => false,
+            Method::Module(m) => m.foveated,
         }
     }
 
@@ -61,11 +184,48 @@ impl Method {
             Method::Simplify => "simplify",
             Method::Lod => "lod",
             Method::Ulod => "ulod",
+            Method::Module(m) => m.name,
         }
     }
 
     /// Whether the method simplifies geometry and rasterises it.
     pub fn is_model_based(self) -> bool {
         matches!(self, Method::Simplify | Method::Lod)
+    }
+}
+
+impl FromStr for Method {
+    type Err = UnknownMethod;
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        Method::from_name(s)
+    }
+}
+
+impl fmt::Display for Method {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.key())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_method_is_found_by_its_key_and_its_aliases_and_no_name_twice() {
+        let mut seen = std::collections::BTreeSet::new();
+        for m in Method::all() {
+            assert_eq!(Method::from_name(m.key()), Ok(m));
+            assert!(!m.help().is_empty(), "{m:?}");
+            for a in m.aliases() {
+                assert_eq!(Method::from_name(a), Ok(m));
+            }
+            for n in std::iter::once(&m.key()).chain(m.aliases()) {
+                assert!(seen.insert(*n), "{n} names two methods");
+            }
+        }
+        let e = Method::from_name("imag").expect_err("unknown");
+        assert!(e.to_string().contains("known: full, hybrid, image"), "{e}");
+        assert_eq!("foveated".parse::<Method>(), Ok(Method::Hybrid));
     }
 }

@@ -16,6 +16,7 @@ use crate::image_foveation::{ImageFoveation, ImagePass};
 use crate::method::Method;
 use crate::model_based::{ModelBased, ModelOptions, RasterOn};
 use crate::plan::{Channels, FramePlan, Role, Side, Stage};
+use crate::registry::{FrameMethod, MethodFrame, MethodSetup};
 use raycast::scene::Effect;
 
 /// Why a frame could not be rendered.
@@ -144,6 +145,8 @@ enum MethodState {
     /// `Method::Ulod`'s levels and attention model, and the model's time on
     /// the last frame (ms; it set this frame's levels).
     Ulod(Box<crate::ulod::Ulod>, f64),
+    /// A registered method module's state.
+    Module(Box<dyn FrameMethod>),
 }
 
 /// The passes split between the GPU (before the read-back) and the CPU.
@@ -193,14 +196,20 @@ impl<'s> Renderer<'s> {
         }
         // The model-based methods rasterise on the backend chosen the same
         // way (on the GPU: its render pipeline, `GpuRenderer::rasterize`).
-        let (backend, note) = if method == Method::Ulod {
+        let cpu_only = match method {
+            Method::Ulod => true,
+            Method::Module(m) => !m.gpu,
+            _ => false,
+        };
+        let (backend, note) = if cpu_only {
             if options.backend == BackendChoice::Gpu {
-                return Err(RenderError::Unsupported(
-                    "method ulod rasterises on the CPU only; choose the CPU backend or auto".into(),
-                ));
+                return Err(RenderError::Unsupported(format!(
+                    "method {} renders on the CPU only; choose the CPU backend or auto",
+                    method.key()
+                )));
             }
             let note = (options.backend == BackendChoice::Auto)
-                .then(|| "auto: method ulod rasterises on the CPU".to_string());
+                .then(|| format!("auto: method {} renders on the CPU", method.key()));
             (Backend::Cpu, note)
         } else if scene.is_moving() {
             // The GPU core keeps the scene it uploaded; a moving scene is
@@ -223,11 +232,10 @@ impl<'s> Renderer<'s> {
             Backend::choose(options.backend, scene, options.test)?
         };
         let settings = Settings {
-            mode: match method {
-                Method::Full | Method::Image | Method::Simplify | Method::Lod | Method::Ulod => {
-                    Mode::Full
-                }
-                Method::Hybrid => Mode::Foveated,
+            mode: if method == Method::Hybrid {
+                Mode::Foveated
+            } else {
+                Mode::Full
             },
             layout: options.layout,
             triggers: options
@@ -242,7 +250,10 @@ impl<'s> Renderer<'s> {
             passes.push(Box::<ImagePass>::default());
         }
         passes.extend(passes_for(scene, options.por_overlay));
-        let gpu_hook = matches!(backend, Backend::Gpu(_)) && !method.is_model_based();
+        // The ray-cast methods' GPU frames take passes before their
+        // read-back; the raster path and the modules' frames do not.
+        let gpu_hook = matches!(backend, Backend::Gpu(_))
+            && matches!(method, Method::Full | Method::Hybrid | Method::Image);
         let (gpu_passes, passes) = split_passes(passes, gpu_hook);
         let state = match method {
             Method::Simplify | Method::Lod => MethodState::ModelBased(Box::new(
@@ -261,6 +272,14 @@ impl<'s> Renderer<'s> {
                 )
             }
             Method::Full | Method::Hybrid | Method::Image => MethodState::Cast,
+            Method::Module(m) => MethodState::Module(
+                (m.make)(&MethodSetup {
+                    scene,
+                    camera: &camera,
+                    model: &model,
+                })
+                .map_err(RenderError::Unsupported)?,
+            ),
         };
         Ok(Self {
             state,
@@ -427,6 +446,29 @@ impl<'s> Renderer<'s> {
                 };
                 let stats = m
                     .render(scene, &self.camera, gaze_px, surface, &mut frame, on)
+                    .map_err(RenderError::Unsupported)?;
+                (frame, stats)
+            }
+            (MethodState::Module(m), backend) => {
+                let mut frame = self.spare.take().unwrap_or_default();
+                let gpu = match backend {
+                    Backend::Cpu => None,
+                    Backend::Gpu(g) => Some(g.as_mut()),
+                };
+                let stats = m
+                    .render(
+                        MethodFrame {
+                            scene,
+                            camera: &self.camera,
+                            model: &self.model,
+                            test: self.settings.test,
+                            gaze_px,
+                            time_s,
+                            surface,
+                            gpu,
+                        },
+                        &mut frame,
+                    )
                     .map_err(RenderError::Unsupported)?;
                 (frame, stats)
             }
@@ -746,6 +788,10 @@ impl<'s> Renderer<'s> {
             (Method::Ulod, _) => {
                 format!("{ULOD_LEVELS} levels per object and {ULOD_MAP_SIZE}² attention maps")
             }
+            (Method::Module(_), _) => match &self.state {
+                MethodState::Module(m) => m.owns(),
+                _ => String::new(),
+            },
         };
         let mut stages = vec![Stage {
             name: self.method.name().to_string(),
@@ -798,6 +844,10 @@ impl<'s> Renderer<'s> {
     /// What the method does per frame, for `explain`.
     fn method_detail(&self) -> String {
         match (self.method, &self.backend) {
+            (Method::Module(_), _) => match &self.state {
+                MethodState::Module(m) => m.detail(),
+                _ => String::new(),
+            },
             (Method::Full, _) => {
                 "per frame: cast and shade every pixel (no mask, no foveated buffers)".into()
             }

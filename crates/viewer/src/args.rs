@@ -325,3 +325,27 @@ impl LslArgs {
         })
     }
 }
+
+/// `--method`: every method `pipeline` knows, built in or registered, by
+/// its key or an alias, each with its help — taken from
+/// [`pipeline::Method::all`], so a registered method needs no line here.
+pub fn method_parser() -> impl clap::builder::TypedValueParser<Value = pipeline::Method> {
+    use clap::builder::{PossibleValue, PossibleValuesParser, TypedValueParser};
+    PossibleValuesParser::new(pipeline::Method::all().map(|m| {
+        PossibleValue::new(m.key())
+            .aliases(m.aliases().iter().copied())
+            .help(m.help())
+    }))
+    .try_map(|s| s.parse::<pipeline::Method>().map_err(|e| e.to_string()))
+}
+
+/// `--backend`: [`pipeline::BackendChoice::ALL`], each with its help.
+pub fn backend_parser() -> impl clap::builder::TypedValueParser<Value = pipeline::BackendChoice> {
+    use clap::builder::{PossibleValue, PossibleValuesParser, TypedValueParser};
+    PossibleValuesParser::new(
+        pipeline::BackendChoice::ALL
+            .iter()
+            .map(|(_, name, help)| PossibleValue::new(*name).help(*help)),
+    )
+    .try_map(|s| s.parse::<pipeline::BackendChoice>())
+}

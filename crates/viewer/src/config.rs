@@ -440,6 +440,14 @@ pub fn load_design_checked<T>(
         }
         other => ConfigError::invalid(path, 0, 0, None, other.to_string()),
     })?;
+    // Every condition's method is one the renderer knows (built in or a
+    // registered module), named where the file names it.
+    for (i, c) in design.conditions.iter().enumerate() {
+        if let Err(e) = pipeline::Method::from_name(&c.method) {
+            let field = format!("conditions[{i}].method");
+            return Err(invalid_field(path, &text, &field, e.to_string()));
+        }
+    }
     let checked =
         check(&design).map_err(|(field, message)| invalid_field(path, &text, &field, message))?;
     Ok((design, checked))
@@ -526,6 +534,33 @@ mod tests {
             msg.contains("d.ron:4:") && msg.contains("size_mm.1"),
             "{msg}"
         );
+    }
+
+    /// A condition's method the renderer does not know is refused when
+    /// the design loads, naming the file, line and field; every method it
+    /// knows (built in or registered) loads.
+    #[test]
+    fn an_unknown_method_in_a_design_names_file_line_and_field() {
+        let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
+        let text = std::fs::read_to_string(root.join("config/experiments/murphy2007-search.ron"))
+            .expect("the seed design");
+        let dir = tempfile::tempdir().expect("tempdir");
+        let path = dir.path().join("e.ron");
+        let control = r#"method: "full""#;
+        assert!(text.contains(control));
+        std::fs::write(&path, text.replacen(control, r#"method: "ful""#, 1)).expect("write");
+        let err = load_design(&path).expect_err("unknown method");
+        assert_eq!(err.field(), Some("conditions[0].method"), "{err}");
+        let msg = err.to_string();
+        assert!(
+            msg.contains("e.ron:") && msg.contains("unknown method \"ful\""),
+            "{msg}"
+        );
+        for m in pipeline::Method::all().filter(|m| !m.follows_gaze()) {
+            let named = format!("method: {:?}", m.key());
+            std::fs::write(&path, text.replacen(control, &named, 1)).expect("write");
+            load_design(&path).unwrap_or_else(|e| panic!("{}: {e}", m.key()));
+        }
     }
 
     #[test]

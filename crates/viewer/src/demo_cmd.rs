@@ -34,7 +34,7 @@ pub struct DemoArgs {
     #[arg(long, value_name = "N")]
     pub frames: Option<u64>,
     /// The rendering method (`foveated` is an alias of `hybrid`).
-    #[arg(long, value_enum, default_value = "hybrid")]
+    #[arg(long, value_parser = crate::args::method_parser(), default_value = "hybrid")]
     pub method: pipeline::Method,
     #[command(flatten)]
     pub model: crate::args::ModelArgs,

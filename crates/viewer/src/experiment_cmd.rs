@@ -58,7 +58,7 @@ pub struct RunArgs {
     /// Continue a session at its first unfinished trial (after a crash or Esc).
     #[arg(long)]
     pub resume: bool,
-    #[arg(long, value_enum, default_value = "auto")]
+    #[arg(long, value_parser = crate::args::backend_parser(), default_value = "auto")]
     pub backend: BackendChoice,
     #[arg(long)]
     pub fullscreen: bool,

@@ -932,19 +932,25 @@ mod tests {
         let loaded = Loaded::new(&opts).expect("scene and display");
         let mut renderer = loaded.renderer(&opts, false).expect("renderer");
         let (mut log, line) = PlanLog::new(renderer.provenance());
-        assert_eq!(line, "plan: image-based on cpu; passes: none");
+        assert_eq!(
+            line,
+            "plan: image-based on cpu; passes: image-based foveation (cpu)"
+        );
         assert_eq!(log.frame(renderer.provenance()), None);
         renderer.set_por_overlay(true);
         assert_eq!(
             log.frame(renderer.provenance()).as_deref(),
-            Some("plan changed: image-based on cpu; passes: POR box (cpu)")
+            Some("plan changed: image-based on cpu; passes: image-based foveation (cpu) → POR box (cpu)")
         );
-        assert_eq!(log.current(), "image-based on cpu; passes: POR box (cpu)");
+        assert_eq!(
+            log.current(),
+            "image-based on cpu; passes: image-based foveation (cpu) → POR box (cpu)"
+        );
         assert_eq!(log.frame(renderer.provenance()), None);
         renderer.set_por_overlay(false);
         assert_eq!(
             log.frame(renderer.provenance()).as_deref(),
-            Some("plan changed: image-based on cpu; passes: none")
+            Some("plan changed: image-based on cpu; passes: image-based foveation (cpu)")
         );
     }
 

@@ -29,10 +29,10 @@ pub struct RenderArgs {
     #[arg(long, value_name = "FILE.png")]
     pub out: PathBuf,
     /// The rendering method (`foveated` is an alias of `hybrid`).
-    #[arg(long, visible_alias = "method", value_enum, default_value = "hybrid")]
+    #[arg(long, visible_alias = "method", value_parser = crate::args::method_parser(), default_value = "hybrid")]
     pub mode: Method,
     /// Where to render; `auto` says which it used.
-    #[arg(long, value_enum, default_value = "auto")]
+    #[arg(long, value_parser = crate::args::backend_parser(), default_value = "auto")]
     pub backend: BackendChoice,
     #[arg(long, value_name = "nyquist|seed", default_value = "nyquist")]
     pub layout: Layout,

@@ -41,10 +41,10 @@ pub struct ViewArgs {
     /// Force the POR box on.
     #[arg(long, value_enum, value_name = "por")]
     pub overlay: Option<Overlay>,
-    #[arg(long, value_enum, default_value = "auto")]
+    #[arg(long, value_parser = crate::args::backend_parser(), default_value = "auto")]
     pub backend: BackendChoice,
     /// The rendering method (`foveated` is an alias of `hybrid`).
-    #[arg(long, value_enum, default_value = "hybrid")]
+    #[arg(long, value_parser = crate::args::method_parser(), default_value = "hybrid")]
     pub method: pipeline::Method,
     #[command(flatten)]
     pub model: crate::args::ModelArgs,

@@ -98,7 +98,7 @@ pub struct AccuracyArgs {
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
     /// The sweep runs on the CPU backend (`gpu` is refused; `auto` = CPU).
-    #[arg(long, value_enum, default_value = "auto")]
+    #[arg(long, value_parser = crate::args::backend_parser(), default_value = "auto")]
     pub backend: BackendChoice,
     /// Fewer configurations (13 of 172) and two gazes unless --gazes is given.
     #[arg(long)]
@@ -120,7 +120,7 @@ pub struct ScalingArgs {
           value_parser = clap::value_parser!(u32).range(1..=i64::from(MAX_REPEATS)))]
     pub repeats: Option<u32>,
     /// As for `accuracy`: the CPU backend.
-    #[arg(long, value_enum, default_value = "auto")]
+    #[arg(long, value_parser = crate::args::backend_parser(), default_value = "auto")]
     pub backend: BackendChoice,
     /// 10^4–10^5 triangles and 640×360–1280×720 only.
     #[arg(long)]

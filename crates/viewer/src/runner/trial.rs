@@ -446,17 +446,10 @@ pub fn target_screen(
     let _ = root.present();
 }
 
-/// The renderer's method for a condition's `method` (one of
-/// `experiment::design::METHODS`); any other name is an error, never the
-/// full-resolution control in disguise.
+/// The renderer's method for a condition's `method`: a method
+/// `pipeline` knows by that key or alias (built in or a registered
+/// module); any other name is an error, never the full-resolution control
+/// in disguise.
 pub fn condition_method(name: &str) -> Result<Method, String> {
-    match name {
-        "full" => Ok(Method::Full),
-        "hybrid" => Ok(Method::Hybrid),
-        "image" => Ok(Method::Image),
-        other => Err(format!(
-            "unknown method {other:?}; known: {}",
-            experiment::design::METHODS.join(", ")
-        )),
-    }
+    Method::from_name(name).map_err(|e| e.to_string())
 }

@@ -1,13 +1,14 @@
 //! Method modules and debug maps, registered by one line each.
 //!
-//! A new rendering method is a module that implements [`FrameMethod`] and
-//! declares a [`MethodModule`] (its name, aliases, help, seed, whether it
-//! follows the gaze and whether it has a GPU path), plus one line in
-//! [`METHODS`]. From there the method is a [`Method`](crate::Method)
-//! everywhere: the command line's `--method`, an experiment condition's
-//! `method:`, `explain`, the frame plan and every frame's provenance. A new
-//! debug map (a per-pixel quantity drawn as a picture, `render --map`) is a
-//! [`DebugMap`] and one line in [`MAPS`].
+//! A new rendering method is a file in [`crate::methods`] that implements
+//! [`FrameMethod`] and declares its `METHOD: MethodModule` (name, aliases,
+//! help, whether it follows the gaze and whether it has a GPU path), plus
+//! its name in that module's `register!` line. From there the method is a
+//! [`Method`](crate::Method) everywhere: the command line's `--method`, an
+//! experiment condition's `method:`, `explain`, the frame plan and every
+//! frame's provenance. A new debug map (a per-pixel quantity drawn as a
+//! picture, `render --map`) is a file in [`crate::maps`] declaring its
+//! `MAP: DebugMap`, and its name in that module's `register!` line.
 
 use std::fmt;
 
@@ -91,7 +92,7 @@ impl fmt::Debug for MethodModule {
 }
 
 /// The registered method modules.
-pub static METHODS: &[&MethodModule] = &[];
+pub static METHODS: &[&MethodModule] = crate::methods::ALL;
 
 /// What a debug map is drawn for.
 pub struct MapInput<'a> {
@@ -111,6 +112,54 @@ pub struct MapValues {
     pub unit: &'static str,
 }
 
+impl MapValues {
+    /// The map of `f` at every pixel centre of the input's screen, for its
+    /// gaze, rows in parallel. A gaze that is not finite is refused; the
+    /// size is checked against [`MAX_MAP_PIXELS`].
+    pub fn per_pixel(
+        input: &MapInput<'_>,
+        unit: &'static str,
+        f: impl Fn(&foveation::sampling::PorSampler, [f64; 2]) -> f32 + Sync,
+    ) -> Result<MapValues, String> {
+        use rayon::prelude::*;
+        let g = input.gaze_px;
+        if !(g[0].is_finite() && g[1].is_finite()) {
+            return Err(format!(
+                "the point of regard must be finite, got ({}, {})",
+                g[0], g[1]
+            ));
+        }
+        let (w, h) = (input.width_px, input.height_px);
+        let n = u64::from(w) * u64::from(h);
+        if n > MAX_MAP_PIXELS {
+            return Err(format!(
+                "{w}×{h}: a map holds at most {MAX_MAP_PIXELS} pixels"
+            ));
+        }
+        let sampler = input.model.from_por(g);
+        let mut values = vec![0.0f32; n as usize];
+        if w > 0 {
+            values
+                .par_chunks_mut(w as usize)
+                .enumerate()
+                .for_each(|(y, row)| {
+                    for (x, v) in row.iter_mut().enumerate() {
+                        *v = f(&sampler, [x as f64 + 0.5, y as f64 + 0.5]);
+                    }
+                });
+        }
+        Ok(MapValues {
+            width_px: w,
+            height_px: h,
+            values,
+            unit,
+        })
+    }
+}
+
+/// The most pixels a debug map holds (an 8K display, 33 MP, with room).
+pub const MAX_MAP_PIXELS: u64 = 1 << 26;
+
 /// A registered debug map.
 pub struct DebugMap {
     /// The name `render --map NAME=FILE.png` takes.
@@ -129,7 +178,7 @@ impl fmt::Debug for DebugMap {
 }
 
 /// The registered debug maps.
-pub static MAPS: &[&DebugMap] = &[];
+pub static MAPS: &[&DebugMap] = crate::maps::ALL;
 
 /// The registered map called `name`.
 pub fn map(name: &str) -> Option<&'static DebugMap> {

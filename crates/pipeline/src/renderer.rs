@@ -352,6 +352,11 @@ impl<'s> Renderer<'s> {
         changed
     }
 
+    /// The sampling model the next frame is rendered under.
+    pub fn sampling_model(&self) -> &SamplingModel {
+        &self.model
+    }
+
     /// The eye distance (mm) the ray masks are built for.
     pub fn eye_distance_mm(&self) -> f64 {
         self.model.geometry.eye_distance_mm
@@ -583,6 +588,15 @@ impl<'s> Renderer<'s> {
     /// [`Options::reuse`] off).
     pub fn reuse_stats(&self) -> raycast::render::ReuseStats {
         self.scratch.reuse_stats()
+    }
+
+    /// A registered method module's state, when a module runs (downcast
+    /// with [`FrameMethod::as_any`]); `None` otherwise.
+    pub fn method_state(&self) -> Option<&dyn FrameMethod> {
+        match &self.state {
+            MethodState::Module(m) => Some(m.as_ref()),
+            _ => None,
+        }
     }
 
     /// `Method::Ulod`'s state (levels, attention, last frame's counts), when

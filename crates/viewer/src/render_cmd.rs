@@ -75,6 +75,11 @@ pub struct RenderArgs {
     /// scene must list `DepthOfField`.
     #[arg(long, value_name = "FILE.png")]
     pub dof_level: Option<PathBuf>,
+    /// Write a registered debug map for the gaze as a picture: NAME=FILE.png
+    /// (repeatable); a NAME that is not registered is answered with the
+    /// list of those that are (`pipeline::registry::MAPS`).
+    #[arg(long = "map", value_name = "NAME=FILE.png", value_parser = parse_map)]
+    pub maps: Vec<(&'static pipeline::registry::DebugMap, PathBuf)>,
     /// Ray/triangle test.
     #[arg(long, value_enum, default_value = "watertight")]
     pub intersector: Intersector,
@@ -214,6 +219,7 @@ pub fn run(args: &RenderArgs, out: &mut dyn Write) -> Result<(), String> {
     outputs.extend(args.stats.as_deref().map(|p| ("--stats", p)));
     outputs.extend(args.coc.as_deref().map(|p| ("--coc", p)));
     outputs.extend(args.dof_level.as_deref().map(|p| ("--dof-level", p)));
+    outputs.extend(args.maps.iter().map(|(_, p)| ("--map", p.as_path())));
     crate::output::Inputs::new()
         .scene("--scene", &args.scene)
         .file("--display", &args.display)
@@ -289,6 +295,9 @@ pub fn run(args: &RenderArgs, out: &mut dyn Write) -> Result<(), String> {
             .map_err(|e| format!("{}: {e}", path.display()))?;
     }
     write_dof_maps(&renderer, args, (frame.width_px, frame.height_px))?;
+    for (map, path) in &args.maps {
+        write_debug_map(map, path, renderer.sampling_model(), gaze, &geometry)?;
+    }
     let report = RenderReport {
         stats,
         backend: renderer.backend_name(),
@@ -409,6 +418,69 @@ fn write_dof_maps(
         )?;
     }
     Ok(())
+}
+
+/// `--map NAME=FILE.png`: a registered map and where to write it.
+fn parse_map(s: &str) -> Result<(&'static pipeline::registry::DebugMap, PathBuf), String> {
+    let known = || {
+        pipeline::registry::MAPS
+            .iter()
+            .map(|m| m.name)
+            .collect::<Vec<_>>()
+            .join(", ")
+    };
+    let (name, file) = s
+        .split_once('=')
+        .ok_or_else(|| format!("{s:?}: expected NAME=FILE.png (maps: {})", known()))?;
+    let map = pipeline::registry::map(name)
+        .ok_or_else(|| format!("unknown map {name:?}; known: {}", known()))?;
+    if file.is_empty() {
+        return Err(format!("{s:?}: no file after '='"));
+    }
+    Ok((map, PathBuf::from(file)))
+}
+
+/// Writes a debug map: its values from black (the smallest) through the
+/// blue–green–yellow ramp to white (the largest), with a legend naming
+/// both ends and the unit.
+fn write_debug_map(
+    map: &pipeline::registry::DebugMap,
+    path: &std::path::Path,
+    model: &foveation::SamplingModel,
+    gaze: [f64; 2],
+    geometry: &foveation::ScreenGeometry,
+) -> Result<(), String> {
+    let input = pipeline::registry::MapInput {
+        model,
+        gaze_px: gaze,
+        width_px: geometry.width_px,
+        height_px: geometry.height_px,
+    };
+    let values = (map.make)(&input).map_err(|e| format!("--map {}: {e}", map.name))?;
+    let finite = values.values.iter().copied().filter(|v| v.is_finite());
+    let (lo, hi) = finite.fold((f32::INFINITY, f32::NEG_INFINITY), |(a, b), v| {
+        (a.min(v), b.max(v))
+    });
+    let span = if hi > lo { hi - lo } else { 1.0 };
+    const STOPS: [[f64; 3]; 5] = [
+        [0.0, 0.0, 0.0],
+        [0.12, 0.24, 0.8],
+        [0.16, 0.7, 0.47],
+        [0.94, 0.86, 0.16],
+        [1.0, 1.0, 1.0],
+    ];
+    let mut rgb: Vec<u8> = values
+        .values
+        .iter()
+        .flat_map(|&v| ramp(&STOPS, 4.0 * f64::from((v - lo) / span)))
+        .collect();
+    let size = (values.width_px, values.height_px);
+    let legend = format!(
+        "{}: black {lo:.2} to white {hi:.2} {} (gaze {:.0}, {:.0})",
+        map.name, values.unit, gaze[0], gaze[1]
+    );
+    draw_text_lines(&mut rgb, size, &[&legend]).map_err(|e| e.to_string())?;
+    save_png(path, size, &rgb).map_err(|e| format!("{}: {e}", path.display()))
 }
 
 /// Linear blend of RGB stops at `t` in 0..=stops−1.

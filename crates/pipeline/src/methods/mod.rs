@@ -11,4 +11,4 @@ macro_rules! register {
     };
 }
 
-register!();
+register!(layers);

@@ -374,3 +374,74 @@ fn render_writes_the_dof_coc_and_level_maps_and_refuses_them_without_the_effect(
         "nothing written on a refused flag"
     );
 }
+
+/// A registered method (`--method layers`) and the registered debug maps
+/// (`--map NAME=FILE.png`) reach the command line through pipeline's
+/// lists: no flag of their own. An unknown map name lists the known ones.
+#[test]
+fn registered_methods_and_maps_are_on_the_command_line() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let d = small_display(dir.path());
+    let (png, ecc, cut, stats) = (
+        dir.path().join("f.png"),
+        dir.path().join("ecc.png"),
+        dir.path().join("cut.png"),
+        dir.path().join("s.json"),
+    );
+    gazecast()
+        .args([
+            "render",
+            "--scene",
+            "config/scenes/search-task.ron",
+            "--gaze",
+            "100,80",
+            "--method",
+            "layers",
+            "--backend",
+            "cpu",
+            "--display",
+        ])
+        .arg(&d)
+        .arg("--out")
+        .arg(&png)
+        .arg("--map")
+        .arg(format!("eccentricity={}", ecc.display()))
+        .arg("--map")
+        .arg(format!("cutoff={}", cut.display()))
+        .arg("--stats")
+        .arg(&stats)
+        .succeed();
+    for f in [&png, &ecc, &cut] {
+        assert!(std::fs::read(f).expect("png").starts_with(b"\x89PNG"));
+    }
+    let v: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&stats).expect("json")).expect("json");
+    assert_eq!(v["mode"], "layers", "{v}");
+    // On this coarse display the inner layer holds the whole screen.
+    assert_eq!(v["rays_total"].as_u64(), Some(320 * 256), "{v}");
+    let out = gazecast()
+        .args([
+            "render",
+            "--scene",
+            "config/scenes/search-task.ron",
+            "--display",
+        ])
+        .arg(&d)
+        .arg("--out")
+        .arg(dir.path().join("g.png"))
+        .args(["--map", "eccentricty=x.png"])
+        .output()
+        .expect("runs");
+    assert_eq!(out.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("known: eccentricity, cutoff"), "{err}");
+    let help = gazecast()
+        .args(["render", "--help"])
+        .output()
+        .expect("runs");
+    let help = String::from_utf8_lossy(&help.stdout);
+    assert!(
+        help.contains("layers:") && help.contains("Guenter"),
+        "{help}"
+    );
+}

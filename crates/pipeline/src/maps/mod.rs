@@ -10,4 +10,4 @@ macro_rules! register {
     };
 }
 
-register!();
+register!(eccentricity, cutoff);

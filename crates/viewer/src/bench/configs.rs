@@ -58,6 +58,9 @@ impl Config {
     pub fn name(&self) -> String {
         let accel = self.accel.name();
         match self.layout {
+            None if matches!(self.method, Method::Module(_)) => {
+                format!("{} C={} {accel}", self.method.key(), self.contrast)
+            }
             None if self.method.is_model_based() => match self.budget {
                 Some(b) => format!("{} budget={b}", self.method.name()),
                 None => self.method.name().to_string(),
@@ -98,8 +101,9 @@ type Axes = (
 
 /// The sweep: full resolution with each structure, then every combination
 /// of the hybrid method's knobs, then image-based foveation at each
-/// contrast and spacing, then the two model-based methods: 2 + 144 + 24 + 2
-/// configurations, or 1 + 8 + 2 + 2 in `--quick`.
+/// contrast and spacing, then each registered method module and the two
+/// model-based methods: 2 + 144 + 24 + M + 2 configurations, or
+/// 1 + 8 + 2 + M + 2 in `--quick` (M modules).
 pub fn configurations(quick: bool) -> Vec<Config> {
     let (layouts, contrasts, spacings, refinements, accels): Axes = if quick {
         (
@@ -168,7 +172,21 @@ pub fn configurations(quick: bool) -> Vec<Config> {
             }
         }
     }
-    // The model-based methods (CPU raster; no knob of the sweep applies).
+    // Every registered method module (`pipeline::registry::METHODS`) at
+    // contrast 1 and the seed's largest spacing, as `render` runs it: no
+    // line here per module. Then the model-based methods (CPU raster; no
+    // knob of the sweep applies).
+    for method in Method::all().filter(|m| matches!(m, Method::Module(_))) {
+        out.push(Config {
+            method,
+            layout: None,
+            contrast: 1.0,
+            max_spacing_px: foveation::sampling::SEED_MAX_SPACING_PX,
+            refinement: Refinement::None,
+            accel: AccelArg::Bvh,
+            budget: None,
+        });
+    }
     for method in [Method::Simplify, Method::Lod] {
         out.push(Config {
             method,
@@ -245,13 +263,15 @@ mod tests {
     #[test]
     fn the_sweep_has_every_combination_once() {
         let all = configurations(false);
-        assert_eq!(all.len(), 2 + 2 * 4 * 3 * 3 * 2 + 2 * 4 * 3 + 2);
+        let modules = pipeline::registry::METHODS.len();
+        assert_eq!(all.len(), 2 + 2 * 4 * 3 * 3 * 2 + 2 * 4 * 3 + modules + 2);
         for (i, a) in all.iter().enumerate() {
             assert!(all[i + 1..].iter().all(|b| b != a), "{} twice", a.name());
         }
         assert_eq!(all.iter().filter(|c| c.is_default()).count(), 1);
         let quick = configurations(true);
-        assert_eq!(quick.len(), 13);
+        assert_eq!(quick.len(), 13 + modules);
+        assert!(quick.iter().any(|c| c.name() == "layers C=1 bvh"));
         assert_eq!(
             quick.iter().filter(|c| c.method == Method::Image).count(),
             2

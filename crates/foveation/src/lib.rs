@@ -39,3 +39,4 @@ pub use display::{Display, ScreenGeometry};
 pub use error::{fmt_f64, ParamError};
 pub use mask::{Layout, RayMask};
 pub use sampling::SamplingModel;
+pub use screen_geometry::EYE_DISTANCE_RANGE_MM;

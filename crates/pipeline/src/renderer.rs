@@ -78,9 +78,8 @@ impl Default for Options {
 }
 
 /// Eye distances (mm) a measured eye position may set
-/// ([`Renderer::set_eye_distance_mm`]): a head 10 cm to 3 m from the
-/// screen; others are not plausible measurements and are ignored.
-pub const EYE_DISTANCE_RANGE_MM: std::ops::RangeInclusive<f64> = 100.0..=3000.0;
+/// ([`Renderer::set_eye_distance_mm`]): `screen_geometry`'s plausible range.
+pub use foveation::EYE_DISTANCE_RANGE_MM;
 
 /// How far (relative) a measured eye distance must move from the one the
 /// sampling model has before the model follows it: 1 % (6 mm at 60 cm),

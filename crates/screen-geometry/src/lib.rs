@@ -102,6 +102,11 @@ pub fn norm3(v: [f64; 3]) -> f64 {
     }
 }
 
+/// Eye distances (mm) a measured eye position may stand for: a head 10 cm
+/// to 3 m from the screen; others are not plausible measurements (the
+/// ray masks ignore them, the trackers' eye-distance readings drop them).
+pub const EYE_DISTANCE_RANGE_MM: std::ops::RangeInclusive<f64> = 100.0..=3000.0;
+
 /// The longest screen side accepted, pixels: 16384.
 ///
 /// The largest 2D texture every desktop GPU API guarantees (Direct3D 11/12

@@ -90,6 +90,7 @@ pub mod iscan;
 pub mod lsl;
 pub mod mapping;
 pub mod mouse;
+pub mod plausibility;
 pub mod recording;
 pub mod replay;
 pub mod sample;

@@ -152,19 +152,6 @@ fn add_stats(a: DecodeStats, b: DecodeStats) -> DecodeStats {
     }
 }
 
-/// Whether a mapped gaze is usable: finite and, when the screen size is
-/// known, not more than one screen diagonal outside the screen.
-pub fn plausible(p: [f64; 2], screen_px: Option<[f64; 2]>) -> bool {
-    if !(p[0].is_finite() && p[1].is_finite()) {
-        return false;
-    }
-    let Some([w, h]) = screen_px else {
-        return true;
-    };
-    let d = w.hypot(h);
-    (-d..=w + d).contains(&p[0]) && (-d..=h + d).contains(&p[1])
-}
-
 fn lock(f: &Mutex<Faults>) -> std::sync::MutexGuard<'_, Faults> {
     f.lock().unwrap_or_else(std::sync::PoisonError::into_inner)
 }
@@ -284,11 +271,12 @@ fn tracker_thread(mut open: Opener, ctx: ThreadCtx) {
                     }
                     let raw = s.gaze().filter(|p| p[0].is_finite() && p[1].is_finite());
                     let mapped = raw.and_then(&map);
-                    let gaze_px = mapped.filter(|&p| plausible(p, screen_px));
+                    let gaze_px =
+                        mapped.filter(|&p| tracker_hal::plausibility::plausible(p, screen_px));
                     let eye = |e: &tracker_hal::EyeSample| {
                         e.position
                             .and_then(&map)
-                            .filter(|&p| plausible(p, screen_px))
+                            .filter(|&p| tracker_hal::plausibility::plausible(p, screen_px))
                     };
                     let eyes_px = match (eye(&s.left), eye(&s.right)) {
                         (Some(l), Some(r)) if binocular && gaze_px.is_some() => Some([l, r]),
@@ -325,7 +313,7 @@ fn tracker_thread(mut open: Opener, ctx: ThreadCtx) {
                         raw,
                         gaze_px,
                         eyes_px,
-                        eye_distance_mm: eye_distance_mm(&s),
+                        eye_distance_mm: tracker_hal::plausibility::eye_distance_mm(&s),
                     });
                     let due = far_reported
                         .is_none_or(|(t, n)| n != far && t.elapsed() >= FAR_REPORT_EVERY);
@@ -826,76 +814,4 @@ pub fn interrupted_at_us() -> Option<u64> {
 /// Whether Ctrl-C or SIGTERM has arrived.
 pub fn interrupted() -> bool {
     INTERRUPTED.load(Ordering::SeqCst)
-}
-
-/// The eyes' distance from the screen (mm) in a sample: the mean z of its
-/// valid eye positions (µm in the tracker's frame, whose z is the distance
-/// from the tracker, mounted in the screen plane), when it lies in
-/// [`pipeline::EYE_DISTANCE_RANGE_MM`].
-pub fn eye_distance_mm(s: &tracker_hal::GazeSample) -> Option<f64> {
-    let (sum, n) = s
-        .eye_position_um
-        .iter()
-        .flatten()
-        .map(|p| p[2] / 1000.0)
-        .filter(|z| z.is_finite())
-        .fold((0.0, 0u32), |(s, n), z| (s + z, n + 1));
-    let d = sum / f64::from(n.max(1));
-    (n > 0 && pipeline::EYE_DISTANCE_RANGE_MM.contains(&d)).then_some(d)
-}
-
-#[cfg(test)]
-mod tests {
-    use super::{eye_distance_mm, plausible};
-
-    #[test]
-    fn the_eye_distance_is_the_mean_z_of_the_valid_eyes_when_plausible() {
-        let sample = |l: Option<[f64; 3]>, r: Option<[f64; 3]>| tracker_hal::GazeSample {
-            seq: 0,
-            device_time_us: None,
-            host_time_us: 0,
-            mapped_time_us: 0,
-            time_order: tracker_hal::timing::TimeOrder::Unmapped,
-            clock_segment: 0,
-            left: tracker_hal::EyeSample::MISSING,
-            right: tracker_hal::EyeSample::MISSING,
-            combined: None,
-            eye_position_um: [l, r],
-        };
-        let at = |z: f64| Some([30_000.0, -5_000.0, z]);
-        assert_eq!(eye_distance_mm(&sample(at(600e3), at(620e3))), Some(610.0));
-        assert_eq!(eye_distance_mm(&sample(None, at(620e3))), Some(620.0));
-        assert_eq!(
-            eye_distance_mm(&sample(at(f64::NAN), at(620e3))),
-            Some(620.0)
-        );
-        assert_eq!(eye_distance_mm(&sample(None, None)), None);
-        assert_eq!(eye_distance_mm(&sample(at(f64::NAN), None)), None);
-        for z in [0.0, -600e3, 50e3, 5e6, f64::INFINITY] {
-            assert_eq!(eye_distance_mm(&sample(at(z), None)), None, "{z}");
-        }
-    }
-
-    /// Mapped gaze that is not finite or more than one screen diagonal
-    /// outside the screen is not a gaze (a 1e7-px POR used to reach the
-    /// renderer); anything nearer is, off-screen or not.
-    #[test]
-    fn gaze_far_off_the_screen_or_not_finite_is_implausible() {
-        let screen = Some([300.0, 400.0]); // diagonal 500
-        for p in [[0.0, 0.0], [300.0, 400.0], [-499.0, 899.0], [799.0, -500.0]] {
-            assert!(plausible(p, screen), "{p:?}");
-        }
-        for p in [
-            [-501.0, 0.0],
-            [801.0, 0.0],
-            [0.0, 901.0],
-            [1.0e7, 1.0e7],
-            [f64::NAN, 1.0],
-            [1.0, f64::INFINITY],
-        ] {
-            assert!(!plausible(p, screen), "{p:?}");
-        }
-        assert!(plausible([1.0e7, 0.0], None));
-        assert!(!plausible([f64::NAN, 0.0], None));
-    }
 }

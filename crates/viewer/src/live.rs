@@ -167,6 +167,8 @@ impl Latency {
     }
 }
 struct Viewer<'a> {
+    /// The display's geometry (vergence is measured in it).
+    geometry: ScreenGeometry,
     opts: &'a LiveOptions,
     /// The session log, written as it happens (a long session keeps
     /// nothing in memory and a crash loses nothing written).
@@ -218,39 +220,6 @@ struct Viewer<'a> {
     /// process's clock.
     lsl: Option<crate::lsl_out::Outlets>,
     lsl_shift: crate::lsl_out::ReplayShift,
-}
-
-/// Interocular distance for vergence, mm: the adult mean (Dodgson 2004);
-/// the trackers' eye positions are not used for it yet.
-pub const INTEROCULAR_MM: f64 = 63.0;
-
-/// Farthest vergence point accepted, in eye-to-screen distances: beyond
-/// it the lines of sight are treated as parallel (no depth).
-pub const VERGENCE_MAX_SCALE: f64 = 100.0;
-
-/// The eye distance (mm) of the 3-D gaze point where the two eyes' lines
-/// of sight through their points of regard (`eyes_px`: left, right; screen
-/// px) meet (Murphy & Duchowski eqs. 1–3, `tracker_hal::events::
-/// vergence_point`), the eyes [`INTEROCULAR_MM`] apart about the camera's
-/// eye; `None` when they are parallel, diverge or meet beyond
-/// [`VERGENCE_MAX_SCALE`] screen distances.
-pub fn vergence_mm(camera: &Camera, eyes_px: [[f64; 2]; 2]) -> Option<f64> {
-    let on_screen = |p: [f64; 2]| {
-        let w = camera.screen_point([p[0] as f32, p[1] as f32]);
-        [f64::from(w.x), f64::from(w.y)]
-    };
-    let eye = camera.eye.as_dvec3();
-    // Coordinates of eqs. 1–3: the eyes' plane at z = 0, the screen at z = d.
-    let g = tracker_hal::events::vergence_point(
-        on_screen(eyes_px[0]),
-        on_screen(eyes_px[1]),
-        INTEROCULAR_MM,
-        [eye.x, eye.y, 0.0],
-        eye.z,
-        VERGENCE_MAX_SCALE,
-    )?;
-    let d = (g[0] - eye.x).hypot(g[1] - eye.y).hypot(g[2]);
-    (d.is_finite() && d > 0.0).then_some(d)
 }
 
 /// The newest valid gaze of a drain.
@@ -421,7 +390,7 @@ impl Viewer<'_> {
         let gaze = self.gaze;
         let vergence = self
             .eyes_px
-            .and_then(|e| vergence_mm(self.renderer.camera(), e));
+            .and_then(|e| tracker_hal::plausibility::vergence_mm(&self.geometry, e));
         self.renderer.set_vergence_mm(vergence);
         if self.opts.eye_distance == EyeDistance::Measured
             && self.renderer.set_eye_distance_mm(self.eye_distance_mm)
@@ -714,6 +683,7 @@ pub fn run(opts: &LiveOptions, out: &mut dyn Write) -> Result<(), LiveError> {
         feed,
         screen: None,
         gaze: geometry.centre_px(),
+        geometry: *geometry,
         attention,
         eyes_px: None,
         eye_distance_mm: None,
@@ -881,39 +851,6 @@ mod tests {
         assert_eq!(statuses, vec!["lost".to_string()]);
         assert!(rx.is_empty());
         assert_eq!(drain_newest(&rx, |_| {}, |_, _| {}), None);
-    }
-
-    /// Eqs. 1–3 on the display: eyes converging on the screen give the
-    /// screen's distance, the disparity of a point at depth D gives D, and
-    /// parallel or diverging lines of sight give none.
-    #[test]
-    fn vergence_depth_from_the_two_eyes_points() {
-        let d = Display {
-            name: "17in".into(),
-            resolution_px: (1280, 1024),
-            size_mm: (337.9, 270.3),
-            eye_distance_mm: 540.0,
-            eye_point_px: None,
-        };
-        let cam = Camera::new(&d.geometry().expect("geometry"));
-        let pitch = f64::from(cam.pitch()[0]);
-        let centre = [640.0, 512.0];
-        let got = vergence_mm(&cam, [centre, centre]).expect("on the screen");
-        assert!((got - 540.0).abs() < 1e-6, "{got}");
-        for depth in [300.0, 1000.0, 5000.0] {
-            // Where each eye's line of sight to the point crosses the screen.
-            let half = 0.5 * INTEROCULAR_MM * (1.0 - 540.0 / depth) / pitch;
-            let eyes = [[640.0 - half, 512.0], [640.0 + half, 512.0]];
-            let got = vergence_mm(&cam, eyes).expect("converging");
-            assert!((got - depth).abs() < 1e-3 * depth, "{depth}: {got}");
-        }
-        let parallel = INTEROCULAR_MM / pitch;
-        assert_eq!(
-            vergence_mm(&cam, [[600.0, 512.0], [600.0 + parallel, 512.0]]),
-            None
-        );
-        assert_eq!(vergence_mm(&cam, [[600.0, 512.0], [900.0, 512.0]]), None);
-        assert_eq!(vergence_mm(&cam, [[f64::NAN, 0.0], centre]), None);
     }
 
     /// The session log names the plan at the start and again whenever it

@@ -314,7 +314,10 @@ impl Runner<'_> {
                         _ => gaze_px,
                     }
                     .filter(|g| {
-                        crate::gaze_feed::plausible(*g, Some(self.setup.geometry.size_px()))
+                        tracker_hal::plausibility::plausible(
+                            *g,
+                            Some(self.setup.geometry.size_px()),
+                        )
                     });
                     self.dir.sample(&SampleRow {
                         sitting: self.dir.sitting(),

@@ -42,6 +42,15 @@ pub struct BenchArgs {
     pub command: BenchCommand,
 }
 
+/// `bench accuracy --quick`'s help, with the sweep's true sizes.
+fn quick_help() -> String {
+    format!(
+        "Fewer configurations ({} of {}) and two gazes unless --gazes is given",
+        configs::configurations(true).len(),
+        configs::configurations(false).len()
+    )
+}
+
 #[derive(Debug, Clone, clap::Subcommand)]
 pub enum BenchCommand {
     /// Sweep layout, contrast, maximum spacing, refinement and acceleration
@@ -100,8 +109,9 @@ pub struct AccuracyArgs {
     /// The sweep runs on the CPU backend (`gpu` is refused; `auto` = CPU).
     #[arg(long, value_parser = crate::args::backend_parser(), default_value = "auto")]
     pub backend: BackendChoice,
-    /// Fewer configurations (13 of 172) and two gazes unless --gazes is given.
-    #[arg(long)]
+    /// Fewer configurations and two gazes unless --gazes is given (the
+    /// counts, which registered method modules change, in `quick_help`).
+    #[arg(long, help = quick_help())]
     pub quick: bool,
     /// Add `simplify` under a triangle budget of N (Luebke & Hallen's
     /// best-effort mode; 1 to 10^9); repeat for several budgets.

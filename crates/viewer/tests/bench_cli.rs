@@ -29,7 +29,13 @@ fn a_quick_accuracy_sweep_writes_csv_plot_and_report() {
         .arg(&out)
         .succeed();
     let stdout = String::from_utf8_lossy(&run.stdout);
-    assert!(stdout.contains("13 configurations x 2 gazes"), "{stdout}");
+    // 13 built in, plus every registered method module.
+    let n = gazecast_viewer::bench::configs::configurations(true).len();
+    assert_eq!(n, 13 + pipeline::registry::METHODS.len());
+    assert!(
+        stdout.contains(&format!("{n} configurations x 2 gazes")),
+        "{stdout}"
+    );
 
     let csv = std::fs::read_to_string(out.join("results.csv")).expect("results.csv");
     let mut lines = csv.lines();
@@ -39,7 +45,7 @@ fn a_quick_accuracy_sweep_writes_csv_plot_and_report() {
         gazecast_viewer::bench::report::RESULTS_HEADER
     );
     let rows: Vec<Vec<&str>> = lines.map(|l| l.split(',').collect()).collect();
-    assert_eq!(rows.len(), 13 * 2, "one row per configuration and gaze");
+    assert_eq!(rows.len(), n * 2, "one row per configuration and gaze");
     let col = |name: &str| header.iter().position(|h| *h == name).expect(name);
     for r in &rows {
         assert_eq!(r.len(), header.len(), "{r:?}");

@@ -139,8 +139,8 @@ fn the_inner_core_is_the_full_frame_and_costs_fewer_rays() {
             100.0 * ls.rays_total as f64 / fs.rays_total as f64
         );
         assert!(n > 1000, "{gaze:?}: the core is not empty");
-        // The window camera's rays equal the display's up to f32 rounding.
-        assert!(differ * 1000 <= n, "{gaze:?}: {differ} of {n}");
+        // The window camera's rays are the display's, bit for bit.
+        assert_eq!(differ, 0, "{gaze:?}: {differ} of {n}");
         assert!(ls.rays_total < fs.rays_total, "{gaze:?}");
         assert_eq!(ls.rays_total, ls.rays_fovea + ls.rays_mask);
         assert!(l.hit.iter().any(|&h| h));

@@ -13,13 +13,17 @@ pub struct Camera {
     pub eye: Vec3,
     pub width_px: u32,
     pub height_px: u32,
+    /// The display's pixel pitch, mm.
     pitch_x: f32,
     pitch_y: f32,
-    /// Where this camera's pixel grid is centred on the screen (world mm
-    /// from the screen's centre): zero for the display's own camera; a
-    /// window of the screen sampled at its own resolution
-    /// ([`Camera::window`]) is centred elsewhere.
-    offset_mm: [f32; 2],
+    /// Display pixels per pixel of this camera: 1 for the display's own
+    /// camera, the layer's step for a window ([`Camera::window`]).
+    step: f32,
+    /// `x0 − W/2` and `H/2 − y0` in display pixels, for a grid whose first
+    /// pixel starts at display pixel (x0, y0) of a W×H display: `(−W/2,
+    /// H/2)` for the display's own camera. Screen point of this camera's
+    /// position p: `((p.x·step + shift.x)·pitch_x, (shift.y − p.y·step)·pitch_y)`.
+    shift: [f32; 2],
 }
 
 impl Camera {
@@ -36,50 +40,45 @@ impl Camera {
             height_px: g.height_px,
             pitch_x: g.pitch_x_mm as f32,
             pitch_y: g.pitch_y_mm as f32,
-            offset_mm: [0.0, 0.0],
+            step: 1.0,
+            shift: [-(g.width_px as f32) / 2.0, g.height_px as f32 / 2.0],
         }
     }
 
     /// A camera for a window of this one's screen sampled every `step`
     /// pixels: its pixel (i, j) has its centre at this camera's screen
     /// position (x0 + (i + ½)·step, y0 + (j + ½)·step), and it is
-    /// `width_px`×`height_px` pixels. The eye is the same; so is every
-    /// ray's direction up to f32 rounding (the window's own rays are built
-    /// from its centre). `step` must be finite and positive.
+    /// `width_px`×`height_px` pixels. The eye is the same, and so is every
+    /// ray, bit for bit, where both cameras have a pixel centre (for whole
+    /// `x0`, `y0` and `step` and a screen under 2^22 px a side: the screen
+    /// positions are then exact in f32). `step` must be finite and positive.
     pub fn window(&self, x0: f32, y0: f32, step: f32, width_px: u32, height_px: u32) -> Camera {
-        let (w, h) = (self.width_px as f32, self.height_px as f32);
-        let centre = [
-            x0 + 0.5 * width_px as f32 * step,
-            y0 + 0.5 * height_px as f32 * step,
-        ];
         Camera {
             eye: self.eye,
             width_px,
             height_px,
-            pitch_x: self.pitch_x * step,
-            pitch_y: self.pitch_y * step,
-            offset_mm: [
-                self.offset_mm[0] + (centre[0] - w / 2.0) * self.pitch_x,
-                self.offset_mm[1] + (h / 2.0 - centre[1]) * self.pitch_y,
+            pitch_x: self.pitch_x,
+            pitch_y: self.pitch_y,
+            step: self.step * step,
+            shift: [
+                self.shift[0] + x0 * self.step,
+                self.shift[1] - y0 * self.step,
             ],
         }
     }
 
-    /// The window's centre on the screen, world mm from the screen's
-    /// centre (zero for a display's own camera).
-    pub fn offset_mm(&self) -> [f32; 2] {
-        self.offset_mm
+    /// This camera's grid on the display: its step (display pixels per
+    /// pixel) and shift (`x0 − W/2`, `H/2 − y0`, see the field), for the
+    /// GPU core's uniforms.
+    pub fn grid(&self) -> (f32, [f32; 2]) {
+        (self.step, self.shift)
     }
 
     /// The world point of screen position `p` (pixels, origin top-left, y down).
     pub fn screen_point(&self, p: [f32; 2]) -> Vec3 {
-        let x = (p[0] - self.width_px as f32 / 2.0) * self.pitch_x;
-        let y = (self.height_px as f32 / 2.0 - p[1]) * self.pitch_y;
-        // A zero offset adds nothing, not even a sign to a zero.
-        let shift = |v: f32, o: f32| if o == 0.0 { v } else { v + o };
         Vec3::new(
-            shift(x, self.offset_mm[0]),
-            shift(y, self.offset_mm[1]),
+            (p[0] * self.step + self.shift[0]) * self.pitch_x,
+            (self.shift[1] - p[1] * self.step) * self.pitch_y,
             0.0,
         )
     }
@@ -89,8 +88,14 @@ impl Camera {
         Ray::new(self.eye, self.screen_point(p) - self.eye)
     }
 
-    /// Pixel pitch (mm) in x and y.
+    /// Pixel pitch (mm) in x and y of this camera's pixels (the display's,
+    /// times the step for a window).
     pub fn pitch(&self) -> [f32; 2] {
+        [self.pitch_x * self.step, self.pitch_y * self.step]
+    }
+
+    /// The display's pixel pitch (mm), whatever the camera's step.
+    pub fn display_pitch(&self) -> [f32; 2] {
         [self.pitch_x, self.pitch_y]
     }
 
@@ -133,14 +138,24 @@ mod tests {
                 assert!((a - b).length() < 1e-3, "{x0} {y0} {step}: {a} vs {b}");
             }
         }
-        // The whole screen at step 1 is the camera itself, bit for bit.
-        let same = cam.window(0.0, 0.0, 1.0, 1280, 1024);
-        assert_eq!(same.offset_mm(), [0.0, 0.0]);
-        for p in [[0.5, 0.5], [640.0, 512.0], [1279.5, 1023.5]] {
-            let (a, b) = (cam.screen_point(p), same.screen_point(p));
+        // At step 1 a window's rays are the display's, bit for bit.
+        for (x0, y0) in [(0u32, 0u32), (300, 200), (1, 1023), (1279, 7)] {
+            let win = cam.window(x0 as f32, y0 as f32, 1.0, 1, 1);
+            let a = cam.pixel_ray(x0, y0);
+            let b = win.pixel_ray(0, 0);
             assert_eq!(
-                a.to_array().map(f32::to_bits),
-                b.to_array().map(f32::to_bits)
+                a.dir.to_array().map(f32::to_bits),
+                b.dir.to_array().map(f32::to_bits)
+            );
+        }
+        // The display's own camera: the old arithmetic, (p − W/2)·pitch.
+        for p in [[0.5f32, 0.5], [640.0, 512.0], [1279.5, 1023.5]] {
+            let x = (p[0] - 1280.0 / 2.0) * cam.pitch()[0];
+            let y = (1024.0 / 2.0 - p[1]) * cam.pitch()[1];
+            let got = cam.screen_point(p);
+            assert_eq!(
+                (got.x.to_bits(), got.y.to_bits()),
+                (x.to_bits(), y.to_bits())
             );
         }
     }

@@ -28,7 +28,8 @@
 //! the ray caster's full mode, on the GPU the GPU core's full frame (each
 //! layer read back, the composition on the CPU — not yet a GPU pass). The
 //! composition blends in linear light; a pixel in the inner layer's core is
-//! that layer's own texel, byte for byte. The G-buffer's hit and surface
+//! that layer's own texel, byte for byte — the full frame's pixel, since a
+//! window's rays are the display camera's bit for bit. The G-buffer's hit and surface
 //! values come from the nearest sample of the finest layer weighing at
 //! least one half there.
 //!

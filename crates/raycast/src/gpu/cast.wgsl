@@ -10,8 +10,8 @@ struct Params {
     height: u32,
     n_lights: u32,
     n_triangles: u32,
-    eye: vec4<f32>,          // xyz
-    pitch: vec4<f32>,        // x, y; z, w: the window's centre (mm), 0 for the display's camera
+    eye: vec4<f32>,          // xyz; w: the camera's step (display px per px)
+    pitch: vec4<f32>,        // x, y: the display's pitch; z, w: the shift (Camera::grid)
     background: vec4<f32>,   // linear rgb
     background_rgb8: vec4<u32>,
 };
@@ -261,12 +261,10 @@ struct Sample {
 };
 
 fn screen_point(p: vec2<f32>) -> vec3<f32> {
-    let x = (p.x - f32(params.width) / 2.0) * params.pitch.x;
-    let y = (f32(params.height) / 2.0 - p.y) * params.pitch.y;
-    // `Camera::screen_point`: a zero offset adds nothing, not even a sign.
+    // `Camera::screen_point`: the step in eye.w, the shift in pitch.zw.
     return vec3<f32>(
-        select(x + params.pitch.z, x, params.pitch.z == 0.0),
-        select(y + params.pitch.w, y, params.pitch.w == 0.0),
+        (p.x * params.eye.w + params.pitch.z) * params.pitch.x,
+        (params.pitch.w - p.y * params.eye.w) * params.pitch.y,
         0.0);
 }
 

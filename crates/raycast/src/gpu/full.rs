@@ -46,15 +46,16 @@ impl GpuRenderer {
             bytes: u64::from(w) * u64::from(h) * 4,
             limit: self.max_binding,
         })?;
-        let pitch = cam.pitch();
+        let pitch = cam.display_pitch();
+        let (step, shift) = cam.grid();
         let [r, g, b] = self.background_rgb8.map(u32::from);
         let params = Params {
             width: w,
             height: h,
             n_lights: self.scene.n_lights,
             n_triangles: self.scene.n_triangles,
-            eye: [cam.eye.x, cam.eye.y, cam.eye.z, 0.0],
-            pitch: [pitch[0], pitch[1], cam.offset_mm()[0], cam.offset_mm()[1]],
+            eye: [cam.eye.x, cam.eye.y, cam.eye.z, step],
+            pitch: [pitch[0], pitch[1], shift[0], shift[1]],
             background: [
                 self.background[0],
                 self.background[1],

@@ -48,6 +48,7 @@ pub mod method;
 pub mod model;
 pub mod model_based;
 pub mod plan;
+mod pyramid;
 pub mod registry;
 pub mod renderer;
 pub mod ulod;

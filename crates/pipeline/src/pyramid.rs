@@ -25,7 +25,7 @@
 //! blur) and renormalises the rest, and it carries the depth and blur
 //! mips beside the colour. A separable sum also rounds differently from a
 //! 4×4 one, so each keeps its order of summation (which its GPU twin
-//! repeats). The two blends differ too:
+//! repeats). The GPU side of this module is `gpu/pyramid.wgsl`. The two blends differ too:
 //! foveation reads levels `⌊m⌋` and `⌈m⌉` themselves, depth of field the
 //! 9-point circular filter (eq. 4.8) over levels `⌊m⌋ − 1` and `⌊m⌋`.
 

@@ -262,7 +262,7 @@ impl DofFrame<'_> {
             Kernels::new(
                 device,
                 "dof.wgsl",
-                include_str!("dof.wgsl"),
+                concat!(include_str!("pyramid.wgsl"), "\n", include_str!("dof.wgsl")),
                 &["dof_base", "dof_reduce", "dof_blend"],
                 &[true, false, false, false],
                 PARAMS_BYTES,

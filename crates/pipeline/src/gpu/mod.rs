@@ -1,7 +1,9 @@
 //! The GPU paths of the two image passes, depth of field
 //! ([`crate::effects::depth_of_field`]) and image-based foveation
 //! ([`crate::image_foveation`]): the same filters in WGSL (`dof.wgsl`,
-//! `image_foveation.wgsl`, sharing `colour.wgsl`), encoded on a GPU frame's
+//! `image_foveation.wgsl`, sharing `colour.wgsl` and the pyramid's buffer,
+//! footprint and lookup in `pyramid.wgsl`, which their shaders put before
+//! their own source), encoded on a GPU frame's
 //! colour and depth buffers between its cast and its read-back through
 //! [`raycast::gpu::GpuPost`], so the image makes no CPU round trip. The CPU
 //! code is the reference; the GPU output equals it within 1/255 per

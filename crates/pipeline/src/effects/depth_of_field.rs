@@ -110,8 +110,9 @@ pub struct DepthOfField {
     /// The eye; `aperture_mm` is the pupil diameter (0: the identity).
     pub lens: EyeLens,
     pub focus: DofFocus,
-    /// The focus search's state (last focus, refocusing, attention model).
-    focuser: Focuser,
+    /// The focus search's state (last focus, refocusing, attention model;
+    /// the GPU path settles its focus here too).
+    pub(crate) focuser: Focuser,
     /// Mipmap level per pixel of the current frame.
     level: Vec<f32>,
     /// Level 0 (linear light, full size) and levels 1… of the pyramid.
@@ -272,31 +273,17 @@ impl DepthOfField {
         }
     }
 
-    /// Whether the pupil is zero (or invalid): the pass is the identity and
-    /// does not even update its focus.
-    pub(crate) fn is_pinhole(&self) -> bool {
-        self.lens.aperture_mm.is_nan() || self.lens.aperture_mm <= 0.0
-    }
-
-    /// [`Focuser::settle`] for a frame whose focus search ran elsewhere
-    /// (the GPU path reads the gaze window back): `found_mm` is what it
-    /// found. The same target and refocusing as the CPU pass.
-    pub(crate) fn focus_with(&mut self, found_mm: Option<f64>, time_s: Option<f64>) -> f64 {
-        self.focuser.settle(self.focus, found_mm, time_s)
-    }
-
-    /// `focus: Attention`'s model (the GPU path runs it on the frame's
-    /// buffers); `None` for other focuses.
-    pub(crate) fn attention_model(
-        &mut self,
-    ) -> Option<&mut crate::frame_attention::FrameAttention> {
-        self.focuser.attention_model()
-    }
-
     /// `focus: Attention`'s model, read only.
     pub fn attention(&self) -> Option<&crate::frame_attention::FrameAttention> {
         self.focuser.attention()
     }
+}
+
+/// Whether the pupil of `lens` is zero (or invalid): a depth-of-field pass
+/// (either chapter's) is then the identity and does not even update its
+/// focus.
+pub(crate) fn is_pinhole(lens: &EyeLens) -> bool {
+    lens.aperture_mm.is_nan() || lens.aperture_mm <= 0.0
 }
 
 /// Where a depth-of-field pass focuses, frame after frame: the search for
@@ -555,7 +542,7 @@ impl Pass for DepthOfField {
         if w == 0 || h == 0 || !frame.has_surface() || frame.rgb.len() < 3 * w * h {
             return;
         }
-        if self.is_pinhole() {
+        if is_pinhole(&self.lens) {
             return; // pupil 0: a pinhole, everything sharp
         }
         let focus = self.focuser.focus_mm(self.focus, frame, input);

@@ -44,16 +44,12 @@ pub(crate) struct GpuDof {
     buffers: Option<Buffers>,
 }
 
-/// One frame's depth of field.
+/// One frame's depth of field, at its focal depth.
 struct DofFrame<'a> {
     pub state: &'a mut GpuDof,
     pub camera: &'a Camera,
-    /// The scene as rendered (`focus: Attention` reads its objects).
-    pub scene: &'a raycast::Scene,
-    pub gaze_px: [f64; 2],
-    pub time_s: Option<f64>,
-    /// The frame's vergence depth, mm (`focus: Vergence`).
-    pub vergence_mm: Option<f64>,
+    /// The focal depth ([`super::frame_focus`]), mm.
+    pub focus: f64,
 }
 
 impl GpuDof {
@@ -118,13 +114,22 @@ impl GpuPass for GpuDof {
         encoder: wgpu::CommandEncoder,
         input: &PassInput<'_>,
     ) -> Result<wgpu::CommandEncoder, GpuError> {
+        let pass = &mut self.pass;
+        let (focus, encoder) = super::frame_focus(
+            &pass.lens,
+            pass.focus,
+            &mut pass.focuser,
+            frame,
+            encoder,
+            input,
+        )?;
+        let Some(focus) = focus else {
+            return Ok(encoder);
+        };
         DofFrame {
             state: self,
             camera: input.camera,
-            scene: input.scene,
-            gaze_px: input.gaze_px,
-            time_s: input.time_s,
-            vergence_mm: input.vergence_mm,
+            focus,
         }
         .encode(frame, encoder)
     }
@@ -192,31 +197,7 @@ impl DofFrame<'_> {
         mut encoder: wgpu::CommandEncoder,
     ) -> Result<wgpu::CommandEncoder, GpuError> {
         let (w, h) = (frame.width(), frame.height());
-        if w == 0 || h == 0 || self.state.pass.is_pinhole() {
-            return Ok(encoder);
-        }
-        // The focus: the gaze window read back where the focus needs it,
-        // the CPU pass's median and dynamics.
-        let focus_kind = self.state.pass.focus;
-        let attention = self
-            .state
-            .pass
-            .attention_model()
-            .map(|model| super::AttentionFocus {
-                model,
-                scene: self.scene,
-                time_s: self.time_s,
-            });
-        let (found, next) = super::found_focus(
-            focus_kind,
-            self.vergence_mm,
-            frame,
-            encoder,
-            self.gaze_px,
-            attention,
-        )?;
-        encoder = next;
-        let focus = self.state.pass.focus_with(found, self.time_s);
+        let focus = self.focus;
         let top = top_level(w as usize, h as usize);
         if top == 0 {
             return Ok(encoder); // every level is 0: nothing to blur

@@ -8,7 +8,7 @@ use raycast::gpu::wgpu;
 use raycast::gpu::{GpuError, GpuFrame};
 use raycast::Camera;
 
-use super::{dispatch, level_layout, Kernels, Words, SLOT};
+use super::{dispatch, level_layout, CocUniforms, Kernels, Words, SLOT};
 use crate::effects::depth_of_field::{
     circular_weights, coc_px, level_for_coc, pyramid_taps, screen_of, top_level, DepthOfField,
     ANISO_DELTA_PX, ATTENTION_MAP_SIZE, CIRCLE, FOCUS_WINDOW_PX, MAX_LEVELS, SIGMA_CAP_PX,
@@ -208,26 +208,14 @@ impl DofFrame<'_> {
             |d: f32| level_for_coc(coc_px(&lens, f64::from(d), focus, ds, ppmm), top as f64) <= 0.0;
         let (sharp_lo, sharp_hi) = sharp_interval(sharp, focus);
         // `coc_px`'s clamps, for the per-pixel CoC in f32.
-        let nearest = lens.focal_length_mm * (1.0 + 1e-9);
-        let focus_c = if focus.is_nan() {
-            f64::INFINITY
-        } else {
-            focus.max(nearest)
-        };
-        let finite = focus_c.is_finite();
-        let k = if finite {
-            // C(∞) = DPI·(d_s/d_r)·E·F/(d_f − F): C(d) = C(∞)·|d − d_f|/d.
-            coc_px(&lens, f64::INFINITY, focus, ds, ppmm)
-        } else {
-            // Focus at infinity: C(d) = DPI·(d_s/d_r)·E·F/d.
-            ppmm * (ds / lens.retina_distance_mm) * (lens.aperture_mm * lens.focal_length_mm)
-        };
-        let focus_hi = if finite { focus_c as f32 } else { 0.0 };
-        let focus_lo = if finite {
-            (focus_c - f64::from(focus_hi)) as f32
-        } else {
-            0.0
-        };
+        let CocUniforms {
+            nearest,
+            finite,
+            k,
+            focus_hi,
+            focus_lo,
+            ..
+        } = CocUniforms::new(&lens, focus, ds, ppmm);
         let z_behind = if focus.is_finite() {
             f32_above(focus)
         } else {

@@ -57,7 +57,7 @@ use foveation::thin_lens::EyeLens;
 use raycast::scene::DofFocus;
 
 use crate::colour;
-use crate::effects::depth_of_field::{focus_window, is_pinhole, median_depth, Focuser};
+use crate::effects::depth_of_field::{coc_px, focus_window, is_pinhole, median_depth, Focuser};
 use crate::effects::{GpuPass, PassInput};
 
 /// Bytes of one uniform slot (one dispatch's params, a dynamic offset).
@@ -416,6 +416,57 @@ pub(crate) fn frame_focus(
         attention,
     )?;
     Ok((Some(focuser.settle(focus, found, input.time_s)), encoder))
+}
+
+/// The thin-lens CoC of both GPU depth-of-field passes as f32 uniforms,
+/// derived in f64 with `coc_px`'s clamps: per pixel `C(d) = k·|d − d_f|/d`
+/// for a finite focus (`d_f` as `focus_hi + focus_lo`, two f32) or `k/d`
+/// for a focus at infinity, the depth clamped to `nearest` first.
+pub(super) struct CocUniforms {
+    /// `coc_px`'s nearest depth (just beyond the focal length), mm.
+    pub nearest: f64,
+    /// The focus as `coc_px` clamps it (NaN: infinity), mm.
+    pub focus_c: f64,
+    /// Whether `focus_c` is finite.
+    pub finite: bool,
+    /// The CoC constant (may be infinite or NaN for a degenerate lens).
+    pub k: f64,
+    pub focus_hi: f32,
+    pub focus_lo: f32,
+}
+
+impl CocUniforms {
+    /// For `lens` focused at `focus_mm` on the screen `screen_of` gives.
+    pub fn new(lens: &EyeLens, focus_mm: f64, ds: f64, ppmm: f64) -> Self {
+        let nearest = lens.focal_length_mm * (1.0 + 1e-9);
+        let focus_c = if focus_mm.is_nan() {
+            f64::INFINITY
+        } else {
+            focus_mm.max(nearest)
+        };
+        let finite = focus_c.is_finite();
+        let k = if finite {
+            // C(∞) = DPI·(d_s/d_r)·E·F/(d_f − F): C(d) = C(∞)·|d − d_f|/d.
+            coc_px(lens, f64::INFINITY, focus_mm, ds, ppmm)
+        } else {
+            // Focus at infinity: C(d) = DPI·(d_s/d_r)·E·F/d.
+            ppmm * (ds / lens.retina_distance_mm) * (lens.aperture_mm * lens.focal_length_mm)
+        };
+        let focus_hi = if finite { focus_c as f32 } else { 0.0 };
+        let focus_lo = if finite {
+            (focus_c - f64::from(focus_hi)) as f32
+        } else {
+            0.0
+        };
+        Self {
+            nearest,
+            focus_c,
+            finite,
+            k,
+            focus_hi,
+            focus_lo,
+        }
+    }
 }
 
 /// `focus: Attention`'s model and what it reads besides the frame.

@@ -41,8 +41,8 @@ use raycast::gpu::wgpu;
 use raycast::gpu::{GpuError, GpuFrame};
 use raycast::Camera;
 
-use super::{dispatch, Kernels, Words};
-use crate::effects::depth_of_field::{coc_px, screen_of};
+use super::{dispatch, CocUniforms, Kernels, Words};
+use crate::effects::depth_of_field::screen_of;
 use crate::effects::dof_splat::{
     kn_table, signed_coc_px, spiral, DepthOfFieldSplat, COC_STEPS_PER_PX, DELTA, MAX_COC_PX,
 };
@@ -217,25 +217,15 @@ impl SplatFrame<'_> {
         let pass = &self.state.pass;
         let lens = pass.lens;
         let (ds, ppmm) = screen_of(self.camera);
-        let nearest = lens.focal_length_mm * (1.0 + 1e-9);
-        let focus_c = if focus.is_nan() {
-            f64::INFINITY
-        } else {
-            focus.max(nearest)
-        };
-        let finite = focus_c.is_finite();
-        let k = if finite {
-            coc_px(&lens, f64::INFINITY, focus, ds, ppmm)
-        } else {
-            ppmm * (ds / lens.retina_distance_mm) * (lens.aperture_mm * lens.focal_length_mm)
-        };
+        let CocUniforms {
+            nearest,
+            focus_c,
+            finite,
+            k,
+            focus_hi,
+            focus_lo,
+        } = CocUniforms::new(&lens, focus, ds, ppmm);
         let k = if k.is_finite() { k } else { 0.0 };
-        let focus_hi = if finite { focus_c as f32 } else { 0.0 };
-        let focus_lo = if finite {
-            (focus_c - f64::from(focus_hi)) as f32
-        } else {
-            0.0
-        };
         let (z_in_front, z_behind) = if finite {
             (f32_from(focus_c, true), f32_from(focus_c, false))
         } else {

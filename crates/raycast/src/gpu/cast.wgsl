@@ -317,20 +317,31 @@ fn screen_point(p: vec2<f32>) -> vec3<f32> {
         0.0);
 }
 
-fn trace(p: vec2<f32>) -> Sample {
+// The primary ray from the eye through screen point p (direction not
+// normalised: t in units of |screen point − eye|). Also the hidden cast's.
+fn primary_ray(p: vec2<f32>) -> Ray {
     let eye = params.eye.xyz;
     let dir = screen_point(p) - eye;
-    let r = Ray(eye, dir, 1.0 / dir, dir.x == 0.0 || dir.y == 0.0 || dir.z == 0.0);
-    let h = intersect(r);
-    if (h.t < 0.0) { return MISS; }
-    let tr = triangles[h.tri];
-    let s = 1.0 - h.u - h.v;
-    var n = try_normalize(tr.n0.xyz * s + tr.n1.xyz * h.u + tr.n2.xyz * h.v);
+    return Ray(eye, dir, 1.0 / dir, dir.x == 0.0 || dir.y == 0.0 || dir.z == 0.0);
+}
+
+// The shading normal of triangle `tr` at barycentrics (u, v): its vertex
+// normals interpolated, else its face normal, else +z. Also the hidden
+// cast's.
+fn shading_normal(tr: Triangle, u: f32, v: f32) -> vec3<f32> {
+    var n = try_normalize(tr.n0.xyz * (1.0 - u - v) + tr.n1.xyz * u + tr.n2.xyz * v);
     if (all(n == vec3<f32>(0.0))) {
         n = try_normalize(cross(tr.p1.xyz - tr.p0.xyz, tr.p2.xyz - tr.p0.xyz));
         if (all(n == vec3<f32>(0.0))) { n = vec3<f32>(0.0, 0.0, 1.0); }
     }
-    return Sample(1u, bitcast<u32>(tr.p0.w), h.t, n);
+    return n;
+}
+
+fn trace(p: vec2<f32>) -> Sample {
+    let h = intersect(primary_ray(p));
+    if (h.t < 0.0) { return MISS; }
+    let tr = triangles[h.tri];
+    return Sample(1u, bitcast<u32>(tr.p0.w), h.t, shading_normal(tr, h.u, h.v));
 }
 
 // 8-bit colour of a sample seen through screen point p (the CPU's

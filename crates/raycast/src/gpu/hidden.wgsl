@@ -107,11 +107,9 @@ fn hidden(@builtin(global_invocation_id) id: vec3<u32>) {
     hidden_out[i] = vec4<f32>(0.0, 0.0, 0.0, -1.0);
     if (hidden_want[i] == 0u) { return; }
     let p = vec2<f32>(f32(id.x) + 0.5, f32(id.y) + 0.5);
-    let eye = params.eye.xyz;
-    let dir = screen_point(p) - eye;
-    let r = Ray(eye, dir, 1.0 / dir, dir.x == 0.0 || dir.y == 0.0 || dir.z == 0.0);
+    let r = primary_ray(p);
     let s = nearest_hits(r);
-    let length_dir = length(dir);
+    let length_dir = length(r.dir);
     let visible = object_ids[i];
     let zv = depth[i];
     for (var k = 1u; k < s.len; k++) {
@@ -119,14 +117,8 @@ fn hidden(@builtin(global_invocation_id) id: vec3<u32>) {
         let object = bitcast<u32>(tr.p0.w);
         let d = s.t[k] * length_dir;
         if (object == visible || object == 0xffffffffu || !(d > zv)) { continue; }
-        let u = s.u[k];
-        let v = s.v[k];
-        var n = try_normalize(tr.n0.xyz * (1.0 - u - v) + tr.n1.xyz * u + tr.n2.xyz * v);
-        if (all(n == vec3<f32>(0.0))) {
-            n = try_normalize(cross(tr.p1.xyz - tr.p0.xyz, tr.p2.xyz - tr.p0.xyz));
-            if (all(n == vec3<f32>(0.0))) { n = vec3<f32>(0.0, 0.0, 1.0); }
-        }
-        let c = shade(object, eye + dir * s.t[k], n, eye);
+        let n = shading_normal(tr, s.u[k], s.v[k]);
+        let c = shade(object, r.origin + r.dir * s.t[k], n, r.origin);
         hidden_out[i] = vec4<f32>(clamp(c, vec3<f32>(0.0), vec3<f32>(1.0)), d);
         return;
     }

@@ -22,7 +22,9 @@
 //! 5-tap binomial `[1 4 6 4 1]/16` and decimated by 2, edges clamped, in
 //! linear light (the renderer's gamma 2.2 decoded and encoded again by
 //! [`crate::colour`]). Only the levels the frame's largest `m`
-//! needs are built.
+//! needs are built. The levels, REDUCE and the bilinear lookup are
+//! `crate::pyramid`'s, shared with depth of field; the binomial kernel is
+//! this filter's own.
 //!
 //! **The blend** between the two levels around a fractional `m` (a gap the
 //! seeds leave: Geisler & Perry blend by the levels' transfer functions at
@@ -35,6 +37,7 @@
 //! what the quality figures measure.
 
 use crate::colour;
+use crate::pyramid::{self, Kernel, Level, Texel};
 use foveation::SamplingModel;
 use raycast::Frame;
 use rayon::prelude::*;
@@ -45,52 +48,6 @@ pub const MAX_LEVEL: usize = 7;
 
 /// The binomial 5-tap kernel of Burt & Adelson's REDUCE.
 const TAPS: [f32; 5] = [1.0 / 16.0, 4.0 / 16.0, 6.0 / 16.0, 4.0 / 16.0, 1.0 / 16.0];
-
-/// One pyramid level, linear RGB, row-major.
-#[derive(Debug, Clone, Default)]
-struct Level {
-    w: usize,
-    h: usize,
-    px: Vec<[f32; 3]>,
-}
-
-impl Level {
-    fn reshape(&mut self, w: usize, h: usize) {
-        self.w = w;
-        self.h = h;
-        self.px.resize(w * h, [0.0; 3]);
-    }
-
-    /// Bilinear sample at texel position (`x`, `y`), texel centres at
-    /// integers, clamped to the edge.
-    #[inline]
-    fn bilinear(&self, x: f32, y: f32) -> [f32; 3] {
-        let x = x.clamp(0.0, (self.w - 1) as f32);
-        let y = y.clamp(0.0, (self.h - 1) as f32);
-        let (x0, y0) = (x.floor(), y.floor());
-        let (fx, fy) = (x - x0, y - y0);
-        let (x0, y0) = (x0 as usize, y0 as usize);
-        let x1 = (x0 + 1).min(self.w - 1);
-        let y1 = (y0 + 1).min(self.h - 1);
-        let p = |x: usize, y: usize| self.px[y * self.w + x];
-        let (a, b, c, d) = (p(x0, y0), p(x1, y0), p(x0, y1), p(x1, y1));
-        [0, 1, 2].map(|k| {
-            let top = a[k] + (b[k] - a[k]) * fx;
-            let bot = c[k] + (d[k] - c[k]) * fx;
-            top + (bot - top) * fy
-        })
-    }
-
-    /// The level-`k` value at the centre of level-0 pixel (`x`, `y`).
-    #[inline]
-    fn at_pixel(&self, k: usize, x: usize, y: usize) -> [f32; 3] {
-        let scale = (1u32 << k) as f32;
-        self.bilinear(
-            (x as f32 + 0.5) / scale - 0.5,
-            (y as f32 + 0.5) / scale - 0.5,
-        )
-    }
-}
 
 /// The image-based foveation filter, with its buffers (reused frame after
 /// frame; a renderer makes one only for `Method::Image`).
@@ -240,10 +197,7 @@ impl ImageFoveation {
             return None;
         }
         // Levels 0..=⌈max m⌉, as far as the frame's size allows.
-        let mut top = 0usize;
-        while top < MAX_LEVEL && (w >> (top + 1)) >= 1 && (h >> (top + 1)) >= 1 {
-            top += 1;
-        }
+        let top = pyramid::top_level(w, h, MAX_LEVEL);
         Some((max_m.ceil() as usize).min(top))
     }
 
@@ -338,13 +292,7 @@ impl ImageFoveation {
         if self.pyramid.len() < levels + 1 {
             self.pyramid.resize_with(levels + 1, Level::default);
         }
-        let lut = colour::decode_lut();
-        let base = &mut self.pyramid[0];
-        base.reshape(w, h);
-        base.px
-            .par_iter_mut()
-            .zip(rgb.par_chunks_exact(3))
-            .for_each(|(p, c)| *p = [lut[c[0] as usize], lut[c[1] as usize], lut[c[2] as usize]]);
+        self.pyramid[0].decode(rgb, (w, h));
         for l in 1..=levels {
             let (lo, hi) = self.pyramid.split_at_mut(l);
             reduce(&lo[l - 1], &mut hi[0], &mut self.row_pass);
@@ -364,40 +312,7 @@ pub fn level_for_spacing(spacing_px: f64, max_level: f64) -> f64 {
 /// Burt & Adelson's REDUCE: `src` filtered by the separable binomial
 /// kernel and decimated by 2 into `dst` (edges clamped).
 fn reduce(src: &Level, dst: &mut Level, row_pass: &mut Vec<[f32; 3]>) {
-    let (nw, nh) = (src.w.div_ceil(2), src.h.div_ceil(2));
-    dst.reshape(nw, nh);
-    // Horizontal: every source row, decimated in x.
-    row_pass.resize(nw * src.h, [0.0; 3]);
-    row_pass
-        .par_chunks_mut(nw)
-        .enumerate()
-        .for_each(|(y, out)| {
-            let row = &src.px[y * src.w..(y + 1) * src.w];
-            for (x, o) in out.iter_mut().enumerate() {
-                let mut acc = [0.0f32; 3];
-                for (t, wt) in TAPS.iter().enumerate() {
-                    let sx = (2 * x + t).saturating_sub(2).min(src.w - 1);
-                    for k in 0..3 {
-                        acc[k] += wt * row[sx][k];
-                    }
-                }
-                *o = acc;
-            }
-        });
-    // Vertical, decimated in y.
-    let rows: &[[f32; 3]] = row_pass;
-    dst.px.par_chunks_mut(nw).enumerate().for_each(|(y, out)| {
-        for (x, o) in out.iter_mut().enumerate() {
-            let mut acc = [0.0f32; 3];
-            for (t, wt) in TAPS.iter().enumerate() {
-                let sy = (2 * y + t).saturating_sub(2).min(src.h - 1);
-                for k in 0..3 {
-                    acc[k] += wt * rows[sy * nw + x][k];
-                }
-            }
-            *o = acc;
-        }
-    });
+    Kernel(TAPS).reduce(src, dst, row_pass);
 }
 
 /// The colour at level `m` > 0: linear between levels ⌊m⌋ and ⌈m⌉.
@@ -412,8 +327,7 @@ fn blend(pyramid: &[Level], x: usize, y: usize, m: f32) -> [f32; 3] {
     if beta <= 0.0 || l + 1 >= pyramid.len() {
         return a;
     }
-    let b = pyramid[l + 1].at_pixel(l + 1, x, y);
-    [0, 1, 2].map(|c| a[c] + (b[c] - a[c]) * beta)
+    a.lerp(pyramid[l + 1].at_pixel(l + 1, x, y), beta)
 }
 
 #[cfg(test)]

@@ -50,6 +50,7 @@ pub mod methods;
 pub mod model;
 pub mod model_based;
 pub mod plan;
+mod pyramid;
 pub mod registry;
 pub mod renderer;
 pub mod ulod;

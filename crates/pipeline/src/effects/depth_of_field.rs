@@ -40,7 +40,9 @@
 //!    and `Z_p(l) > Z_f`, so a sharp in-focus object does not leak into the
 //!    blurred background around it. The buffers are the pass's own and
 //!    reused frame to frame; the pass exists only when the scene lists the
-//!    effect.
+//!    effect. The colour levels, their sizes and bilinear lookup are
+//!    `crate::pyramid`'s (shared with image-based foveation); the
+//!    anisotropic 4×4 filter is this pass's own.
 //! 5. **Nonlinear interpolation over the 8 circular neighbours** (eq. 4.8):
 //!    with `l = ⌊m⌋`, `β = m − l`,
 //!    `I_p(m) = (1 − β)·A_{l−1}(p) + β·A_l(p)`, where
@@ -89,6 +91,7 @@ use super::refocus::Refocus;
 use super::{Pass, PassInput};
 use crate::colour;
 use crate::plan::Channels;
+use crate::pyramid::{self, Kernel, Level, Texel};
 use raycast::scene::DofRefocus;
 
 /// Side of the square around the gaze whose depths' median is the focus
@@ -107,8 +110,9 @@ pub struct DepthOfField {
     /// The eye; `aperture_mm` is the pupil diameter (0: the identity).
     pub lens: EyeLens,
     pub focus: DofFocus,
-    /// The focus search's state (last focus, refocusing, attention model).
-    focuser: Focuser,
+    /// The focus search's state (last focus, refocusing, attention model;
+    /// the GPU path settles its focus here too).
+    pub(crate) focuser: Focuser,
     /// Mipmap level per pixel of the current frame.
     level: Vec<f32>,
     /// Level 0 (linear light, full size) and levels 1… of the pyramid.
@@ -142,13 +146,11 @@ pub const ATTENTION_MAP_SIZE: u32 = 64;
 /// `focus: Attention`'s model.
 type AttentionModel = crate::frame_attention::FrameAttention;
 
-/// One level, row-major: linear RGB, and the depth (Z) and degree of
-/// blur (B, σ in px) mips of eq. 4.9.
+/// One level: the colour ([`Level`], linear RGB) and, row-major beside
+/// it, the depth (Z) and degree of blur (B, σ in px) mips of eq. 4.9.
 #[derive(Debug, Clone, Default)]
 struct Image {
-    w: usize,
-    h: usize,
-    px: Vec<[f32; 3]>,
+    colour: Level,
     z: Vec<f32>,
     sigma: Vec<f32>,
     /// The DoN mip ρ (eq. 4.10): only with foreground smoothing, only at
@@ -156,38 +158,25 @@ struct Image {
     rho: Vec<f32>,
 }
 
+/// The colour level's size, texels and lookups.
+impl std::ops::Deref for Image {
+    type Target = Level;
+    fn deref(&self) -> &Level {
+        &self.colour
+    }
+}
+
+impl std::ops::DerefMut for Image {
+    fn deref_mut(&mut self) -> &mut Level {
+        &mut self.colour
+    }
+}
+
 impl Image {
     fn reshape(&mut self, w: usize, h: usize) {
-        self.w = w;
-        self.h = h;
-        self.px.resize(w * h, [0.0; 3]);
+        self.colour.reshape(w, h);
         self.z.resize(w * h, 0.0);
         self.sigma.resize(w * h, 0.0);
-    }
-
-    /// Bilinear sample at continuous texel position (`x`, `y`) (texel
-    /// centres at integers), clamped to the edge.
-    #[inline]
-    fn bilinear(&self, x: f32, y: f32) -> [f32; 3] {
-        let mx = (self.w - 1) as f32;
-        let my = (self.h - 1) as f32;
-        let x = x.clamp(0.0, mx);
-        let y = y.clamp(0.0, my);
-        let x0 = x.floor();
-        let y0 = y.floor();
-        let (fx, fy) = (x - x0, y - y0);
-        let (x0, y0) = (x0 as usize, y0 as usize);
-        let x1 = (x0 + 1).min(self.w - 1);
-        let y1 = (y0 + 1).min(self.h - 1);
-        let p = |x: usize, y: usize| self.px[y * self.w + x];
-        let (a, b, c, d) = (p(x0, y0), p(x1, y0), p(x0, y1), p(x1, y1));
-        let mut out = [0.0; 3];
-        for k in 0..3 {
-            let top = a[k] + (b[k] - a[k]) * fx;
-            let bot = c[k] + (d[k] - c[k]) * fx;
-            out[k] = top + (bot - top) * fy;
-        }
-        out
     }
 }
 
@@ -284,31 +273,17 @@ impl DepthOfField {
         }
     }
 
-    /// Whether the pupil is zero (or invalid): the pass is the identity and
-    /// does not even update its focus.
-    pub(crate) fn is_pinhole(&self) -> bool {
-        self.lens.aperture_mm.is_nan() || self.lens.aperture_mm <= 0.0
-    }
-
-    /// [`Focuser::settle`] for a frame whose focus search ran elsewhere
-    /// (the GPU path reads the gaze window back): `found_mm` is what it
-    /// found. The same target and refocusing as the CPU pass.
-    pub(crate) fn focus_with(&mut self, found_mm: Option<f64>, time_s: Option<f64>) -> f64 {
-        self.focuser.settle(self.focus, found_mm, time_s)
-    }
-
-    /// `focus: Attention`'s model (the GPU path runs it on the frame's
-    /// buffers); `None` for other focuses.
-    pub(crate) fn attention_model(
-        &mut self,
-    ) -> Option<&mut crate::frame_attention::FrameAttention> {
-        self.focuser.attention_model()
-    }
-
     /// `focus: Attention`'s model, read only.
     pub fn attention(&self) -> Option<&crate::frame_attention::FrameAttention> {
         self.focuser.attention()
     }
+}
+
+/// Whether the pupil of `lens` is zero (or invalid): a depth-of-field pass
+/// (either chapter's) is then the identity and does not even update its
+/// focus.
+pub(crate) fn is_pinhole(lens: &EyeLens) -> bool {
+    lens.aperture_mm.is_nan() || lens.aperture_mm <= 0.0
 }
 
 /// Where a depth-of-field pass focuses, frame after frame: the search for
@@ -411,11 +386,7 @@ pub(crate) fn screen_of(camera: &raycast::Camera) -> (f64, f64) {
 /// The top pyramid level a `w`×`h` frame allows (at most [`MAX_LEVELS`]),
 /// as in `run`.
 pub(crate) fn top_level(w: usize, h: usize) -> usize {
-    let mut top = 0usize;
-    while top < MAX_LEVELS && (w >> (top + 1)) >= 1 && (h >> (top + 1)) >= 1 {
-        top += 1;
-    }
-    top
+    pyramid::top_level(w, h, MAX_LEVELS)
 }
 
 /// The [`FOCUS_WINDOW_PX`] square around `gaze_px` clipped to a `w`×`h`
@@ -571,7 +542,7 @@ impl Pass for DepthOfField {
         if w == 0 || h == 0 || !frame.has_surface() || frame.rgb.len() < 3 * w * h {
             return;
         }
-        if self.is_pinhole() {
+        if is_pinhole(&self.lens) {
             return; // pupil 0: a pinhole, everything sharp
         }
         let focus = self.focuser.focus_mm(self.focus, frame, input);
@@ -655,27 +626,25 @@ fn build_pyramid(
     if pyramid.len() < levels + 1 {
         pyramid.resize_with(levels + 1, Image::default);
     }
-    let lut = colour::decode_lut();
     let focus = focus_mm as f32;
     let base = &mut pyramid[0];
     base.reshape(w, h);
-    for (p, c) in base.px.iter_mut().zip(rgb.chunks_exact(3)) {
-        *p = [lut[c[0] as usize], lut[c[1] as usize], lut[c[2] as usize]];
-    }
+    base.colour.decode(rgb, (w, h));
     for (z, &d) in base.z.iter_mut().zip(depth) {
         *z = if d.is_nan() { focus } else { d };
     }
     base.sigma.copy_from_slice(&sigma[..w * h]);
     let taps = pyramid_taps();
+    let at = Kernel::<4>::source;
     for l in 1..=levels {
         let (lo, hi) = pyramid.split_at_mut(l);
         let src = &lo[l - 1];
         let dst = &mut hi[0];
-        let (nw, nh) = (src.w.div_ceil(2), src.h.div_ceil(2));
+        let (nw, nh) = src.halve();
         dst.reshape(nw, nh);
-        let at = |x: usize, t: usize, n: usize| (2 * x + t).saturating_sub(1).min(n - 1);
         // Rows of the destination in parallel.
         let rows = dst
+            .colour
             .px
             .par_chunks_mut(nw)
             .zip(dst.z.par_chunks_mut(nw))
@@ -767,7 +736,7 @@ fn smooth_foreground(
         let src = &lo[l - 1];
         let dst = &mut hi[0];
         let (nw, nh) = (dst.w, dst.h);
-        let at = |x: usize, t: usize, n: usize| (2 * x + t).saturating_sub(1).min(n - 1);
+        let at = Kernel::<4>::source;
         let mut rho = std::mem::take(&mut dst.rho);
         rho.clear();
         rho.resize(nw * nh, 0.0);
@@ -814,18 +783,8 @@ fn smooth_foreground(
 /// A scalar channel of `img` (level `k`) bilinearly at the centre of
 /// level-0 pixel (`x`, `y`) offset by (`dx`, `dy`) level-`k` texels.
 fn scalar_at(img: &Image, data: &[f32], k: usize, x: usize, y: usize, (dx, dy): (f32, f32)) -> f32 {
-    let scale = (1u32 << k) as f32;
-    let u = ((x as f32 + 0.5) / scale - 0.5 + dx).clamp(0.0, (img.w - 1) as f32);
-    let v = ((y as f32 + 0.5) / scale - 0.5 + dy).clamp(0.0, (img.h - 1) as f32);
-    let (x0, y0) = (u.floor(), v.floor());
-    let (fx, fy) = (u - x0, v - y0);
-    let (x0, y0) = (x0 as usize, y0 as usize);
-    let x1 = (x0 + 1).min(img.w - 1);
-    let y1 = (y0 + 1).min(img.h - 1);
-    let p = |x: usize, y: usize| data[y * img.w + x];
-    let top = p(x0, y0) + (p(x1, y0) - p(x0, y0)) * fx;
-    let bot = p(x0, y1) + (p(x1, y1) - p(x0, y1)) * fx;
-    top + (bot - top) * fy
+    let (u, v) = pyramid::level_coords(k, x, y);
+    pyramid::bilinear(data, img.w, img.h, u + dx, v + dy)
 }
 
 /// The 9-point circular filter of eq. 4.8 over a scalar channel.
@@ -889,10 +848,7 @@ pub(crate) const CIRCLE: [(f32, f32); 8] = [
 /// `A_k(p)`: the 9-point circular Gaussian over level `k`, offsets of one
 /// level-`k` texel, at the centre of level-0 pixel (`x`, `y`).
 fn circular(img: &Image, k: usize, x: usize, y: usize) -> [f32; 3] {
-    let scale = (1u32 << k) as f32;
-    // Level-0 pixel centre in level-k texel coordinates (centres at ints).
-    let u = (x as f32 + 0.5) / scale - 0.5;
-    let v = (y as f32 + 0.5) / scale - 0.5;
+    let (u, v) = pyramid::level_coords(k, x, y);
     let (g, norm) = circular_weights();
     let mut acc = img.bilinear(u, v);
     for (dx, dy) in CIRCLE {
@@ -914,8 +870,7 @@ fn blend(pyramid: &[Image], x: usize, y: usize, m: f64) -> [f32; 3] {
     if beta <= 0.0 || l >= pyramid.len() {
         return a;
     }
-    let b = circular(&pyramid[l], l, x, y);
-    [0, 1, 2].map(|c| a[c] + (b[c] - a[c]) * beta)
+    a.lerp(circular(&pyramid[l], l, x, y), beta)
 }
 
 #[cfg(test)]

@@ -103,7 +103,7 @@ use raycast::scene::{DofFocus, DofRefocus};
 use raycast::{Frame, NO_OBJECT};
 use rayon::prelude::*;
 
-use super::depth_of_field::{coc_px, screen_of, Focuser};
+use super::depth_of_field::{coc_px, is_pinhole, screen_of, Focuser};
 use super::refocus::Refocus;
 use super::{Pass, PassInput};
 use crate::colour;
@@ -215,8 +215,9 @@ pub struct DepthOfFieldSplat {
     pub highlights: Option<Highlights>,
     /// The ray/triangle test for the hidden rays (the renderer's default).
     pub test: TriangleTest,
-    /// Where the pass focuses (shared with the ch. 4 pass).
-    focuser: Focuser,
+    /// Where the pass focuses (shared with the ch. 4 pass; the GPU path
+    /// settles its focus here too).
+    pub(crate) focuser: Focuser,
     /// V samples, per pixel.
     visible: Vec<Sample>,
     /// H samples, per pixel.
@@ -296,27 +297,6 @@ impl DepthOfFieldSplat {
             }
             _ => None,
         }
-    }
-
-    /// Whether the pupil is zero (or invalid): the pass is the identity and
-    /// does not even update its focus.
-    pub(crate) fn is_pinhole(&self) -> bool {
-        self.lens.aperture_mm.is_nan() || self.lens.aperture_mm <= 0.0
-    }
-
-    /// The focal depth for a frame whose focus search ran elsewhere (the
-    /// GPU path reads the gaze window back): [`Focuser::settle`], as `run`
-    /// does after its own search.
-    pub(crate) fn focus_with(&mut self, found_mm: Option<f64>, time_s: Option<f64>) -> f64 {
-        self.focuser.settle(self.focus, found_mm, time_s)
-    }
-
-    /// `focus: Attention`'s model (the GPU path runs it on the frame's
-    /// buffers); `None` for other focuses.
-    pub(crate) fn attention_model(
-        &mut self,
-    ) -> Option<&mut crate::frame_attention::FrameAttention> {
-        self.focuser.attention_model()
     }
 
     /// `focus: Attention`'s model, read only.
@@ -481,7 +461,7 @@ impl Pass for DepthOfFieldSplat {
             return;
         }
         self.hidden_count = 0;
-        if self.lens.aperture_mm.is_nan() || self.lens.aperture_mm <= 0.0 {
+        if is_pinhole(&self.lens) {
             return; // pupil 0: a pinhole, everything sharp
         }
         let focus = self.focuser.focus_mm(self.focus, frame, input);

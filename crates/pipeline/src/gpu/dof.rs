@@ -8,7 +8,7 @@ use raycast::gpu::wgpu;
 use raycast::gpu::{GpuError, GpuFrame};
 use raycast::Camera;
 
-use super::{dispatch, level_layout, Kernels, Words, SLOT};
+use super::{dispatch, level_layout, CocUniforms, Kernels, Words, SLOT};
 use crate::effects::depth_of_field::{
     circular_weights, coc_px, level_for_coc, pyramid_taps, screen_of, top_level, DepthOfField,
     ANISO_DELTA_PX, ATTENTION_MAP_SIZE, CIRCLE, FOCUS_WINDOW_PX, MAX_LEVELS, SIGMA_CAP_PX,
@@ -44,16 +44,12 @@ pub(crate) struct GpuDof {
     buffers: Option<Buffers>,
 }
 
-/// One frame's depth of field.
+/// One frame's depth of field, at its focal depth.
 struct DofFrame<'a> {
     pub state: &'a mut GpuDof,
     pub camera: &'a Camera,
-    /// The scene as rendered (`focus: Attention` reads its objects).
-    pub scene: &'a raycast::Scene,
-    pub gaze_px: [f64; 2],
-    pub time_s: Option<f64>,
-    /// The frame's vergence depth, mm (`focus: Vergence`).
-    pub vergence_mm: Option<f64>,
+    /// The focal depth ([`super::frame_focus`]), mm.
+    pub focus: f64,
 }
 
 impl GpuDof {
@@ -118,13 +114,22 @@ impl GpuPass for GpuDof {
         encoder: wgpu::CommandEncoder,
         input: &PassInput<'_>,
     ) -> Result<wgpu::CommandEncoder, GpuError> {
+        let pass = &mut self.pass;
+        let (focus, encoder) = super::frame_focus(
+            &pass.lens,
+            pass.focus,
+            &mut pass.focuser,
+            frame,
+            encoder,
+            input,
+        )?;
+        let Some(focus) = focus else {
+            return Ok(encoder);
+        };
         DofFrame {
             state: self,
             camera: input.camera,
-            scene: input.scene,
-            gaze_px: input.gaze_px,
-            time_s: input.time_s,
-            vergence_mm: input.vergence_mm,
+            focus,
         }
         .encode(frame, encoder)
     }
@@ -192,31 +197,7 @@ impl DofFrame<'_> {
         mut encoder: wgpu::CommandEncoder,
     ) -> Result<wgpu::CommandEncoder, GpuError> {
         let (w, h) = (frame.width(), frame.height());
-        if w == 0 || h == 0 || self.state.pass.is_pinhole() {
-            return Ok(encoder);
-        }
-        // The focus: the gaze window read back where the focus needs it,
-        // the CPU pass's median and dynamics.
-        let focus_kind = self.state.pass.focus;
-        let attention = self
-            .state
-            .pass
-            .attention_model()
-            .map(|model| super::AttentionFocus {
-                model,
-                scene: self.scene,
-                time_s: self.time_s,
-            });
-        let (found, next) = super::found_focus(
-            focus_kind,
-            self.vergence_mm,
-            frame,
-            encoder,
-            self.gaze_px,
-            attention,
-        )?;
-        encoder = next;
-        let focus = self.state.pass.focus_with(found, self.time_s);
+        let focus = self.focus;
         let top = top_level(w as usize, h as usize);
         if top == 0 {
             return Ok(encoder); // every level is 0: nothing to blur
@@ -227,26 +208,14 @@ impl DofFrame<'_> {
             |d: f32| level_for_coc(coc_px(&lens, f64::from(d), focus, ds, ppmm), top as f64) <= 0.0;
         let (sharp_lo, sharp_hi) = sharp_interval(sharp, focus);
         // `coc_px`'s clamps, for the per-pixel CoC in f32.
-        let nearest = lens.focal_length_mm * (1.0 + 1e-9);
-        let focus_c = if focus.is_nan() {
-            f64::INFINITY
-        } else {
-            focus.max(nearest)
-        };
-        let finite = focus_c.is_finite();
-        let k = if finite {
-            // C(∞) = DPI·(d_s/d_r)·E·F/(d_f − F): C(d) = C(∞)·|d − d_f|/d.
-            coc_px(&lens, f64::INFINITY, focus, ds, ppmm)
-        } else {
-            // Focus at infinity: C(d) = DPI·(d_s/d_r)·E·F/d.
-            ppmm * (ds / lens.retina_distance_mm) * (lens.aperture_mm * lens.focal_length_mm)
-        };
-        let focus_hi = if finite { focus_c as f32 } else { 0.0 };
-        let focus_lo = if finite {
-            (focus_c - f64::from(focus_hi)) as f32
-        } else {
-            0.0
-        };
+        let CocUniforms {
+            nearest,
+            finite,
+            k,
+            focus_hi,
+            focus_lo,
+            ..
+        } = CocUniforms::new(&lens, focus, ds, ppmm);
         let z_behind = if focus.is_finite() {
             f32_above(focus)
         } else {
@@ -262,7 +231,7 @@ impl DofFrame<'_> {
             Kernels::new(
                 device,
                 "dof.wgsl",
-                include_str!("dof.wgsl"),
+                concat!(include_str!("pyramid.wgsl"), "\n", include_str!("dof.wgsl")),
                 &["dof_base", "dof_reduce", "dof_blend"],
                 &[true, false, false, false],
                 PARAMS_BYTES,

@@ -46,8 +46,7 @@ struct Params {
 
 @group(0) @binding(0) var<uniform> p: Params;
 @group(0) @binding(4) var<storage, read> depth: array<f32>;
-// The colour pyramid (linear RGB in xyz), every level.
-@group(0) @binding(5) var<storage, read_write> px: array<vec4<f32>>;
+// Binding 5: the colour pyramid `px` (pyramid.wgsl).
 // The depth mip (Z); background (infinite depth) anywhere in a texel's
 // footprint is stored as -1.
 @group(0) @binding(6) var<storage, read_write> zmip: array<f32>;
@@ -91,11 +90,6 @@ fn dof_base(@builtin(global_invocation_id) id: vec3<u32>) {
     smip[i] = min(coc(i, hit) * 0.5, p.sigma_cap);
 }
 
-// `(2x + t).saturating_sub(1).min(n − 1)`.
-fn tap_at(x: u32, t: u32, n: u32) -> u32 {
-    return min(max(2u * x + t, 1u) - 1u, n - 1u);
-}
-
 // Level src + 1 from level src.
 @compute @workgroup_size(8, 8)
 fn dof_reduce(@builtin(global_invocation_id) id: vec3<u32>) {
@@ -107,10 +101,11 @@ fn dof_reduce(@builtin(global_invocation_id) id: vec3<u32>) {
     var z = 0.0;
     var sg = 0.0;
     var behind_any = false;
+    // The 4 taps of `p.taps`: between source texels 2x and 2x + 1.
     for (var ty = 0u; ty < 4u; ty++) {
-        let row = s.off + tap_at(id.y, ty, s.h) * s.w;
+        let row = s.off + reduce_source(id.y, ty, 4u, s.h) * s.w;
         for (var tx = 0u; tx < 4u; tx++) {
-            let q = row + tap_at(id.x, tx, s.w);
+            let q = row + reduce_source(id.x, tx, 4u, s.w);
             let wgt = p.taps[ty] * p.taps[tx];
             let zq = zmip[q];
             if (zq < 0.0) {
@@ -125,9 +120,9 @@ fn dof_reduce(@builtin(global_invocation_id) id: vec3<u32>) {
     var acc = vec3<f32>(0.0);
     var total = 0.0;
     for (var ty = 0u; ty < 4u; ty++) {
-        let row = s.off + tap_at(id.y, ty, s.h) * s.w;
+        let row = s.off + reduce_source(id.y, ty, 4u, s.h) * s.w;
         for (var tx = 0u; tx < 4u; tx++) {
-            let q = row + tap_at(id.x, tx, s.w);
+            let q = row + reduce_source(id.x, tx, 4u, s.w);
             let wgt = p.taps[ty] * p.taps[tx];
             if (p.anisotropic == 1u && background && sg > smip[q] + p.delta) {
                 continue;
@@ -146,47 +141,26 @@ fn dof_reduce(@builtin(global_invocation_id) id: vec3<u32>) {
     if (total > 0.0) {
         px[i] = vec4<f32>(acc / total, 0.0);
     } else {
-        px[i] = px[s.off + tap_at(id.y, 1u, s.h) * s.w + tap_at(id.x, 1u, s.w)];
+        px[i] = px[s.off + reduce_source(id.y, 1u, 4u, s.h) * s.w + reduce_source(id.x, 1u, 4u, s.w)];
     }
-}
-
-// Bilinear sample of level `k` at texel position (x, y), clamped.
-fn bilinear(k: u32, xin: f32, yin: f32) -> vec3<f32> {
-    let l = p.levels[k];
-    let x = clamp(xin, 0.0, f32(l.w - 1u));
-    let y = clamp(yin, 0.0, f32(l.h - 1u));
-    let x0f = floor(x);
-    let y0f = floor(y);
-    let fx = x - x0f;
-    let fy = y - y0f;
-    let x0 = u32(x0f);
-    let y0 = u32(y0f);
-    let x1 = min(x0 + 1u, l.w - 1u);
-    let y1 = min(y0 + 1u, l.h - 1u);
-    let a = px[l.off + y0 * l.w + x0].xyz;
-    let b = px[l.off + y0 * l.w + x1].xyz;
-    let c = px[l.off + y1 * l.w + x0].xyz;
-    let d = px[l.off + y1 * l.w + x1].xyz;
-    let top = a + (b - a) * fx;
-    let bot = c + (d - c) * fx;
-    return top + (bot - top) * fy;
 }
 
 // A_k(p): the 9-point circular Gaussian over level k at pixel (x, y).
 fn circular(k: u32, x: u32, y: u32) -> vec3<f32> {
-    let scale = f32(1u << k);
-    let u = (f32(x) + 0.5) / scale - 0.5;
-    let v = (f32(y) + 0.5) / scale - 0.5;
+    let l = p.levels[k];
+    let c = level_coords(k, x, y);
+    let u = c.x;
+    let v = c.y;
     let dg = p.diag;
-    var acc = bilinear(k, u, v);
-    acc += p.g * bilinear(k, u + 1.0, v);
-    acc += p.g * bilinear(k, u - 1.0, v);
-    acc += p.g * bilinear(k, u, v + 1.0);
-    acc += p.g * bilinear(k, u, v - 1.0);
-    acc += p.g * bilinear(k, u + dg, v + dg);
-    acc += p.g * bilinear(k, u + dg, v - dg);
-    acc += p.g * bilinear(k, u - dg, v + dg);
-    acc += p.g * bilinear(k, u - dg, v - dg);
+    var acc = level_bilinear(l, u, v);
+    acc += p.g * level_bilinear(l, u + 1.0, v);
+    acc += p.g * level_bilinear(l, u - 1.0, v);
+    acc += p.g * level_bilinear(l, u, v + 1.0);
+    acc += p.g * level_bilinear(l, u, v - 1.0);
+    acc += p.g * level_bilinear(l, u + dg, v + dg);
+    acc += p.g * level_bilinear(l, u + dg, v - dg);
+    acc += p.g * level_bilinear(l, u - dg, v + dg);
+    acc += p.g * level_bilinear(l, u - dg, v - dg);
     return acc * p.norm;
 }
 

@@ -142,7 +142,11 @@ impl ImageFrame<'_> {
             Kernels::new(
                 device,
                 "image_foveation.wgsl",
-                include_str!("image_foveation.wgsl"),
+                concat!(
+                    include_str!("pyramid.wgsl"),
+                    "\n",
+                    include_str!("image_foveation.wgsl")
+                ),
                 &["fov_base", "fov_rows", "fov_columns", "fov_blend"],
                 &[true, false, false],
                 PARAMS_BYTES,

@@ -1,7 +1,9 @@
 //! The GPU paths of the two image passes, depth of field
 //! ([`crate::effects::depth_of_field`]) and image-based foveation
 //! ([`crate::image_foveation`]): the same filters in WGSL (`dof.wgsl`,
-//! `image_foveation.wgsl`, sharing `colour.wgsl`), encoded on a GPU frame's
+//! `image_foveation.wgsl`, sharing `colour.wgsl` and the pyramid's buffer,
+//! footprint and lookup in `pyramid.wgsl`, which their shaders put before
+//! their own source), encoded on a GPU frame's
 //! colour and depth buffers between its cast and its read-back through
 //! [`raycast::gpu::GpuPost`], so the image makes no CPU round trip. The CPU
 //! code is the reference; the GPU output equals it within 1/255 per
@@ -16,7 +18,8 @@
 //! - depth of field's focus: for `focus: Gaze` the 9×9 window of depth and
 //!   hit flags around the gaze is read back (at most 2 × 81 words, one wait
 //!   on the GPU after the cast), its median and the refocusing dynamics
-//!   run on the CPU (`DepthOfField::focus_with`, the CPU pass's own code);
+//!   run on the CPU (the pass's `Focuser`, the CPU pass's own code; one
+//!   preamble, `frame_focus`, for both depth-of-field passes);
 //!   what needs f64 is turned into a few f32 uniforms there: the CoC
 //!   constant, the exact depth interval whose level is 0 (so the sharp
 //!   pixels are the CPU's, bit for bit) and the f32 threshold of "behind
@@ -50,8 +53,11 @@ pub(crate) use splat::GpuSplat;
 use raycast::gpu::wgpu;
 use raycast::gpu::{GpuError, GpuFrame, GpuPost};
 
+use foveation::thin_lens::EyeLens;
+use raycast::scene::DofFocus;
+
 use crate::colour;
-use crate::effects::depth_of_field::{focus_window, median_depth};
+use crate::effects::depth_of_field::{coc_px, focus_window, is_pinhole, median_depth, Focuser};
 use crate::effects::{GpuPass, PassInput};
 
 /// Bytes of one uniform slot (one dispatch's params, a dynamic offset).
@@ -379,29 +385,112 @@ pub(crate) fn gaze_window_depth(
     }
 }
 
+/// The focal depth of this frame for a GPU depth-of-field pass, the same
+/// preamble for both chapters' passes (`dof`, `splat`): `None` where the
+/// pass is the identity this frame (an empty frame, or a pinhole, whose
+/// focus is then not even updated); else what the focus search finds
+/// ([`found_focus`]) settled by the pass's own [`Focuser`] (the CPU pass's
+/// refocusing state and code), as the CPU pass's `run` does.
+pub(crate) fn frame_focus(
+    lens: &EyeLens,
+    focus: DofFocus,
+    focuser: &mut Focuser,
+    frame: &GpuFrame<'_>,
+    encoder: wgpu::CommandEncoder,
+    input: &PassInput<'_>,
+) -> Result<(Option<f64>, wgpu::CommandEncoder), GpuError> {
+    if frame.width() == 0 || frame.height() == 0 || is_pinhole(lens) {
+        return Ok((None, encoder));
+    }
+    let attention = focuser.attention_model().map(|model| AttentionFocus {
+        model,
+        scene: input.scene,
+        time_s: input.time_s,
+    });
+    let (found, encoder) = found_focus(
+        focus,
+        input.vergence_mm,
+        frame,
+        encoder,
+        input.gaze_px,
+        attention,
+    )?;
+    Ok((Some(focuser.settle(focus, found, input.time_s)), encoder))
+}
+
+/// The thin-lens CoC of both GPU depth-of-field passes as f32 uniforms,
+/// derived in f64 with `coc_px`'s clamps: per pixel `C(d) = k·|d − d_f|/d`
+/// for a finite focus (`d_f` as `focus_hi + focus_lo`, two f32) or `k/d`
+/// for a focus at infinity, the depth clamped to `nearest` first.
+pub(super) struct CocUniforms {
+    /// `coc_px`'s nearest depth (just beyond the focal length), mm.
+    pub nearest: f64,
+    /// The focus as `coc_px` clamps it (NaN: infinity), mm.
+    pub focus_c: f64,
+    /// Whether `focus_c` is finite.
+    pub finite: bool,
+    /// The CoC constant (may be infinite or NaN for a degenerate lens).
+    pub k: f64,
+    pub focus_hi: f32,
+    pub focus_lo: f32,
+}
+
+impl CocUniforms {
+    /// For `lens` focused at `focus_mm` on the screen `screen_of` gives.
+    pub fn new(lens: &EyeLens, focus_mm: f64, ds: f64, ppmm: f64) -> Self {
+        let nearest = lens.focal_length_mm * (1.0 + 1e-9);
+        let focus_c = if focus_mm.is_nan() {
+            f64::INFINITY
+        } else {
+            focus_mm.max(nearest)
+        };
+        let finite = focus_c.is_finite();
+        let k = if finite {
+            // C(∞) = DPI·(d_s/d_r)·E·F/(d_f − F): C(d) = C(∞)·|d − d_f|/d.
+            coc_px(lens, f64::INFINITY, focus_mm, ds, ppmm)
+        } else {
+            // Focus at infinity: C(d) = DPI·(d_s/d_r)·E·F/d.
+            ppmm * (ds / lens.retina_distance_mm) * (lens.aperture_mm * lens.focal_length_mm)
+        };
+        let focus_hi = if finite { focus_c as f32 } else { 0.0 };
+        let focus_lo = if finite {
+            (focus_c - f64::from(focus_hi)) as f32
+        } else {
+            0.0
+        };
+        Self {
+            nearest,
+            focus_c,
+            finite,
+            k,
+            focus_hi,
+            focus_lo,
+        }
+    }
+}
+
 /// `focus: Attention`'s model and what it reads besides the frame.
-pub(crate) struct AttentionFocus<'a> {
-    pub model: &'a mut crate::frame_attention::FrameAttention,
-    pub scene: &'a raycast::Scene,
-    pub time_s: Option<f64>,
+struct AttentionFocus<'a> {
+    model: &'a mut crate::frame_attention::FrameAttention,
+    scene: &'a raycast::Scene,
+    time_s: Option<f64>,
 }
 
 /// What a GPU depth-of-field pass's focus search finds this frame, as the
-/// CPU's `Focuser` would (then settled by the pass's `focus_with`): the
+/// CPU's `Focuser` would (then settled by [`frame_focus`]): the
 /// vergence depth, or the gaze window's median read back (one wait) where
 /// the focus needs it; for `Attention`, the attended object's mean eye
 /// distance from Lee's model run on the frame's buffers (its GPU passes,
 /// one wait, and the CPU tracker's finishing steps); nothing for a fixed
 /// focus.
-pub(crate) fn found_focus(
-    focus: raycast::scene::DofFocus,
+fn found_focus(
+    focus: DofFocus,
     vergence_mm: Option<f64>,
     frame: &GpuFrame<'_>,
     encoder: wgpu::CommandEncoder,
     gaze_px: [f64; 2],
     attention: Option<AttentionFocus<'_>>,
 ) -> Result<(Option<f64>, wgpu::CommandEncoder), GpuError> {
-    use raycast::scene::DofFocus;
     let vergence = vergence_mm.filter(|d| d.is_finite() && *d > 0.0);
     match focus {
         DofFocus::Fixed { .. } => Ok((None, encoder)),

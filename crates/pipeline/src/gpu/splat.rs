@@ -5,8 +5,8 @@
 //! 1. **Focus** as [`super::dof`] does it: for `focus: Gaze` (and
 //!    `Vergence` without a vergence depth) the 9×9 gaze window of depth and
 //!    hit flags is read back, its median and the refocusing dynamics run on
-//!    the CPU ([`DepthOfFieldSplat::focus_with`], the CPU pass's
-//!    `Focuser`); for `focus: Attention` Lee's attention model runs its
+//!    the CPU (the CPU pass's `Focuser`; the preamble is
+//!    [`super::frame_focus`], shared with the ch. 4 pass); for `focus: Attention` Lee's attention model runs its
 //!    per-pixel part on the frame's colour, depth and id buffers
 //!    ([`super::attention`], one read-back of per-object statistics) and
 //!    the CPU tracker finishes it, as for the ch. 4 pass.
@@ -41,8 +41,8 @@ use raycast::gpu::wgpu;
 use raycast::gpu::{GpuError, GpuFrame};
 use raycast::Camera;
 
-use super::{dispatch, Kernels, Words};
-use crate::effects::depth_of_field::{coc_px, screen_of};
+use super::{dispatch, CocUniforms, Kernels, Words};
+use crate::effects::depth_of_field::screen_of;
 use crate::effects::dof_splat::{
     kn_table, signed_coc_px, spiral, DepthOfFieldSplat, COC_STEPS_PER_PX, DELTA, MAX_COC_PX,
 };
@@ -80,17 +80,14 @@ pub(crate) struct GpuSplat {
     buffers: Option<Buffers>,
 }
 
-/// One frame's splat pass.
+/// One frame's splat pass, at its focal depth.
 struct SplatFrame<'a> {
     pub state: &'a mut GpuSplat,
     pub camera: &'a Camera,
-    /// The scene as rendered (`focus: Attention` reads its objects).
-    pub scene: &'a raycast::Scene,
     /// The scene's linear background colour.
     pub background: [f32; 3],
-    pub gaze_px: [f64; 2],
-    pub time_s: Option<f64>,
-    pub vergence_mm: Option<f64>,
+    /// The focal depth ([`super::frame_focus`]), mm.
+    pub focus: f64,
 }
 
 impl GpuSplat {
@@ -152,14 +149,23 @@ impl GpuPass for GpuSplat {
         encoder: wgpu::CommandEncoder,
         input: &PassInput<'_>,
     ) -> Result<wgpu::CommandEncoder, GpuError> {
+        let pass = &mut self.pass;
+        let (focus, encoder) = super::frame_focus(
+            &pass.lens,
+            pass.focus,
+            &mut pass.focuser,
+            frame,
+            encoder,
+            input,
+        )?;
+        let Some(focus) = focus else {
+            return Ok(encoder);
+        };
         SplatFrame {
             state: self,
             camera: input.camera,
-            scene: input.scene,
             background: input.scene.background.to_array(),
-            gaze_px: input.gaze_px,
-            time_s: input.time_s,
-            vergence_mm: input.vergence_mm,
+            focus,
         }
         .encode(frame, encoder)
     }
@@ -207,52 +213,19 @@ impl SplatFrame<'_> {
         mut encoder: wgpu::CommandEncoder,
     ) -> Result<wgpu::CommandEncoder, GpuError> {
         let (w, h) = (frame.width(), frame.height());
-        if w == 0 || h == 0 || self.state.pass.is_pinhole() {
-            return Ok(encoder);
-        }
-        let focus_kind = self.state.pass.focus;
-        let attention = self
-            .state
-            .pass
-            .attention_model()
-            .map(|model| super::AttentionFocus {
-                model,
-                scene: self.scene,
-                time_s: self.time_s,
-            });
-        let (found, next) = super::found_focus(
-            focus_kind,
-            self.vergence_mm,
-            frame,
-            encoder,
-            self.gaze_px,
-            attention,
-        )?;
-        encoder = next;
-        let focus = self.state.pass.focus_with(found, self.time_s);
-
+        let focus = self.focus;
         let pass = &self.state.pass;
         let lens = pass.lens;
         let (ds, ppmm) = screen_of(self.camera);
-        let nearest = lens.focal_length_mm * (1.0 + 1e-9);
-        let focus_c = if focus.is_nan() {
-            f64::INFINITY
-        } else {
-            focus.max(nearest)
-        };
-        let finite = focus_c.is_finite();
-        let k = if finite {
-            coc_px(&lens, f64::INFINITY, focus, ds, ppmm)
-        } else {
-            ppmm * (ds / lens.retina_distance_mm) * (lens.aperture_mm * lens.focal_length_mm)
-        };
+        let CocUniforms {
+            nearest,
+            focus_c,
+            finite,
+            k,
+            focus_hi,
+            focus_lo,
+        } = CocUniforms::new(&lens, focus, ds, ppmm);
         let k = if k.is_finite() { k } else { 0.0 };
-        let focus_hi = if finite { focus_c as f32 } else { 0.0 };
-        let focus_lo = if finite {
-            (focus_c - f64::from(focus_hi)) as f32
-        } else {
-            0.0
-        };
         let (z_in_front, z_behind) = if finite {
             (f32_from(focus_c, true), f32_from(focus_c, false))
         } else {

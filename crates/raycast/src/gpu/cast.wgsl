@@ -160,55 +160,102 @@ struct Hit {
     v: f32,
 };
 
+// A walk of the BVH for one ray, front to back, as the CPU's
+// `Bvh::traverse`: at an inner node the nearer child first, the farther
+// one on the stack with its entry distance; a pop skips nodes that start
+// beyond the closest hit. Both traversals use it, the cast's closest hit
+// (`intersect`) and the hidden image's K nearest (hidden.wgsl): each asks
+// `bvh_next_leaf` for the next leaf with its current `t_max`, tests the
+// leaf's triangles (`first`, `count`) and lowers its `t_max`, as the
+// CPU's `visit` closure does.
+struct BvhWalk {
+    stack_node: array<u32, 64>,
+    stack_t: array<f32, 64>,
+    sp: i32,
+    node: u32,
+    // Pop before looking at `node` again: after a leaf, after an inner
+    // node whose children are both missed, or for a ray that misses the
+    // root (an empty stack: no leaf at all).
+    pop: bool,
+    // The leaf `bvh_next_leaf` stopped at: its triangles.
+    first: u32,
+    count: u32,
+};
+
+fn bvh_walk(r: Ray) -> BvhWalk {
+    var walk: BvhWalk;
+    walk.sp = 0;
+    walk.node = 0u;
+    walk.pop = params.n_triangles == 0u || box_hit(nodes[0], r, INF) < 0.0;
+    return walk;
+}
+
+// Advances `walk` to the next leaf whose box the ray enters within
+// `t_max`: true with the leaf in `first`, `count`; false when the walk is
+// done.
+fn bvh_next_leaf(walk: ptr<function, BvhWalk>, r: Ray, t_max: f32) -> bool {
+    loop {
+        if ((*walk).pop) {
+            // Pop, skipping nodes that start beyond the closest hit.
+            var found = false;
+            loop {
+                if ((*walk).sp == 0) { break; }
+                (*walk).sp = (*walk).sp - 1;
+                if ((*walk).stack_t[(*walk).sp] <= t_max) {
+                    (*walk).node = (*walk).stack_node[(*walk).sp];
+                    found = true;
+                    break;
+                }
+            }
+            if (!found) { return false; }
+            (*walk).pop = false;
+        }
+        let n = nodes[(*walk).node];
+        if (n.count > 0u) {
+            (*walk).first = n.left_or_first;
+            (*walk).count = n.count;
+            (*walk).pop = true;
+            return true;
+        }
+        let a = n.left_or_first;
+        let b = a + 1u;
+        let ta = box_hit(nodes[a], r, t_max);
+        let tb = box_hit(nodes[b], r, t_max);
+        if (ta >= 0.0 && tb >= 0.0) {
+            let sp = (*walk).sp;
+            if (ta <= tb) {
+                (*walk).stack_node[sp] = b; (*walk).stack_t[sp] = tb; (*walk).node = a;
+            } else {
+                (*walk).stack_node[sp] = a; (*walk).stack_t[sp] = ta; (*walk).node = b;
+            }
+            (*walk).sp = sp + 1;
+        } else if (ta >= 0.0) {
+            (*walk).node = a;
+        } else if (tb >= 0.0) {
+            (*walk).node = b;
+        } else {
+            (*walk).pop = true;
+        }
+    }
+    return false;
+}
+
+// The closest hit along the ray (the CPU's `intersect`).
 fn intersect(r: Ray) -> Hit {
     var best = Hit(-1.0, 0u, 0.0, 0.0);
-    if (params.n_triangles == 0u) { return best; }
     var t_max = INF;
-    if (box_hit(nodes[0], r, t_max) < 0.0) { return best; }
     let w = watertight_setup(r);
-    var stack_node: array<u32, 64>;
-    var stack_t: array<f32, 64>;
-    var sp = 0;
-    var node = 0u;
+    var walk = bvh_walk(r);
     loop {
-        let n = nodes[node];
-        var descended = false;
-        if (n.count > 0u) {
-            for (var i = n.left_or_first; i < n.left_or_first + n.count; i++) {
-                let tr = triangles[i];
-                let h = watertight(w, r.origin, tr.p0.xyz, tr.p1.xyz, tr.p2.xyz, t_max);
-                if (h.x >= 0.0) {
-                    t_max = h.x;
-                    best = Hit(h.x, i, h.y, h.z);
-                }
-            }
-        } else {
-            let a = n.left_or_first;
-            let b = a + 1u;
-            let ta = box_hit(nodes[a], r, t_max);
-            let tb = box_hit(nodes[b], r, t_max);
-            if (ta >= 0.0 && tb >= 0.0) {
-                if (ta <= tb) {
-                    stack_node[sp] = b; stack_t[sp] = tb; sp++; node = a;
-                } else {
-                    stack_node[sp] = a; stack_t[sp] = ta; sp++; node = b;
-                }
-                descended = true;
-            } else if (ta >= 0.0) {
-                node = a; descended = true;
-            } else if (tb >= 0.0) {
-                node = b; descended = true;
+        if (!bvh_next_leaf(&walk, r, t_max)) { break; }
+        for (var i = walk.first; i < walk.first + walk.count; i++) {
+            let tr = triangles[i];
+            let h = watertight(w, r.origin, tr.p0.xyz, tr.p1.xyz, tr.p2.xyz, t_max);
+            if (h.x >= 0.0) {
+                t_max = h.x;
+                best = Hit(h.x, i, h.y, h.z);
             }
         }
-        if (descended) { continue; }
-        // Pop, skipping nodes that start beyond the closest hit.
-        var found = false;
-        loop {
-            if (sp == 0) { break; }
-            sp--;
-            if (stack_t[sp] <= t_max) { node = stack_node[sp]; found = true; break; }
-        }
-        if (!found) { break; }
     }
     return best;
 }
@@ -268,20 +315,31 @@ fn screen_point(p: vec2<f32>) -> vec3<f32> {
         0.0);
 }
 
-fn trace(p: vec2<f32>) -> Sample {
+// The primary ray from the eye through screen point p (direction not
+// normalised: t in units of |screen point − eye|). Also the hidden cast's.
+fn primary_ray(p: vec2<f32>) -> Ray {
     let eye = params.eye.xyz;
     let dir = screen_point(p) - eye;
-    let r = Ray(eye, dir, 1.0 / dir, dir.x == 0.0 || dir.y == 0.0 || dir.z == 0.0);
-    let h = intersect(r);
-    if (h.t < 0.0) { return MISS; }
-    let tr = triangles[h.tri];
-    let s = 1.0 - h.u - h.v;
-    var n = try_normalize(tr.n0.xyz * s + tr.n1.xyz * h.u + tr.n2.xyz * h.v);
+    return Ray(eye, dir, 1.0 / dir, dir.x == 0.0 || dir.y == 0.0 || dir.z == 0.0);
+}
+
+// The shading normal of triangle `tr` at barycentrics (u, v): its vertex
+// normals interpolated, else its face normal, else +z. Also the hidden
+// cast's.
+fn shading_normal(tr: Triangle, u: f32, v: f32) -> vec3<f32> {
+    var n = try_normalize(tr.n0.xyz * (1.0 - u - v) + tr.n1.xyz * u + tr.n2.xyz * v);
     if (all(n == vec3<f32>(0.0))) {
         n = try_normalize(cross(tr.p1.xyz - tr.p0.xyz, tr.p2.xyz - tr.p0.xyz));
         if (all(n == vec3<f32>(0.0))) { n = vec3<f32>(0.0, 0.0, 1.0); }
     }
-    return Sample(1u, bitcast<u32>(tr.p0.w), h.t, n);
+    return n;
+}
+
+fn trace(p: vec2<f32>) -> Sample {
+    let h = intersect(primary_ray(p));
+    if (h.t < 0.0) { return MISS; }
+    let tr = triangles[h.tri];
+    return Sample(1u, bitcast<u32>(tr.p0.w), h.t, shading_normal(tr, h.u, h.v));
 }
 
 // 8-bit colour of a sample seen through screen point p (the CPU's

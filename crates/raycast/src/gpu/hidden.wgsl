@@ -79,58 +79,23 @@ fn offer(s: ptr<function, Nearest>, tri: u32, t: f32, u: f32, v: f32) {
     (*s).len = len + 1u;
 }
 
-// `nearest_hits` over the BVH (the traversal of `intersect`, with the
-// K-th nearest distance as t_max).
+// `nearest_hits` over the BVH: cast.wgsl's walk (`bvh_next_leaf`, the
+// traversal of `intersect`) with the K-th nearest distance as t_max.
 fn nearest_hits(r: Ray) -> Nearest {
     var s: Nearest;
     s.len = 0u;
     for (var k = 0u; k < HIDDEN_HITS; k++) { s.t[k] = INF; s.tri[k] = 0xffffffffu; }
-    if (params.n_triangles == 0u) { return s; }
-    if (box_hit(nodes[0], r, INF) < 0.0) { return s; }
     let w = watertight_setup(r);
-    var stack_node: array<u32, 64>;
-    var stack_t: array<f32, 64>;
-    var sp = 0;
-    var node = 0u;
+    var walk = bvh_walk(r);
     loop {
-        let n = nodes[node];
-        var descended = false;
-        let t_max = nearest_t_max(s);
-        if (n.count > 0u) {
-            for (var i = n.left_or_first; i < n.left_or_first + n.count; i++) {
-                let tr = triangles[i];
-                let h = watertight(w, r.origin, tr.p0.xyz, tr.p1.xyz, tr.p2.xyz, nearest_t_max(s));
-                if (h.x >= 0.0) {
-                    offer(&s, i, h.x, h.y, h.z);
-                }
-            }
-        } else {
-            let a = n.left_or_first;
-            let b = a + 1u;
-            let ta = box_hit(nodes[a], r, t_max);
-            let tb = box_hit(nodes[b], r, t_max);
-            if (ta >= 0.0 && tb >= 0.0) {
-                if (ta <= tb) {
-                    stack_node[sp] = b; stack_t[sp] = tb; sp++; node = a;
-                } else {
-                    stack_node[sp] = a; stack_t[sp] = ta; sp++; node = b;
-                }
-                descended = true;
-            } else if (ta >= 0.0) {
-                node = a; descended = true;
-            } else if (tb >= 0.0) {
-                node = b; descended = true;
+        if (!bvh_next_leaf(&walk, r, nearest_t_max(s))) { break; }
+        for (var i = walk.first; i < walk.first + walk.count; i++) {
+            let tr = triangles[i];
+            let h = watertight(w, r.origin, tr.p0.xyz, tr.p1.xyz, tr.p2.xyz, nearest_t_max(s));
+            if (h.x >= 0.0) {
+                offer(&s, i, h.x, h.y, h.z);
             }
         }
-        if (descended) { continue; }
-        var found = false;
-        let t_pop = nearest_t_max(s);
-        loop {
-            if (sp == 0) { break; }
-            sp--;
-            if (stack_t[sp] <= t_pop) { node = stack_node[sp]; found = true; break; }
-        }
-        if (!found) { break; }
     }
     return s;
 }
@@ -142,11 +107,9 @@ fn hidden(@builtin(global_invocation_id) id: vec3<u32>) {
     hidden_out[i] = vec4<f32>(0.0, 0.0, 0.0, -1.0);
     if (hidden_want[i] == 0u) { return; }
     let p = vec2<f32>(f32(id.x) + 0.5, f32(id.y) + 0.5);
-    let eye = params.eye.xyz;
-    let dir = screen_point(p) - eye;
-    let r = Ray(eye, dir, 1.0 / dir, dir.x == 0.0 || dir.y == 0.0 || dir.z == 0.0);
+    let r = primary_ray(p);
     let s = nearest_hits(r);
-    let length_dir = length(dir);
+    let length_dir = length(r.dir);
     let visible = object_ids[i];
     let zv = depth[i];
     for (var k = 1u; k < s.len; k++) {
@@ -154,14 +117,8 @@ fn hidden(@builtin(global_invocation_id) id: vec3<u32>) {
         let object = bitcast<u32>(tr.p0.w);
         let d = s.t[k] * length_dir;
         if (object == visible || object == 0xffffffffu || !(d > zv)) { continue; }
-        let u = s.u[k];
-        let v = s.v[k];
-        var n = try_normalize(tr.n0.xyz * (1.0 - u - v) + tr.n1.xyz * u + tr.n2.xyz * v);
-        if (all(n == vec3<f32>(0.0))) {
-            n = try_normalize(cross(tr.p1.xyz - tr.p0.xyz, tr.p2.xyz - tr.p0.xyz));
-            if (all(n == vec3<f32>(0.0))) { n = vec3<f32>(0.0, 0.0, 1.0); }
-        }
-        let c = shade(object, eye + dir * s.t[k], n, eye);
+        let n = shading_normal(tr, s.u[k], s.v[k]);
+        let c = shade(object, r.origin + r.dir * s.t[k], n, r.origin);
         hidden_out[i] = vec4<f32>(clamp(c, vec3<f32>(0.0), vec3<f32>(1.0)), d);
         return;
     }

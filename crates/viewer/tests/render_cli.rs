@@ -218,7 +218,7 @@ fn the_gpu_backend_renders_foveated_frames_and_reports_its_adapter() {
         .output()
         .expect("runs");
     assert!(!out.status.success());
-    assert!(String::from_utf8_lossy(&out.stderr).contains("--backend cpu"));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("choose the CPU backend"));
 }
 
 /// Every command renders through the one frame entry, so a scene without

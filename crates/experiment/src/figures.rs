@@ -3,8 +3,10 @@
 //! (Murphy 2007, Figs. 7.3 and 7.4) and scanpaths over the trial's
 //! stimulus picture (Fig. 7.5).
 //!
-//! The text uses the viewer's embedded DejaVu Sans Mono, registered as
-//! plotters' `sans-serif` once ([`register_font`]). When the data are
+//! The text uses the embedded DejaVu Sans Mono ([`FONT`], this crate's
+//! `assets/fonts`, its licence next to it), registered as plotters'
+//! `sans-serif` once ([`register_font`]); the viewer's pictures use it
+//! through this module. When the data are
 //! synthetic every figure carries a red "SYNTHETIC DATA" band above its
 //! title, so no picture of a simulated participant can pass for human data.
 //!
@@ -16,7 +18,9 @@ use plotters::style::text_anchor::{HPos, Pos, VPos};
 use std::io::BufReader;
 use std::path::Path;
 
-const FONT: &[u8] = include_bytes!("../../viewer/assets/fonts/DejaVuSansMono.ttf");
+/// The embedded plot font, DejaVu Sans Mono (licence:
+/// `assets/fonts/LICENSE-DejaVu.txt`).
+pub const FONT: &[u8] = include_bytes!("../assets/fonts/DejaVuSansMono.ttf");
 
 /// What drawing or writing a figure fails with.
 pub type FigureError = Box<dyn std::error::Error + Send + Sync>;

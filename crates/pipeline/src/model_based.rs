@@ -70,12 +70,12 @@ self_cell::self_cell!(
     }
 );
 
-/// Most triangles a budget may ask for (`--budget`): 10⁹, far above any
+/// Most triangles a budget may ask for: 10⁹, far above any
 /// scene this renderer loads (a bound, so that a typo is an error rather
 /// than "no limit").
 pub const MAX_TRIANGLE_BUDGET: usize = 1_000_000_000;
 
-/// The model-based methods' options (what a command line chooses).
+/// The model-based methods' options.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 pub struct ModelOptions {
     /// Luebke & Hallen §5.3 best-effort mode (`Method::Simplify` only): at
@@ -92,30 +92,76 @@ pub struct ModelOptions {
     pub ignore_gaze: bool,
 }
 
+/// Which of [`ModelOptions`] a [`ModelOptionsError`] is about.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ModelSetting {
+    /// [`ModelOptions::budget`].
+    Budget,
+    /// [`ModelOptions::ignore_gaze`].
+    IgnoreGaze,
+}
+
+/// Model options that do not fit the method asked for. The message names
+/// the setting; [`ModelOptionsError::setting`] says which one, so that a
+/// caller can name its own way of setting it (a command-line flag).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+pub enum ModelOptionsError {
+    /// A triangle budget with another method than `Simplify`.
+    #[error(
+        "the triangle budget is Luebke & Hallen's best-effort mode, for the simplify \
+         method only (not {method})"
+    )]
+    BudgetNeedsSimplify { method: &'static str },
+    /// A triangle budget outside 1 to [`MAX_TRIANGLE_BUDGET`].
+    #[error(
+        "the triangle budget must be from 1 to {max} triangles (not {budget})",
+        max = MAX_TRIANGLE_BUDGET
+    )]
+    BudgetOutOfRange { budget: usize },
+    /// Selecting without the gaze with a method that is not model-based.
+    #[error(
+        "selecting without the gaze is for the model-based methods only (simplify, lod), \
+         not {method}"
+    )]
+    IgnoreGazeNeedsModelBased { method: &'static str },
+}
+
+impl ModelOptionsError {
+    /// The setting at fault.
+    pub fn setting(&self) -> ModelSetting {
+        match self {
+            ModelOptionsError::BudgetNeedsSimplify { .. }
+            | ModelOptionsError::BudgetOutOfRange { .. } => ModelSetting::Budget,
+            ModelOptionsError::IgnoreGazeNeedsModelBased { .. } => ModelSetting::IgnoreGaze,
+        }
+    }
+}
+
 impl ModelOptions {
     /// Checks the options against `method` (requested, before the scene
-    /// decides); errors name the command-line flag.
-    pub fn check(&self, method: Method) -> Result<(), String> {
-        if let Some(b) = self.budget {
+    /// decides).
+    pub fn validate(&self, method: Method) -> Result<(), ModelOptionsError> {
+        if let Some(budget) = self.budget {
             if method != Method::Simplify {
-                return Err(format!(
-                    "--budget: the triangle budget is Luebke & Hallen's best-effort mode, for --method simplify only (not {})",
-                    method.name()
-                ));
+                return Err(ModelOptionsError::BudgetNeedsSimplify {
+                    method: method.key(),
+                });
             }
-            if !(1..=MAX_TRIANGLE_BUDGET).contains(&b) {
-                return Err(format!(
-                    "--budget {b}: must be from 1 to {MAX_TRIANGLE_BUDGET} triangles"
-                ));
+            if !(1..=MAX_TRIANGLE_BUDGET).contains(&budget) {
+                return Err(ModelOptionsError::BudgetOutOfRange { budget });
             }
         }
         if self.ignore_gaze && !method.is_model_based() {
-            return Err(format!(
-                "--no-gaze: only the model-based methods (simplify, lod) select without the gaze (not {})",
-                method.name()
-            ));
+            return Err(ModelOptionsError::IgnoreGazeNeedsModelBased {
+                method: method.key(),
+            });
         }
         Ok(())
+    }
+
+    /// [`ModelOptions::validate`] with the error as its message.
+    pub fn check(&self, method: Method) -> Result<(), String> {
+        self.validate(method).map_err(|e| e.to_string())
     }
 }
 
@@ -371,7 +417,7 @@ impl ModelBased {
             ),
             RasterOn::Gpu(g) => g
                 .rasterize(camera, &self.triangles, surface, frame)
-                .map_err(|e| format!("--backend gpu: {e}"))?,
+                .map_err(|e| format!("the GPU backend: {e}"))?,
         };
         stats.raster_ms = r.time_ms;
         stats.raster = r;

@@ -6,7 +6,7 @@
 use std::path::Path;
 
 use foveation::Display;
-use pipeline::model_based::{proportional_shares, ModelOptions};
+use pipeline::model_based::{proportional_shares, ModelOptions, ModelSetting};
 use pipeline::{BackendChoice, Method, Options, Renderer};
 use raycast::scene::Effect;
 use raycast::{Camera, Frame, Scene, SceneFile};
@@ -343,15 +343,55 @@ fn budget_and_no_gaze_are_refused_where_they_do_not_apply() {
             },
         )
     };
-    for (method, budget, gaze, flag) in [
-        (Method::Lod, Some(100), false, "--budget"),
-        (Method::Hybrid, Some(100), false, "--budget"),
-        (Method::Simplify, Some(0), false, "--budget"),
-        (Method::Simplify, Some(usize::MAX), false, "--budget"),
-        (Method::Full, None, true, "--no-gaze"),
+    for (method, budget, gaze, setting, words) in [
+        (
+            Method::Lod,
+            Some(100),
+            false,
+            ModelSetting::Budget,
+            "triangle budget",
+        ),
+        (
+            Method::Hybrid,
+            Some(100),
+            false,
+            ModelSetting::Budget,
+            "triangle budget",
+        ),
+        (
+            Method::Simplify,
+            Some(0),
+            false,
+            ModelSetting::Budget,
+            "triangle budget",
+        ),
+        (
+            Method::Simplify,
+            Some(usize::MAX),
+            false,
+            ModelSetting::Budget,
+            "triangle budget",
+        ),
+        (
+            Method::Full,
+            None,
+            true,
+            ModelSetting::IgnoreGaze,
+            "without the gaze",
+        ),
     ] {
         let e = make(method, budget, gaze).err().expect("refused");
-        assert!(e.to_string().contains(flag), "{method:?}: {e}");
+        assert!(e.to_string().contains(words), "{method:?}: {e}");
+        assert!(
+            !e.to_string().contains("--"),
+            "{method:?} names a flag: {e}"
+        );
+        let options = ModelOptions {
+            budget,
+            ignore_gaze: gaze,
+        };
+        let e = options.validate(method).expect_err("refused");
+        assert_eq!(e.setting(), setting, "{method:?}: {e}");
     }
     assert!(make(Method::Lod, None, true).is_ok());
 }

@@ -81,6 +81,21 @@ pub struct ModelArgs {
     pub no_gaze: bool,
 }
 
+impl ModelArgs {
+    /// Checks the options against `method` (as the renderer will); an
+    /// error names the flag at fault.
+    pub fn check(self, method: pipeline::Method) -> Result<(), String> {
+        use pipeline::model_based::{ModelOptions, ModelSetting};
+        ModelOptions::from(self).validate(method).map_err(|e| {
+            let flag = match e.setting() {
+                ModelSetting::Budget => "--budget",
+                ModelSetting::IgnoreGaze => "--no-gaze",
+            };
+            format!("{flag}: {e}")
+        })
+    }
+}
+
 impl From<ModelArgs> for pipeline::model_based::ModelOptions {
     fn from(a: ModelArgs) -> Self {
         Self {

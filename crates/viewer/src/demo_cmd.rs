@@ -83,6 +83,7 @@ pub fn run(args: &DemoArgs, out: &mut dyn Write) -> Result<(), String> {
         return Err(format!("--fps {}: must be in 1..=120", args.fps));
     }
     args.lsl.check()?;
+    args.model.check(args.method)?;
     let line = |out: &mut dyn Write, s: String| writeln!(out, "{s}").map_err(|e| e.to_string());
     if !args.headless && has_display() {
         line(

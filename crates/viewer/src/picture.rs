@@ -14,16 +14,9 @@ pub use pipeline::effects::por_overlay::draw_box;
 /// What the writers and drawers fail with.
 pub type PictureResult = Result<(), Box<dyn std::error::Error>>;
 
-const FONT: &[u8] = include_bytes!("../assets/fonts/DejaVuSansMono.ttf");
-
-/// Registers the embedded font as plotters' `sans-serif` (once).
-pub fn register_font() {
-    static ONCE: std::sync::Once = std::sync::Once::new();
-    ONCE.call_once(|| {
-        // The embedded font is valid; registration can only fail on a bad font file.
-        let _ = plotters::style::register_font("sans-serif", FontStyle::Normal, FONT);
-    });
-}
+/// Registers the embedded font as plotters' `sans-serif` (once): the
+/// experiment crate's figure font, one registration for both crates.
+pub use experiment::figures::register_font;
 
 /// Writes an RGB buffer as PNG: indexed colour when it has at most 256
 /// distinct colours (mesh pictures do, and shrink several-fold), else RGB.

@@ -214,6 +214,7 @@ pub struct StageTime {
 
 /// Runs `gazecast render`.
 pub fn run(args: &RenderArgs, out: &mut dyn Write) -> Result<(), String> {
+    args.model.check(args.mode)?;
     let mut outputs = vec![("--out", args.out.as_path())];
     outputs.extend(args.layers.as_deref().map(|p| ("--layers", p)));
     outputs.extend(args.stats.as_deref().map(|p| ("--stats", p)));

@@ -125,6 +125,7 @@ fn check_tracker_against_replay(args: &ViewArgs) -> Result<(), String> {
 /// Runs `gazecast view`.
 pub fn run(args: &ViewArgs, out: &mut dyn Write) -> Result<(), String> {
     args.lsl.check()?;
+    args.model.check(args.method)?;
     let mut outputs = Vec::new();
     outputs.extend(args.record.as_deref().map(|p| ("--record", p)));
     outputs.extend(args.screenshot.as_deref().map(|p| ("--screenshot", p)));

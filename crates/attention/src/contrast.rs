@@ -5,11 +5,11 @@
 //! (0,3), (0,4), (1,4), (1,5), (2,5), (2,6). Every level is sampled at the
 //! level-0 pixel by bilinear magnification (Lee Fig. 3.3), so `C_f` has the
 //! size of level 0. For hue the absolute difference is
-//! [`crate::color::hue_vector_contrast`].
+//! [`crate::hls::hue_vector_contrast`].
 
 use rayon::prelude::*;
 
-use crate::color::hue_vector_contrast_with_lengths;
+use crate::hls::hue_vector_contrast_with_lengths;
 use crate::pyramid::{AxisTaps, Pyramid, PYRAMID_LEVELS};
 
 /// The (centre, surround) level pairs of eq. 3.4.

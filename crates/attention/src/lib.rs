@@ -169,7 +169,7 @@
 //! and item-buffer images; here those arrive at frame size and the
 //! downsampling to the map is part of the measured time.
 
-pub mod color;
+pub mod hls;
 pub mod config;
 pub mod context;
 pub mod contrast;

@@ -5,7 +5,7 @@ use std::collections::HashMap;
 
 use rayon::prelude::*;
 
-use crate::color::{hue_vector_angle_deg, lightness_and_hue_vector};
+use crate::hls::{hue_vector_angle_deg, lightness_and_hue_vector};
 use crate::config::AttentionConfig;
 use crate::context::{spatial_context, TemporalContext};
 use crate::contrast::{combine, contrast_weight, CentreSurround};

@@ -2,7 +2,7 @@
 
 mod common;
 
-use attention::color::{
+use attention::hls::{
     hue_difference_deg, hue_vector_angle_deg, hue_vector_contrast, mean_hue_deg, rgb_to_hls,
 };
 use attention::pyramid::{Pyramid, PYRAMID_LEVELS};

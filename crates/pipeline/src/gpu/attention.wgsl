@@ -1,6 +1,6 @@
 // Lee's attention model (2009 ch. 3), the per-pixel and per-map part, on a
 // frame's buffers: the GPU twin of `attention::AttentionTracker`'s passes
-// (crates/attention/src/tracker.rs, pyramid.rs, contrast.rs, color.rs,
+// (crates/attention/src/tracker.rs, pyramid.rs, contrast.rs, hls.rs,
 // fast_math.rs), in the same order and with the same arithmetic in f32.
 // Appended to colour.wgsl, of which only `pixels` (binding 3) is read and
 // bound (`lut` and `thresholds` are left out of the layout). The
@@ -297,7 +297,7 @@ fn sin_cos(x: f32) -> vec2<f32> {
     return vec2<f32>(-c, s);
 }
 
-// color.rs `lightness_and_hue_vector`: HLS lightness and the
+// hls.rs `lightness_and_hue_vector`: HLS lightness and the
 // chroma-weighted hexcone hue vector of an RGB colour in [0, 1].
 fn lightness_hue(rgb: vec3<f32>) -> vec3<f32> {
     let r = clamp(rgb.x, 0.0, 1.0);
@@ -516,7 +516,7 @@ fn angle_from_cross_dot(cross_abs: f32, dot_ab: f32) -> f32 {
     return r;
 }
 
-// color.rs `hue_vector_contrast_with_lengths`.
+// hls.rs `hue_vector_contrast_with_lengths`.
 fn hue_contrast(a: vec2<f32>, la: f32, b: vec2<f32>, lb: f32) -> f32 {
     let weight = min(la, lb);
     let cross_abs = abs(a.x * b.y - a.y * b.x);

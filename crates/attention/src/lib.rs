@@ -169,7 +169,6 @@
 //! and item-buffer images; here those arrive at frame size and the
 //! downsampling to the map is part of the measured time.
 
-pub mod hls;
 pub mod config;
 pub mod context;
 pub mod contrast;
@@ -177,6 +176,7 @@ mod error;
 pub mod eval;
 pub mod fast_math;
 pub mod frame;
+pub mod hls;
 pub mod kalman;
 pub mod measure;
 pub mod pyramid;

@@ -5,12 +5,12 @@ use std::collections::HashMap;
 
 use rayon::prelude::*;
 
-use crate::hls::{hue_vector_angle_deg, lightness_and_hue_vector};
 use crate::config::AttentionConfig;
 use crate::context::{spatial_context, TemporalContext};
 use crate::contrast::{combine, contrast_weight, CentreSurround};
 use crate::error::AttentionError;
 use crate::frame::{CameraMotion, FrameView, ObjectInfo, BACKGROUND_ID};
+use crate::hls::{hue_vector_angle_deg, lightness_and_hue_vector};
 use crate::kalman::ScalarKalman;
 use crate::measure::{footprints, FrameMeasure, ObjectIndex, ObjectMeasure};
 use crate::pyramid::Pyramid;

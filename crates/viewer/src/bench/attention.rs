@@ -75,9 +75,7 @@ pub const MAX_NOTES: usize = 100;
 pub const MAX_NOTE_CHARS: usize = 500;
 /// Largest `--radius-deg`.
 pub const MAX_RADIUS_DEG: f64 = 5.0;
-/// Lee's velocity thresholds (normalised screen units per frame).
-pub const FIXATION_BELOW: f64 = 0.03;
-pub const SACCADE_ABOVE: f64 = 0.1;
+pub use attention::eval::{eye_state, EyeState, FIXATION_BELOW, SACCADE_ABOVE};
 
 #[derive(Debug, Clone, clap::Args)]
 pub struct AttentionArgs {
@@ -130,60 +128,6 @@ pub struct AttentionArgs {
         requires = "synthesize_gaze"
     )]
     pub seconds: f64,
-}
-
-/// Lee's eye states (§3.5.2).
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum EyeState {
-    Blink,
-    /// No velocity: the first frame, or the first after a blink.
-    Start,
-    Saccade,
-    Drift,
-    Fixation,
-}
-
-impl EyeState {
-    fn name(self) -> &'static str {
-        match self {
-            Self::Blink => "blink",
-            Self::Start => "start",
-            Self::Saccade => "saccade",
-            Self::Drift => "drift",
-            Self::Fixation => "fixation",
-        }
-    }
-
-    /// Scored frames (Lee keeps fixations and drifts).
-    pub fn scored(self) -> bool {
-        matches!(self, Self::Drift | Self::Fixation)
-    }
-}
-
-/// Classifies a frame's gaze from the last frame's (screen px, or `None`
-/// when invalid) on a `size` px screen, frames at `rate_hz`.
-pub fn eye_state(
-    last: Option<[f64; 2]>,
-    now: Option<[f64; 2]>,
-    size: [f64; 2],
-    rate_hz: f64,
-) -> EyeState {
-    match (last, now) {
-        (_, None) => EyeState::Blink,
-        (None, Some(_)) => EyeState::Start,
-        (Some(a), Some(b)) => {
-            // Lee's thresholds are per 60-Hz frame: the change per frame at
-            // another rate is scaled to a 60-Hz frame's.
-            let v = ((b[0] - a[0]) / size[0]).hypot((b[1] - a[1]) / size[1]) * rate_hz / 60.0;
-            if !v.is_finite() || v > SACCADE_ABOVE {
-                EyeState::Saccade
-            } else if v < FIXATION_BELOW {
-                EyeState::Fixation
-            } else {
-                EyeState::Drift
-            }
-        }
-    }
 }
 
 /// A frame's time (s since the session's first sample) and gaze (screen
@@ -886,29 +830,6 @@ fn synthesize(
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn eye_states_follow_lee_thresholds() {
-        let size = [1000.0, 1000.0];
-        assert_eq!(eye_state(None, None, size, 60.0), EyeState::Blink);
-        assert_eq!(
-            eye_state(None, Some([1.0, 1.0]), size, 60.0),
-            EyeState::Start
-        );
-        assert_eq!(
-            eye_state(Some([0.0, 0.0]), Some([10.0, 0.0]), size, 60.0),
-            EyeState::Fixation
-        );
-        assert_eq!(
-            eye_state(Some([0.0, 0.0]), Some([50.0, 0.0]), size, 60.0),
-            EyeState::Drift
-        );
-        assert_eq!(
-            eye_state(Some([0.0, 0.0]), Some([200.0, 0.0]), size, 60.0),
-            EyeState::Saccade
-        );
-        assert!(!EyeState::Saccade.scored() && EyeState::Drift.scored());
-    }
 
     #[test]
     fn frames_take_the_newest_sample_and_stop_at_max() {

@@ -105,3 +105,18 @@ pub struct DecodeStats {
     /// Values outside the device's range (reported as a missing eye).
     pub invalid_values: u64,
 }
+
+impl std::ops::Add for DecodeStats {
+    type Output = DecodeStats;
+    /// Two counts together (a connection's, then the next one's),
+    /// saturating: a count never wraps to a small number.
+    fn add(self, b: DecodeStats) -> DecodeStats {
+        DecodeStats {
+            bytes: self.bytes.saturating_add(b.bytes),
+            records: self.records.saturating_add(b.records),
+            dropped_bytes: self.dropped_bytes.saturating_add(b.dropped_bytes),
+            resyncs: self.resyncs.saturating_add(b.resyncs),
+            invalid_values: self.invalid_values.saturating_add(b.invalid_values),
+        }
+    }
+}

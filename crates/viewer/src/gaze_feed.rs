@@ -142,16 +142,6 @@ impl Faults {
     }
 }
 
-fn add_stats(a: DecodeStats, b: DecodeStats) -> DecodeStats {
-    DecodeStats {
-        bytes: a.bytes + b.bytes,
-        records: a.records + b.records,
-        dropped_bytes: a.dropped_bytes + b.dropped_bytes,
-        resyncs: a.resyncs + b.resyncs,
-        invalid_values: a.invalid_values + b.invalid_values,
-    }
-}
-
 fn lock(f: &Mutex<Faults>) -> std::sync::MutexGuard<'_, Faults> {
     f.lock().unwrap_or_else(std::sync::PoisonError::into_inner)
 }
@@ -260,7 +250,7 @@ fn tracker_thread(mut open: Opener, ctx: ThreadCtx) {
                     let _ = tx.send(TrackerMsg::Status(String::new()));
                 }
             }
-            lock(&faults).decode = add_stats(base, stats);
+            lock(&faults).decode = base + stats;
             match next {
                 Ok(Some(s)) => {
                     last_record = Instant::now();

@@ -595,16 +595,6 @@ impl std::io::Write for Closed {
     }
 }
 
-fn add_stats(a: tracker_hal::DecodeStats, b: tracker_hal::DecodeStats) -> tracker_hal::DecodeStats {
-    tracker_hal::DecodeStats {
-        bytes: a.bytes + b.bytes,
-        records: a.records + b.records,
-        dropped_bytes: a.dropped_bytes + b.dropped_bytes,
-        resyncs: a.resyncs + b.resyncs,
-        invalid_values: a.invalid_values + b.invalid_values,
-    }
-}
-
 /// Runs `gazecast record`.
 pub fn record(args: &RecordArgs, out: &mut dyn Write) -> Result<(), String> {
     if let Some(s) = args.seconds {
@@ -705,7 +695,7 @@ pub fn record(args: &RecordArgs, out: &mut dyn Write) -> Result<(), String> {
             }
             Err(e) if e.kind == tracker_hal::ErrorKind::Disconnected && reopen.is_some() => {
                 let _ = writeln!(out, "{e}; opening it again");
-                before = add_stats(before, driver.stats());
+                before = before + driver.stats();
                 let Some(open) = &reopen else {
                     break Err(e.to_string());
                 };
@@ -750,7 +740,7 @@ pub fn record(args: &RecordArgs, out: &mut dyn Write) -> Result<(), String> {
         (Err(e), Err(o)) if o.contains(&e.to_string()) => return Err(o.clone()),
         (Err(e), Err(o)) => return Err(format!("{o}; {e}")),
     };
-    let s = add_stats(before, driver.stats());
+    let s = before + driver.stats();
     let _ = writeln!(
         out,
         "{}: records={} dropped_bytes={} resyncs={} read_timeouts={} chunks={} bytes={}{}",

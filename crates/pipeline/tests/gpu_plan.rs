@@ -11,7 +11,7 @@ use foveation::{Display, SamplingModel};
 use pipeline::effects::por_overlay::draw_box;
 use pipeline::plan::{Channels, Role, Side};
 use pipeline::{BackendChoice, Method, Options, Renderer};
-use raycast::{Camera, Frame, Scene, SceneFile};
+use raycast::{Camera, Scene, SceneFile};
 
 const W: u32 = 160;
 const H: u32 = 128;
@@ -19,13 +19,7 @@ const GAZE: [f64; 2] = [60.0, 70.0];
 const DOF: &str = "depth of field (Lee ch. 4, focus at the gaze's depth)";
 
 fn display() -> Display {
-    Display {
-        name: "17in at 160x128".into(),
-        resolution_px: (W, H),
-        size_mm: (337.9, 270.3),
-        eye_distance_mm: 540.0,
-        eye_point_px: None,
-    }
+    fixtures::display_17in(W, H)
 }
 
 fn model() -> SamplingModel {
@@ -70,16 +64,6 @@ fn renderer(scene: &Scene, method: Method, backend: BackendChoice) -> Renderer<'
     })
 }
 
-fn worst_diff(a: &Frame, b: &Frame) -> u8 {
-    assert_eq!(a.rgb.len(), b.rgb.len());
-    a.rgb
-        .iter()
-        .zip(&b.rgb)
-        .map(|(x, y)| x.abs_diff(*y))
-        .max()
-        .unwrap_or(0)
-}
-
 #[test]
 fn a_second_gpu_effect_after_the_first_runs_on_the_gpu() {
     let s = scene("DepthOfField(pupil_mm: 8.0), PorOverlay(half_px: 20)");
@@ -109,7 +93,11 @@ fn a_second_gpu_effect_after_the_first_runs_on_the_gpu() {
     let (g, _) = gpu.render_at(GAZE, 0.0).expect("GPU frame");
     let (c, _) = cpu.render_at(GAZE, 0.0).expect("CPU frame");
     // Depth of field's GPU tolerance (tests/gpu_effects.rs): 1/255.
-    assert!(worst_diff(&g, &c) <= 1, "{}", worst_diff(&g, &c));
+    assert!(
+        fixtures::max_channel_diff(&g, &c) <= 1,
+        "{}",
+        fixtures::max_channel_diff(&g, &c)
+    );
     // The box, drawn last, is exact on both.
     for (x, y) in [(40, 50), (80, 70), (60, 90), (41, 70)] {
         let i = 3 * (y * W as usize + x);

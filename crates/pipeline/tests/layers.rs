@@ -5,32 +5,17 @@
 //! layers equal the CPU's, and nothing allocated before the first frame.
 //! The method is reached only by its name, as a lab reaches it.
 
-use std::path::Path;
-
 use foveation::{Display, SamplingModel};
 use pipeline::methods::layers::{core_half_size, Layers};
 use pipeline::{BackendChoice, Method, Options, Renderer};
 use proptest::prelude::*;
 use raycast::scene::Effect;
-use raycast::{Camera, Frame, Scene, SceneFile};
+use raycast::{Camera, Frame, Scene};
 
-fn display(w: u32, h: u32) -> Display {
-    Display {
-        name: "17in".into(),
-        resolution_px: (w, h),
-        size_mm: (337.9, 270.3),
-        eye_distance_mm: 540.0,
-        eye_point_px: None,
-    }
-}
+use fixtures::display_17in as display;
 
 fn scene(name: &str) -> Scene {
-    let repo = Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../.."));
-    let path = repo.join("config/scenes").join(format!("{name}.ron"));
-    let text = std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
-    let mut file: SceneFile = ron::from_str(&text).unwrap_or_else(|e| panic!("{name}: {e}"));
-    file.effects = vec![Effect::FoveatedSampling];
-    Scene::build(&file, path.parent().expect("dir")).unwrap_or_else(|e| panic!("{name}: {e}"))
+    fixtures::scene_with_effects(name, vec![Effect::FoveatedSampling])
 }
 
 fn model(d: &Display) -> SamplingModel {

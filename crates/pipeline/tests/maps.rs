@@ -3,17 +3,10 @@
 //! growing (eccentricity) and falling (cut-off) away from it; a gaze that
 //! is not finite or a screen too large is refused.
 
-use foveation::Display;
 use pipeline::registry::{map, MapInput, MAPS, MAX_MAP_PIXELS};
 
 fn model() -> foveation::SamplingModel {
-    let d = Display {
-        name: "17in".into(),
-        resolution_px: (320, 256),
-        size_mm: (337.9, 270.3),
-        eye_distance_mm: 540.0,
-        eye_point_px: None,
-    };
+    let d = fixtures::display_17in(320, 256);
     pipeline::sampling_model(d.geometry().expect("geometry"), 1.0).expect("model")
 }
 

@@ -253,7 +253,11 @@ impl<'s> Renderer<'s> {
         // read-back; the raster path and the modules' frames do not.
         let gpu_hook = matches!(backend, Backend::Gpu(_))
             && matches!(method, Method::Full | Method::Hybrid | Method::Image);
-        let (gpu_passes, passes) = split_passes(passes, gpu_hook);
+        let (mut gpu_passes, mut passes) = split_passes(passes, gpu_hook);
+        // The passes know the model from the start (`explain` before the
+        // first frame); each frame gives it again (the eye may move).
+        gpu_passes.iter_mut().for_each(|p| p.prepare(&model));
+        passes.iter_mut().for_each(|p| p.prepare(&model));
         let state = match method {
             Method::Simplify | Method::Lod => MethodState::ModelBased(Box::new(
                 ModelBased::new(scene, &camera, method, options.model)

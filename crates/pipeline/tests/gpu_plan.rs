@@ -197,6 +197,11 @@ fn the_plan_is_what_runs_and_pays_per_use() {
         let names: Vec<&str> = plan.stages.iter().map(|s| s.name.as_str()).collect();
         assert_eq!(names, ["image-based", "image-based foveation", "POR box"]);
         assert_eq!(plan.stages[1].role, Role::MethodPass);
+        let text = r.explain().join("\n");
+        assert!(
+            !text.contains("NaN"),
+            "the model is known before the first frame: {text}"
+        );
         assert!(plan.stages.iter().all(|s| s.side == side), "{backend:?}");
         assert_eq!(
             r.provenance(),

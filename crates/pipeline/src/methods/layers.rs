@@ -455,15 +455,23 @@ fn compose(layers: &[Rendered; 3], gaze: [f64; 2], frame: &mut Frame, sources: &
                 let mut exact: Option<usize> = None;
                 // The finest layer weighing at least ½ gives the G-buffer.
                 let mut source: Option<(usize, usize)> = None;
-                for (k, l) in layers.iter().enumerate().rev() {
+                let weights = [0, 1, 2].map(|k| layers[k].rect.as_ref().map_or(0.0, |r| weight(r, d)));
+                // Layers outside the finest one at full weight are covered
+                // by it: blending them in would multiply them by 0.
+                let start = (0..3).find(|&k| weights[k] >= 1.0).unwrap_or(2);
+                for k in (0..=start).rev() {
+                    let l = &layers[k];
                     let Some(r) = &l.rect else { continue };
-                    let wk = weight(r, d);
+                    let wk = weights[k];
                     if wk <= 0.0 {
                         continue;
                     }
                     let (nearest, taps) = taps(r, p);
                     if k == 0 && wk >= 1.0 {
+                        // The inner core: its own texel, nothing to blend.
                         exact = Some(nearest);
+                        source = Some((0, nearest));
+                        break;
                     }
                     let mut c = [0.0f32; 3];
                     for (i, t) in taps {

@@ -5,14 +5,19 @@
 //!
 //! ```text
 //! gaze ──► Renderer::render ──► the frame plan, decided once in Renderer::new:
-//!          1. the method (Method::Full | Hybrid | Image | Simplify | Lod | Ulod)
-//!             fills the G-buffer Frame on a backend (CPU | GPU)
+//!          1. the method (a module in methods/: full, hybrid, image,
+//!             simplify, lod, ulod, layers) fills the G-buffer Frame on a
+//!             backend (CPU | GPU)
 //!          2. the GPU passes, chained between the cast and the read-back
 //!          3. the CPU passes, after it ──► Frame
 //! ```
 //!
 //! - A **method** ([`Method`]) is chosen in one place,
-//!   [`Method::for_scene`], and its state is one value made for it alone.
+//!   [`Method::for_scene`]. Each is one module in [`methods`]: its
+//!   [`registry::MethodModule`] (names, help, whether it follows the gaze,
+//!   runs on the GPU, takes GPU passes before its read-back) and its state,
+//!   a [`registry::FrameMethod`] made for it alone, which the renderer
+//!   calls without knowing which method it is.
 //! - The **G-buffer** is [`raycast::Frame`]: colour, hit, depth (eye distance,
 //!   mm), object id, normal and layer per pixel, filled identically by both
 //!   backends ([`plan::Channels`] names them).

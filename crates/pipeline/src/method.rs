@@ -39,52 +39,15 @@ pub enum Method {
     Module(&'static MethodModule),
 }
 
-/// The built-in methods with their command-line names, aliases and help.
-const BUILT_IN: [(Method, &str, &[&str], &str); 6] = [
-    (
-        Method::Full,
-        "full",
-        &[],
-        "One ray per pixel (the control condition)",
-    ),
-    (
-        Method::Hybrid,
-        "hybrid",
-        &["foveated"],
-        "Murphy 2007's hybrid: the CSF ray mask, reconstruction from the intermediate mesh, \
-         refinement where the scene's effects ask",
-    ),
-    (
-        Method::Image,
-        "image",
-        &["image-based"],
-        "Image-based foveation (Geisler & Perry 1998): every pixel cast, then blurred by a \
-         Gaussian pyramid to the level the CSF allows at its eccentricity",
-    ),
-    (
-        Method::Simplify,
-        "simplify",
-        &["luebke-hallen"],
-        "Model-based: Luebke & Hallen 2001's perceptual simplification (imperceptible mode: \
-         every fold the Geisler–Perry table judges invisible at its eccentricity), rasterised \
-         (CPU or GPU)",
-    ),
-    (
-        Method::Lod,
-        "lod",
-        &["murphy-duchowski"],
-        "Model-based: Murphy & Duchowski 2001's gaze-contingent level of detail (Table 1's \
-         levels by eccentricity), rasterised (CPU or GPU)",
-    ),
-    (
-        Method::Ulod,
-        "ulod",
-        &["attention-lod"],
-        "Lee 2009 ch. 7: attention-guided level of detail with ULOD's blend of adjacent levels \
-         (`ULOD5`: 1, 1/4, … 1/256 of each object's triangles by quadric simplification), \
-         levels set by Lee's attention model on the previous frame; no eye tracker \
-         needed. CPU raster",
-    ),
+/// The built-in methods, in `--help` order; each is a module in
+/// [`crate::methods`] ([`Method::module`]).
+const BUILT_IN: [Method; 6] = [
+    Method::Full,
+    Method::Hybrid,
+    Method::Image,
+    Method::Simplify,
+    Method::Lod,
+    Method::Ulod,
 ];
 
 /// A method name nobody registered.
@@ -101,42 +64,38 @@ impl Method {
     /// the order `--help` lists them.
     pub fn all() -> impl Iterator<Item = Method> {
         BUILT_IN
-            .iter()
-            .map(|(m, ..)| *m)
+            .into_iter()
             .chain(METHODS.iter().map(|m| Method::Module(m)))
+    }
+
+    /// The module that renders it: its names, its properties and how its
+    /// state is made.
+    pub fn module(self) -> &'static MethodModule {
+        use crate::methods;
+        match self {
+            Method::Full => &methods::full::METHOD,
+            Method::Hybrid => &methods::hybrid::METHOD,
+            Method::Image => &methods::image::METHOD,
+            Method::Simplify => &methods::simplify::METHOD,
+            Method::Lod => &methods::lod::METHOD,
+            Method::Ulod => &methods::ulod::METHOD,
+            Method::Module(m) => m,
+        }
     }
 
     /// The name on the command line and in experiment designs.
     pub fn key(self) -> &'static str {
-        match self {
-            Method::Module(m) => m.name,
-            m => BUILT_IN
-                .iter()
-                .find(|(b, ..)| *b == m)
-                .map_or("", |(_, key, ..)| key),
-        }
+        self.module().name
     }
 
     /// Other names the command line and designs accept for it.
     pub fn aliases(self) -> &'static [&'static str] {
-        match self {
-            Method::Module(m) => m.aliases,
-            m => BUILT_IN
-                .iter()
-                .find(|(b, ..)| *b == m)
-                .map_or(&[], |(_, _, aliases, _)| aliases),
-        }
+        self.module().aliases
     }
 
     /// One line of help.
     pub fn help(self) -> &'static str {
-        match self {
-            Method::Module(m) => m.help,
-            m => BUILT_IN
-                .iter()
-                .find(|(b, ..)| *b == m)
-                .map_or("", |(.., help)| help),
-        }
+        self.module().help
     }
 
     /// The method called `name` (its key or an alias, exactly).
@@ -168,24 +127,14 @@ impl Method {
 
     /// Whether the method renders by the gaze.
     pub fn follows_gaze(self) -> bool {
-        match self {
-            Method::Hybrid | Method::Image | Method::Simplify | Method::Lod => true,
-            Method::Full | Method::Ulod => false,
-            Method::Module(m) => m.foveated,
-        }
+        self.module().foveated
     }
 
-    /// The name used in reports and `--stats`.
+    /// The name used in reports and `--stats` (the module's
+    /// `report_name`, not its command-line `name`).
+    #[allow(clippy::misnamed_getters)]
     pub fn name(self) -> &'static str {
-        match self {
-            Method::Full => "full",
-            Method::Hybrid => "foveated",
-            Method::Image => "image-based",
-            Method::Simplify => "simplify",
-            Method::Lod => "lod",
-            Method::Ulod => "ulod",
-            Method::Module(m) => m.name,
-        }
+        self.module().report_name
     }
 
     /// Whether the method simplifies geometry and rasterises it.

@@ -55,6 +55,9 @@ use raycast::scene::WorldTriangle;
 use raycast::{Camera, Frame, Scene};
 
 use crate::method::Method;
+use crate::plan::Side;
+use crate::registry::{FrameMethod, MethodContext, MethodFrame};
+use crate::RenderError;
 
 /// One object's tree and its cut (the cut borrows the tree).
 struct ObjectLod {
@@ -213,6 +216,8 @@ pub enum RasterOn<'a> {
 
 /// The model-based method's state for one scene.
 pub struct ModelBased {
+    /// `Method::Simplify` or `Method::Lod`.
+    method: Method,
     objects: Vec<ObjectLod>,
     mode: Mode,
     options: ModelOptions,
@@ -284,6 +289,7 @@ impl ModelBased {
             0.0
         };
         Ok(Self {
+            method,
             objects,
             mode,
             options,
@@ -437,6 +443,66 @@ fn budget_shares(budget: usize, objects: &[ObjectLod]) -> Vec<usize> {
         .map(|o| o.cells.borrow_owner().triangles().len())
         .collect();
     proportional_shares(budget, &counts)
+}
+
+/// The model-based methods as the renderer runs them (`methods::simplify`
+/// and `methods::lod` make this state).
+impl FrameMethod for ModelBased {
+    fn render(&mut self, input: MethodFrame<'_>, frame: &mut Frame) -> Result<Stats, RenderError> {
+        self.set_vergence_mm(input.vergence_mm);
+        let on = match input.gpu {
+            None => RasterOn::Cpu,
+            Some(g) => RasterOn::Gpu(g),
+        };
+        ModelBased::render(
+            self,
+            input.scene,
+            input.camera,
+            input.gaze_px,
+            input.surface,
+            frame,
+            on,
+        )
+        .map_err(RenderError::Unsupported)
+    }
+
+    fn detail(&self, on: &MethodContext<'_>) -> String {
+        let options = self.options;
+        let mode = match (self.method, options.budget) {
+            (Method::Simplify, Some(b)) => format!(
+                "Luebke–Hallen best-effort mode under a budget of {b} triangles, Geisler–Perry thresholds"
+            ),
+            (Method::Simplify, None) => {
+                "Luebke–Hallen imperceptible mode, Geisler–Perry thresholds".to_string()
+            }
+            _ => "Murphy–Duchowski Table 1 levels".to_string(),
+        };
+        let mode = if options.ignore_gaze {
+            format!("{mode}, without the gaze: every node foveal")
+        } else {
+            mode
+        };
+        format!(
+            "per frame: select each object's vertex-tree cut incrementally ({mode}, CPU), \
+             then rasterise the active triangles with the ray caster's shading ({})",
+            match on.side {
+                Side::Cpu => "CPU z-buffer",
+                Side::Gpu => {
+                    "GPU render pipeline: triangles uploaded per frame, off-axis frustum, \
+                     depth buffer; effect passes on the CPU (the raster path has no \
+                     GPU pass hook)"
+                }
+            }
+        )
+    }
+
+    fn owns(&self, _: Side) -> String {
+        "each object's vertex tree and cut".into()
+    }
+
+    fn as_any(&self) -> &dyn std::any::Any {
+        self
+    }
 }
 
 /// `budget` split in proportion to `counts`, rounded down; all of it to a

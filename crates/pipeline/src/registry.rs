@@ -13,10 +13,14 @@
 use std::fmt;
 
 use foveation::SamplingModel;
-use raycast::gpu::GpuRenderer;
+use raycast::gpu::{GpuPost, GpuRenderer};
 use raycast::ray::TriangleTest;
-use raycast::render::Stats;
+use raycast::render::{Scratch, Stats};
 use raycast::{Camera, Frame, Scene};
+
+use crate::effects::Pass;
+use crate::plan::{Channels, Side};
+use crate::{Options, RenderError};
 
 /// What a method module's frame gets.
 pub struct MethodFrame<'a> {
@@ -30,20 +34,49 @@ pub struct MethodFrame<'a> {
     pub gaze_px: [f64; 2],
     /// The frame's time, s.
     pub time_s: f64,
+    /// The binocular gaze point's eye distance for this frame (mm), when
+    /// the tracker gave one.
+    pub vergence_mm: Option<f64>,
     /// Fill the surface buffers (depth, id, normal): a later pass reads them.
     pub surface: bool,
+    /// The ray caster's CPU buffers (mask, vertex hits, owners, stage
+    /// times), the renderer's for its life: nothing is allocated in them
+    /// until a method uses them.
+    pub scratch: &'a mut Scratch,
     /// The GPU core, when the method renders on the GPU backend.
     pub gpu: Option<&'a mut GpuRenderer>,
+    /// The GPU passes to encode between the cast and the read-back, for a
+    /// method that declares [`MethodModule::gpu_post`] (none otherwise).
+    pub post: Option<&'a mut dyn GpuPost>,
+}
+
+/// What `explain` and the frame plan tell a method about where it runs.
+pub struct MethodContext<'a> {
+    pub model: &'a SamplingModel,
+    pub side: Side,
+    /// Whether the renderer keeps cast samples across frames
+    /// ([`crate::Options::reuse`]).
+    pub reuse: bool,
 }
 
 /// A method module's state: made once per renderer, then one frame at a time.
 pub trait FrameMethod: Send {
     /// Fills `frame` (sized to the camera) for this frame.
-    fn render(&mut self, input: MethodFrame<'_>, frame: &mut Frame) -> Result<Stats, String>;
+    fn render(&mut self, input: MethodFrame<'_>, frame: &mut Frame) -> Result<Stats, RenderError>;
     /// What it does per frame, for `explain` (may span lines).
-    fn detail(&self) -> String;
+    fn detail(&self, on: &MethodContext<'_>) -> String;
     /// The buffers it owns, in words.
-    fn owns(&self) -> String;
+    fn owns(&self, side: Side) -> String;
+    /// The G-buffer channels it writes besides the surface buffers (which
+    /// it fills when [`MethodFrame::surface`] asks).
+    fn writes(&self) -> Channels {
+        Channels::COLOUR | Channels::HIT
+    }
+    /// The method's own passes, which run first after it (image-based
+    /// foveation's blur); taken once, when the renderer is made.
+    fn own_passes(&mut self) -> Vec<Box<dyn Pass>> {
+        Vec::new()
+    }
     /// The state itself, for callers that inspect a known method.
     fn as_any(&self) -> &dyn std::any::Any;
 }
@@ -53,9 +86,13 @@ pub struct MethodSetup<'a> {
     pub scene: &'a Scene,
     pub camera: &'a Camera,
     pub model: &'a SamplingModel,
+    /// What the command line (or design) chose: layout, triangle test,
+    /// refinement triggers, the model-based options.
+    pub options: &'a Options,
 }
 
-/// A registered method.
+/// A rendering method: the built-in ones ([`crate::methods`]) and the
+/// registered modules alike.
 pub struct MethodModule {
     /// The name on the command line, in designs and in reports.
     pub name: &'static str,
@@ -63,6 +100,9 @@ pub struct MethodModule {
     pub aliases: &'static [&'static str],
     /// One line of help.
     pub help: &'static str,
+    /// The name reports and `--stats` give it (the name, except for the
+    /// two whose data files predate the names: `foveated`, `image-based`).
+    pub report_name: &'static str,
     /// Whether it follows the gaze: without the scene's `FoveatedSampling`
     /// the scene is rendered at full resolution instead, like every
     /// foveated method.
@@ -71,8 +111,15 @@ pub struct MethodModule {
     /// [`MethodFrame::gpu`]); without, `backend gpu` is refused and `auto`
     /// renders it on the CPU.
     pub gpu: bool,
+    /// Whether its GPU frame takes the GPU passes between its cast and its
+    /// read-back ([`MethodFrame::post`]); without, every pass runs on the
+    /// CPU after it.
+    pub gpu_post: bool,
+    /// Whether it builds its state from the scene once (levels of detail),
+    /// so that a moving scene is refused.
+    pub static_scene: bool,
     /// Makes its state for a renderer.
-    pub make: fn(&MethodSetup<'_>) -> Result<Box<dyn FrameMethod>, String>,
+    pub make: fn(&MethodSetup<'_>) -> Result<Box<dyn FrameMethod>, RenderError>,
 }
 
 impl PartialEq for MethodModule {
@@ -91,7 +138,8 @@ impl fmt::Debug for MethodModule {
     }
 }
 
-/// The registered method modules.
+/// The registered method modules (the built-in methods are
+/// [`crate::Method`]'s named variants).
 pub static METHODS: &[&MethodModule] = crate::methods::ALL;
 
 /// What a debug map is drawn for.

@@ -1,9 +1,9 @@
 //! [`Renderer`]: the one entry that renders a frame.
 
 use foveation::{Layout, SamplingModel};
-use raycast::gpu::{self, GpuError};
+use raycast::gpu::GpuError;
 use raycast::ray::TriangleTest;
-use raycast::render::{Mode, Scratch, Settings, StageTimes, Stats, Triggers};
+use raycast::render::{Scratch, StageTimes, Stats, Triggers};
 use raycast::{Camera, Frame, Scene};
 
 use crate::backend::{Backend, BackendChoice};
@@ -14,9 +14,9 @@ use crate::effects::{pass_for, passes_for, GpuPass, Pass, PassInput};
 use crate::gpu::Chain;
 use crate::image_foveation::{ImageFoveation, ImagePass};
 use crate::method::Method;
-use crate::model_based::{ModelBased, ModelOptions, RasterOn};
+use crate::model_based::{ModelBased, ModelOptions};
 use crate::plan::{Channels, FramePlan, Role, Side, Stage};
-use crate::registry::{FrameMethod, MethodFrame, MethodSetup};
+use crate::registry::{FrameMethod, MethodContext, MethodFrame, MethodSetup};
 use raycast::scene::Effect;
 
 /// Why a frame could not be rendered.
@@ -87,8 +87,7 @@ pub use foveation::EYE_DISTANCE_RANGE_MM;
 pub const EYE_DISTANCE_STEP: f64 = 0.01;
 
 /// `Method::Ulod`'s levels (`ULOD5`, Lee's largest set) and attention map size.
-pub const ULOD_LEVELS: usize = 5;
-pub const ULOD_MAP_SIZE: u32 = 64;
+pub use crate::methods::ulod::{ULOD_LEVELS, ULOD_MAP_SIZE};
 
 /// A scene on a backend, with the method and the effect passes chosen.
 pub struct Renderer<'s> {
@@ -103,7 +102,8 @@ pub struct Renderer<'s> {
     model: SamplingModel,
     /// The model the renderer was made with (the display file's eye).
     nominal: SamplingModel,
-    settings: Settings,
+    /// The triangle test every ray of the frame uses.
+    test: TriangleTest,
     method: Method,
     backend: Backend,
     /// The passes that run on the CPU, after the read-back on the GPU
@@ -115,13 +115,14 @@ pub struct Renderer<'s> {
     /// A frame given back by [`Renderer::recycle`], whose buffers the next
     /// CPU frame reuses.
     spare: Option<Frame>,
-    /// The CPU hybrid method's buffers (mask, vertex hits, pixel owners),
-    /// reused frame after frame, and the last frame's stage times.
+    /// The ray caster's CPU buffers (the hybrid method's mask, vertex hits
+    /// and pixel owners; the last frame's stage times), reused frame after
+    /// frame; nothing in them is allocated until a method uses them.
     scratch: Scratch,
     /// The wall clock [`Renderer::render`] times frames by (its origin).
     clock: std::time::Instant,
-    /// The method's own state: one value for the method that runs.
-    state: MethodState,
+    /// The method's own state, made by its module for it alone.
+    state: Box<dyn FrameMethod>,
     /// The next frame's vergence depth ([`Renderer::set_vergence_mm`]).
     vergence_mm: Option<f64>,
     /// Whether the method's GPU frame takes passes between its cast and its
@@ -132,20 +133,6 @@ pub struct Renderer<'s> {
     /// in order: the longest run of passes from the first that have a GPU
     /// implementation ([`Pass::into_gpu`]); empty on the CPU backend.
     gpu_passes: Vec<Box<dyn GpuPass>>,
-}
-
-/// A method's state, made for the method that runs and no other.
-enum MethodState {
-    /// Full, hybrid and image-based frames keep theirs in `Scratch` and
-    /// the passes.
-    Cast,
-    /// The model-based methods' trees and cuts.
-    ModelBased(Box<ModelBased>),
-    /// `Method::Ulod`'s levels and attention model, and the model's time on
-    /// the last frame (ms; it set this frame's levels).
-    Ulod(Box<crate::ulod::Ulod>, f64),
-    /// A registered method module's state.
-    Module(Box<dyn FrameMethod>),
 }
 
 /// The passes split between the GPU (before the read-back) and the CPU.
@@ -185,7 +172,8 @@ impl<'s> Renderer<'s> {
             .check(options.method)
             .map_err(RenderError::Unsupported)?;
         let method = options.method.for_scene(scene);
-        if scene.is_moving() && (method.is_model_based() || method == Method::Ulod) {
+        let module = method.module();
+        if scene.is_moving() && module.static_scene {
             return Err(RenderError::Unsupported(format!(
                 "method {}: this scene moves (a camera path or object motion), and the \
                  model-based methods build their levels from the scene once; choose the \
@@ -195,12 +183,7 @@ impl<'s> Renderer<'s> {
         }
         // The model-based methods rasterise on the backend chosen the same
         // way (on the GPU: its render pipeline, `GpuRenderer::rasterize`).
-        let cpu_only = match method {
-            Method::Ulod => true,
-            Method::Module(m) => !m.gpu,
-            _ => false,
-        };
-        let (backend, note) = if cpu_only {
+        let (backend, note) = if !module.gpu {
             if options.backend == BackendChoice::Gpu {
                 return Err(RenderError::Unsupported(format!(
                     "method {} renders on the CPU only; choose the CPU backend or auto",
@@ -230,60 +213,23 @@ impl<'s> Renderer<'s> {
         } else {
             Backend::choose(options.backend, scene, options.test)?
         };
-        let settings = Settings {
-            mode: if method == Method::Hybrid {
-                Mode::Foveated
-            } else {
-                Mode::Full
-            },
-            layout: options.layout,
-            triggers: options
-                .triggers
-                .unwrap_or_else(|| Triggers::from_scene(scene)),
-            test: options.test,
-            check_coverage: options.check_coverage,
-        };
+        let mut state = (module.make)(&MethodSetup {
+            scene,
+            camera: &camera,
+            model: &model,
+            options,
+        })?;
         // The method's passes, then the scene's, in its file's order.
-        let mut passes: Vec<Box<dyn Pass>> = Vec::new();
-        if method == Method::Image {
-            passes.push(Box::<ImagePass>::default());
-        }
+        let mut passes = state.own_passes();
         passes.extend(passes_for(scene, options.por_overlay));
         // The ray-cast methods' GPU frames take passes before their
         // read-back; the raster path and the modules' frames do not.
-        let gpu_hook = matches!(backend, Backend::Gpu(_))
-            && matches!(method, Method::Full | Method::Hybrid | Method::Image);
+        let gpu_hook = matches!(backend, Backend::Gpu(_)) && module.gpu_post;
         let (mut gpu_passes, mut passes) = split_passes(passes, gpu_hook);
         // The passes know the model from the start (`explain` before the
         // first frame); each frame gives it again (the eye may move).
         gpu_passes.iter_mut().for_each(|p| p.prepare(&model));
         passes.iter_mut().for_each(|p| p.prepare(&model));
-        let state = match method {
-            Method::Simplify | Method::Lod => MethodState::ModelBased(Box::new(
-                ModelBased::new(scene, &camera, method, options.model)
-                    .map_err(RenderError::Unsupported)?,
-            )),
-            Method::Ulod => {
-                let levels = crate::ulod::scene_levels(scene, ULOD_LEVELS)
-                    .map_err(RenderError::Unsupported)?;
-                MethodState::Ulod(
-                    Box::new(
-                        crate::ulod::Ulod::new(levels, ULOD_LEVELS, ULOD_MAP_SIZE)
-                            .map_err(RenderError::Unsupported)?,
-                    ),
-                    0.0,
-                )
-            }
-            Method::Full | Method::Hybrid | Method::Image => MethodState::Cast,
-            Method::Module(m) => MethodState::Module(
-                (m.make)(&MethodSetup {
-                    scene,
-                    camera: &camera,
-                    model: &model,
-                })
-                .map_err(RenderError::Unsupported)?,
-            ),
-        };
         Ok(Self {
             state,
             scene,
@@ -291,7 +237,7 @@ impl<'s> Renderer<'s> {
             camera,
             model,
             nominal: model,
-            settings,
+            test: options.test,
             method,
             backend,
             passes,
@@ -406,17 +352,6 @@ impl<'s> Renderer<'s> {
         let scene: &Scene = self.posed.as_ref().unwrap_or(self.scene);
         // The vergence depth holds for this frame only.
         let vergence_mm = self.vergence_mm.take();
-        if self.method == Method::Image {
-            for (name, v) in [("gaze.x", gaze_px[0]), ("gaze.y", gaze_px[1])] {
-                if !v.is_finite() {
-                    return Err(RenderError::Gaze(foveation::ParamError::new(
-                        name,
-                        v,
-                        "the point of regard must be finite",
-                    )));
-                }
-            }
-        }
         for pass in &mut self.gpu_passes {
             pass.prepare(&self.model);
         }
@@ -430,102 +365,34 @@ impl<'s> Renderer<'s> {
             time_s: Some(time_s),
             vergence_mm,
         };
-        let (mut frame, mut stats) = match (&mut self.state, &mut self.backend) {
-            (MethodState::Ulod(u, attention_ms), _) => {
-                let mut frame = self.spare.take().unwrap_or_default();
-                let started = std::time::Instant::now();
-                let t = time_s.is_finite().then_some(time_s);
-                u.draw(scene, &self.camera, *attention_ms, &mut frame);
-                // The next frame's levels come from this frame, read now,
-                // before any pass draws on it (Lee's previous frame).
-                *attention_ms = u.observe(scene, &frame, t);
-                let stats = Stats {
-                    time_ms: started.elapsed().as_secs_f64() * 1e3,
-                    ..Stats::default()
-                };
-                (frame, stats)
-            }
-            (MethodState::ModelBased(m), backend) => {
-                let mut frame = self.spare.take().unwrap_or_default();
-                m.set_vergence_mm(vergence_mm);
-                let on = match backend {
-                    Backend::Cpu => RasterOn::Cpu,
-                    Backend::Gpu(g) => RasterOn::Gpu(g.as_mut()),
-                };
-                let stats = m
-                    .render(scene, &self.camera, gaze_px, surface, &mut frame, on)
-                    .map_err(RenderError::Unsupported)?;
-                (frame, stats)
-            }
-            (MethodState::Module(m), backend) => {
-                let mut frame = self.spare.take().unwrap_or_default();
-                let gpu = match backend {
-                    Backend::Cpu => None,
-                    Backend::Gpu(g) => Some(g.as_mut()),
-                };
-                let stats = m
-                    .render(
-                        MethodFrame {
-                            scene,
-                            camera: &self.camera,
-                            model: &self.model,
-                            test: self.settings.test,
-                            gaze_px,
-                            time_s,
-                            surface,
-                            gpu,
-                        },
-                        &mut frame,
-                    )
-                    .map_err(RenderError::Unsupported)?;
-                (frame, stats)
-            }
-            (MethodState::Cast, Backend::Cpu) => {
-                let mut frame = self.spare.take().unwrap_or_default();
-                let stats = raycast::render::render_with(
-                    scene,
-                    &self.camera,
-                    &self.model,
-                    &self.settings,
-                    gaze_px,
-                    surface,
-                    &mut frame,
-                    &mut self.scratch,
-                )?;
-                (frame, stats)
-            }
-            (MethodState::Cast, Backend::Gpu(g)) => {
-                g.set_surface(surface);
-                // The GPU passes, encoded between the cast and the read-back.
-                let mut chain = Chain {
-                    passes: &mut self.gpu_passes,
-                    input: &input,
-                };
-                let post = (!chain.passes.is_empty())
-                    .then_some(&mut chain as &mut dyn raycast::gpu::GpuPost);
-                if self.method == Method::Hybrid {
-                    // The mask kept across frames (the same gaze, or one
-                    // within the model's tolerance): the GPU keeps its
-                    // upload and pixel owners too.
-                    let (_, generation) =
-                        self.scratch
-                            .mask_for(&self.model, self.settings.layout, gaze_px)?;
-                    let mask = self
-                        .scratch
-                        .mask()
-                        .ok_or_else(|| RenderError::Unsupported("no ray mask was built".into()))?;
-                    g.render_foveated_kept(
-                        &self.camera,
-                        mask,
-                        Some(generation),
-                        &self.settings.triggers,
-                        post,
-                    )?
-                } else {
-                    g.render_full_with(&self.camera, post)?
-                }
-            }
+        let mut frame = self.spare.take().unwrap_or_default();
+        let gpu = match &mut self.backend {
+            Backend::Cpu => None,
+            Backend::Gpu(g) => Some(g.as_mut()),
         };
+        // The GPU passes, encoded between the cast and the read-back.
+        let mut chain = Chain {
+            passes: &mut self.gpu_passes,
+            input: &input,
+        };
+        let post = (gpu.is_some() && self.gpu_hook && !chain.passes.is_empty())
+            .then_some(&mut chain as &mut dyn raycast::gpu::GpuPost);
+        let mut stats = self.state.render(
+            MethodFrame {
+                scene,
+                camera: &self.camera,
+                model: &self.model,
+                test: self.test,
+                gaze_px,
+                time_s,
+                vergence_mm,
+                surface,
+                scratch: &mut self.scratch,
+                gpu,
+                post,
+            },
+            &mut frame,
+        )?;
         for pass in &mut self.passes {
             let started = std::time::Instant::now();
             pass.run(&mut frame, &input);
@@ -593,31 +460,25 @@ impl<'s> Renderer<'s> {
         self.scratch.reuse_stats()
     }
 
-    /// A registered method module's state, when a module runs (downcast
-    /// with [`FrameMethod::as_any`]); `None` otherwise.
-    pub fn method_state(&self) -> Option<&dyn FrameMethod> {
-        match &self.state {
-            MethodState::Module(m) => Some(m.as_ref()),
-            _ => None,
-        }
+    /// The method's state (downcast with [`FrameMethod::as_any`] to the
+    /// module's type).
+    pub fn method_state(&self) -> &dyn FrameMethod {
+        self.state.as_ref()
     }
 
     /// `Method::Ulod`'s state (levels, attention, last frame's counts), when
     /// it runs; `None` otherwise (nothing of it is built for other methods).
     pub fn ulod(&self) -> Option<&crate::ulod::Ulod> {
-        match &self.state {
-            MethodState::Ulod(u, _) => Some(u),
-            _ => None,
-        }
+        self.state
+            .as_any()
+            .downcast_ref::<crate::methods::ulod::UlodMethod>()
+            .map(|u| &u.ulod)
     }
 
     /// The model-based method's state (trees, cuts, last frame's counts),
     /// when a model-based method runs; `None` otherwise.
     pub fn model_based(&self) -> Option<&ModelBased> {
-        match &self.state {
-            MethodState::ModelBased(m) => Some(m),
-            _ => None,
-        }
+        self.state.as_any().downcast_ref()
     }
 
     /// Every pass in the plan's order, as its CPU reference: the GPU
@@ -787,37 +648,19 @@ impl<'s> Renderer<'s> {
         } else {
             Channels::NONE
         };
-        let layer = if self.method == Method::Hybrid {
-            Channels::LAYER
-        } else {
-            Channels::NONE
-        };
-        let owns = match (self.method, side) {
-            (Method::Full | Method::Image, _) => "nothing besides the frame".to_string(),
-            (Method::Hybrid, Side::Cpu) => {
-                "the ray mask, vertex hits, cell classes and pixel owners".to_string()
-            }
-            (Method::Hybrid, Side::Gpu) => {
-                "the ray mask and pixel owners (CPU), uploaded; vertex and cell buffers (GPU)"
-                    .to_string()
-            }
-            (Method::Simplify | Method::Lod, _) => "each object's vertex tree and cut".to_string(),
-            (Method::Ulod, _) => {
-                format!("{ULOD_LEVELS} levels per object and {ULOD_MAP_SIZE}² attention maps")
-            }
-            (Method::Module(_), _) => match &self.state {
-                MethodState::Module(m) => m.owns(),
-                _ => String::new(),
-            },
+        let on = MethodContext {
+            model: &self.model,
+            side,
+            reuse: self.scratch.reuse(),
         };
         let mut stages = vec![Stage {
             name: self.method.name().to_string(),
             role: Role::Method,
             side,
             reads: Channels::NONE,
-            writes: Channels::COLOUR | Channels::HIT | surface | layer,
-            owns,
-            detail: self.method_detail(),
+            writes: self.state.writes() | surface,
+            owns: self.state.owns(side),
+            detail: self.state.detail(&on),
         }];
         for p in &self.gpu_passes {
             let r = p.reference();
@@ -856,121 +699,6 @@ impl<'s> Renderer<'s> {
     /// → POR box (cpu)`. No tabs or line breaks.
     pub fn provenance(&self) -> String {
         self.plan().provenance()
-    }
-
-    /// What the method does per frame, for `explain`.
-    fn method_detail(&self) -> String {
-        match (self.method, &self.backend) {
-            (Method::Module(_), _) => match &self.state {
-                MethodState::Module(m) => m.detail(),
-                _ => String::new(),
-            },
-            (Method::Full, _) => {
-                "per frame: cast and shade every pixel (no mask, no foveated buffers)".into()
-            }
-            (Method::Ulod, _) => format!(
-                "per frame: Lee's attention model ({ULOD_MAP_SIZE}² maps) on the previous frame sets each object's level L = {}(1 − S_o/max S_o) (Lee eq. 7.3); level ⌊L⌋ drawn opaque and ⌊L⌋+1 blended over it with opacity L − ⌊L⌋ (ULOD), levels of 4^−l of the triangles by quadric simplification; CPU z-buffer",
-                ULOD_LEVELS - 1
-            ),
-            (Method::Simplify | Method::Lod, backend) => {
-                let options = self.model_based().map(|m| m.options()).unwrap_or_default();
-                let mode = match (self.method, options.budget) {
-                    (Method::Simplify, Some(b)) => format!(
-                        "Luebke–Hallen best-effort mode under a budget of {b} triangles, Geisler–Perry thresholds"
-                    ),
-                    (Method::Simplify, None) => {
-                        "Luebke–Hallen imperceptible mode, Geisler–Perry thresholds".to_string()
-                    }
-                    _ => "Murphy–Duchowski Table 1 levels".to_string(),
-                };
-                let mode = if options.ignore_gaze {
-                    format!("{mode}, without the gaze: every node foveal")
-                } else {
-                    mode
-                };
-                format!(
-                    "per frame: select each object's vertex-tree cut incrementally ({mode}, CPU), \
-                     then rasterise the active triangles with the ray caster's shading ({})",
-                    match backend {
-                        Backend::Cpu => "CPU z-buffer",
-                        Backend::Gpu(_) => {
-                            "GPU render pipeline: triangles uploaded per frame, off-axis frustum, \
-                             depth buffer; effect passes on the CPU (the raster path has no \
-                             GPU pass hook)"
-                        }
-                    }
-                )
-            }
-            (Method::Image, Backend::Gpu(_)) => {
-                "per frame: cast and shade every pixel, then image-based foveation on the GPU \
-                 (its pass below)"
-                    .to_string()
-            }
-            (Method::Image, Backend::Cpu) => format!(
-                "per frame: cast and shade every pixel, then image-based foveation (CPU): \
-                 level log2(ray spacing) per pixel (spacing ≤ {} px), Gaussian pyramid, \
-                 blend of adjacent levels",
-                self.model.max_spacing_px
-            ),
-            (Method::Hybrid, backend) => {
-                let t = &self.settings.triggers;
-                let mut out = Vec::new();
-                let stages: Vec<&str> = match backend {
-                    Backend::Gpu(_) => {
-                        out.push(
-                            "per new mask (CPU): ray mask and pixel ownership, uploaded to the GPU core"
-                                .to_string(),
-                        );
-                        gpu::foveated_stages(t).iter().map(|s| s.name()).collect()
-                    }
-                    Backend::Cpu => {
-                        out.push("per new mask: ray mask".into());
-                        let mut v = vec!["cast vertices"];
-                        if t.silhouette || t.crease_deg.is_some() || t.depth_jump.is_some() {
-                            v.push("classify cells");
-                        }
-                        if t.margin {
-                            v.push("silhouette margin");
-                        }
-                        v.extend(["pixel ownership", "cast or interpolate pixels, and shade"]);
-                        v
-                    }
-                };
-                out.push(format!("per frame: {}", stages.join(" → ")));
-                let tolerance = self.model.gaze_tolerance_deg;
-                out.push(if tolerance > 0.0 {
-                    format!(
-                        "gaze tolerance {tolerance}°: masks dense enough for any gaze within {tolerance}° of theirs; a mask is kept while the gaze stays within it{}",
-                        if self.scratch.reuse() && matches!(backend, Backend::Cpu) {
-                            " (its vertex rays, cells and owners kept; a second frame in a row copied)"
-                        } else {
-                            ""
-                        }
-                    )
-                } else {
-                    "gaze tolerance 0°: a new mask for every new gaze".to_string()
-                });
-                let mut triggers = Vec::new();
-                if t.silhouette {
-                    triggers.push("silhouette (+ one-cell margin)".to_string());
-                }
-                if let Some(d) = t.crease_deg {
-                    triggers.push(format!("crease > {d}°"));
-                }
-                if let Some(j) = t.depth_jump {
-                    triggers.push(format!("depth jump > {:.0} %", 100.0 * j));
-                }
-                out.push(format!(
-                    "refinement triggers: {}",
-                    if triggers.is_empty() {
-                        "none (no cell is classified or refined)".to_string()
-                    } else {
-                        triggers.join(", ")
-                    }
-                ));
-                out.join("\n")
-            }
-        }
     }
 
     /// What runs for one frame, as `view --explain` prints it: the method,

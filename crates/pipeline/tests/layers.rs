@@ -42,7 +42,7 @@ fn renderer<'s>(s: &'s Scene, d: &Display, method: Method, backend: BackendChoic
 }
 
 fn state<'a>(r: &'a Renderer<'_>) -> Option<&'a Layers> {
-    r.method_state().and_then(|m| m.as_any().downcast_ref())
+    r.method_state().as_any().downcast_ref()
 }
 
 /// Every pixel whose allowed spacing is below `below` lies within the

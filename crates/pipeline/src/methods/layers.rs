@@ -49,7 +49,9 @@ use raycast::{Camera, Frame};
 use rayon::prelude::*;
 
 use crate::colour;
-use crate::registry::{FrameMethod, MethodFrame, MethodModule, MethodSetup};
+use crate::plan::Side;
+use crate::registry::{FrameMethod, MethodContext, MethodFrame, MethodModule, MethodSetup};
+use crate::RenderError;
 
 /// The method's registration (one line in [`crate::registry::METHODS`]).
 pub static METHOD: MethodModule = MethodModule {
@@ -57,12 +59,15 @@ pub static METHOD: MethodModule = MethodModule {
     aliases: &["guenter", "nested-layers"],
     help: "Guenter et al. 2012's nested layers: an inner layer at every pixel, a middle one at \
            every 2nd, an outer one at every 4th, sized by the display's CSF and blended",
+    report_name: "layers",
     foveated: true,
     gpu: true,
+    gpu_post: false,
+    static_scene: false,
     make,
 };
 
-fn make(_: &MethodSetup<'_>) -> Result<Box<dyn FrameMethod>, String> {
+fn make(_: &MethodSetup<'_>) -> Result<Box<dyn FrameMethod>, RenderError> {
     Ok(Box::new(Layers::default()))
 }
 
@@ -530,7 +535,7 @@ fn compose(layers: &[Rendered; 3], gaze: [f64; 2], frame: &mut Frame, sources: &
 }
 
 impl FrameMethod for Layers {
-    fn render(&mut self, input: MethodFrame<'_>, frame: &mut Frame) -> Result<Stats, String> {
+    fn render(&mut self, input: MethodFrame<'_>, frame: &mut Frame) -> Result<Stats, RenderError> {
         let settings = Settings {
             mode: Mode::Full,
             layout: foveation::Layout::Nyquist,
@@ -545,7 +550,7 @@ impl FrameMethod for Layers {
         };
         let (scene, model, gaze, surface) =
             (input.scene, input.model, input.gaze_px, input.surface);
-        match input.gpu {
+        let rendered = match input.gpu {
             None => self.render_with(
                 input.camera,
                 model,
@@ -576,10 +581,11 @@ impl FrameMethod for Layers {
                     },
                 )
             }
-        }
+        };
+        rendered.map_err(RenderError::Unsupported)
     }
 
-    fn detail(&self) -> String {
+    fn detail(&self, _: &MethodContext<'_>) -> String {
         let [s0, s1, s2] = self.factors;
         let mut out = format!(
             "per frame (Guenter et al. 2012): three layers around the gaze sampling every \
@@ -613,7 +619,7 @@ impl FrameMethod for Layers {
         out
     }
 
-    fn owns(&self) -> String {
+    fn owns(&self, _: Side) -> String {
         "three layer frames with their linear colour (sized by the last frame)".into()
     }
 

@@ -174,6 +174,22 @@ pub struct Display {
 }
 
 impl Display {
+    /// The seed's set-up (Murphy 2007 ch. 7.1, `config/displays/
+    /// tobii-et1750-17in.ron`): the Tobii ET-1750's 17" LCD, 337.9 ×
+    /// 270.3 mm, the eye 540 mm away on the centre's normal, at `w`×`h`
+    /// pixels — the physical size stays and the pitch follows, so tests and
+    /// benches can use the seed's display at any pixel count without
+    /// reading the file (a test checks the two agree at 1280×1024).
+    pub fn seed_17in(w: u32, h: u32) -> Display {
+        Display {
+            name: format!("17in at {w}x{h}"),
+            resolution_px: (w, h),
+            size_mm: (337.9, 270.3),
+            eye_distance_mm: 540.0,
+            eye_point_px: None,
+        }
+    }
+
     /// Checks every field and returns the derived geometry. The resolution
     /// must be within [`MAX_SIDE_PX`] and [`MAX_PIXELS`] (see
     /// [`check_resolution`]).

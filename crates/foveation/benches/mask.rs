@@ -14,7 +14,13 @@ fn uhd() -> SamplingModel {
         eye_point_px: None,
     };
     let geometry = display.geometry().expect("valid display");
-    SamplingModel::new(geometry, GeislerPerry::default(), 1.0, 17.0).expect("valid model")
+    SamplingModel::new(
+        geometry,
+        GeislerPerry::default(),
+        1.0,
+        foveation::sampling::SEED_MAX_SPACING_PX,
+    )
+    .expect("valid model")
 }
 
 fn bench(c: &mut Criterion) {

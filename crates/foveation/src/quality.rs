@@ -277,11 +277,8 @@ mod tests {
     fn geometry(w: u32, h: u32) -> ScreenGeometry {
         // The seed's 17" panel, shrunk in pixels but not in millimetres.
         Display {
-            name: "t".into(),
-            resolution_px: (w, h),
-            size_mm: (337.9, 270.3),
             eye_distance_mm: 600.0,
-            eye_point_px: None,
+            ..Display::seed_17in(w, h)
         }
         .geometry()
         .expect("valid display")

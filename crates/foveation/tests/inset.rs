@@ -66,7 +66,7 @@ fn the_seed_insets_cover_their_angle_on_the_seed_display() {
         // then no more than a couple of pixels wider than needed: the
         // half-angle at 54 cm over a 0.264 mm pitch.
         let plain = mask::build(&model(d, 1.0), Layout::Nyquist, [700.0, 430.0]).expect("mask");
-        let ideal = 540.0 * (deg / 2.0f64).to_radians().tan() / (337.9 / 1280.0);
+        let ideal = g.eye_distance_mm * (deg / 2.0f64).to_radians().tan() / g.pitch_x_mm;
         if ideal <= plain.fovea_radius_px {
             assert_eq!(m.fovea_radius_px, plain.fovea_radius_px, "{deg} deg");
             assert_eq!(m.vertices, plain.vertices);

@@ -264,7 +264,7 @@ proptest! {
         let mut d = displays()[1].clone();
         d.eye_distance_mm = 10f64.powf(log_distance);
         let g = d.geometry().expect("geometry");
-        let mdl = SamplingModel::new(g, GeislerPerry::default(), contrast, 17.0).expect("model");
+        let mdl = SamplingModel::new(g, GeislerPerry::default(), contrast, foveation::sampling::SEED_MAX_SPACING_PX).expect("model");
         let m = mask::build(&mdl, Layout::Nyquist, [x, y]).expect("mask");
         prop_assert!(m.vertices.iter().all(|v| v[0].is_finite() && v[1].is_finite()));
         prop_assert!(m.fovea_rays() <= 640 * 480);
@@ -291,9 +291,14 @@ fn non_finite_por_and_bad_contrast_are_errors_not_panics() {
     let g = d.geometry().expect("geometry");
     for c in [1.0 / 64.0, 0.0, -1.0, f64::NAN, f64::INFINITY] {
         assert_eq!(
-            SamplingModel::new(g, GeislerPerry::default(), c, 17.0)
-                .unwrap_err()
-                .field,
+            SamplingModel::new(
+                g,
+                GeislerPerry::default(),
+                c,
+                foveation::sampling::SEED_MAX_SPACING_PX
+            )
+            .unwrap_err()
+            .field,
             "contrast"
         );
     }

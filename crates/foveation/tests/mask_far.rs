@@ -10,16 +10,16 @@ use std::sync::OnceLock;
 
 use common::{clip_to_rect, model, polygon_area, PointIndex};
 use foveation::mask::{self, Layout, RayMask, FAR_POR_PX};
+use foveation::sampling::SEED_MAX_SPACING_PX;
 use foveation::{Display, GeislerPerry, SamplingModel, ScreenGeometry};
 use proptest::prelude::*;
 
+/// A display of `wmm`×`hmm` at the seed's eye distance.
 fn display(name: &str, w: u32, h: u32, wmm: f64, hmm: f64) -> Display {
     Display {
         name: name.into(),
-        resolution_px: (w, h),
         size_mm: (wmm, hmm),
-        eye_distance_mm: 540.0,
-        eye_point_px: None,
+        ..Display::seed_17in(w, h)
     }
 }
 
@@ -28,7 +28,7 @@ fn display(name: &str, w: u32, h: u32, wmm: f64, hmm: f64) -> Display {
 /// fine pixels (about 37 px/deg, the 17" set-up's pitch).
 fn small_displays() -> [Display; 2] {
     [
-        display("coarse 64x48", 64, 48, 337.9, 270.3),
+        Display::seed_17in(64, 48),
         display("fine 160x120", 160, 120, 42.2, 31.7),
     ]
 }
@@ -224,7 +224,7 @@ fn gazes_at(d: f64, w: f64, h: f64) -> [[f64; 2]; 4] {
 #[test]
 fn far_gaze_costs_no_more_than_an_on_screen_one() {
     let displays = [
-        display("17in 1280x1024 @ 54 cm", 1280, 1024, 337.9, 270.3),
+        Display::seed_17in(1280, 1024),
         display("27in 3840x2160", 3840, 2160, 596.7, 335.7),
     ];
     for d in displays {
@@ -304,7 +304,7 @@ fn far_gaze_mask_is_the_mask_of_its_stand_in_at_far_por_px() {
 /// ray within the spacing allowed for the gaze as given (not its stand-in).
 #[test]
 fn far_gaze_mask_tiles_and_samples_the_screen() {
-    let d = display("17in 1280x1024 @ 54 cm", 1280, 1024, 337.9, 270.3);
+    let d = Display::seed_17in(1280, 1024);
     let mdl = model(&d, 1.0);
     let [w, h] = mdl.geometry.size_px();
     let mut rng = 0x2545_F491_4F6C_DD1Du64;
@@ -368,14 +368,24 @@ fn oversized_geometry_is_refused_by_the_mask_builder() {
         (u32::MAX, u32::MAX, "resolution_px.0"),
         (0, 10, "resolution_px.0"),
     ] {
-        let mdl =
-            SamplingModel::new(geometry(w, h), GeislerPerry::default(), 1.0, 17.0).expect("model");
+        let mdl = SamplingModel::new(
+            geometry(w, h),
+            GeislerPerry::default(),
+            1.0,
+            SEED_MAX_SPACING_PX,
+        )
+        .expect("model");
         let Err(err) = mask::build(&mdl, Layout::Nyquist, [1.0, 1.0]) else {
             panic!("{w}x{h}: oversized geometry must be refused");
         };
         assert_eq!(err.field, field, "{w}x{h}: {err}");
     }
-    let mdl = SamplingModel::new(geometry(8_192, 8_192), GeislerPerry::default(), 1.0, 17.0)
-        .expect("model");
+    let mdl = SamplingModel::new(
+        geometry(8_192, 8_192),
+        GeislerPerry::default(),
+        1.0,
+        SEED_MAX_SPACING_PX,
+    )
+    .expect("model");
     assert!(mask::build(&mdl, Layout::Nyquist, [4096.0, 4096.0]).is_ok());
 }

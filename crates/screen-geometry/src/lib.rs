@@ -313,13 +313,7 @@ mod tests {
     use super::*;
 
     pub(crate) fn dissertation_display() -> Display {
-        Display {
-            name: "17in".into(),
-            resolution_px: (1280, 1024),
-            size_mm: (337.9, 270.3),
-            eye_distance_mm: 540.0,
-            eye_point_px: None,
-        }
+        Display::seed_17in(1280, 1024)
     }
 
     #[test]

@@ -1,28 +1,34 @@
 //! Displays and helpers shared by the foveation integration tests.
 #![allow(dead_code)]
 
+use foveation::sampling::SEED_MAX_SPACING_PX;
 use foveation::{Display, GeislerPerry, SamplingModel};
 
-/// The four shipped display set-ups (mirrors `config/displays`).
+/// Four shipped display set-ups, read from `config/displays` (the seed's
+/// 17" first).
 pub fn displays() -> Vec<Display> {
-    let d = |name: &str, w, h, wmm, hmm, dist| Display {
-        name: name.into(),
-        resolution_px: (w, h),
-        size_mm: (wmm, hmm),
-        eye_distance_mm: dist,
-        eye_point_px: None,
-    };
-    vec![
-        d("17in 1280x1024 @ 54 cm", 1280, 1024, 337.9, 270.3, 540.0),
-        d("V8 HMD 640x480", 640, 480, 461.9, 346.4, 500.0),
-        d("24in 1920x1080 @ 60 cm", 1920, 1080, 531.4, 298.9, 600.0),
-        d("27in 3840x2160 @ 60 cm", 3840, 2160, 596.7, 335.7, 600.0),
+    [
+        "tobii-et1750-17in",
+        "v8-hmd",
+        "desktop-24in-1080p",
+        "desktop-27in-4k",
     ]
+    .iter()
+    .map(|name| {
+        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("../../config/displays")
+            .join(format!("{name}.ron"));
+        let text =
+            std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+        ron::from_str(&text).unwrap_or_else(|e| panic!("{}: {e}", path.display()))
+    })
+    .collect()
 }
 
 pub fn model(display: &Display, contrast: f64) -> SamplingModel {
     let g = display.geometry().expect("valid test display");
-    SamplingModel::new(g, GeislerPerry::default(), contrast, 17.0).expect("valid model")
+    SamplingModel::new(g, GeislerPerry::default(), contrast, SEED_MAX_SPACING_PX)
+        .expect("valid model")
 }
 
 /// Area of a simple polygon (shoelace), absolute.

@@ -19,7 +19,6 @@ pub mod plots;
 pub mod render_cmd;
 pub mod runner;
 pub mod screen;
-pub mod stats;
 pub mod tracker_cmd;
 pub mod view_cmd;
 

@@ -42,7 +42,7 @@ use crate::config::{self, load_scene};
 use crate::gaze_feed::{GazeFeed, GazeSetup, TrackerMsg};
 use crate::picture::{draw_text_lines, save_png};
 use crate::screen::{Input, Screen};
-use crate::stats::p50_95_99;
+use experiment::stats::nearest_rank::p50_95_99;
 
 /// What a live session runs: plain values, whichever command asks.
 #[derive(Debug, Clone, Default)]

@@ -1,4 +1,7 @@
-//! A tracker configuration file (`config/trackers/*.ron`).
+//! A tracker configuration file (`config/trackers/*.ron`); how two of them
+//! differ is [`differences`].
+
+pub mod differences;
 
 use serde::{Deserialize, Serialize};
 

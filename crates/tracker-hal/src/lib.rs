@@ -97,6 +97,7 @@ pub mod sample;
 pub mod serial;
 pub mod sim;
 pub mod source;
+pub mod supervisor;
 #[cfg(test)]
 mod test_support;
 pub mod timing;

@@ -10,6 +10,7 @@ pub mod config;
 pub mod demo_cmd;
 pub mod experiment_cmd;
 pub mod gaze_feed;
+pub mod interrupt;
 pub mod live;
 pub mod lsl_out;
 pub mod mask_cmd;

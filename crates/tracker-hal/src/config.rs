@@ -149,6 +149,18 @@ impl TrackerConfig {
         }
     }
 
+    /// Whether the device measures two eyes: not the mouse or the
+    /// attention source, whose decoder copies one point into both, nor an
+    /// LSL stream with one gaze point.
+    pub fn measures_two_eyes(&self) -> bool {
+        match &self.driver {
+            Driver::Mouse(_) | Driver::Attention(_) => false,
+            // A stream with one gaze point copies it into both eyes.
+            Driver::Lsl(c) => c.binocular(),
+            _ => true,
+        }
+    }
+
     /// Short name of the driver, for messages.
     pub fn driver_name(&self) -> &'static str {
         match &self.driver {

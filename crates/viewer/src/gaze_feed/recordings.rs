@@ -6,7 +6,7 @@ use std::time::Duration;
 
 use tracker_hal::Tap;
 
-/// Every recording a [`GazeFeed`] has open, for [`close_recordings_now`].
+/// Every recording a [`super::GazeFeed`] has open, for [`close_recordings_now`].
 static OPEN_RECORDINGS: Mutex<Vec<Tap>> = Mutex::new(Vec::new());
 
 /// Closes every open recording now (end chunk written, file synced),

@@ -115,12 +115,7 @@ impl GazeSetup {
             _ => None,
         };
         let stop = Arc::new(AtomicBool::new(false));
-        let binocular = match &self.tracker.driver {
-            Driver::Mouse(_) | Driver::Attention(_) => false,
-            // A stream with one gaze point copies it into both eyes.
-            Driver::Lsl(c) => c.binocular(),
-            _ => true,
-        };
+        let binocular = self.tracker.measures_two_eyes();
         let mouse_timing = Arc::new(Mutex::new(None));
         let open = opener(
             self.tracker,

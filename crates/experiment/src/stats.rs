@@ -9,6 +9,13 @@
 //! an error here, never a panic or a NaN). Every input value must be
 //! finite: NaN or ±∞ is an error naming the group and position; a sum,
 //! mean square or statistic that overflows is [`StatsError::Overflow`].
+//!
+//! The benchmark and session reports' descriptive figures live in two
+//! submodules: [`nearest_rank`] (median and percentiles of timings) and
+//! [`tradeoff`] (the Pareto front, a power law's exponent).
+
+pub mod nearest_rank;
+pub mod tradeoff;
 
 use statrs::function::beta::checked_beta_reg;
 

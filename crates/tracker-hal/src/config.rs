@@ -1,4 +1,7 @@
-//! A tracker configuration file (`config/trackers/*.ron`).
+//! A tracker configuration file (`config/trackers/*.ron`); how two of them
+//! differ is [`differences`].
+
+pub mod differences;
 
 use serde::{Deserialize, Serialize};
 
@@ -143,6 +146,18 @@ impl TrackerConfig {
             Driver::Mouse(_) | Driver::Attention(_) => (f64::INFINITY, f64::INFINITY),
             Driver::TobiiHid(c) => c.screen_um,
             Driver::Lsl(c) => c.frame(),
+        }
+    }
+
+    /// Whether the device measures two eyes: not the mouse or the
+    /// attention source, whose decoder copies one point into both, nor an
+    /// LSL stream with one gaze point.
+    pub fn measures_two_eyes(&self) -> bool {
+        match &self.driver {
+            Driver::Mouse(_) | Driver::Attention(_) => false,
+            // A stream with one gaze point copies it into both eyes.
+            Driver::Lsl(c) => c.binocular(),
+            _ => true,
         }
     }
 

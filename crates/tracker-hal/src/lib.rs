@@ -51,7 +51,8 @@
 //!    `stop_command` give the bytes that start and stop streaming.
 //! 2. Give it a config type and a variant in [`config::Driver`], so tracker
 //!    files can name it and recordings can carry it.
-//! 3. Teach [`sim`] to produce its wire format, add a stream to `tests/data`
+//! 3. Teach [`sim`] to produce its wire format (and give its simulated
+//!    device a [`sim::preset`]), add a stream to `tests/data`
 //!    with `gazecast simulate`, and add it to the conformance suite
 //!    (`tests/tests/conformance.rs`), which checks the rest.
 //!
@@ -59,6 +60,16 @@
 //! decoder path: [`hid::driver::HidDriver`] turns each report into a line of
 //! hid-log text and decodes it with [`hid::HidLogDecoder`], which is also the
 //! byte-stream decoder of recorded and replayed HID sessions.
+//!
+//! ## Running a tracker
+//!
+//! [`supervisor`] runs a gaze source on its own thread for a live session:
+//! it opens the device through the caller's opener, passes each sample on
+//! (raw and mapped, with its times) over a channel, reopens a device that
+//! fails, cannot be opened or stays silent (with back-off), and counts every
+//! fault for the session log. [`config::differences`] says, field by field,
+//! where two tracker configurations disagree (a replay's `--tracker`
+//! against the recording's header).
 //!
 //! ## Calibration, binocular gaze, events, clocks
 //!
@@ -97,6 +108,7 @@ pub mod sample;
 pub mod serial;
 pub mod sim;
 pub mod source;
+pub mod supervisor;
 #[cfg(test)]
 mod test_support;
 pub mod timing;

@@ -494,7 +494,7 @@ impl ApplicationHandler for Calibrator<'_> {
             Input::Cursor(x, y) => self.feed.cursor_moved(x, y),
             Input::Key(key) => self.key(el, key.as_ref()),
             Input::Redraw => {
-                if crate::gaze_feed::interrupted() {
+                if crate::interrupt::interrupted() {
                     self.log("interrupted (Ctrl-C or SIGTERM): not saved".into());
                     return el.exit();
                 }
@@ -549,7 +549,7 @@ pub fn run(args: &CalibrateArgs, out: &mut dyn Write) -> Result<(), String> {
     .map_err(|e| {
         format!("cannot open a window ({e}); the calibration screen needs a display (or Xvfb)")
     })?;
-    crate::gaze_feed::catch_interrupts();
+    crate::interrupt::catch_interrupts();
     let feed = setup.spawn(
         None,
         args.record.as_deref().map(|p| (p, display.name.as_str())),

@@ -1,7 +1,14 @@
 //! The `gazecast` binary's library: command-line wiring, configuration
-//! loading, pictures, the tracker thread and the windows (viewer,
-//! calibration). It owns no maths (see `foveation`, `raycast`,
-//! `tracker_hal`).
+//! loading, pictures, windows (viewer, calibration, experiment runs) and
+//! the threads that feed them. It owns no maths or policy: the foveation
+//! and ray-casting maths are `foveation`, `raycast`, `lod` and `pipeline`
+//! (the frame); the attention model is `attention`; gaze devices, the
+//! tracker supervisor (reconnects, silences, fault counts), recording,
+//! replay, the device simulator and its presets, and the comparison of
+//! tracker configurations are `tracker_hal`; experiment designs, sessions
+//! and every statistic the reports quote (`experiment::stats`) are
+//! `experiment`. Here they are only chosen from the command line and
+//! wired together.
 
 pub mod args;
 pub mod bench;
@@ -10,6 +17,7 @@ pub mod config;
 pub mod demo_cmd;
 pub mod experiment_cmd;
 pub mod gaze_feed;
+pub mod interrupt;
 pub mod live;
 pub mod lsl_out;
 pub mod mask_cmd;
@@ -19,7 +27,6 @@ pub mod plots;
 pub mod render_cmd;
 pub mod runner;
 pub mod screen;
-pub mod stats;
 pub mod tracker_cmd;
 pub mod view_cmd;
 

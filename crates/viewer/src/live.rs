@@ -42,7 +42,7 @@ use crate::config::{self, load_scene};
 use crate::gaze_feed::{GazeFeed, GazeSetup, TrackerMsg};
 use crate::picture::{draw_text_lines, save_png};
 use crate::screen::{Input, Screen};
-use crate::stats::p50_95_99;
+use experiment::stats::nearest_rank::p50_95_99;
 
 /// What a live session runs: plain values, whichever command asks.
 #[derive(Debug, Clone, Default)]
@@ -121,7 +121,7 @@ const HUD_FRAMES: usize = 300;
 /// Gaze-to-photon figures (ms), one entry per frame that showed a gaze
 /// sample for the first time (a sample's later frames add no latency).
 /// Gaze age counts from the sample's capture: its mapped device time
-/// ([`crate::gaze_feed::capture_us`]), so the transport's delivery delay
+/// ([`tracker_hal::supervisor::capture_us`]), so the transport's delivery delay
 /// is in it (the tracker's own fixed latency before its timestamp is not:
 /// no tracker here reports it).
 #[derive(Debug, Default)]
@@ -227,7 +227,7 @@ struct Viewer<'a> {
 pub struct Newest {
     pub gaze_px: [f64; 2],
     /// Capture time on this process's monotonic clock (µs,
-    /// [`crate::gaze_feed::capture_us`]).
+    /// [`tracker_hal::supervisor::capture_us`]).
     pub host_us: u64,
     /// Both eyes' points (screen px) when that sample had both.
     pub eyes_px: Option<[[f64; 2]; 2]>,
@@ -271,7 +271,11 @@ pub fn drain_newest_each(
                 if let Some(g) = gaze_px.filter(|g| g[0].is_finite() && g[1].is_finite()) {
                     newest = Some(Newest {
                         gaze_px: g,
-                        host_us: crate::gaze_feed::capture_us(received_us, arrival_us, mapped_us),
+                        host_us: tracker_hal::supervisor::capture_us(
+                            received_us,
+                            arrival_us,
+                            mapped_us,
+                        ),
                         eyes_px,
                         eye_distance_mm,
                     });
@@ -413,7 +417,7 @@ impl Viewer<'_> {
         let recording = self
             .feed
             .recording_failure()
-            .map(|e| crate::gaze_feed::recording_stopped(&e));
+            .map(|e| tracker_hal::supervisor::recording_stopped(&e));
         if self.hud || !self.status.is_empty() || recording.is_some() {
             let fps = self.frames as f64 / self.started.elapsed().as_secs_f64().max(1e-9);
             // The HUD's percentiles cover the last frames only: sorting the
@@ -559,8 +563,8 @@ impl ApplicationHandler for Viewer<'_> {
                 _ => {}
             },
             Input::Redraw => {
-                if crate::gaze_feed::interrupted() {
-                    self.stop_us = crate::gaze_feed::interrupted_at_us().or(self.stop_us);
+                if crate::interrupt::interrupted() {
+                    self.stop_us = crate::interrupt::interrupted_at_us().or(self.stop_us);
                     self.say("interrupted (Ctrl-C or SIGTERM): shutting down");
                     return self.exit(el);
                 }
@@ -650,7 +654,7 @@ pub fn run(opts: &LiveOptions, out: &mut dyn Write) -> Result<(), LiveError> {
         EventLoop::new()
     }
     .map_err(|e| LiveError::NoWindow(crate::screen::plain_error(&e)))?;
-    crate::gaze_feed::catch_interrupts();
+    crate::interrupt::catch_interrupts();
     let (lsl, lsl_lines) = match &opts.lsl {
         Some(o) => {
             let (outlets, lines) = crate::lsl_out::Outlets::open(o)?;

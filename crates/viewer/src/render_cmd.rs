@@ -12,7 +12,7 @@ use serde::Serialize;
 use crate::args::{parse_point, AccelArg, Intersector, ModelArgs, Overlay};
 use crate::config::{self, load_scene};
 use crate::picture::{draw_text_lines, save_png};
-use crate::stats::median;
+use experiment::stats::nearest_rank::median;
 
 #[derive(Debug, Clone, clap::Args)]
 pub struct RenderArgs {

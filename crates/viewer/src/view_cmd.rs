@@ -109,7 +109,8 @@ fn check_tracker_against_replay(args: &ViewArgs) -> Result<(), String> {
     };
     let tracker = crate::config::load_tracker(tracker_path).map_err(|e| e.to_string())?;
     let rec = tracker_hal::Recording::read(replay).map_err(|e| e.to_string())?;
-    let diffs = crate::tracker_cmd::tracker_differences(&rec.header.tracker, &tracker);
+    let diffs =
+        tracker_hal::config::differences::tracker_differences(&rec.header.tracker, &tracker);
     if diffs.is_empty() {
         return Ok(());
     }

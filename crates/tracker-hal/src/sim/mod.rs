@@ -18,8 +18,11 @@
 //!   by frame in screen pixels.
 //! - `wire`: [`simulate_iscan`] (serial reads that split records at random
 //!   points) and [`simulate_mouse`]; the HID device is [`crate::hid::sim`].
+//! - [`preset`]: each driver's simulated device (rate, frame, scale) and
+//!   its encoder, [`preset::encode`].
 
 mod fixation;
+pub mod preset;
 mod saccade;
 mod scanpath;
 mod search;

@@ -572,7 +572,7 @@ fn evaluate(
         *slot = if t.is_empty() {
             0.0
         } else {
-            crate::stats::median(t)
+            experiment::stats::nearest_rank::median(t)
         };
     }
     Ok((result, rows))
@@ -688,7 +688,7 @@ fn report(results: &[SessionResult], args: &AttentionArgs, scene: &Scene) -> Str
             cells[0],
             cells[1],
             cells[2],
-            crate::stats::median(&ms),
+            experiment::stats::nearest_rank::median(&ms),
             lee[0],
             lee[1],
             lee[2]

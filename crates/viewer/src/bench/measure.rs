@@ -6,7 +6,7 @@ use pipeline::Renderer;
 use raycast::render::Stats;
 use raycast::Frame;
 
-use crate::stats::median;
+use experiment::stats::nearest_rank::median;
 
 /// One frame's timing through the frame pipeline: median of `repeats`
 /// after one warm-up, with the last frame and its counts.

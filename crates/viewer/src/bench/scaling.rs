@@ -14,7 +14,7 @@ use crate::bench::report::{create_dir, scaling_csv, scaling_report, write_file};
 use crate::bench::torus::{torus_scene, Placement};
 use crate::bench::ScalingArgs;
 use crate::plots;
-use crate::stats::log_log_slope;
+use experiment::stats::tradeoff::log_log_slope;
 
 /// The procedural scene of the scaling sweep: a torus of about `triangles`
 /// triangles, tilted, filling the middle of the view.

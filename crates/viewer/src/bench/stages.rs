@@ -20,7 +20,7 @@ use raycast::render::StageTimes;
 use raycast::Camera;
 
 use crate::config::{self, load_scene};
-use crate::stats::median;
+use experiment::stats::nearest_rank::median;
 
 /// `--backend` of `bench stages`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]

@@ -5,7 +5,7 @@ use foveation::quality::Quality;
 use raycast::render::Stats;
 
 use crate::bench::configs::Config;
-use crate::stats::pareto_front;
+use experiment::stats::tradeoff::pareto_front;
 
 /// One row of `results.csv`.
 #[derive(Debug, Clone)]

@@ -34,7 +34,7 @@ use raycast::{Camera, Frame, Scene, SceneFile};
 
 use crate::bench::report::{create_dir, write_file};
 use crate::config::{self, load_scene};
-use crate::stats::median;
+use experiment::stats::nearest_rank::median;
 
 /// Most instances (Lee's 8-bit item buffer held 256).
 pub const MAX_OBJECTS: usize = 256;

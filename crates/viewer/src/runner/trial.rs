@@ -5,19 +5,21 @@
 
 use std::path::Path;
 
-use experiment::session::{self, EventRow, TrialRow};
+use experiment::run::flow::Phase;
+use experiment::run::trial_result::{score_click, trial_events};
+use experiment::session::{self, TrialRow};
 use experiment::Trial;
 use pipeline::{BackendChoice, Method, Options, Renderer};
 use plotters::prelude::*;
 use plotters::style::text_anchor::{HPos, Pos, VPos};
 use raycast::{Camera, Frame, Scene};
 use tracker_hal::clock::monotonic_us;
-use tracker_hal::events::{classify, merge_congruent_fixations, EventKind, IvtConfig, TimedGaze};
+use tracker_hal::events::TimedGaze;
 
-use super::flow::Phase;
 use super::session_dir::SessionDir;
-use super::{stimulus, Setup};
+use super::setup::Setup;
 use crate::picture::{register_font, save_png};
+use experiment::run::stimulus;
 
 type SearchRenderer<'a> = Renderer<'a>;
 
@@ -52,15 +54,6 @@ pub struct TrialState {
     /// The gaze samples (times, px or invalid) from the preview on.
     samples: Vec<TimedGaze>,
 }
-
-/// Fixations closer than this (degrees) with only saccades between them,
-/// at most [`CONGRUENT_GAP_US`] apart, are one ("congruent", Murphy 2007
-/// §7.3): 1° is several times a good video tracker's noise and under a
-/// third of an object's width; 250 ms is longer than any noise "saccade"
-/// and too short for a real look away and back (that puts a fixation
-/// elsewhere between them, which is never bridged).
-const CONGRUENT_DEG: f64 = 1.0;
-const CONGRUENT_GAP_US: u64 = 250_000;
 
 /// Most samples a trial keeps for its events (an hour at 1 kHz); beyond,
 /// the events cover the first hour and samples.tsv still has every one.
@@ -274,54 +267,17 @@ impl TrialState {
         let (Some(onset), Some(response)) = (self.onset_us, self.response_us) else {
             return Err(format!("trial {}: ended without a search", trial.index + 1));
         };
-        // The samples captured up to the response (on the mapped clock).
-        let n = self
-            .samples
-            .iter()
-            .rposition(|s| s.order.is_timed() && s.mapped_us <= response)
-            .map_or(0, |i| i + 1);
-        let samples = &self.samples[..n];
-        let classified = classify(samples, &setup.geometry, &IvtConfig::default());
-        let events = merge_congruent_fixations(
-            &classified.events,
+        let sitting = dir.sitting();
+        for row in trial_events(
+            &self.samples,
+            response,
             &setup.geometry,
-            CONGRUENT_DEG,
-            CONGRUENT_GAP_US,
-        );
-        for e in events {
-            let (kind, (x, y), (ex, ey)) = match e.kind {
-                EventKind::Fixation { centroid_px } => (
-                    "fixation",
-                    (centroid_px[0], centroid_px[1]),
-                    (centroid_px[0], centroid_px[1]),
-                ),
-                EventKind::Saccade { .. } => {
-                    let at = |i: usize| samples[i].gaze.unwrap_or([f64::NAN, f64::NAN]);
-                    let (a, b) = (at(e.first), at(e.last));
-                    ("saccade", (a[0], a[1]), (b[0], b[1]))
-                }
-                EventKind::Blink => ("blink", (f64::NAN, f64::NAN), (f64::NAN, f64::NAN)),
-                EventKind::Lost => ("lost", (f64::NAN, f64::NAN), (f64::NAN, f64::NAN)),
-            };
-            dir.event(&EventRow {
-                sitting: dir.sitting(),
-                trial: Some(trial.index),
-                kind: kind.into(),
-                onset_us: e.start_us,
-                end_us: e.end_us,
-                onset_device_us: e.start_device_us,
-                end_device_us: e.end_device_us,
-                x_px: x,
-                y_px: y,
-                end_x_px: ex,
-                end_y_px: ey,
-            });
+            sitting,
+            trial.index,
+        ) {
+            dir.event(&row);
         }
-        let (clicked, correct) = match click {
-            Some(Some(c)) => (Some(c), Some(c == trial.target_cell)),
-            Some(None) => (None, Some(false)),
-            None => (None, None),
-        };
+        let (clicked, correct) = score_click(click, trial.target_cell);
         let rt_s = response.saturating_sub(onset) as f64 / 1e6;
         let row = TrialRow {
             participant: participant.to_string(),

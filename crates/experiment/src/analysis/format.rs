@@ -2,7 +2,10 @@
 //! (degrees of freedom, p-values, degrees, means ± SE), and the lines that
 //! mark synthetic data.
 
-use super::*;
+use std::collections::BTreeSet;
+
+use super::report::Report;
+use crate::stats::Summary;
 
 /// Degrees of freedom: integers as integers, corrected df to 2 decimals.
 pub fn fmt_df(df: f64) -> String {

@@ -1,7 +1,16 @@
 //! Reading one session folder for the analysis: its `session.json`,
 //! design, trials and (for scanpaths) events, checked to belong together.
 
-use super::*;
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+use super::compute::describe;
+use super::{AnalysisError, AnalyzeOptions};
+use crate::design::{Design, MAX_SEARCH_S};
+use crate::session;
+use crate::session::{
+    read_tsv, EventRow, SessionInfo, TrialRow, DESIGN_RON, EVENTS_TSV, SESSION_JSON, TRIALS_TSV,
+};
 
 pub(crate) struct Loaded {
     pub(crate) dir: PathBuf,

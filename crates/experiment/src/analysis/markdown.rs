@@ -1,6 +1,14 @@
 //! `report.md`: the report rendered as Markdown.
 
-use super::*;
+use std::collections::BTreeSet;
+use std::fmt::Write as _;
+
+use super::format::{
+    fmt_deg, fmt_df, fmt_p_cell, fmt_summary, is_seed_design, md_cell, SEED_TABLE_7_1,
+    SYNTHETIC_LINE,
+};
+use super::report::{Computed, PairResult, Report};
+use super::SCANPATHS_DIR;
 
 pub(crate) fn markdown(r: &Report) -> String {
     let mut m = String::new();

@@ -49,22 +49,14 @@ pub(crate) use output::{check_output_folder, OutputGuard};
 pub use report::*;
 pub use write::trial_fixations;
 
-use crate::design::{Condition, Design, DesignError, MAX_SEARCH_S};
-use crate::figures::{self, Bar, BarChart, BarGroup, Fixation, Reference, Scanpath};
-use crate::session::{
-    self, read_tsv, EventRow, SessionFileError, SessionInfo, TrialRow, DESIGN_RON, EVENTS_TSV,
-    SESSION_JSON, TRIALS_TSV,
-};
-use crate::stats::{self, Anova, Pair, RmAnova, Summary};
-use compute::*;
-use format::*;
-use load::*;
-use markdown::*;
-use output::*;
-use std::collections::{BTreeMap, BTreeSet};
-use std::fmt::Write as _;
-use std::path::{Component, Path, PathBuf};
-use write::*;
+use std::path::{Path, PathBuf};
+
+use crate::design::DesignError;
+use crate::session::{SessionFileError, DESIGN_RON};
+use compute::compute;
+use load::{load_session, Loaded};
+use output::OutputWriter;
+use write::write_outputs;
 
 /// `report.md`.
 pub const REPORT_MD: &str = "report.md";

@@ -2,7 +2,13 @@
 //! its files written through a temporary file and a rename, and the stale
 //! outputs of an earlier run removed.
 
-use super::*;
+use std::path::{Component, Path, PathBuf};
+
+use super::{
+    AnalysisError, CONDITIONS_CSV, FIG_7_3, FIG_7_4, FIG_CONDITIONS, REPORT_MD, SCANPATHS_DIR,
+    TABLE_7_1_CSV, TRIALS_CSV,
+};
+use crate::session;
 
 /// Absolute, normalised form of `p` (symlinks resolved for the part that
 /// exists).

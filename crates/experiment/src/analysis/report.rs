@@ -2,7 +2,10 @@
 //! the ANOVAs, the pairwise tests and Table 7.1, each value computed or
 //! the reason it could not be.
 
-use super::*;
+use std::path::PathBuf;
+
+use super::format::{fmt_df, fmt_p};
+use crate::stats::{Anova, Pair, RmAnova, Summary};
 
 /// A result that may have been skipped, with the reason.
 #[derive(Debug, Clone, PartialEq)]

@@ -1,7 +1,20 @@
 //! Writing the report's files: the CSV tables, the figures and the
 //! scanpath pictures, then `report.md`.
 
-use super::*;
+use super::compute::describe;
+use super::format::{data_source, fmt_deg, SYNTHETIC_CSV};
+use super::load::Loaded;
+use super::markdown::markdown;
+use super::output::{remove_stale, OutputWriter};
+use super::report::{Computed, Report};
+use super::{
+    AnalysisError, AnalyzeOptions, CONDITIONS_CSV, FIG_7_3, FIG_7_4, FIG_CONDITIONS, REPORT_MD,
+    SCANPATHS_DIR, TABLE_7_1_CSV, TRIALS_CSV,
+};
+use crate::figures::{Bar, BarChart, BarGroup, Fixation, Reference, Scanpath};
+use crate::session::{EventRow, TrialRow};
+use crate::stats::Summary;
+use crate::{figures, session};
 
 pub(crate) fn write_outputs(
     w: &OutputWriter,

@@ -1,7 +1,9 @@
 //! Files written whole or not at all: a temporary file in the same
 //! folder, renamed over the target once complete.
 
-use super::*;
+use std::fs::File;
+use std::io::{self, Write};
+use std::path::{Path, PathBuf};
 
 /// A file written whole or not at all: the bytes go to a temporary file
 /// in the same folder, which [`AtomicFile::commit`] renames over the

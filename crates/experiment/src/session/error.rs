@@ -1,6 +1,7 @@
 //! Why a session file could not be read or written.
 
-use super::*;
+use std::io;
+use std::path::{Path, PathBuf};
 
 /// Why a session file could not be read or written. Every variant names
 /// the file; parse errors also the line and, where known, the column.

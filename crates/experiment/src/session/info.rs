@@ -2,7 +2,13 @@
 //! sittings with their clocks; which sitting completed each trial and
 //! which rows are aborted.
 
-use super::*;
+use std::path::Path;
+
+use serde::{Deserialize, Serialize};
+
+use super::atomic::write_atomic;
+use super::error::SessionFileError;
+use super::rows::{ClockRow, TrialRow};
 
 /// `session.json`: who, which design, which display and tracker.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]

@@ -1,6 +1,6 @@
 //! The session folder's file names and where the stimulus pictures go.
 
-use super::*;
+use std::path::{Path, PathBuf};
 
 /// `session.json`: [`SessionInfo`].
 pub const SESSION_JSON: &str = "session.json";

@@ -119,12 +119,3 @@ pub use layout::*;
 pub use rows::*;
 pub use tsv_log::*;
 pub use tsv_read::*;
-
-use serde::de::DeserializeOwned;
-use serde::{Deserialize, Serialize};
-use std::fmt;
-use std::fs::{File, OpenOptions};
-use std::io::{self, BufRead, BufReader, Read, Seek, SeekFrom, Write};
-use std::marker::PhantomData;
-use std::path::{Path, PathBuf};
-use std::time::{Duration, Instant};

@@ -2,7 +2,11 @@
 //! markers, frames, clock updates) and their [`TsvRow`] schema: file,
 //! columns, and the columns added after the first version.
 
-use super::*;
+use serde::de::DeserializeOwned;
+use serde::{Deserialize, Serialize};
+
+use super::layout::{CLOCK_TSV, EVENTS_TSV, FRAMES_TSV, MARKERS_TSV, SAMPLES_TSV, TRIALS_TSV};
+use super::na;
 
 /// One completed search trial (`trials.tsv`).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]

@@ -2,7 +2,17 @@
 //! flushed by the durability policy, columns added to an older file on
 //! resume.
 
-use super::*;
+use std::fs::{File, OpenOptions};
+use std::io::{self, BufRead, BufReader, Read, Seek, SeekFrom, Write};
+use std::marker::PhantomData;
+use std::path::{Path, PathBuf};
+use std::time::{Duration, Instant};
+
+use super::atomic::AtomicFile;
+use super::error::SessionFileError;
+use super::layout::NA;
+use super::rows::TsvRow;
+use super::tsv_read::{complete_len, shown};
 
 pub(crate) fn tsv_writer<W: Write>(w: W) -> csv::Writer<W> {
     csv::WriterBuilder::new()

@@ -2,7 +2,14 @@
 //! schema, errors that name the line and column, a half-written last line
 //! skipped with a warning.
 
-use super::*;
+use std::fs::File;
+use std::io::{BufReader, Read, Seek, SeekFrom};
+use std::path::{Path, PathBuf};
+use std::{fmt, io};
+
+use super::de;
+use super::error::SessionFileError;
+use super::rows::TsvRow;
 
 /// Something [`read_tsv`] skipped rather than failed on (a half-written
 /// last line of a killed session).

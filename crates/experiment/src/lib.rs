@@ -1,5 +1,6 @@
 //! `experiment`: the pure logic of a gaze-contingent experiment — no
-//! window, no GPU, no tracker.
+//! window, no GPU, no tracker device (tracker-hal's calibration, event
+//! and search maths are used; raycast only for scene files).
 //!
 //! - [`design`]: the experiment design file (RON), parsed with serde
 //!   (`deny_unknown_fields`) and validated with errors that name the field

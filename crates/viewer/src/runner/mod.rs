@@ -1,9 +1,12 @@
-//! The experiment runner (`gazecast experiment run`): a design's session for one participant in a
-//! window, written as it happens to a session folder
-//! (`experiment::session`), resumable after a crash.
+//! The experiment runner (`gazecast experiment run`): a design's session
+//! for one participant in a window, written as it happens to a session
+//! folder (`experiment::session`), resumable after a crash. What the
+//! session decides apart from the window (the screens' order, the stimuli,
+//! the design's checks, the simulated participant's behaviour, a trial's
+//! events) is `experiment::run`; this module shows, renders and writes.
 //!
-//! The screens come from `experiment::run::flow`; each frame the runner takes every
-//! tracker sample (all of them, not only the newest: each goes to
+//! The screens come from `experiment::run::flow`; each frame the runner
+//! takes every tracker sample (all of them, not only the newest: each goes to
 //! `samples.tsv`, to the calibration in progress and to the trial's
 //! eye-movement events), handles keys and clicks (the window's, or the
 //! simulated participant's — [`participant`]) with their host times, and
@@ -32,7 +35,6 @@
 //! `confirm_click`); in a failed validation `R` calibrates again and
 //! `Space` continues; `Esc` ends the session (what was written stays;
 //! `--resume` continues at the first unfinished trial).
-
 //!
 //! The files: [`options`] (what was asked), [`design_check`] (the design's
 //! check with the renderer's part), `setup` (what is fixed for the

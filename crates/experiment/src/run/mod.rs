@@ -10,9 +10,12 @@
 //! - [`on_display`]: the stimuli checked on the display;
 //! - [`design_check`]: the one check `experiment plan` and `experiment run`
 //!   share, and the calibration plans it derives;
+//! - [`acceptance`]: whether a calibration, validation or drift check is
+//!   good enough;
 //! - [`participant`]: the simulated participant's behaviour;
 //! - [`trial_result`]: a finished trial's eye-movement events and click.
 
+pub mod acceptance;
 pub mod design_check;
 pub mod flow;
 pub mod layout;

@@ -1,12 +1,14 @@
 //! What a finished trial records, apart from the files it goes to: its
 //! eye-movement events over the samples captured up to the response
-//! (fixations merged with the congruence thresholds) and the confirming
-//! click's score.
+//! (fixations merged with the congruence thresholds), the confirming
+//! click's score, its row of `trials.tsv` and the log's line.
 
 use screen_geometry::ScreenGeometry;
 use tracker_hal::events::{classify, merge_congruent_fixations, EventKind, IvtConfig, TimedGaze};
 
-use crate::session::EventRow;
+use crate::design::Design;
+use crate::session::{EventRow, TrialRow};
+use crate::Trial;
 
 /// Fixations closer than this (degrees) with only saccades between them,
 /// at most [`CONGRUENT_GAP_US`] apart, are one ("congruent", Murphy 2007
@@ -86,4 +88,86 @@ pub fn score_click(
         Some(None) => (None, Some(false)),
         None => (None, None),
     }
+}
+
+/// What the runner measured of one trial.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Measured {
+    /// The search display's first frame presented (host µs).
+    pub onset_us: u64,
+    /// The response (host µs).
+    pub response_us: u64,
+    /// The confirming click, as [`score_click`] takes it.
+    pub click: Option<Option<(u32, u32)>>,
+    /// Search frames shown, and how many of them late.
+    pub frames: u64,
+    pub frames_late: u64,
+    /// Rays cast over the search frames.
+    pub rays: u64,
+    /// The plan of the search frames (`Renderer::provenance`).
+    pub plan: Option<String>,
+}
+
+/// Trial `trial`'s row of `trials.tsv` for `participant` in `sitting`:
+/// the search time is the response minus the onset.
+pub fn trial_row(
+    design: &Design,
+    trial: &Trial,
+    participant: &str,
+    sitting: u32,
+    measured: &Measured,
+    synthetic: bool,
+) -> TrialRow {
+    let condition = &design.conditions[trial.condition];
+    let m = measured;
+    let (clicked, correct) = score_click(m.click, trial.target_cell);
+    TrialRow {
+        participant: participant.to_string(),
+        sitting,
+        run: trial.run,
+        trial: trial.index,
+        trial_in_run: trial.trial_in_run,
+        condition: condition.name.clone(),
+        method: condition.method.clone(),
+        inset_deg: condition.inset_deg,
+        silhouette_edges: condition.silhouette_edges,
+        target_mesh: trial.target_mesh,
+        target_row: trial.target_cell.0,
+        target_col: trial.target_cell.1,
+        search_onset_us: m.onset_us,
+        response_us: m.response_us,
+        rt_s: m.response_us.saturating_sub(m.onset_us) as f64 / 1e6,
+        clicked_row: clicked.map(|c| c.0),
+        clicked_col: clicked.map(|c| c.1),
+        correct,
+        frames: m.frames,
+        frames_late: m.frames_late,
+        mean_rays: m.rays as f64 / (m.frames.max(1)) as f64,
+        synthetic,
+        plan: m.plan.clone(),
+    }
+}
+
+/// The log's line for a written trial `row`.
+pub fn trial_line(row: &TrialRow) -> String {
+    format!(
+        "trial {} {}: {:.2} s, target {} at ({}, {}){}, {} frames ({} late), mean {:.0} rays",
+        row.trial + 1,
+        row.condition,
+        row.rt_s,
+        raycast::scene::FACE_EXPRESSIONS
+            .get(row.target_mesh as usize)
+            .copied()
+            .unwrap_or("?"),
+        row.target_row,
+        row.target_col,
+        match row.correct {
+            Some(true) => ", clicked correctly",
+            Some(false) => ", clicked WRONG",
+            None => "",
+        },
+        row.frames,
+        row.frames_late,
+        row.mean_rays
+    )
 }

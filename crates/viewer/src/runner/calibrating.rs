@@ -1,18 +1,18 @@
 //! Calibration, validation and drift checks while the session runs: the
-//! check in progress fed each frame, its outcome against the design's
-//! threshold, a recalibration after a failure, and the experimenter's
-//! decision after too many.
+//! check in progress fed each frame, its outcome
+//! (`experiment::run::acceptance`), a recalibration after a failure, and
+//! the experimenter's decision after too many.
 
+use experiment::run::acceptance::{
+    calibration_outcome, validation_outcome, MAX_CALIBRATION_ATTEMPTS,
+};
 use experiment::run::flow::Phase;
 use experiment::session::MarkerRow;
-use tracker_hal::calibration::{validate, Procedure, Session, SessionRequest, TimedPoint};
+use tracker_hal::calibration::{Procedure, Session, SessionRequest, TimedPoint};
 use tracker_hal::clock::monotonic_us;
 
 use super::state::Runner;
 use super::trial;
-
-/// Failed validations before the runner asks the experimenter.
-const MAX_CALIBRATION_ATTEMPTS: u32 = 3;
 
 /// A calibration or validation in progress.
 pub(super) enum Checking {
@@ -47,18 +47,7 @@ impl Runner<'_> {
                         SessionRequest::Save => {
                             let summary = s.summary();
                             self.calibration = s.calibration().cloned();
-                            let threshold = self.setup.design.calibration.accuracy_threshold_deg;
-                            outcome = Some(match summary {
-                                Some(v) if v.accuracy_deg <= threshold => Ok(format!(
-                                    "calibrated: validation accuracy {:.2} deg (precision RMS {:.2} deg), threshold {threshold} deg",
-                                    v.accuracy_deg, v.precision_rms_deg
-                                )),
-                                Some(v) => Err(format!(
-                                    "calibration validated at {:.2} deg, above the threshold {threshold} deg",
-                                    v.accuracy_deg
-                                )),
-                                None => Err("calibration: no validation point had data".into()),
-                            });
+                            outcome = Some(calibration_outcome(&self.setup.design, summary));
                         }
                         SessionRequest::Abort(e) => {
                             outcome = Some(Err(format!("calibration failed: {e}")))
@@ -82,25 +71,13 @@ impl Runner<'_> {
                         .results()
                         .map(|r| (r.target_px, r.samples.clone()))
                         .collect();
-                    let threshold = match (*drift, &self.setup.design.drift_check) {
-                        (true, Some(d)) => d.threshold_deg,
-                        _ => self.setup.design.calibration.accuracy_threshold_deg,
-                    };
-                    let what = if *drift { "drift check" } else { "validation" };
-                    outcome = Some(match &self.calibration {
-                        Some(c) => match validate(c, &self.setup.geometry, &runs) {
-                            Ok(v) if v.accuracy_deg <= threshold => Ok(format!(
-                                "{what}: accuracy {:.2} deg (threshold {threshold} deg)",
-                                v.accuracy_deg
-                            )),
-                            Ok(v) => Err(format!(
-                                "{what}: accuracy {:.2} deg, above the threshold {threshold} deg",
-                                v.accuracy_deg
-                            )),
-                            Err(e) => Err(format!("{what}: {e}")),
-                        },
-                        None => Err(format!("{what}: no calibration to validate")),
-                    });
+                    outcome = Some(validation_outcome(
+                        &self.setup.design,
+                        *drift,
+                        self.calibration.as_ref(),
+                        &self.setup.geometry,
+                        &runs,
+                    ));
                 }
             }
             _ => {}

@@ -6,8 +6,9 @@
 use std::path::Path;
 
 use experiment::run::flow::Phase;
-use experiment::run::trial_result::{score_click, trial_events};
-use experiment::session::{self, TrialRow};
+use experiment::run::stimulus;
+use experiment::run::trial_result::{trial_events, trial_line, trial_row, Measured};
+use experiment::session;
 use experiment::Trial;
 use pipeline::{BackendChoice, Method, Options, Renderer};
 use plotters::prelude::*;
@@ -19,7 +20,6 @@ use tracker_hal::events::TimedGaze;
 use super::session_dir::SessionDir;
 use super::setup::Setup;
 use crate::picture::{register_font, save_png};
-use experiment::run::stimulus;
 
 type SearchRenderer<'a> = Renderer<'a>;
 
@@ -262,8 +262,6 @@ impl TrialState {
         synthetic: bool,
         dir: &mut SessionDir,
     ) -> Result<String, String> {
-        let design = &setup.design;
-        let condition = &design.conditions[trial.condition];
         let (Some(onset), Some(response)) = (self.onset_us, self.response_us) else {
             return Err(format!("trial {}: ended without a search", trial.index + 1));
         };
@@ -277,56 +275,28 @@ impl TrialState {
         ) {
             dir.event(&row);
         }
-        let (clicked, correct) = score_click(click, trial.target_cell);
-        let rt_s = response.saturating_sub(onset) as f64 / 1e6;
-        let row = TrialRow {
-            participant: participant.to_string(),
-            sitting: dir.sitting(),
-            run: trial.run,
-            trial: trial.index,
-            trial_in_run: trial.trial_in_run,
-            condition: condition.name.clone(),
-            method: condition.method.clone(),
-            inset_deg: condition.inset_deg,
-            silhouette_edges: condition.silhouette_edges,
-            target_mesh: trial.target_mesh,
-            target_row: trial.target_cell.0,
-            target_col: trial.target_cell.1,
-            search_onset_us: onset,
+        let measured = Measured {
+            onset_us: onset,
             response_us: response,
-            rt_s,
-            clicked_row: clicked.map(|c| c.0),
-            clicked_col: clicked.map(|c| c.1),
-            correct,
+            click,
             frames: self.frames,
             frames_late: self.late,
-            mean_rays: self.rays as f64 / (self.frames.max(1)) as f64,
-            synthetic,
+            rays: self.rays,
             plan: self.search_plan(),
         };
+        let row = trial_row(
+            &setup.design,
+            trial,
+            participant,
+            sitting,
+            &measured,
+            synthetic,
+        );
         dir.trial(&row)?;
         if setup.stimulus_pictures {
             self.stimulus_picture(setup, trial, dir.path())?;
         }
-        Ok(format!(
-            "trial {} {}: {rt_s:.2} s, target {} at ({}, {}){}, {} frames ({} late), mean {:.0} rays",
-            trial.index + 1,
-            condition.name,
-            raycast::scene::FACE_EXPRESSIONS
-                .get(trial.target_mesh as usize)
-                .copied()
-                .unwrap_or("?"),
-            trial.target_cell.0,
-            trial.target_cell.1,
-            match correct {
-                Some(true) => ", clicked correctly",
-                Some(false) => ", clicked WRONG",
-                None => "",
-            },
-            row.frames,
-            row.frames_late,
-            row.mean_rays
-        ))
+        Ok(trial_line(&row))
     }
 
     /// The search display at full resolution, for the scanpath pictures:

@@ -185,7 +185,7 @@ pub struct Table71Row {
     pub pooled: Option<Summary>,
 }
 
-/// Everything [`analyze`] computed and wrote.
+/// Everything [`analyze`](super::analyze) computed and wrote.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Report {
     /// Any session synthetic.

@@ -2,21 +2,21 @@
 
 use std::path::{Path, PathBuf};
 
-/// `session.json`: [`SessionInfo`].
+/// `session.json`: [`SessionInfo`](super::SessionInfo).
 pub const SESSION_JSON: &str = "session.json";
 /// `design.ron`: the copy of the design file.
 pub const DESIGN_RON: &str = "design.ron";
-/// `trials.tsv`: [`TrialRow`].
+/// `trials.tsv`: [`TrialRow`](super::TrialRow).
 pub const TRIALS_TSV: &str = "trials.tsv";
-/// `samples.tsv`: [`SampleRow`].
+/// `samples.tsv`: [`SampleRow`](super::SampleRow).
 pub const SAMPLES_TSV: &str = "samples.tsv";
-/// `events.tsv`: [`EventRow`].
+/// `events.tsv`: [`EventRow`](super::EventRow).
 pub const EVENTS_TSV: &str = "events.tsv";
-/// `markers.tsv`: [`MarkerRow`].
+/// `markers.tsv`: [`MarkerRow`](super::MarkerRow).
 pub const MARKERS_TSV: &str = "markers.tsv";
-/// `frames.tsv`: [`FrameRow`].
+/// `frames.tsv`: [`FrameRow`](super::FrameRow).
 pub const FRAMES_TSV: &str = "frames.tsv";
-/// `clock.tsv`: [`ClockRow`].
+/// `clock.tsv`: [`ClockRow`](super::ClockRow).
 pub const CLOCK_TSV: &str = "clock.tsv";
 /// The folder of the per-trial stimulus pictures.
 pub const STIMULI_DIR: &str = "stimuli";

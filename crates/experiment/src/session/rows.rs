@@ -234,8 +234,8 @@ pub trait TsvRow: Serialize + DeserializeOwned {
     const COLUMNS: &'static [&'static str];
     /// How many of the last [`TsvRow::COLUMNS`] were added after the
     /// file's first version (each `Option` with a serde default). A file
-    /// written before has a header that stops short of them: [`read_tsv`]
-    /// reads its rows with those fields `None`, and [`TsvLog::append_to`]
+    /// written before has a header that stops short of them: [`read_tsv`](super::read_tsv)
+    /// reads its rows with those fields `None`, and [`TsvLog::append_to`](super::TsvLog::append_to)
     /// adds them (`n/a`) to its rows before appending.
     const LATER_COLUMNS: usize = 0;
 

@@ -1,6 +1,7 @@
 //! Condition orders: the cyclic Latin square and the Williams balanced
 //! design. Each function returns rows of condition indices `0..n`; row `r`
-//! is the order for the `r`-th participant (modulo the number of rows).
+//! is the order for the `r`-th participant (modulo the number of rows);
+//! [`index_from_id`] takes a participant's row from their id.
 
 /// Cyclic Latin square of order `n`: row `i`, position `j` holds
 /// `(i + j) mod n`. Every condition appears exactly once in each row and
@@ -50,4 +51,19 @@ pub fn williams(n: usize) -> Vec<Vec<usize>> {
         rows.extend(mirrored);
     }
     rows
+}
+
+/// The counterbalancing index from a participant id: its trailing number
+/// minus one (`P01` → 0, `sub-12` → 11).
+pub fn index_from_id(id: &str) -> Option<usize> {
+    let digits: String = id
+        .chars()
+        .rev()
+        .take_while(char::is_ascii_digit)
+        .collect::<Vec<_>>()
+        .into_iter()
+        .rev()
+        .collect();
+    let n: usize = digits.parse().ok()?;
+    n.checked_sub(1)
 }

@@ -13,21 +13,9 @@
 //! keys and clicks reach the runner's one input handler beside the
 //! window's.
 //!
-//! The behaviour is a plausible stand-in, not fitted to people:
-//! - a text screen (instructions, a break) is read for 0.4 s, then Space;
-//! - calibration, validation and drift targets are fixated as shown;
-//! - the target preview is examined for 0.5–0.9 s, then Space;
-//! - a search starts at the centre (where the preview was), visits 3–8
-//!   distractors (the nearest of three random candidates each time, as
-//!   searches tend to go), fixating each for 200–400 ms, then the target
-//!   for 300–500 ms, then presses Space; saccade times between fixations
-//!   follow the main sequence;
-//! - the confirming click goes to the fixated target, or with probability
-//!   [`WRONG_CLICK`] to a neighbouring cell (so incorrect trials occur).
-//!
-//! Its search times are synthetic: they say nothing about people, and do
-//! not depend on the condition (the model never looks at the image). The
-//! session it runs is marked synthetic in every file.
+//! What it does on each screen is `experiment::run::participant`'s
+//! [`Behaviour`]; this is its thread and its eye. The session it runs is
+//! marked synthetic in every file.
 //!
 //! **Timing.** What it plans happens at the planned host time, however
 //! late its own thread runs: a search's fixations go to the tracker as
@@ -42,18 +30,15 @@ use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
 use crossbeam_channel::{Receiver, Sender};
+use experiment::run::flow::Phase;
+use experiment::run::participant::{Action, Behaviour, Seen};
 use foveation::ScreenGeometry;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use tracker_hal::clock::monotonic_us;
 use tracker_hal::iscan::{encode_binary, IscanConfig, IscanMode, IscanParam};
 use tracker_hal::mouse::CursorEvent;
-use tracker_hal::sim::{main_sequence_duration_ms, search_stops, uncalibrated_raw};
-
-use super::flow::Phase;
-
-/// Probability that the confirming click lands on a neighbouring cell.
-pub const WRONG_CLICK: f64 = 0.05;
+use tracker_hal::sim::uncalibrated_raw;
 
 /// Records per second of the simulated ISCAN.
 pub const ISCAN_RATE_HZ: f64 = 60.0;
@@ -71,27 +56,6 @@ pub enum Eye {
     },
 }
 
-/// What the participant does, with the host time it did it.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub enum Action {
-    Space { host_us: u64 },
-    Click { host_us: u64, px: [f64; 2] },
-}
-
-/// What the screen shows, as the participant needs to know it.
-#[derive(Debug, Clone, Default)]
-struct Seen {
-    /// Incremented at every new screen.
-    epoch: u64,
-    phase: Option<Phase>,
-    since_us: u64,
-    /// A calibration/validation target (px).
-    target_px: Option<[f64; 2]>,
-    /// Search display: every object's centre and the target's.
-    objects: Vec<[f64; 2]>,
-    target_object: Option<[f64; 2]>,
-}
-
 /// The participant's thread.
 pub struct Participant {
     seen: Arc<Mutex<Seen>>,
@@ -100,33 +64,6 @@ pub struct Participant {
     thread: Option<std::thread::JoinHandle<()>>,
     /// The ISCAN writer, when the eye is one.
     writer: Option<std::thread::JoinHandle<()>>,
-}
-
-/// Fixation plan of one search: (position, start ms after onset), and when
-/// Space is pressed.
-fn search_plan(
-    geometry: &ScreenGeometry,
-    objects: &[[f64; 2]],
-    target: [f64; 2],
-    rng: &mut ChaCha8Rng,
-) -> (Vec<([f64; 2], f64)>, f64) {
-    let stops = search_stops(geometry.centre_px(), objects, target, 3..=8, rng);
-    let mut t = 0.0;
-    let mut plan = Vec::with_capacity(stops.len());
-    for (k, &p) in stops.iter().enumerate() {
-        if k > 0 {
-            let amp = geometry.eccentricity_deg(stops[k - 1], p);
-            t += main_sequence_duration_ms(amp);
-        }
-        plan.push((p, t));
-        let last = k + 1 == stops.len();
-        t += if last {
-            rng.random_range(300.0..500.0)
-        } else {
-            rng.random_range(200.0..400.0)
-        };
-    }
-    (plan, t)
 }
 
 impl Participant {
@@ -296,7 +233,9 @@ fn iscan_writer(
 }
 
 /// The participant's loop: every 4 ms, look where the screen asks and act
-/// when the time has come; one act per screen.
+/// when the time has come ([`Behaviour::step`]); its looks go to the
+/// ISCAN writer's plan and the mouse tracker's cursor, its acts to the
+/// runner.
 fn behave(
     seen: &Mutex<Seen>,
     stop: &AtomicBool,
@@ -306,21 +245,15 @@ fn behave(
     geometry: ScreenGeometry,
     seed: u64,
 ) {
-    let mut rng = ChaCha8Rng::seed_from_u64(seed);
-    let mut epoch = u64::MAX;
-    let mut acted = false;
-    let mut wait_ms = 0.0;
-    let mut search: (Vec<([f64; 2], f64)>, f64) = (Vec::new(), 0.0);
-    let mut click_px = geometry.centre_px();
-    let mut looking: Option<[f64; 2]> = None;
-    // The newest time a look was dated for: later looks are never dated
-    // before it (the tracker's cursor history is in time order).
-    let mut last_t = 0u64;
-    let mut look = |p: [f64; 2], t_us: u64, looking: &mut Option<[f64; 2]>| {
-        if *looking != Some(p) {
-            *looking = Some(p);
-            let t = t_us.max(last_t);
-            last_t = t;
+    let mut behaviour = Behaviour::new(geometry, seed);
+    while !stop.load(Ordering::Relaxed) {
+        std::thread::sleep(Duration::from_millis(4));
+        let s = match seen.lock() {
+            Ok(s) => s.clone(),
+            Err(_) => return,
+        };
+        let response = behaviour.step(&s, monotonic_us());
+        for (t, p) in response.looks {
             if let Ok(mut g) = gaze.lock() {
                 g.push(t, p);
             }
@@ -332,135 +265,8 @@ fn behave(
                 });
             }
         }
-    };
-    while !stop.load(Ordering::Relaxed) {
-        std::thread::sleep(Duration::from_millis(4));
-        let s = match seen.lock() {
-            Ok(s) => s.clone(),
-            Err(_) => return,
-        };
-        let Some(phase) = s.phase else { continue };
-        let now = monotonic_us();
-        let elapsed_ms = now.saturating_sub(s.since_us) as f64 / 1e3;
-        // When something planned `ms` after the screen's start happens.
-        let at = |ms: f64| s.since_us + (ms * 1e3).round() as u64;
-        if s.epoch != epoch {
-            epoch = s.epoch;
-            acted = false;
-            match phase {
-                Phase::Preview => wait_ms = rng.random_range(500.0..900.0),
-                Phase::Search => {
-                    if let Some(t) = s.target_object {
-                        search = search_plan(&geometry, &s.objects, t, &mut rng);
-                        // The whole search, dated: each fixation happens
-                        // at its planned time whenever this thread runs.
-                        for &(p, t_ms) in &search.0 {
-                            look(p, at(t_ms), &mut looking);
-                        }
-                    }
-                }
-                Phase::Confirm => {
-                    let t = s.target_object.unwrap_or(geometry.centre_px());
-                    click_px = t;
-                    if rng.random::<f64>() < WRONG_CLICK && s.objects.len() > 1 {
-                        // The nearest other object.
-                        if let Some(o) = s.objects.iter().filter(|o| **o != t).min_by(|a, b| {
-                            let d = |p: &[f64; 2]| (p[0] - t[0]).hypot(p[1] - t[1]);
-                            d(a).total_cmp(&d(b))
-                        }) {
-                            click_px = *o;
-                        }
-                    }
-                    wait_ms = rng.random_range(250.0..450.0);
-                }
-                _ => wait_ms = 400.0,
-            }
-        }
-        match phase {
-            Phase::Instructions | Phase::Rest { .. } => {
-                if !acted && elapsed_ms >= wait_ms {
-                    acted = true;
-                    let _ = actions.send(Action::Space {
-                        host_us: at(wait_ms),
-                    });
-                }
-            }
-            Phase::Calibration | Phase::Validation { .. } | Phase::DriftCheck => {
-                if let Some(t) = s.target_px {
-                    look(t, now, &mut looking);
-                }
-            }
-            Phase::Preview => {
-                look(geometry.centre_px(), s.since_us, &mut looking);
-                if !acted && elapsed_ms >= wait_ms {
-                    acted = true;
-                    let _ = actions.send(Action::Space {
-                        host_us: at(wait_ms),
-                    });
-                }
-            }
-            Phase::Search => {
-                if !acted && elapsed_ms >= search.1 {
-                    acted = true;
-                    let _ = actions.send(Action::Space {
-                        host_us: at(search.1),
-                    });
-                }
-            }
-            Phase::Confirm => {
-                look(click_px, s.since_us, &mut looking);
-                if !acted && elapsed_ms >= wait_ms {
-                    acted = true;
-                    let _ = actions.send(Action::Click {
-                        host_us: at(wait_ms),
-                        px: click_px,
-                    });
-                }
-            }
-            Phase::Done => {}
-        }
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    fn geometry() -> ScreenGeometry {
-        foveation::Display {
-            name: "t".into(),
-            resolution_px: (1280, 1024),
-            size_mm: (337.9, 270.3),
-            eye_distance_mm: 540.0,
-            eye_point_px: None,
-        }
-        .geometry()
-        .expect("geometry")
-    }
-
-    #[test]
-    fn a_search_plan_ends_on_the_target_after_visiting_distractors() {
-        let g = geometry();
-        let objects: Vec<[f64; 2]> = (0..25)
-            .map(|k| {
-                [
-                    200.0 + 200.0 * f64::from(k % 5),
-                    112.0 + 200.0 * f64::from(k / 5),
-                ]
-            })
-            .collect();
-        for seed in 0..50 {
-            let mut rng = ChaCha8Rng::seed_from_u64(seed);
-            let target = objects[(seed % 25) as usize];
-            let (plan, space_ms) = search_plan(&g, &objects, target, &mut rng);
-            assert_eq!(plan.first().map(|p| p.0), Some(g.centre_px()));
-            assert_eq!(plan.last().map(|p| p.0), Some(target));
-            assert!((5..=10).contains(&plan.len()), "{}", plan.len());
-            assert!(plan.windows(2).all(|w| w[1].1 > w[0].1));
-            assert!(space_ms > plan[plan.len() - 1].1 + 299.0);
-            // Distractors are visited once each and never the target early.
-            let mid = &plan[1..plan.len() - 1];
-            assert!(mid.iter().all(|p| p.0 != target));
+        if let Some(a) = response.action {
+            let _ = actions.send(a);
         }
     }
 }

@@ -5,18 +5,20 @@
 
 use std::path::Path;
 
-use experiment::session::{self, EventRow, TrialRow};
+use experiment::run::flow::Phase;
+use experiment::run::stimulus;
+use experiment::run::trial_result::{trial_events, trial_line, trial_row, Measured};
+use experiment::session;
 use experiment::Trial;
 use pipeline::{BackendChoice, Method, Options, Renderer};
 use plotters::prelude::*;
 use plotters::style::text_anchor::{HPos, Pos, VPos};
 use raycast::{Camera, Frame, Scene};
 use tracker_hal::clock::monotonic_us;
-use tracker_hal::events::{classify, merge_congruent_fixations, EventKind, IvtConfig, TimedGaze};
+use tracker_hal::events::TimedGaze;
 
-use super::flow::Phase;
 use super::session_dir::SessionDir;
-use super::{stimulus, Setup};
+use super::setup::Setup;
 use crate::picture::{register_font, save_png};
 
 type SearchRenderer<'a> = Renderer<'a>;
@@ -52,15 +54,6 @@ pub struct TrialState {
     /// The gaze samples (times, px or invalid) from the preview on.
     samples: Vec<TimedGaze>,
 }
-
-/// Fixations closer than this (degrees) with only saccades between them,
-/// at most [`CONGRUENT_GAP_US`] apart, are one ("congruent", Murphy 2007
-/// §7.3): 1° is several times a good video tracker's noise and under a
-/// third of an object's width; 250 ms is longer than any noise "saccade"
-/// and too short for a real look away and back (that puts a fixation
-/// elsewhere between them, which is never bridged).
-const CONGRUENT_DEG: f64 = 1.0;
-const CONGRUENT_GAP_US: u64 = 250_000;
 
 /// Most samples a trial keeps for its events (an hour at 1 kHz); beyond,
 /// the events cover the first hour and samples.tsv still has every one.
@@ -269,108 +262,41 @@ impl TrialState {
         synthetic: bool,
         dir: &mut SessionDir,
     ) -> Result<String, String> {
-        let design = &setup.design;
-        let condition = &design.conditions[trial.condition];
         let (Some(onset), Some(response)) = (self.onset_us, self.response_us) else {
             return Err(format!("trial {}: ended without a search", trial.index + 1));
         };
-        // The samples captured up to the response (on the mapped clock).
-        let n = self
-            .samples
-            .iter()
-            .rposition(|s| s.order.is_timed() && s.mapped_us <= response)
-            .map_or(0, |i| i + 1);
-        let samples = &self.samples[..n];
-        let classified = classify(samples, &setup.geometry, &IvtConfig::default());
-        let events = merge_congruent_fixations(
-            &classified.events,
+        let sitting = dir.sitting();
+        for row in trial_events(
+            &self.samples,
+            response,
             &setup.geometry,
-            CONGRUENT_DEG,
-            CONGRUENT_GAP_US,
-        );
-        for e in events {
-            let (kind, (x, y), (ex, ey)) = match e.kind {
-                EventKind::Fixation { centroid_px } => (
-                    "fixation",
-                    (centroid_px[0], centroid_px[1]),
-                    (centroid_px[0], centroid_px[1]),
-                ),
-                EventKind::Saccade { .. } => {
-                    let at = |i: usize| samples[i].gaze.unwrap_or([f64::NAN, f64::NAN]);
-                    let (a, b) = (at(e.first), at(e.last));
-                    ("saccade", (a[0], a[1]), (b[0], b[1]))
-                }
-                EventKind::Blink => ("blink", (f64::NAN, f64::NAN), (f64::NAN, f64::NAN)),
-                EventKind::Lost => ("lost", (f64::NAN, f64::NAN), (f64::NAN, f64::NAN)),
-            };
-            dir.event(&EventRow {
-                sitting: dir.sitting(),
-                trial: Some(trial.index),
-                kind: kind.into(),
-                onset_us: e.start_us,
-                end_us: e.end_us,
-                onset_device_us: e.start_device_us,
-                end_device_us: e.end_device_us,
-                x_px: x,
-                y_px: y,
-                end_x_px: ex,
-                end_y_px: ey,
-            });
+            sitting,
+            trial.index,
+        ) {
+            dir.event(&row);
         }
-        let (clicked, correct) = match click {
-            Some(Some(c)) => (Some(c), Some(c == trial.target_cell)),
-            Some(None) => (None, Some(false)),
-            None => (None, None),
-        };
-        let rt_s = response.saturating_sub(onset) as f64 / 1e6;
-        let row = TrialRow {
-            participant: participant.to_string(),
-            sitting: dir.sitting(),
-            run: trial.run,
-            trial: trial.index,
-            trial_in_run: trial.trial_in_run,
-            condition: condition.name.clone(),
-            method: condition.method.clone(),
-            inset_deg: condition.inset_deg,
-            silhouette_edges: condition.silhouette_edges,
-            target_mesh: trial.target_mesh,
-            target_row: trial.target_cell.0,
-            target_col: trial.target_cell.1,
-            search_onset_us: onset,
+        let measured = Measured {
+            onset_us: onset,
             response_us: response,
-            rt_s,
-            clicked_row: clicked.map(|c| c.0),
-            clicked_col: clicked.map(|c| c.1),
-            correct,
+            click,
             frames: self.frames,
             frames_late: self.late,
-            mean_rays: self.rays as f64 / (self.frames.max(1)) as f64,
-            synthetic,
+            rays: self.rays,
             plan: self.search_plan(),
         };
+        let row = trial_row(
+            &setup.design,
+            trial,
+            participant,
+            sitting,
+            &measured,
+            synthetic,
+        );
         dir.trial(&row)?;
         if setup.stimulus_pictures {
             self.stimulus_picture(setup, trial, dir.path())?;
         }
-        Ok(format!(
-            "trial {} {}: {rt_s:.2} s, target {} at ({}, {}){}, {} frames ({} late), mean {:.0} rays",
-            trial.index + 1,
-            condition.name,
-            raycast::scene::FACE_EXPRESSIONS
-                .get(trial.target_mesh as usize)
-                .copied()
-                .unwrap_or("?"),
-            trial.target_cell.0,
-            trial.target_cell.1,
-            match correct {
-                Some(true) => ", clicked correctly",
-                Some(false) => ", clicked WRONG",
-                None => "",
-            },
-            row.frames,
-            row.frames_late,
-            row.mean_rays
-        ))
+        Ok(trial_line(&row))
     }
 
     /// The search display at full resolution, for the scanpath pictures:

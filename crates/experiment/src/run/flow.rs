@@ -11,7 +11,7 @@
 
 use std::collections::VecDeque;
 
-use experiment::{Step, Trial};
+use crate::{Step, Trial};
 
 /// One screen of the session.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -188,7 +188,7 @@ impl Flow {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use experiment::design::Design;
+    use crate::design::Design;
 
     fn murphy() -> Vec<Trial> {
         let d = Design::load(concat!(
@@ -196,7 +196,7 @@ mod tests {
             "/../../config/experiments/murphy2007-search.ron"
         ))
         .expect("design");
-        experiment::plan(&d, 0).expect("plan")
+        crate::plan(&d, 0).expect("plan")
     }
 
     /// Walks a flow to its end, answering every screen; returns the

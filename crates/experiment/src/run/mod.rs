@@ -1,0 +1,25 @@
+//! What running a session decides, apart from any window, renderer or
+//! tracker device: the order of screens, the stimuli, the design's checks
+//! on the display, the simulated participant's behaviour and what a
+//! finished trial records. The `gazecast` binary's runner shows the
+//! screens, renders the stimuli and writes the files.
+//!
+//! - [`flow`]: the order of screens in a session;
+//! - [`layout`]: the search grid on the display;
+//! - [`stimulus`]: a trial's search display and target preview as scenes;
+//! - [`on_display`]: the stimuli checked on the display;
+//! - [`design_check`]: the one check `experiment plan` and `experiment run`
+//!   share, and the calibration plans it derives;
+//! - [`acceptance`]: whether a calibration, validation or drift check is
+//!   good enough;
+//! - [`participant`]: the simulated participant's behaviour;
+//! - [`trial_result`]: a finished trial's eye-movement events and click.
+
+pub mod acceptance;
+pub mod design_check;
+pub mod flow;
+pub mod layout;
+pub mod on_display;
+pub mod participant;
+pub mod stimulus;
+pub mod trial_result;

@@ -1,0 +1,35 @@
+//! What `gazecast experiment run` was asked: the design, the participant,
+//! the tracker and display, where the session goes and how it is shown.
+
+use std::path::PathBuf;
+
+use pipeline::BackendChoice;
+
+/// What `experiment run` was asked.
+#[derive(Debug, Clone)]
+pub struct RunOptions {
+    pub design: PathBuf,
+    pub participant: String,
+    /// Counterbalancing row; `None`: from the id's trailing number − 1.
+    pub participant_index: Option<usize>,
+    pub tracker: Option<PathBuf>,
+    pub display: PathBuf,
+    /// Session folders go to `out/<design name>/sub-<participant>`.
+    pub out: PathBuf,
+    pub resume: bool,
+    pub backend: BackendChoice,
+    pub fullscreen: bool,
+    pub monitor: Option<usize>,
+    /// Run the simulated participant with this seed (mouse tracker only).
+    pub simulate: Option<u64>,
+    /// Save each trial's search display (`stimuli/trial-NNN.png`).
+    pub stimulus_pictures: bool,
+    /// End this sitting after this many trials (the session stays
+    /// resumable).
+    pub max_trials: Option<usize>,
+    /// Save the first frame shown of each kind of screen here
+    /// (`<phase>.png`: instructions, calibration, preview, search, …).
+    pub screenshots: Option<PathBuf>,
+    /// `--lsl`: publish the samples, frames and markers as LSL streams.
+    pub lsl: crate::args::LslArgs,
+}

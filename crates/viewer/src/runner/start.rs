@@ -1,0 +1,228 @@
+//! `experiment run` from its options to the end of the sitting: the
+//! display and design checked, the tracker (or the simulated participant's
+//! pseudo-terminal) set up, the session folder opened or resumed, the
+//! event loop run, and everything closed in order.
+
+use std::io::Write;
+
+use experiment::run::design_check::Checked;
+use experiment::run::flow::Flow;
+use experiment::session::MarkerRow;
+use tracker_hal::clock::monotonic_us;
+use winit::event_loop::EventLoop;
+
+use super::design_check::check_design;
+use super::options::RunOptions;
+use super::participant::{self, Participant};
+use super::session_dir::SessionDir;
+use super::setup::Setup;
+use super::state::{Runner, NOMINAL_REFRESH_HZ};
+use crate::gaze_feed::GazeSetup;
+
+/// Runs (or resumes) a session to its end or until it is stopped.
+pub fn run(opts: &RunOptions, out: &mut dyn Write) -> Result<(), String> {
+    let display = crate::config::load_display(&opts.display).map_err(|e| e.to_string())?;
+    let geometry = display.geometry().map_err(|e| e.to_string())?;
+    let index = match opts.participant_index {
+        Some(i) => i,
+        None => experiment::index_from_id(&opts.participant).ok_or_else(|| {
+            format!(
+                "--participant {:?} ends in no number ≥ 1 to take the counterbalancing row from; give --participant-index N",
+                opts.participant
+            )
+        })?,
+    };
+    // The design on this display, before any folder or window exists.
+    let (design, checked) =
+        crate::config::load_design_checked(&opts.design, |d| check_design(d, index, &geometry))
+            .map_err(|e| e.to_string())?;
+    let Checked {
+        trials,
+        layout,
+        model,
+        cal_plans,
+        drift_plan,
+    } = checked;
+    let mut setup_gaze = GazeSetup::resolve(opts.tracker.as_deref(), None)?;
+    // The simulated participant's ISCAN: a pseudo-terminal whose slave the
+    // tracker opens in place of the file's port.
+    let mut iscan_master = None;
+    if opts.simulate.is_some() {
+        match &mut setup_gaze.tracker.driver {
+            tracker_hal::Driver::Mouse(_) => {}
+            tracker_hal::Driver::Iscan(c) => {
+                use serialport::SerialPort;
+                let (master, slave) =
+                    serialport::TTYPort::pair().map_err(|e| format!("a pseudo-terminal for the simulated ISCAN: {e}"))?;
+                let name = slave
+                    .name()
+                    .ok_or("the simulated ISCAN's pseudo-terminal has no name")?;
+                drop(slave); // the port is opened exclusively, by path
+                c.port = Some(name);
+                iscan_master = Some((master, c.clone()));
+            }
+            _ => {
+                return Err("--simulate-participant drives a Mouse or an ISCAN tracker file (config/trackers/mouse.ron, iscan-binary.ron)".into())
+            }
+        }
+    }
+    let mut dir = SessionDir::open(opts, &design, &display, index, &setup_gaze)?;
+    let suffix = format!(
+        "{}-{}",
+        crate::lsl_out::id_part(&design.name),
+        crate::lsl_out::id_part(&opts.participant)
+    );
+    if let Some(o) = opts.lsl.options("experiment", suffix, true) {
+        let (outlets, lines) = crate::lsl_out::Outlets::open(&o)?;
+        for l in lines {
+            let _ = writeln!(out, "{l}");
+        }
+        dir.attach_lsl(outlets);
+    }
+    for line in dir.upgraded().to_vec() {
+        let _ = writeln!(out, "{}: {line}", dir.path().display());
+        dir.marker(&MarkerRow {
+            sitting: dir.sitting(),
+            host_us: monotonic_us(),
+            trial: None,
+            event: "file-columns-added".into(),
+            detail: line,
+        });
+    }
+    let start = dir.next_trial();
+    if let Some((trial, sitting)) = dir.aborted_trial().filter(|(t, _)| *t < trials.len()) {
+        // The trial the last sitting did not finish runs again now: its
+        // rows there are aborted (the analysis and the export leave them out).
+        dir.marker(&MarkerRow {
+            sitting: dir.sitting(),
+            host_us: monotonic_us(),
+            trial: Some(trial),
+            event: "aborted-trial".into(),
+            detail: format!(
+                "trial {} was not finished in sitting {sitting}; it runs again in this sitting, its rows of sitting {sitting} are aborted",
+                trial + 1
+            ),
+        });
+    }
+    if start >= trials.len() {
+        return Err(format!(
+            "{}: every trial ({}) is done; nothing to resume",
+            dir.path().display(),
+            trials.len()
+        ));
+    }
+    let setup = Setup {
+        layout,
+        design,
+        geometry,
+        backend: opts.backend,
+        fullscreen: opts.fullscreen,
+        monitor: opts.monitor,
+        max_trials: opts.max_trials,
+        stimulus_pictures: opts.stimulus_pictures,
+        screenshots: opts.screenshots.clone(),
+        cal_plans,
+        drift_plan,
+        model,
+    };
+    if let Some(d) = &opts.screenshots {
+        std::fs::create_dir_all(d).map_err(|e| format!("--screenshots {}: {e}", d.display()))?;
+    }
+    let event_loop =
+        {
+        crate::screen::close_recordings_if_the_x_server_goes();
+        EventLoop::new()
+    }.map_err(|e| format!("cannot open a window ({}); the experiment needs a display (run under Xvfb on a machine without one)", crate::screen::plain_error(&e)))?;
+    crate::gaze_feed::catch_interrupts();
+    let record = dir.recording_path();
+    let feed = setup_gaze
+        .with_screen(setup.geometry.size_px())
+        .spawn(None, Some((&record, display.name.as_str())))?;
+    let size_px = (setup.geometry.width_px, setup.geometry.height_px);
+    let participant = match (opts.simulate, iscan_master) {
+        (Some(seed), Some((port, config))) => Some(Participant::spawn(
+            participant::Eye::Iscan {
+                port,
+                config,
+                screen_px: size_px,
+            },
+            setup.geometry,
+            seed,
+        )),
+        (Some(seed), None) => feed
+            .cursor_tx
+            .clone()
+            .map(|tx| Participant::spawn(participant::Eye::Mouse(tx), setup.geometry, seed)),
+        _ => None,
+    };
+    let resumed = start > 0;
+    let flow = Flow::new(
+        trials,
+        start,
+        setup.design.response.confirm_click,
+        resumed && setup.design.calibration.at_start,
+    );
+    let _ = writeln!(
+        out,
+        "gazecast experiment: {} for {} (row {}), trial {} of {}, session folder {}{}",
+        setup.design.name,
+        opts.participant,
+        index,
+        start + 1,
+        flow.trials().len(),
+        dir.path().display(),
+        if participant.is_some() {
+            " — SIMULATED participant (synthetic data)"
+        } else {
+            ""
+        }
+    );
+    let mut runner = Runner {
+        setup: &setup,
+        out,
+        dir,
+        feed,
+        screen: None,
+        flow,
+        phase_since_us: monotonic_us(),
+        calibration: None,
+        attempts: 0,
+        checking: None,
+        gaze: setup.geometry.centre_px(),
+        cursor: setup.geometry.centre_px(),
+        trial: None,
+        canvas: Vec::new(),
+        last_submit_us: None,
+        late_after_ms: 1.5 * 1e3 / NOMINAL_REFRESH_HZ,
+        participant,
+        trials_this_sitting: 0,
+        error: None,
+        finished: false,
+        quitting: false,
+        just_calibrated: false,
+        shot: Default::default(),
+    };
+    runner.entered();
+    let result = event_loop.run_app(&mut runner);
+    // The tracker first: the simulated participant's line closing under a
+    // running tracker would be reported as a lost device.
+    let recorded = runner.feed.finish();
+    runner.participant = None;
+    runner.drain();
+    for l in runner.feed.report() {
+        runner.say(&l);
+    }
+    if let Ok(Some(line)) = &recorded {
+        runner.say(line);
+    }
+    if let Some(line) = runner.dir.lsl_summary() {
+        runner.say(&line);
+    }
+    let summary = runner.dir.close();
+    runner.say(&summary);
+    recorded?;
+    if let Some(e) = runner.error.take() {
+        return Err(e);
+    }
+    result.map_err(|e| format!("window: {e}"))
+}

@@ -131,13 +131,7 @@ mod tests {
     /// parallel or diverging lines of sight give none.
     #[test]
     fn vergence_depth_from_the_two_eyes_points() {
-        let d = screen_geometry::Display {
-            name: "17in".into(),
-            resolution_px: (1280, 1024),
-            size_mm: (337.9, 270.3),
-            eye_distance_mm: 540.0,
-            eye_point_px: None,
-        };
+        let d = screen_geometry::Display::seed_17in(1280, 1024);
         let g = d.geometry().expect("geometry");
         let pitch = g.pitch_x_mm;
         let centre = [640.0, 512.0];

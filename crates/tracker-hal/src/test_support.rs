@@ -8,11 +8,8 @@ use crate::calibration::{Order, Plan, SessionPlan};
 /// `eye_distance_mm`.
 pub fn seed_display(eye_distance_mm: f64) -> ScreenGeometry {
     screen_geometry::Display {
-        name: "t".into(),
-        resolution_px: (1280, 1024),
-        size_mm: (337.9, 270.3),
         eye_distance_mm,
-        eye_point_px: None,
+        ..screen_geometry::Display::seed_17in(1280, 1024)
     }
     .geometry()
     .expect("display")

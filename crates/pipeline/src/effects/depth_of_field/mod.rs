@@ -81,6 +81,16 @@
 //! pass in WGSL, before the frame's read-back) is `crate::gpu`. The ground truth it
 //! is measured against is [`super::dof_reference`] (thin-lens distributed
 //! ray casting, 64 rays per pixel).
+//!
+//! This file holds the pass; the focus search shared with ch. 5 is in
+//! [`focuser`], the gaze-window helpers (also used by the GPU path) in
+//! [`window`], the pass's pyramid and circular filter in [`levels`], and
+//! foreground smoothing in [`foreground`].
+
+mod focuser;
+mod foreground;
+mod levels;
+mod window;
 
 use foveation::thin_lens::{self, EyeLens};
 use raycast::scene::DofFocus;
@@ -91,12 +101,16 @@ use super::refocus::Refocus;
 use super::{Pass, PassInput};
 use crate::colour;
 use crate::plan::Channels;
-use crate::pyramid::{self, Kernel, Level, Texel};
+use crate::pyramid;
 use raycast::scene::DofRefocus;
 
-/// Side of the square around the gaze whose depths' median is the focus
-/// for `focus: Gaze`, px.
-pub const FOCUS_WINDOW_PX: i64 = 9;
+pub(crate) use focuser::Focuser;
+pub use focuser::ATTENTION_MAP_SIZE;
+use foreground::smooth_foreground;
+use levels::{blend, build_pyramid, Image};
+pub(crate) use levels::{circular_weights, pyramid_taps, CIRCLE};
+pub(crate) use window::{focus_window, median_depth};
+pub use window::{gaze_depth_mm, FOCUS_WINDOW_PX};
 
 /// Most pyramid levels above level 0 (σ up to 0.75·2^8 = 192 px).
 pub const MAX_LEVELS: usize = 8;
@@ -137,47 +151,6 @@ pub struct DofMaps<'a> {
     pub sigma_px: &'a [f32],
     /// The continuous mip level m (eq. 4.6); 0: the pixel is left as it is.
     pub level: &'a [f32],
-}
-
-/// Saliency map side of the attention focus (Lee's smallest, 64²: the
-/// attended object, not a fine map, is what the focus needs).
-pub const ATTENTION_MAP_SIZE: u32 = 64;
-
-/// `focus: Attention`'s model.
-type AttentionModel = crate::frame_attention::FrameAttention;
-
-/// One level: the colour ([`Level`], linear RGB) and, row-major beside
-/// it, the depth (Z) and degree of blur (B, σ in px) mips of eq. 4.9.
-#[derive(Debug, Clone, Default)]
-struct Image {
-    colour: Level,
-    z: Vec<f32>,
-    sigma: Vec<f32>,
-    /// The DoN mip ρ (eq. 4.10): only with foreground smoothing, only at
-    /// the top level built (the one eq. 4.11 reads); empty otherwise.
-    rho: Vec<f32>,
-}
-
-/// The colour level's size, texels and lookups.
-impl std::ops::Deref for Image {
-    type Target = Level;
-    fn deref(&self) -> &Level {
-        &self.colour
-    }
-}
-
-impl std::ops::DerefMut for Image {
-    fn deref_mut(&mut self) -> &mut Level {
-        &mut self.colour
-    }
-}
-
-impl Image {
-    fn reshape(&mut self, w: usize, h: usize) {
-        self.colour.reshape(w, h);
-        self.z.resize(w * h, 0.0);
-        self.sigma.resize(w * h, 0.0);
-    }
 }
 
 impl DepthOfField {
@@ -286,95 +259,6 @@ pub(crate) fn is_pinhole(lens: &EyeLens) -> bool {
     lens.aperture_mm.is_nan() || lens.aperture_mm <= 0.0
 }
 
-/// Where a depth-of-field pass focuses, frame after frame: the search for
-/// the focus target its [`DofFocus`] names, the last focus found (held
-/// while a frame finds none), the refocusing dynamics and, for `focus:
-/// Attention` only, Lee's attention model. Shared by the ch. 4 and ch. 5
-/// passes.
-#[derive(Debug, Default)]
-pub(crate) struct Focuser {
-    /// The focus of the last frame whose search found one.
-    last_focus_mm: Option<f64>,
-    /// How the focal depth follows the focus target.
-    pub(crate) refocus: Refocus,
-    /// Lee's attention model, for `focus: Attention` only.
-    attention: Option<Box<AttentionModel>>,
-}
-
-impl Focuser {
-    pub(crate) fn new(focus: DofFocus) -> Self {
-        Self {
-            attention: if focus == DofFocus::Attention {
-                AttentionModel::new(ATTENTION_MAP_SIZE).ok().map(Box::new)
-            } else {
-                None
-            },
-            ..Self::default()
-        }
-    }
-
-    pub(crate) fn attended_object(&self) -> Option<u32> {
-        self.attention.as_ref().and_then(|a| a.attended())
-    }
-
-    /// `focus: Attention`'s model, for a pass whose focus search runs
-    /// elsewhere (the GPU path); `None` for other focuses.
-    pub(crate) fn attention_model(&mut self) -> Option<&mut AttentionModel> {
-        self.attention.as_deref_mut()
-    }
-
-    pub(crate) fn attention(&self) -> Option<&AttentionModel> {
-        self.attention.as_deref()
-    }
-
-    /// The focus distance for `frame`, mm (may be infinite), after the
-    /// refocusing dynamics.
-    pub(crate) fn focus_mm(
-        &mut self,
-        focus: DofFocus,
-        frame: &Frame,
-        input: &PassInput<'_>,
-    ) -> f64 {
-        let found = match focus {
-            DofFocus::Fixed { .. } => None,
-            DofFocus::Gaze => gaze_depth_mm(frame, input.gaze_px),
-            DofFocus::Vergence => {
-                vergence_or(input.vergence_mm, || gaze_depth_mm(frame, input.gaze_px))
-            }
-            DofFocus::Attention => match &mut self.attention {
-                Some(a) => a.depth_mm(frame, input.scene, input.time_s),
-                None => None,
-            },
-        };
-        self.settle(focus, found, input.time_s)
-    }
-
-    /// The focal depth for a frame whose search `found` a depth (or none:
-    /// the last one holds; before any, infinity), after the refocusing
-    /// dynamics. A fixed focus is fixed.
-    pub(crate) fn settle(
-        &mut self,
-        focus: DofFocus,
-        found: Option<f64>,
-        time_s: Option<f64>,
-    ) -> f64 {
-        let target = match focus {
-            DofFocus::Fixed { depth_mm } => depth_mm,
-            _ => {
-                if let Some(d) = found {
-                    self.last_focus_mm = Some(d);
-                }
-                self.last_focus_mm.unwrap_or(f64::INFINITY)
-            }
-        };
-        if target > 0.0 {
-            self.refocus.update(target, time_s)
-        } else {
-            target // only an unvalidated fixed focus: `coc_px` clamps it
-        }
-    }
-}
-
 /// The screen as the pass sees it: (`d_s`, the eye's distance to the
 /// screen in mm; the mean pixels per mm of x and y), as in `run`.
 pub(crate) fn screen_of(camera: &raycast::Camera) -> (f64, f64) {
@@ -387,65 +271,6 @@ pub(crate) fn screen_of(camera: &raycast::Camera) -> (f64, f64) {
 /// as in `run`.
 pub(crate) fn top_level(w: usize, h: usize) -> usize {
     pyramid::top_level(w, h, MAX_LEVELS)
-}
-
-/// The [`FOCUS_WINDOW_PX`] square around `gaze_px` clipped to a `w`×`h`
-/// frame, as [`gaze_depth_mm`] reads it: inclusive pixel bounds `(x0, y0, x1, y1)`, empty (x0 > x1 or
-/// y0 > y1) when it misses the frame; `None` for a non-finite gaze.
-pub(crate) fn focus_window(w: i64, h: i64, gaze_px: [f64; 2]) -> Option<(i64, i64, i64, i64)> {
-    if !gaze_px[0].is_finite() || !gaze_px[1].is_finite() {
-        return None;
-    }
-    let half = FOCUS_WINDOW_PX / 2;
-    // Clamp before converting so a far-off gaze cannot overflow.
-    let cx = gaze_px[0].floor().clamp(-1e9, 1e9) as i64;
-    let cy = gaze_px[1].floor().clamp(-1e9, 1e9) as i64;
-    Some((
-        (cx - half).max(0),
-        (cy - half).max(0),
-        (cx + half).min(w - 1),
-        (cy + half).min(h - 1),
-    ))
-}
-
-/// The median of the finite positive depths of a window (the focus of
-/// `focus: Gaze`, as [`gaze_depth_mm`] takes it), or `None` when it holds
-/// none.
-pub(crate) fn median_depth(mut depths: Vec<f32>) -> Option<f64> {
-    depths.retain(|d| d.is_finite() && *d > 0.0);
-    if depths.is_empty() {
-        return None;
-    }
-    depths.sort_by(f32::total_cmp);
-    Some(f64::from(depths[depths.len() / 2]))
-}
-
-/// `focus: Vergence`'s depth: the vergence depth when valid (finite,
-/// positive), else the gaze's (`gaze`, evaluated only then).
-pub(crate) fn vergence_or(
-    vergence_mm: Option<f64>,
-    gaze: impl FnOnce() -> Option<f64>,
-) -> Option<f64> {
-    vergence_mm
-        .filter(|d| d.is_finite() && *d > 0.0)
-        .or_else(gaze)
-}
-
-/// The median of the finite positive depths in the [`FOCUS_WINDOW_PX`]
-/// square around `gaze_px`, or `None` when it holds none.
-pub fn gaze_depth_mm(frame: &Frame, gaze_px: [f64; 2]) -> Option<f64> {
-    if !frame.has_surface() {
-        return None;
-    }
-    let w = i64::from(frame.width_px);
-    let (x0, y0, x1, y1) = focus_window(w, i64::from(frame.height_px), gaze_px)?;
-    let mut depths = Vec::with_capacity((FOCUS_WINDOW_PX * FOCUS_WINDOW_PX) as usize);
-    for y in y0..=y1 {
-        for x in x0..=x1 {
-            depths.push(frame.depth_mm[(y * w + x) as usize]);
-        }
-    }
-    median_depth(depths)
 }
 
 /// Circle of confusion on the screen, px, for `depth_mm` while the eye
@@ -606,272 +431,6 @@ pub const ANISO_DELTA_PX: f32 = 0.75;
 
 /// Largest σ the pyramid's blur buffer holds (px): keeps sums finite.
 pub(crate) const SIGMA_CAP_PX: f32 = 1e6;
-
-/// Decodes level 0 (colour, depth, σ) and builds levels 1..=`levels`
-/// (eq. 4.1; with `anisotropic`, eq. 4.9's H instead of G for the colour),
-/// reusing the buffers. Each level-`l` texel is the 3×3 Gaussian centred on
-/// its centre in level `l − 1` (between 2×2 texels), sampled bilinearly:
-/// 4×4 taps of weights `a_i·a_j`.
-#[allow(clippy::too_many_arguments)]
-fn build_pyramid(
-    pyramid: &mut Vec<Image>,
-    rgb: &[u8],
-    depth: &[f32],
-    sigma: &[f32],
-    (w, h): (usize, usize),
-    levels: usize,
-    focus_mm: f64,
-    anisotropic: bool,
-) {
-    if pyramid.len() < levels + 1 {
-        pyramid.resize_with(levels + 1, Image::default);
-    }
-    let focus = focus_mm as f32;
-    let base = &mut pyramid[0];
-    base.reshape(w, h);
-    base.colour.decode(rgb, (w, h));
-    for (z, &d) in base.z.iter_mut().zip(depth) {
-        *z = if d.is_nan() { focus } else { d };
-    }
-    base.sigma.copy_from_slice(&sigma[..w * h]);
-    let taps = pyramid_taps();
-    let at = Kernel::<4>::source;
-    for l in 1..=levels {
-        let (lo, hi) = pyramid.split_at_mut(l);
-        let src = &lo[l - 1];
-        let dst = &mut hi[0];
-        let (nw, nh) = src.halve();
-        dst.reshape(nw, nh);
-        // Rows of the destination in parallel.
-        let rows = dst
-            .colour
-            .px
-            .par_chunks_mut(nw)
-            .zip(dst.z.par_chunks_mut(nw))
-            .zip(dst.sigma.par_chunks_mut(nw))
-            .enumerate();
-        rows.for_each(|(y, ((px_row, z_row), sigma_row))| {
-            for x in 0..nw {
-                // Isotropic depth and σ (Z and B mips).
-                let (mut z, mut sg) = (0.0f32, 0.0f32);
-                for (ty, wy) in taps.iter().enumerate() {
-                    let row = at(y, ty, src.h) * src.w;
-                    for (tx, wx) in taps.iter().enumerate() {
-                        let q = row + at(x, tx, src.w);
-                        z += wy * wx * src.z[q];
-                        sg += wy * wx * src.sigma[q];
-                    }
-                }
-                let background = f64::from(z) > focus_mm;
-                // Colour with H: sharper sources left out of a blurrier
-                // background texel, the rest renormalised.
-                let (mut acc, mut total) = ([0.0f32; 3], 0.0f32);
-                for (ty, wy) in taps.iter().enumerate() {
-                    let row = at(y, ty, src.h) * src.w;
-                    for (tx, wx) in taps.iter().enumerate() {
-                        let q = row + at(x, tx, src.w);
-                        if anisotropic && background && sg > src.sigma[q] + ANISO_DELTA_PX {
-                            continue;
-                        }
-                        add_scaled(&mut acc, wy * wx, src.px[q]);
-                        total += wy * wx;
-                    }
-                }
-                z_row[x] = z;
-                sigma_row[x] = sg;
-                px_row[x] = if total > 0.0 {
-                    acc.map(|a| a / total)
-                } else {
-                    src.px[at(y, 1, src.h) * src.w + at(x, 1, src.w)]
-                };
-            }
-        });
-    }
-}
-
-/// The 3×3 Gaussian's weight of a neighbour against the centre's 1,
-/// `e^{−1/(2σ²)}` with σ = [`GAUSS_SIGMA_TEXELS`].
-fn gauss_neighbour() -> f32 {
-    (-1.0 / (2.0 * GAUSS_SIGMA_TEXELS * GAUSS_SIGMA_TEXELS)).exp() as f32
-}
-
-/// The 4 taps (per axis) of a pyramid texel: the 3×3 Gaussian centred
-/// between 2×2 source texels, sampled bilinearly (eq. 4.1).
-pub(crate) fn pyramid_taps() -> [f32; 4] {
-    let g = gauss_neighbour();
-    let norm = 2.0 * (1.0 + 2.0 * g);
-    [g / norm, (1.0 + g) / norm, (1.0 + g) / norm, g / norm]
-}
-
-/// The circular filter's neighbour weight and its normalisation
-/// `1/(1 + 8g)` (eq. 4.8).
-pub(crate) fn circular_weights() -> (f32, f32) {
-    let g = gauss_neighbour();
-    (g, 1.0 / (1.0 + 8.0 * g))
-}
-
-/// Lee §4.3, foreground smoothing, after the pyramid is built to level
-/// `top` (≥ 1): the DoN mip ρ (eq. 4.10) at level `top`, then for
-/// every pixel ρ(M) at the top level M = `top` by the 9-point circular
-/// filter, n by eq. 4.11 (eq. 4.6 applied to ρ), and where n > 0 the
-/// smoothed σ(n) — the B mip at level n, blended linearly between levels
-/// and sampled bilinearly, level 0 being the pixel's own σ — replaces
-/// σ(0) in the pixel's mip level. Ω' of eq. 4.10 is the 4×4 taps of the
-/// level's Gaussian that are in front of the focus and of the texel.
-/// Depth mips average the background's infinite depth, so a level-(M−1)
-/// texel that mixes a foreground object with empty background counts as
-/// background: against an empty background the smoothing is weaker at
-/// the silhouette than against a surface behind it.
-fn smooth_foreground(
-    pyramid: &mut [Image],
-    level: &mut [f32],
-    (w, h): (usize, usize),
-    top: usize,
-    focus_mm: f64,
-) {
-    let focus = focus_mm as f32;
-    // Only ρ(M) is read (eq. 4.11), and ρ(M) needs only σ(M − 1).
-    for l in top..=top {
-        let (lo, hi) = pyramid.split_at_mut(l);
-        let src = &lo[l - 1];
-        let dst = &mut hi[0];
-        let (nw, nh) = (dst.w, dst.h);
-        let at = Kernel::<4>::source;
-        let mut rho = std::mem::take(&mut dst.rho);
-        rho.clear();
-        rho.resize(nw * nh, 0.0);
-        rho.par_chunks_mut(nw).enumerate().for_each(|(y, row)| {
-            for (x, r) in row.iter_mut().enumerate() {
-                let zp = dst.z[y * nw + x];
-                let mut best = 0.0f32;
-                for ty in 0..4 {
-                    let line = at(y, ty, src.h) * src.w;
-                    for tx in 0..4 {
-                        let q = line + at(x, tx, src.w);
-                        if src.z[q] < focus && src.z[q] < zp {
-                            best = best.max(src.sigma[q]);
-                        }
-                    }
-                }
-                *r = best;
-            }
-        });
-        dst.rho = rho;
-    }
-    let top_level = &pyramid[top];
-    let max_level = top as f64;
-    level.par_chunks_mut(w).enumerate().for_each(|(y, row)| {
-        for (x, m) in row.iter_mut().enumerate() {
-            let rho_m = circular_scalar(top_level, &top_level.rho, top, x, y);
-            let n = thin_lens::mipmap_level(f64::from(rho_m));
-            if n.is_nan() || n <= 0.0 {
-                continue;
-            }
-            let n = n.min(max_level);
-            let sigma = sigma_at_level(pyramid, x, y, n);
-            let smoothed = thin_lens::mipmap_level(f64::from(sigma));
-            *m = if smoothed.is_nan() {
-                0.0
-            } else {
-                smoothed.clamp(0.0, max_level) as f32
-            };
-        }
-    });
-    debug_assert!(level.len() == w * h);
-}
-
-/// A scalar channel of `img` (level `k`) bilinearly at the centre of
-/// level-0 pixel (`x`, `y`) offset by (`dx`, `dy`) level-`k` texels.
-fn scalar_at(img: &Image, data: &[f32], k: usize, x: usize, y: usize, (dx, dy): (f32, f32)) -> f32 {
-    let (u, v) = pyramid::level_coords(k, x, y);
-    pyramid::bilinear(data, img.w, img.h, u + dx, v + dy)
-}
-
-/// The 9-point circular filter of eq. 4.8 over a scalar channel.
-fn circular_scalar(img: &Image, data: &[f32], k: usize, x: usize, y: usize) -> f32 {
-    let g = (-1.0 / (2.0 * GAUSS_SIGMA_TEXELS * GAUSS_SIGMA_TEXELS)).exp() as f32;
-    let mut acc = scalar_at(img, data, k, x, y, (0.0, 0.0));
-    for d in CIRCLE {
-        acc += g * scalar_at(img, data, k, x, y, d);
-    }
-    acc / (1.0 + 8.0 * g)
-}
-
-/// The B mip (σ) at continuous level `n` for pixel (`x`, `y`): linear
-/// between levels, bilinear within one; level 0 is the pixel's σ.
-fn sigma_at_level(pyramid: &[Image], x: usize, y: usize, n: f64) -> f32 {
-    let l = (n.floor() as usize).min(pyramid.len() - 1);
-    let f = (n - l as f64) as f32;
-    let at = |k: usize| {
-        let img = &pyramid[k];
-        scalar_at(img, &img.sigma, k, x, y, (0.0, 0.0))
-    };
-    let a = at(l);
-    if f <= 0.0 || l + 1 >= pyramid.len() {
-        return a;
-    }
-    a + (at(l + 1) - a) * f
-}
-
-/// `acc += w·v`.
-#[inline]
-fn add_scaled(acc: &mut [f32; 3], w: f32, v: [f32; 3]) {
-    for (a, v) in acc.iter_mut().zip(v) {
-        *a += w * v;
-    }
-}
-
-/// The 8 circular neighbours (unit circle) of eq. 4.8.
-pub(crate) const CIRCLE: [(f32, f32); 8] = [
-    (1.0, 0.0),
-    (-1.0, 0.0),
-    (0.0, 1.0),
-    (0.0, -1.0),
-    (
-        std::f32::consts::FRAC_1_SQRT_2,
-        std::f32::consts::FRAC_1_SQRT_2,
-    ),
-    (
-        std::f32::consts::FRAC_1_SQRT_2,
-        -std::f32::consts::FRAC_1_SQRT_2,
-    ),
-    (
-        -std::f32::consts::FRAC_1_SQRT_2,
-        std::f32::consts::FRAC_1_SQRT_2,
-    ),
-    (
-        -std::f32::consts::FRAC_1_SQRT_2,
-        -std::f32::consts::FRAC_1_SQRT_2,
-    ),
-];
-
-/// `A_k(p)`: the 9-point circular Gaussian over level `k`, offsets of one
-/// level-`k` texel, at the centre of level-0 pixel (`x`, `y`).
-fn circular(img: &Image, k: usize, x: usize, y: usize) -> [f32; 3] {
-    let (u, v) = pyramid::level_coords(k, x, y);
-    let (g, norm) = circular_weights();
-    let mut acc = img.bilinear(u, v);
-    for (dx, dy) in CIRCLE {
-        let s = img.bilinear(u + dx, v + dy);
-        add_scaled(&mut acc, g, s);
-    }
-    acc.map(|a| a * norm)
-}
-
-/// Eq. 4.8 with a linear blend: level `m` > 0 at pixel (`x`, `y`).
-fn blend(pyramid: &[Image], x: usize, y: usize, m: f64) -> [f32; 3] {
-    let l = m.floor() as usize;
-    let beta = (m - l as f64) as f32;
-    let a = if l == 0 {
-        pyramid[0].px[y * pyramid[0].w + x]
-    } else {
-        circular(&pyramid[l - 1], l - 1, x, y)
-    };
-    if beta <= 0.0 || l >= pyramid.len() {
-        return a;
-    }
-    a.lerp(circular(&pyramid[l], l, x, y), beta)
-}
 
 #[cfg(test)]
 mod tests {

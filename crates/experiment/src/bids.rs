@@ -625,7 +625,7 @@ pub fn export_bids(dirs: &[PathBuf], out: &Path, task: &str) -> Result<BidsExpor
                 "target_col": {"Description": "Column of the target cell in the search grid, from 0."},
                 "response_time": {"Description": "Search time as recorded by the runner.", "Units": "s"},
                 "correct": {"Description": "Whether the clicked cell was the target.", "Levels": {"1": "correct", "0": "incorrect", "n/a": "no click recorded"}},
-                "plan": {"Description": "What rendered the search display: gazecast's provenance line of the trial's renderer (trials.tsv plan): the method that ran, the backend, and the passes in order with where each ran, e.g. \"image-based on gpu; passes: image-based foveation (gpu)\" or \"foveated on cpu; passes: none\". Plans that changed during the search are joined by \" | \". n/a for a session recorded before gazecast wrote it."},
+                "plan": {"Description": "What rendered the search display: gazecast's provenance line of the trial's renderer (trials.tsv plan): the method that ran, the backend, and the passes in order with where each ran, e.g. \"image on gpu; passes: image-based foveation (gpu)\" or \"hybrid on cpu; passes: none\" (sessions recorded before gazecast gave each method one name say \"image-based\" and \"foveated\" for image and hybrid). Plans that changed during the search are joined by \" | \". n/a for a session recorded before gazecast wrote it."},
             });
             let events_json_path = beh.join(format!("{stem}_events.json"));
             write_json(&guard, &events_json_path, &events_json)?;

@@ -18,7 +18,7 @@ use std::path::Path;
 
 /// The rendering methods whose parameters a condition states here (an
 /// inset, kept silhouette edges): names of `pipeline::Method`
-/// (`Method::key`). A condition may also name any other method the
+/// (`Method::name`). A condition may also name any other method the
 /// renderer registers, without parameters; the viewer checks the name
 /// against `pipeline::Method::all` when it loads the design. Kept as
 /// strings so that this crate stays free of the renderer.

@@ -52,7 +52,7 @@ pub mod image_foveation;
 pub mod maps;
 pub mod method;
 pub mod methods;
-pub mod model;
+pub mod sampling;
 pub mod model_based;
 pub mod plan;
 mod pyramid;
@@ -62,6 +62,6 @@ pub mod ulod;
 
 pub use backend::BackendChoice;
 pub use method::Method;
-pub use model::sampling_model;
+pub use sampling::sampling_model;
 pub use plan::FramePlan;
 pub use renderer::{Options, RenderError, Renderer, EYE_DISTANCE_RANGE_MM, EYE_DISTANCE_STEP};

@@ -83,8 +83,9 @@ impl Method {
         }
     }
 
-    /// The name on the command line and in experiment designs.
-    pub fn key(self) -> &'static str {
+    /// Its one name: on the command line, in experiment designs, in
+    /// reports, `--stats` and every frame's provenance.
+    pub fn name(self) -> &'static str {
         self.module().name
     }
 
@@ -101,11 +102,11 @@ impl Method {
     /// The method called `name` (its key or an alias, exactly).
     pub fn from_name(name: &str) -> Result<Method, UnknownMethod> {
         Method::all()
-            .find(|m| m.key() == name || m.aliases().contains(&name))
+            .find(|m| m.name() == name || m.aliases().contains(&name))
             .ok_or_else(|| UnknownMethod {
                 name: name.to_string(),
                 known: Method::all()
-                    .map(Method::key)
+                    .map(Method::name)
                     .collect::<Vec<_>>()
                     .join(", "),
             })
@@ -130,13 +131,6 @@ impl Method {
         self.module().foveated
     }
 
-    /// The name used in reports and `--stats` (the module's
-    /// `report_name`, not its command-line `name`).
-    #[allow(clippy::misnamed_getters)]
-    pub fn name(self) -> &'static str {
-        self.module().report_name
-    }
-
     /// Whether the method simplifies geometry and rasterises it.
     pub fn is_model_based(self) -> bool {
         matches!(self, Method::Simplify | Method::Lod)
@@ -152,7 +146,7 @@ impl FromStr for Method {
 
 impl fmt::Display for Method {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str(self.key())
+        f.write_str(self.name())
     }
 }
 
@@ -164,12 +158,12 @@ mod tests {
     fn every_method_is_found_by_its_key_and_its_aliases_and_no_name_twice() {
         let mut seen = std::collections::BTreeSet::new();
         for m in Method::all() {
-            assert_eq!(Method::from_name(m.key()), Ok(m));
+            assert_eq!(Method::from_name(m.name()), Ok(m));
             assert!(!m.help().is_empty(), "{m:?}");
             for a in m.aliases() {
                 assert_eq!(Method::from_name(a), Ok(m));
             }
-            for n in std::iter::once(&m.key()).chain(m.aliases()) {
+            for n in std::iter::once(&m.name()).chain(m.aliases()) {
                 assert!(seen.insert(*n), "{n} names two methods");
             }
         }

@@ -24,12 +24,12 @@
 //! the eye between the gaze direction and a node (M&D §5.4 use only the
 //! gaze vector v), so any point on the gaze ray selects the same cut; the
 //! vergence point changes the reported 3-D gaze point
-//! ([`ModelStats::gaze_point_mm`]), not the triangles. Every object's cut
+//! ([`ModelBasedStats::gaze_point_mm`]), not the triangles. Every object's cut
 //! is selected **incrementally** for the view (`Method::Simplify`:
 //! Luebke–Hallen imperceptible mode with the Geisler–Perry threshold
 //! table, or their best-effort mode under a triangle budget,
-//! [`ModelOptions::budget`]; `Method::Lod`: Murphy–Duchowski Table 1
-//! levels); with [`ModelOptions::ignore_gaze`] the view has no gaze (every
+//! [`ModelBasedOptions::budget`]; `Method::Lod`: Murphy–Duchowski Table 1
+//! levels); with [`ModelBasedOptions::ignore_gaze`] the view has no gaze (every
 //! node foveal: Luebke–Hallen "without gaze"); the active triangles (proxy
 //! positions and normals) are rasterised into the same G-buffer with the
 //! same shading and gamma as the ray caster: by [`raycast::raster`] on the
@@ -80,7 +80,7 @@ pub const MAX_TRIANGLE_BUDGET: usize = 1_000_000_000;
 
 /// The model-based methods' options.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
-pub struct ModelOptions {
+pub struct ModelBasedOptions {
     /// Luebke & Hallen §5.3 best-effort mode (`Method::Simplify` only): at
     /// most this many triangles a frame, most perceptible fold undone
     /// first. `None`: imperceptible mode. 1 to [`MAX_TRIANGLE_BUDGET`].
@@ -95,20 +95,20 @@ pub struct ModelOptions {
     pub ignore_gaze: bool,
 }
 
-/// Which of [`ModelOptions`] a [`ModelOptionsError`] is about.
+/// Which of [`ModelBasedOptions`] a [`ModelBasedOptionsError`] is about.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum ModelSetting {
-    /// [`ModelOptions::budget`].
+pub enum ModelBasedSetting {
+    /// [`ModelBasedOptions::budget`].
     Budget,
-    /// [`ModelOptions::ignore_gaze`].
+    /// [`ModelBasedOptions::ignore_gaze`].
     IgnoreGaze,
 }
 
 /// Model options that do not fit the method asked for. The message names
-/// the setting; [`ModelOptionsError::setting`] says which one, so that a
+/// the setting; [`ModelBasedOptionsError::setting`] says which one, so that a
 /// caller can name its own way of setting it (a command-line flag).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
-pub enum ModelOptionsError {
+pub enum ModelBasedOptionsError {
     /// A triangle budget with another method than `Simplify`.
     #[error(
         "the triangle budget is Luebke & Hallen's best-effort mode, for the simplify \
@@ -129,40 +129,40 @@ pub enum ModelOptionsError {
     IgnoreGazeNeedsModelBased { method: &'static str },
 }
 
-impl ModelOptionsError {
+impl ModelBasedOptionsError {
     /// The setting at fault.
-    pub fn setting(&self) -> ModelSetting {
+    pub fn setting(&self) -> ModelBasedSetting {
         match self {
-            ModelOptionsError::BudgetNeedsSimplify { .. }
-            | ModelOptionsError::BudgetOutOfRange { .. } => ModelSetting::Budget,
-            ModelOptionsError::IgnoreGazeNeedsModelBased { .. } => ModelSetting::IgnoreGaze,
+            ModelBasedOptionsError::BudgetNeedsSimplify { .. }
+            | ModelBasedOptionsError::BudgetOutOfRange { .. } => ModelBasedSetting::Budget,
+            ModelBasedOptionsError::IgnoreGazeNeedsModelBased { .. } => ModelBasedSetting::IgnoreGaze,
         }
     }
 }
 
-impl ModelOptions {
+impl ModelBasedOptions {
     /// Checks the options against `method` (requested, before the scene
     /// decides).
-    pub fn validate(&self, method: Method) -> Result<(), ModelOptionsError> {
+    pub fn validate(&self, method: Method) -> Result<(), ModelBasedOptionsError> {
         if let Some(budget) = self.budget {
             if method != Method::Simplify {
-                return Err(ModelOptionsError::BudgetNeedsSimplify {
-                    method: method.key(),
+                return Err(ModelBasedOptionsError::BudgetNeedsSimplify {
+                    method: method.name(),
                 });
             }
             if !(1..=MAX_TRIANGLE_BUDGET).contains(&budget) {
-                return Err(ModelOptionsError::BudgetOutOfRange { budget });
+                return Err(ModelBasedOptionsError::BudgetOutOfRange { budget });
             }
         }
         if self.ignore_gaze && !method.is_model_based() {
-            return Err(ModelOptionsError::IgnoreGazeNeedsModelBased {
-                method: method.key(),
+            return Err(ModelBasedOptionsError::IgnoreGazeNeedsModelBased {
+                method: method.name(),
             });
         }
         Ok(())
     }
 
-    /// [`ModelOptions::validate`] with the error as its message.
+    /// [`ModelBasedOptions::validate`] with the error as its message.
     pub fn check(&self, method: Method) -> Result<(), String> {
         self.validate(method).map_err(|e| e.to_string())
     }
@@ -181,7 +181,7 @@ pub struct BudgetReport {
 
 /// What the last model-based frame did.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
-pub struct ModelStats {
+pub struct ModelBasedStats {
     /// Triangles of the unsimplified scene.
     pub triangles_full: usize,
     /// Triangles drawn this frame.
@@ -220,7 +220,7 @@ pub struct ModelBased {
     method: Method,
     objects: Vec<ObjectLod>,
     mode: Mode,
-    options: ModelOptions,
+    options: ModelBasedOptions,
     /// The next frame's vergence depth (eye distance, mm), `Method::Lod` only.
     vergence_mm: Option<f64>,
     thresholds: ThresholdTable,
@@ -231,18 +231,18 @@ pub struct ModelBased {
     positions: Vec<[Vec3; 3]>,
     normals: Vec<[Vec3; 3]>,
     scratch: RasterScratch,
-    last: ModelStats,
+    last: ModelBasedStats,
 }
 
 impl ModelBased {
     /// Builds a tree per object of `scene` for `method` (`Simplify` or
     /// `Lod`; any other method is an error) and `options` (checked by
-    /// [`ModelOptions::check`]).
+    /// [`ModelBasedOptions::check`]).
     pub fn new(
         scene: &Scene,
         camera: &Camera,
         method: Method,
-        options: ModelOptions,
+        options: ModelBasedOptions,
     ) -> Result<Self, String> {
         options.check(method)?;
         let mode = match method {
@@ -301,7 +301,7 @@ impl ModelBased {
             positions: Vec::new(),
             normals: Vec::new(),
             scratch: RasterScratch::default(),
-            last: ModelStats::default(),
+            last: ModelBasedStats::default(),
         })
     }
 
@@ -320,12 +320,12 @@ impl ModelBased {
     }
 
     /// The options this state was built with.
-    pub fn options(&self) -> ModelOptions {
+    pub fn options(&self) -> ModelBasedOptions {
         self.options
     }
 
     /// What the last frame did.
-    pub fn last(&self) -> &ModelStats {
+    pub fn last(&self) -> &ModelBasedStats {
         &self.last
     }
 
@@ -367,11 +367,11 @@ impl ModelBased {
             thresholds: &self.thresholds,
             scene_contrast: self.scene_contrast,
         };
-        let mut stats = ModelStats {
+        let mut stats = ModelBasedStats {
             triangles_full: self.triangles_full,
             gaze_point_mm: view.gaze_point_mm,
             gaze_from_vergence: vergence.is_some(),
-            ..ModelStats::default()
+            ..ModelBasedStats::default()
         };
         self.triangles.clear();
         let shares = self.options.budget.map(|b| budget_shares(b, &self.objects));

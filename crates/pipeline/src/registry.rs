@@ -94,15 +94,13 @@ pub struct MethodSetup<'a> {
 /// A rendering method: the built-in ones ([`crate::methods`]) and the
 /// registered modules alike.
 pub struct MethodModule {
-    /// The name on the command line, in designs and in reports.
+    /// Its one name: on the command line, in designs, in reports and
+    /// `--stats`, in every frame's provenance.
     pub name: &'static str,
     /// Other names accepted for it.
     pub aliases: &'static [&'static str],
     /// One line of help.
     pub help: &'static str,
-    /// The name reports and `--stats` give it (the name, except for the
-    /// two whose data files predate the names: `foveated`, `image-based`).
-    pub report_name: &'static str,
     /// Whether it follows the gaze: without the scene's `FoveatedSampling`
     /// the scene is rendered at full resolution instead, like every
     /// foveated method.

@@ -14,7 +14,7 @@ use crate::effects::{pass_for, passes_for, GpuPass, Pass, PassInput};
 use crate::gpu::Chain;
 use crate::image_foveation::{ImageFoveation, ImagePass};
 use crate::method::Method;
-use crate::model_based::{ModelBased, ModelOptions};
+use crate::model_based::{ModelBased, ModelBasedOptions};
 use crate::plan::{Channels, FramePlan, Role, Side, Stage};
 use crate::registry::{FrameMethod, MethodContext, MethodFrame, MethodSetup};
 use raycast::scene::Effect;
@@ -51,7 +51,7 @@ pub struct Options {
     pub surface: bool,
     /// The model-based methods' budget and gaze options (checked against
     /// `method`: a budget is for `Method::Simplify` only).
-    pub model: ModelOptions,
+    pub model_based: ModelBasedOptions,
     /// Temporal reuse during fixations (CPU hybrid frames): cast samples
     /// are kept across frames and a bit-identical mask keeps its vertex
     /// rays, classification and owners ([`Scratch::with_reuse`]). The
@@ -71,7 +71,7 @@ impl Default for Options {
             check_coverage: false,
             por_overlay: false,
             surface: false,
-            model: ModelOptions::default(),
+            model_based: ModelBasedOptions::default(),
             reuse: false,
         }
     }
@@ -168,7 +168,7 @@ impl<'s> Renderer<'s> {
         options: &Options,
     ) -> Result<Self, RenderError> {
         options
-            .model
+            .model_based
             .check(options.method)
             .map_err(RenderError::Unsupported)?;
         let method = options.method.for_scene(scene);
@@ -187,11 +187,11 @@ impl<'s> Renderer<'s> {
             if options.backend == BackendChoice::Gpu {
                 return Err(RenderError::Unsupported(format!(
                     "method {} renders on the CPU only; choose the CPU backend or auto",
-                    method.key()
+                    method.name()
                 )));
             }
             let note = (options.backend == BackendChoice::Auto)
-                .then(|| format!("auto: method {} renders on the CPU", method.key()));
+                .then(|| format!("auto: method {} renders on the CPU", method.name()));
             (Backend::Cpu, note)
         } else if scene.is_moving() {
             // The GPU core keeps the scene it uploaded; a moving scene is
@@ -695,7 +695,7 @@ impl<'s> Renderer<'s> {
     /// One line that says what this renderer draws, for every frame's
     /// record (`frames.tsv`, `trials.tsv`, the live view's log): the method
     /// that runs, the backend, and the passes in order with where each
-    /// runs, e.g. `image-based on gpu; passes: image-based foveation (gpu)
+    /// runs, e.g. `image on gpu; passes: image-based foveation (gpu)
     /// → POR box (cpu)`. No tabs or line breaks.
     pub fn provenance(&self) -> String {
         self.plan().provenance()

@@ -11,7 +11,7 @@
 use std::path::{Path, PathBuf};
 
 use foveation::Display;
-use pipeline::model_based::ModelOptions;
+use pipeline::model_based::ModelBasedOptions;
 use pipeline::{BackendChoice, Method, Options, Renderer};
 use raycast::scene::{Effect, MeshSource, Object};
 use raycast::{Camera, Frame, Scene, SceneFile};
@@ -99,7 +99,7 @@ fn scene(mesh: &MeshSource, tilt_deg: f32) -> Scene {
     Scene::build(&file, &dir()).unwrap_or_else(|e| panic!("{e}"))
 }
 
-fn render(scene: &Scene, method: Method, model: ModelOptions, gaze: [f64; 2]) -> (Frame, usize) {
+fn render(scene: &Scene, method: Method, model: ModelBasedOptions, gaze: [f64; 2]) -> (Frame, usize) {
     render_on(scene, method, model, gaze, BackendChoice::Cpu)
 }
 
@@ -107,7 +107,7 @@ fn render(scene: &Scene, method: Method, model: ModelOptions, gaze: [f64; 2]) ->
 fn render_on(
     scene: &Scene,
     method: Method,
-    model: ModelOptions,
+    model: ModelBasedOptions,
     gaze: [f64; 2],
     backend: BackendChoice,
 ) -> (Frame, usize) {
@@ -120,7 +120,7 @@ fn render_on(
         &Options {
             method,
             backend,
-            model,
+            model_based: model,
             ..Options::default()
         },
     )
@@ -159,11 +159,11 @@ fn hits(f: &Frame) -> (usize, usize) {
 #[test]
 fn every_method_draws_flat_objects_at_every_tilt() {
     let mut cases = vec![
-        (Method::Hybrid, ModelOptions::default()),
-        (Method::Image, ModelOptions::default()),
+        (Method::Hybrid, ModelBasedOptions::default()),
+        (Method::Image, ModelBasedOptions::default()),
     ];
     cases.extend(model_cases());
-    cases.push((Method::Ulod, ModelOptions::default()));
+    cases.push((Method::Ulod, ModelBasedOptions::default()));
     let centre = [f64::from(W) / 2.0, f64::from(H) / 2.0];
     let away = [20.0, 20.0];
     let mut failures = Vec::new();
@@ -171,7 +171,7 @@ fn every_method_draws_flat_objects_at_every_tilt() {
         for tilt in [0.0, 1.0, 45.0, 85.0, 89.0, 90.0, 135.0, 180.0] {
             let s = scene(&mesh, tilt);
             for gaze in [centre, away] {
-                let (reference, _) = render(&s, Method::Full, ModelOptions::default(), gaze);
+                let (reference, _) = render(&s, Method::Full, ModelBasedOptions::default(), gaze);
                 let (full_hits, _) = hits(&reference);
                 if tilt == 0.0 {
                     assert!(full_hits > 1000, "{name}: {full_hits} px");
@@ -203,7 +203,7 @@ fn the_model_based_methods_draw_flat_objects_on_the_gpu() {
     for (name, mesh) in meshes() {
         for tilt in [0.0, 45.0] {
             let s = scene(&mesh, tilt);
-            let (reference, _) = render(&s, Method::Full, ModelOptions::default(), centre);
+            let (reference, _) = render(&s, Method::Full, ModelBasedOptions::default(), centre);
             for (method, model) in model_cases() {
                 let (frame, drawn) = render_on(&s, method, model, centre, BackendChoice::Gpu);
                 check(&mut failures, &reference, &frame, drawn, || {
@@ -240,27 +240,27 @@ fn check(
 
 /// Simplify (imperceptible, under a budget, without the gaze) and lod
 /// (with and without the gaze).
-fn model_cases() -> Vec<(Method, ModelOptions)> {
+fn model_cases() -> Vec<(Method, ModelBasedOptions)> {
     vec![
-        (Method::Simplify, ModelOptions::default()),
+        (Method::Simplify, ModelBasedOptions::default()),
         (
             Method::Simplify,
-            ModelOptions {
+            ModelBasedOptions {
                 budget: Some(1000),
                 ignore_gaze: false,
             },
         ),
         (
             Method::Simplify,
-            ModelOptions {
+            ModelBasedOptions {
                 budget: None,
                 ignore_gaze: true,
             },
         ),
-        (Method::Lod, ModelOptions::default()),
+        (Method::Lod, ModelBasedOptions::default()),
         (
             Method::Lod,
-            ModelOptions {
+            ModelBasedOptions {
                 budget: None,
                 ignore_gaze: true,
             },

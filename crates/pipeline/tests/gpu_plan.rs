@@ -195,7 +195,7 @@ fn the_plan_is_what_runs_and_pays_per_use() {
         let mut r = renderer(&s, Method::Image, backend);
         let plan = r.plan();
         let names: Vec<&str> = plan.stages.iter().map(|s| s.name.as_str()).collect();
-        assert_eq!(names, ["image-based", "image-based foveation", "POR box"]);
+        assert_eq!(names, ["image", "image-based foveation", "POR box"]);
         assert_eq!(plan.stages[1].role, Role::MethodPass);
         let text = r.explain().join("\n");
         assert!(
@@ -206,7 +206,7 @@ fn the_plan_is_what_runs_and_pays_per_use() {
         assert_eq!(
             r.provenance(),
             format!(
-                "image-based on {}; passes: image-based foveation ({0}) → POR box ({0})",
+                "image on {}; passes: image-based foveation ({0}) → POR box ({0})",
                 side.name()
             )
         );

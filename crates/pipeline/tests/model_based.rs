@@ -6,7 +6,7 @@
 use std::path::Path;
 
 use foveation::Display;
-use pipeline::model_based::{proportional_shares, ModelOptions, ModelSetting};
+use pipeline::model_based::{proportional_shares, ModelBasedOptions, ModelBasedSetting};
 use pipeline::{BackendChoice, Method, Options, Renderer};
 use raycast::scene::Effect;
 use raycast::{Camera, Frame, Scene, SceneFile};
@@ -248,7 +248,7 @@ fn budget_renderer(scene: &Scene, budget: Option<usize>, ignore_gaze: bool) -> R
         &Options {
             method: Method::Simplify,
             backend: BackendChoice::Cpu,
-            model: ModelOptions {
+            model_based: ModelBasedOptions {
                 budget,
                 ignore_gaze,
             },
@@ -335,7 +335,7 @@ fn budget_and_no_gaze_are_refused_where_they_do_not_apply() {
             &Options {
                 method,
                 backend: BackendChoice::Cpu,
-                model: ModelOptions {
+                model_based: ModelBasedOptions {
                     budget,
                     ignore_gaze,
                 },
@@ -348,35 +348,35 @@ fn budget_and_no_gaze_are_refused_where_they_do_not_apply() {
             Method::Lod,
             Some(100),
             false,
-            ModelSetting::Budget,
+            ModelBasedSetting::Budget,
             "triangle budget",
         ),
         (
             Method::Hybrid,
             Some(100),
             false,
-            ModelSetting::Budget,
+            ModelBasedSetting::Budget,
             "triangle budget",
         ),
         (
             Method::Simplify,
             Some(0),
             false,
-            ModelSetting::Budget,
+            ModelBasedSetting::Budget,
             "triangle budget",
         ),
         (
             Method::Simplify,
             Some(usize::MAX),
             false,
-            ModelSetting::Budget,
+            ModelBasedSetting::Budget,
             "triangle budget",
         ),
         (
             Method::Full,
             None,
             true,
-            ModelSetting::IgnoreGaze,
+            ModelBasedSetting::IgnoreGaze,
             "without the gaze",
         ),
     ] {
@@ -386,7 +386,7 @@ fn budget_and_no_gaze_are_refused_where_they_do_not_apply() {
             !e.to_string().contains("--"),
             "{method:?} names a flag: {e}"
         );
-        let options = ModelOptions {
+        let options = ModelBasedOptions {
             budget,
             ignore_gaze: gaze,
         };

@@ -207,7 +207,7 @@ fn explain_names_the_method_stages_and_passes() {
         },
     );
     let text = r.explain().join("\n");
-    assert!(text.contains("method: foveated on cpu"), "{text}");
+    assert!(text.contains("method: hybrid on cpu"), "{text}");
     assert!(
         text.contains("cast vertices → classify cells → silhouette margin"),
         "{text}"

@@ -68,7 +68,7 @@ pub fn sampling_model(
 
 /// The model-based methods' options (`render`, `view`, `demo`).
 #[derive(Debug, Clone, Copy, Default, clap::Args)]
-pub struct ModelArgs {
+pub struct ModelBasedArgs {
     /// `--method simplify` only: Luebke & Hallen's best-effort mode, at
     /// most N triangles (1 to 10^9), most perceptible fold undone first;
     /// reports the viewing distance at which the folds left become
@@ -81,23 +81,23 @@ pub struct ModelArgs {
     pub no_gaze: bool,
 }
 
-impl ModelArgs {
+impl ModelBasedArgs {
     /// Checks the options against `method` (as the renderer will); an
     /// error names the flag at fault.
     pub fn check(self, method: pipeline::Method) -> Result<(), String> {
-        use pipeline::model_based::{ModelOptions, ModelSetting};
-        ModelOptions::from(self).validate(method).map_err(|e| {
+        use pipeline::model_based::{ModelBasedOptions, ModelBasedSetting};
+        ModelBasedOptions::from(self).validate(method).map_err(|e| {
             let flag = match e.setting() {
-                ModelSetting::Budget => "--budget",
-                ModelSetting::IgnoreGaze => "--no-gaze",
+                ModelBasedSetting::Budget => "--budget",
+                ModelBasedSetting::IgnoreGaze => "--no-gaze",
             };
             format!("{flag}: {e}")
         })
     }
 }
 
-impl From<ModelArgs> for pipeline::model_based::ModelOptions {
-    fn from(a: ModelArgs) -> Self {
+impl From<ModelBasedArgs> for pipeline::model_based::ModelBasedOptions {
+    fn from(a: ModelBasedArgs) -> Self {
         Self {
             budget: a.budget,
             ignore_gaze: a.no_gaze,
@@ -347,7 +347,7 @@ impl LslArgs {
 pub fn method_parser() -> impl clap::builder::TypedValueParser<Value = pipeline::Method> {
     use clap::builder::{PossibleValue, PossibleValuesParser, TypedValueParser};
     PossibleValuesParser::new(pipeline::Method::all().map(|m| {
-        PossibleValue::new(m.key())
+        PossibleValue::new(m.name())
             .aliases(m.aliases().iter().copied())
             .help(m.help())
     }))

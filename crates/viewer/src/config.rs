@@ -220,9 +220,9 @@ mod tests {
             "{msg}"
         );
         for m in pipeline::Method::all().filter(|m| !m.follows_gaze()) {
-            let named = format!("method: {:?}", m.key());
+            let named = format!("method: {:?}", m.name());
             std::fs::write(&path, text.replacen(control, &named, 1)).expect("write");
-            load_design(&path).unwrap_or_else(|e| panic!("{}: {e}", m.key()));
+            load_design(&path).unwrap_or_else(|e| panic!("{}: {e}", m.name()));
         }
     }
 

@@ -37,7 +37,7 @@ pub struct DemoArgs {
     #[arg(long, value_parser = crate::args::method_parser(), default_value = "hybrid")]
     pub method: pipeline::Method,
     #[command(flatten)]
-    pub model: crate::args::ModelArgs,
+    pub model_based: crate::args::ModelBasedArgs,
     /// Hybrid method: keep a ray mask while the gaze stays within DEG
     /// degrees of the gaze it was built for (see `view --help`).
     #[arg(long, value_name = "DEG", default_value_t = crate::args::LIVE_GAZE_TOLERANCE_DEG,
@@ -83,7 +83,7 @@ pub fn run(args: &DemoArgs, out: &mut dyn Write) -> Result<(), String> {
         return Err(format!("--fps {}: must be in 1..=120", args.fps));
     }
     args.lsl.check()?;
-    args.model.check(args.method)?;
+    args.model_based.check(args.method)?;
     let line = |out: &mut dyn Write, s: String| writeln!(out, "{s}").map_err(|e| e.to_string());
     if !args.headless && has_display() {
         line(
@@ -108,7 +108,7 @@ pub fn run(args: &DemoArgs, out: &mut dyn Write) -> Result<(), String> {
             }),
             backend: pipeline::BackendChoice::Auto,
             method: args.method,
-            model: args.model.into(),
+            model_based: args.model_based.into(),
             gaze_tolerance_deg: args.gaze_tolerance,
             lsl: args.lsl.options("demo", String::new(), false),
             ..LiveOptions::default()
@@ -163,7 +163,7 @@ pub fn run(args: &DemoArgs, out: &mut dyn Write) -> Result<(), String> {
     let options = pipeline::Options {
         method: args.method,
         por_overlay: true,
-        model: args.model.into(),
+        model_based: args.model_based.into(),
         reuse: true,
         ..pipeline::Options::default()
     };
@@ -179,7 +179,7 @@ pub fn run(args: &DemoArgs, out: &mut dyn Write) -> Result<(), String> {
         let (frame, stats) = renderer.render(gaze).map_err(|e| e.to_string())?;
         let model = renderer
             .model_based()
-            .map(|m| crate::render_cmd::ModelReport::new(m.last(), args.model.no_gaze).line())
+            .map(|m| crate::render_cmd::ModelBasedReport::new(m.last(), args.model_based.no_gaze).line())
             .or_else(|| renderer.ulod().map(|u| u.last().line()));
         line(
             out,

@@ -69,7 +69,7 @@ pub struct LiveOptions {
     /// The rendering method (the scene may still fall back to full).
     pub method: pipeline::Method,
     /// The model-based methods' budget and gaze options.
-    pub model: pipeline::model_based::ModelOptions,
+    pub model_based: pipeline::model_based::ModelBasedOptions,
     /// The hybrid method's gaze tolerance, degrees
     /// (`foveation::SamplingModel::gaze_tolerance_deg`).
     pub gaze_tolerance_deg: f64,
@@ -612,7 +612,7 @@ impl Loaded {
             backend: opts.backend,
             por_overlay: opts.por_overlay,
             surface,
-            model: opts.model,
+            model_based: opts.model_based,
             // Fixations re-cast only what the cache lacks (same frames).
             reuse: true,
             ..Options::default()
@@ -875,23 +875,23 @@ mod tests {
         let (mut log, line) = PlanLog::new(renderer.provenance());
         assert_eq!(
             line,
-            "plan: image-based on cpu; passes: image-based foveation (cpu)"
+            "plan: image on cpu; passes: image-based foveation (cpu)"
         );
         assert_eq!(log.frame(renderer.provenance()), None);
         renderer.set_por_overlay(true);
         assert_eq!(
             log.frame(renderer.provenance()).as_deref(),
-            Some("plan changed: image-based on cpu; passes: image-based foveation (cpu) → POR box (cpu)")
+            Some("plan changed: image on cpu; passes: image-based foveation (cpu) → POR box (cpu)")
         );
         assert_eq!(
             log.current(),
-            "image-based on cpu; passes: image-based foveation (cpu) → POR box (cpu)"
+            "image on cpu; passes: image-based foveation (cpu) → POR box (cpu)"
         );
         assert_eq!(log.frame(renderer.provenance()), None);
         renderer.set_por_overlay(false);
         assert_eq!(
             log.frame(renderer.provenance()).as_deref(),
-            Some("plan changed: image-based on cpu; passes: image-based foveation (cpu)")
+            Some("plan changed: image on cpu; passes: image-based foveation (cpu)")
         );
     }
 

@@ -9,7 +9,7 @@ use raycast::render::Stats;
 use raycast::{layers_rgb, Camera};
 use serde::Serialize;
 
-use crate::args::{parse_point, AccelArg, Intersector, ModelArgs, Overlay};
+use crate::args::{parse_point, AccelArg, Intersector, ModelBasedArgs, Overlay};
 use crate::config::{self, load_scene};
 use crate::picture::{draw_text_lines, save_png};
 use experiment::stats::nearest_rank::median;
@@ -90,7 +90,7 @@ pub struct RenderArgs {
     #[arg(long, value_enum, value_name = "por")]
     pub overlay: Option<Overlay>,
     #[command(flatten)]
-    pub model: ModelArgs,
+    pub model_based: ModelBasedArgs,
 }
 
 /// The `--stats` JSON.
@@ -115,7 +115,7 @@ pub struct RenderReport {
     /// All repeat times, ms.
     pub times_ms: Vec<f64>,
     /// The model-based methods' last frame; `None` for other methods.
-    pub model: Option<ModelReport>,
+    pub model: Option<ModelBasedReport>,
     /// A moving scene's pose: the time on its clock and the velocities
     /// the attention model reads; `None` for a static scene.
     pub pose: Option<PoseReport>,
@@ -131,7 +131,7 @@ pub struct PoseReport {
 
 /// What a model-based frame drew (`--stats`).
 #[derive(Debug, Clone, Serialize)]
-pub struct ModelReport {
+pub struct ModelBasedReport {
     pub triangles_full: usize,
     pub triangles_drawn: usize,
     pub select_ms: f64,
@@ -152,8 +152,8 @@ pub struct ModelReport {
     pub distance_factor: Option<f64>,
 }
 
-impl ModelReport {
-    pub fn new(m: &pipeline::model_based::ModelStats, no_gaze: bool) -> Self {
+impl ModelBasedReport {
+    pub fn new(m: &pipeline::model_based::ModelBasedStats, no_gaze: bool) -> Self {
         Self {
             triangles_full: m.triangles_full,
             triangles_drawn: m.triangles_drawn,
@@ -214,7 +214,7 @@ pub struct StageTime {
 
 /// Runs `gazecast render`.
 pub fn run(args: &RenderArgs, out: &mut dyn Write) -> Result<(), String> {
-    args.model.check(args.mode)?;
+    args.model_based.check(args.mode)?;
     let mut outputs = vec![("--out", args.out.as_path())];
     outputs.extend(args.layers.as_deref().map(|p| ("--layers", p)));
     outputs.extend(args.stats.as_deref().map(|p| ("--stats", p)));
@@ -251,7 +251,7 @@ pub fn run(args: &RenderArgs, out: &mut dyn Write) -> Result<(), String> {
         layout: args.layout,
         test: args.intersector.into(),
         por_overlay: args.overlay == Some(Overlay::Por),
-        model: args.model.into(),
+        model_based: args.model_based.into(),
         ..Options::default()
     };
     let mut renderer = Renderer::new(&scene, Camera::new(&geometry), model, &options)
@@ -319,7 +319,7 @@ pub fn run(args: &RenderArgs, out: &mut dyn Write) -> Result<(), String> {
         times_ms: times,
         model: renderer
             .model_based()
-            .map(|m| ModelReport::new(m.last(), args.model.no_gaze)),
+            .map(|m| ModelBasedReport::new(m.last(), args.model_based.no_gaze)),
         pose: renderer.scene().pose().map(|p| PoseReport {
             time_s: p.time_s,
             object_velocity_mm_per_s: p.object_velocity_mm_per_s.clone(),

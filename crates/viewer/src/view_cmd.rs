@@ -47,7 +47,7 @@ pub struct ViewArgs {
     #[arg(long, value_parser = crate::args::method_parser(), default_value = "hybrid")]
     pub method: pipeline::Method,
     #[command(flatten)]
-    pub model: crate::args::ModelArgs,
+    pub model_based: crate::args::ModelBasedArgs,
     /// Hybrid method: build each ray mask dense enough for any gaze within
     /// DEG degrees of its own, and keep it (and, on the CPU, its frame)
     /// while the gaze stays within DEG: a fixation's jitter then costs no
@@ -89,7 +89,7 @@ impl ViewArgs {
             por_overlay: self.overlay == Some(Overlay::Por),
             backend: self.backend,
             method: self.method,
-            model: self.model.into(),
+            model_based: self.model_based.into(),
             gaze_tolerance_deg: self.gaze_tolerance,
             eye_distance: self.eye_distance,
             fullscreen: self.fullscreen,
@@ -126,7 +126,7 @@ fn check_tracker_against_replay(args: &ViewArgs) -> Result<(), String> {
 /// Runs `gazecast view`.
 pub fn run(args: &ViewArgs, out: &mut dyn Write) -> Result<(), String> {
     args.lsl.check()?;
-    args.model.check(args.method)?;
+    args.model_based.check(args.method)?;
     let mut outputs = Vec::new();
     outputs.extend(args.record.as_deref().map(|p| ("--record", p)));
     outputs.extend(args.screenshot.as_deref().map(|p| ("--screenshot", p)));

@@ -58,7 +58,7 @@ fn a_quick_accuracy_sweep_writes_csv_plot_and_report() {
         } else {
             let p: f64 = psnr.parse().expect("psnr");
             assert!(p > 10.0, "{r:?}");
-            if r[col("layout")] == "image-based" {
+            if r[col("layout")] == "image" {
                 // Only colour is blurred: the geometry is the full frame's.
                 assert_eq!(r[col("silhouette_error")], "0.000000", "{r:?}");
             }
@@ -68,10 +68,7 @@ fn a_quick_accuracy_sweep_writes_csv_plot_and_report() {
         let f: f64 = r[col("foveated_psnr_db")].parse().expect("foveated psnr");
         assert!(f >= 0.0);
     }
-    let image_rows = rows
-        .iter()
-        .filter(|r| r[col("layout")] == "image-based")
-        .count();
+    let image_rows = rows.iter().filter(|r| r[col("layout")] == "image").count();
     assert_eq!(
         image_rows,
         2 * 2,

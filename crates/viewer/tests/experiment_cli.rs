@@ -903,12 +903,12 @@ fn an_image_condition_renders_image_based_and_its_frames_say_so() {
         "the first sitting's row, from before"
     );
     assert!(
-        trial_plans[1].starts_with("foveated on cpu; passes: "),
+        trial_plans[1].starts_with("hybrid on cpu; passes: "),
         "{trial_plans:?}"
     );
     // The done-when: the image condition rendered image-based foveation.
     assert!(
-        trial_plans[2].starts_with("image-based on cpu; passes: "),
+        trial_plans[2].starts_with("image on cpu; passes: "),
         "{trial_plans:?}"
     );
     let (sitting, trial, phases, plans) = (

@@ -197,7 +197,7 @@ fn the_gpu_backend_renders_foveated_frames_and_reports_its_adapter() {
     let v: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(&stats).expect("json")).expect("valid json");
     assert_eq!(v["backend"], "gpu");
-    assert_eq!(v["mode"], "foveated");
+    assert_eq!(v["mode"], "hybrid");
     assert!(v["adapter"].as_str().is_some_and(|a| !a.is_empty()), "{v}");
     assert!(v["gpu_stages_ms"].is_array());
     // The CPU backend casts exactly as many rays.

@@ -49,7 +49,7 @@ fn a_replayed_session_renders_in_a_window_with_the_por_box_at_the_gaze() {
         .lines()
         .find_map(|l| l.strip_prefix("plan: "))
         .unwrap_or_else(|| panic!("no plan line: {text}"));
-    assert_eq!(plan, "foveated on cpu; passes: POR box (cpu)", "{text}");
+    assert_eq!(plan, "hybrid on cpu; passes: POR box (cpu)", "{text}");
     assert!(
         text.find("\nplan: ") < text.find("\nframe 0 "),
         "the plan comes before the first frame: {text}"
@@ -141,7 +141,7 @@ fn explain_prints_the_passes_of_the_scene_effects() {
         ])
         .succeed();
     let image = String::from_utf8_lossy(&out.stdout);
-    assert!(image.contains("method: image-based"), "{image}");
+    assert!(image.contains("method: image on"), "{image}");
     assert!(image.contains("then image-based foveation"), "{image}");
     assert!(!image.contains("classify"), "{image}");
     // A scene without FoveatedSampling runs the full-resolution pass only.

@@ -48,8 +48,8 @@
 //! condition rendered: `frames.tsv`'s `plan` is the provenance line of the
 //! renderer that drew the frame (`pipeline::Renderer::provenance`: the
 //! method that ran, the backend, and the passes in order with where each
-//! ran), e.g. `image-based on gpu; passes: image-based foveation (gpu)` or
-//! `foveated on cpu; passes: none`; `n/a` for a screen no renderer drew
+//! ran), e.g. `image on gpu; passes: image-based foveation (gpu)` or
+//! `hybrid on cpu; passes: none`; `n/a` for a screen no renderer drew
 //! (text, calibration targets). `trials.tsv`'s `plan` is the plan of the
 //! trial's search frames (the condition's renderer). The line never holds
 //! a tab or a line break, and is never empty or `n/a` itself.

@@ -62,7 +62,7 @@ pub struct TrialRow {
     /// The participant was simulated.
     pub synthetic: bool,
     /// What drew the search display: the renderer's provenance line
-    /// (`pipeline::Renderer::provenance`, e.g. `image-based on cpu;
+    /// (`pipeline::Renderer::provenance`, e.g. `image on cpu;
     /// passes: none`) of the trial's search frames; should it have changed
     /// during the search, each plan in the order they ran, joined by
     /// ` | `. `n/a` in a file written before the column existed.
@@ -189,7 +189,7 @@ pub struct FrameRow {
     pub late: bool,
     /// What drew the frame: the provenance line of its renderer
     /// (`pipeline::Renderer::provenance`: method, backend, passes), e.g.
-    /// `foveated on cpu; passes: none`; `n/a` for a screen no renderer drew
+    /// `hybrid on cpu; passes: none`; `n/a` for a screen no renderer drew
     /// (text, calibration targets) and in a file written before the
     /// column existed.
     #[serde(default, with = "na")]

@@ -12,7 +12,6 @@ pub static METHOD: MethodModule = MethodModule {
     name: "full",
     aliases: &[],
     help: "One ray per pixel (the control condition)",
-    report_name: "full",
     foveated: false,
     gpu: true,
     gpu_post: true,

@@ -17,7 +17,6 @@ pub static METHOD: MethodModule = MethodModule {
     aliases: &["foveated"],
     help: "Murphy 2007's hybrid: the CSF ray mask, reconstruction from the intermediate mesh, \
            refinement where the scene's effects ask",
-    report_name: "foveated",
     foveated: true,
     gpu: true,
     gpu_post: true,

@@ -18,7 +18,6 @@ pub static METHOD: MethodModule = MethodModule {
     aliases: &["image-based"],
     help: "Image-based foveation (Geisler & Perry 1998): every pixel cast, then blurred by a \
            Gaussian pyramid to the level the CSF allows at its eccentricity",
-    report_name: "image-based",
     foveated: true,
     gpu: true,
     gpu_post: true,

@@ -59,7 +59,6 @@ pub static METHOD: MethodModule = MethodModule {
     aliases: &["guenter", "nested-layers"],
     help: "Guenter et al. 2012's nested layers: an inner layer at every pixel, a middle one at \
            every 2nd, an outer one at every 4th, sized by the display's CSF and blended",
-    report_name: "layers",
     foveated: true,
     gpu: true,
     gpu_post: false,

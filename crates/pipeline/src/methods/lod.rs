@@ -11,7 +11,6 @@ pub static METHOD: MethodModule = MethodModule {
     aliases: &["murphy-duchowski"],
     help: "Model-based: Murphy & Duchowski 2001's gaze-contingent level of detail (Table 1's \
            levels by eccentricity), rasterised (CPU or GPU)",
-    report_name: "lod",
     foveated: true,
     gpu: true,
     gpu_post: false,
@@ -20,7 +19,7 @@ pub static METHOD: MethodModule = MethodModule {
 };
 
 fn make(setup: &MethodSetup<'_>) -> Result<Box<dyn FrameMethod>, RenderError> {
-    ModelBased::new(setup.scene, setup.camera, Method::Lod, setup.options.model)
+    ModelBased::new(setup.scene, setup.camera, Method::Lod, setup.options.model_based)
         .map(|m| Box::new(m) as Box<dyn FrameMethod>)
         .map_err(RenderError::Unsupported)
 }

@@ -12,7 +12,6 @@ pub static METHOD: MethodModule = MethodModule {
     help: "Model-based: Luebke & Hallen 2001's perceptual simplification (imperceptible mode: \
            every fold the Geisler–Perry table judges invisible at its eccentricity), rasterised \
            (CPU or GPU)",
-    report_name: "simplify",
     foveated: true,
     gpu: true,
     gpu_post: false,
@@ -25,7 +24,7 @@ fn make(setup: &MethodSetup<'_>) -> Result<Box<dyn FrameMethod>, RenderError> {
         setup.scene,
         setup.camera,
         Method::Simplify,
-        setup.options.model,
+        setup.options.model_based,
     )
     .map(|m| Box::new(m) as Box<dyn FrameMethod>)
     .map_err(RenderError::Unsupported)

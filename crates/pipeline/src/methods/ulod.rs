@@ -22,7 +22,6 @@ pub static METHOD: MethodModule = MethodModule {
            (`ULOD5`: 1, 1/4, … 1/256 of each object's triangles by quadric simplification), \
            levels set by Lee's attention model on the previous frame; no eye tracker \
            needed. CPU raster",
-    report_name: "ulod",
     foveated: false,
     gpu: false,
     gpu_post: false,

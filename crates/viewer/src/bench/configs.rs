@@ -59,7 +59,7 @@ impl Config {
         let accel = self.accel.name();
         match self.layout {
             None if matches!(self.method, Method::Module(_)) => {
-                format!("{} C={} {accel}", self.method.key(), self.contrast)
+                format!("{} C={} {accel}", self.method.name(), self.contrast)
             }
             None if self.method.is_model_based() => match self.budget {
                 Some(b) => format!("{} budget={b}", self.method.name()),
@@ -229,7 +229,7 @@ pub fn options_for(config: &Config, scene: &Scene) -> Options {
         backend: BackendChoice::Cpu,
         layout: config.layout.unwrap_or_default(),
         triggers: Some(config.refinement.triggers(scene)),
-        model: pipeline::model_based::ModelOptions {
+        model_based: pipeline::model_based::ModelBasedOptions {
             budget: config.budget,
             ignore_gaze: false,
         },

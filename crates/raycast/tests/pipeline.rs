@@ -104,9 +104,11 @@ fn big_spheres() -> Scene {
         })
         .collect(),
         lights: vec![Light::Headlight { intensity: 1.0 }],
-        effects: vec![Effect::FoveatedSampling, Effect::SilhouetteRefinement],
-        crease_deg: 30.0,
-        depth_jump: 0.05,
+        sampling: None,
+        passes: None,
+        effects: Some(vec![Effect::FoveatedSampling, Effect::SilhouetteRefinement]),
+        crease_deg: Some(30.0),
+        depth_jump: Some(0.05),
         camera: None,
     };
     Scene::build(&file, Path::new(".")).expect("scene")

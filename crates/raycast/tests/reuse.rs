@@ -502,14 +502,16 @@ fn small_scenes() -> &'static [Scene; 2] {
                 })
                 .collect(),
                 lights: vec![Light::Headlight { intensity: 1.0 }],
-                effects: vec![
+                sampling: None,
+                passes: None,
+                effects: Some(vec![
                     Effect::FoveatedSampling,
                     Effect::SilhouetteRefinement,
                     Effect::CreaseRefinement,
                     Effect::DepthRefinement,
-                ],
-                crease_deg: 30.0,
-                depth_jump: 0.05,
+                ]),
+                crease_deg: Some(30.0),
+                depth_jump: Some(0.05),
                 camera: None,
             };
             Scene::build(&file, Path::new(".")).expect("scene")

@@ -5,9 +5,9 @@
 //!
 //! The file's schema is in [`file`]: the sampling and its refinement
 //! triggers in [`sampling`], the post passes and their parameters in
-//! [`pass`], the old form's effect list in [`effect`]; building, checking and placing a scene is
-//! [`build`]; moving scenes pose themselves with [`motion`]; ray queries
-//! are in [`intersect`].
+//! [`pass`], the old form's effect list in [`effect`]. Building, checking
+//! and placing a scene is [`build`]; moving scenes pose themselves with
+//! [`motion`]; ray queries are in [`intersect`].
 
 mod build;
 mod effect;

@@ -45,7 +45,9 @@ def search_task():
             lines.append(
                 f'        (mesh: "{mesh}", material: Some("{mat}"), translate_mm: ({x:.2f}, {y:.2f}, -20.0), '
                 f"rotate_deg: ({rot[0]:.1f}, {rot[1]:.1f}, 0.0), scale_mm: {size / 2:.3f}),")
-    lines += ["    ],", "    effects: [FoveatedSampling, SilhouetteRefinement, CreaseRefinement, DepthRefinement],", ")", ""]
+    lines += ["    ],",
+              "    sampling: Foveated(refine: [Silhouette, Crease(angle_deg: 30.0), Depth(jump: 0.05)]),",
+              "    passes: [],", ")", ""]
     return "\n".join(lines)
 
 

@@ -26,9 +26,10 @@
 //!   registration arm there); a method's own pass (image-based foveation's
 //!   blur) goes first. Each declares what it reads and writes and what it
 //!   owns. An effect the scene does not list allocates nothing and runs no
-//!   pass. The refinement effects (`FoveatedSampling`,
-//!   `SilhouetteRefinement`, …) are not passes: they configure the hybrid
-//!   method.
+//!   pass. The scene's sampling (`Foveated(refine:
+//!   [Silhouette, …])`, the old form's `FoveatedSampling`,
+//!   `SilhouetteRefinement`, …) is not a pass: it gates and configures the
+//!   hybrid method.
 //! - **The frame plan** ([`plan::FramePlan`], [`Renderer::plan`]): on the
 //!   GPU backend every pass from the first on that has a GPU implementation
 //!   ([`effects::Pass::into_gpu`]: image-based foveation, both depth-of-field
@@ -52,16 +53,16 @@ pub mod image_foveation;
 pub mod maps;
 pub mod method;
 pub mod methods;
-pub mod sampling;
 pub mod model_based;
 pub mod plan;
 mod pyramid;
 pub mod registry;
 pub mod renderer;
+pub mod sampling;
 pub mod ulod;
 
 pub use backend::BackendChoice;
 pub use method::Method;
-pub use sampling::sampling_model;
 pub use plan::FramePlan;
 pub use renderer::{Options, RenderError, Renderer, EYE_DISTANCE_RANGE_MM, EYE_DISTANCE_STEP};
+pub use sampling::sampling_model;

@@ -6,7 +6,6 @@
 use std::fmt;
 use std::str::FromStr;
 
-use raycast::scene::Effect;
 use raycast::Scene;
 
 use crate::registry::{MethodModule, METHODS};
@@ -119,7 +118,7 @@ impl Method {
     /// backend. `Ulod` follows attention, not the gaze, and runs whatever
     /// the scene lists.
     pub fn for_scene(self, scene: &Scene) -> Method {
-        if self.follows_gaze() && !scene.has(Effect::FoveatedSampling) {
+        if self.follows_gaze() && !scene.sampling.is_foveated() {
             Method::Full
         } else {
             self

@@ -135,7 +135,9 @@ impl ModelBasedOptionsError {
         match self {
             ModelBasedOptionsError::BudgetNeedsSimplify { .. }
             | ModelBasedOptionsError::BudgetOutOfRange { .. } => ModelBasedSetting::Budget,
-            ModelBasedOptionsError::IgnoreGazeNeedsModelBased { .. } => ModelBasedSetting::IgnoreGaze,
+            ModelBasedOptionsError::IgnoreGazeNeedsModelBased { .. } => {
+                ModelBasedSetting::IgnoreGaze
+            }
         }
     }
 }

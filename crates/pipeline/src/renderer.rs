@@ -17,7 +17,7 @@ use crate::method::Method;
 use crate::model_based::{ModelBased, ModelBasedOptions};
 use crate::plan::{Channels, FramePlan, Role, Side, Stage};
 use crate::registry::{FrameMethod, MethodContext, MethodFrame, MethodSetup};
-use raycast::scene::Effect;
+use raycast::scene::PostPass;
 
 /// Why a frame could not be rendered.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -596,7 +596,7 @@ impl<'s> Renderer<'s> {
         self.passes.retain(|p| !is_por(p.as_ref()));
         self.gpu_passes.retain(|p| !is_por(p.reference()));
         if on {
-            let pass = match self.scene.effect(Effect::POR_OVERLAY) {
+            let pass = match self.scene.pass(&PostPass::POR_OVERLAY) {
                 Some(e) => pass_for(e),
                 None => Some(Box::new(PorOverlay::default()) as Box<dyn Pass>),
             };
@@ -713,7 +713,10 @@ impl<'s> Renderer<'s> {
         };
         let plan = self.plan();
         let mut out = vec![
-            format!("scene {}: effects {:?}", s.name, s.effects),
+            format!(
+                "scene {}: sampling {:?}, passes {:?}",
+                s.name, s.sampling, s.passes
+            ),
             format!("method: {} on {on}", self.method.name()),
         ];
         if let Some(m) = s.motion_summary() {

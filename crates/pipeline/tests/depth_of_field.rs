@@ -10,7 +10,7 @@ use pipeline::effects::depth_of_field::{coc_px, level_for_coc, DepthOfField};
 use pipeline::effects::{Pass, PassInput};
 use pipeline::{BackendChoice, Method, Options, Renderer};
 use proptest::prelude::*;
-use raycast::scene::{DofFocus, DofMethod, DofRefocus, Effect};
+use raycast::scene::{DofFocus, DofMethod, DofRefocus, PostPass};
 use raycast::{Camera, Frame, Layer, Scene, SceneFile};
 
 const W: u32 = 640;
@@ -114,13 +114,13 @@ fn a_scene_without_the_effect_builds_no_pass_and_no_surface_buffers() {
 #[test]
 fn the_scene_file_parses_defaults_and_validates_naming_the_field() {
     let s = build("DepthOfField()").expect("builds");
-    assert_eq!(s.effects, [Effect::DEPTH_OF_FIELD]);
+    assert_eq!(s.passes, [PostPass::DEPTH_OF_FIELD]);
     let s =
         build("DepthOfField(pupil_mm: 6.0, focal_length_mm: 17.0, focus: Fixed(depth_mm: 800.0))")
             .expect("builds");
     assert_eq!(
-        s.effects,
-        [Effect::DepthOfField {
+        s.passes,
+        [PostPass::DepthOfField {
             pupil_mm: 6.0,
             focal_length_mm: 17.0,
             retina_distance_mm: 24.0,
@@ -408,8 +408,8 @@ fn close(a: f64, b: f64, rel: f64) -> bool {
 #[test]
 fn refocus_parses_defaults_and_validates_naming_the_field() {
     let refocus = |text: &str| -> Option<DofRefocus> {
-        match build(text).ok()?.effects.first()? {
-            Effect::DepthOfField { refocus, .. } => Some(*refocus),
+        match build(text).ok()?.passes.first()? {
+            PostPass::DepthOfField { refocus, .. } => Some(*refocus),
             _ => None,
         }
     };
@@ -723,9 +723,9 @@ fn vergence_and_attention_focus_parse() {
     ] {
         let s = build(text).expect("builds");
         assert!(
-            matches!(s.effects[0], Effect::DepthOfField { focus: f, .. } if f == focus),
+            matches!(s.passes[0], PostPass::DepthOfField { focus: f, .. } if f == focus),
             "{text}: {:?}",
-            s.effects
+            s.passes
         );
     }
 }

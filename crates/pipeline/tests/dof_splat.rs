@@ -20,7 +20,7 @@ use pipeline::{BackendChoice, Options, Renderer};
 use proptest::prelude::*;
 use raycast::layers::{pixel_layers, render_layers, LayersError, MAX_LAYERS};
 use raycast::ray::TriangleTest;
-use raycast::scene::{DofFocus, DofMethod, Effect};
+use raycast::scene::{DofFocus, DofMethod, PostPass};
 use raycast::{Camera, Frame, Layer, Scene, SceneFile};
 
 const W: u32 = 160;
@@ -106,12 +106,12 @@ fn effect(pupil_mm: f64, focus_mm: f64) -> String {
 #[test]
 fn the_scene_file_chooses_the_method_and_pupil_zero_is_the_identity() {
     let s = scene(NEAR_BALL, &effect(0.0, 1950.0));
-    match s.effects.as_slice() {
-        [Effect::DepthOfField { method, .. }] => assert_eq!(*method, DofMethod::Splat),
+    match s.passes.as_slice() {
+        [PostPass::DepthOfField { method, .. }] => assert_eq!(*method, DofMethod::Splat),
         other => panic!("{other:?}"),
     }
     let d = scene("", "DepthOfField()");
-    assert_eq!(d.effects, [Effect::DEPTH_OF_FIELD]);
+    assert_eq!(d.passes, [PostPass::DEPTH_OF_FIELD]);
     let bad =
         "Scene(name: \"x\", meshes: {}, objects: [], effects: [DepthOfField(method: Gather)])";
     assert!(ron::from_str::<SceneFile>(bad).is_err());

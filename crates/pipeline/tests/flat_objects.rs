@@ -91,15 +91,22 @@ fn scene(mesh: &MeshSource, tilt_deg: f32) -> Scene {
             motion: None,
         }],
         lights: vec![raycast::scene::Light::Headlight { intensity: 1.0 }],
-        effects: vec![Effect::FoveatedSampling, Effect::SilhouetteRefinement],
-        crease_deg: 30.0,
-        depth_jump: 0.5,
+        sampling: None,
+        passes: None,
+        effects: Some(vec![Effect::FoveatedSampling, Effect::SilhouetteRefinement]),
+        crease_deg: Some(30.0),
+        depth_jump: Some(0.5),
         camera: None,
     };
     Scene::build(&file, &dir()).unwrap_or_else(|e| panic!("{e}"))
 }
 
-fn render(scene: &Scene, method: Method, model: ModelBasedOptions, gaze: [f64; 2]) -> (Frame, usize) {
+fn render(
+    scene: &Scene,
+    method: Method,
+    model: ModelBasedOptions,
+    gaze: [f64; 2],
+) -> (Frame, usize) {
     render_on(scene, method, model, gaze, BackendChoice::Cpu)
 }
 

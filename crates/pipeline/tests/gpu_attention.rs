@@ -27,7 +27,7 @@ use pipeline::gpu_attention::{states_made_on_this_thread, GpuAttention, SALIENCY
 use pipeline::{BackendChoice, Method, Options, Renderer};
 use proptest::prelude::*;
 use raycast::gpu::GpuRenderer;
-use raycast::scene::Effect;
+use raycast::scene::PostPass;
 use raycast::{Camera, Scene, SceneFile};
 
 const TOL: f32 = SALIENCY_TOLERANCE;
@@ -778,7 +778,7 @@ fn shipped(name: &str) -> Scene {
     let path = repo.join("config/scenes").join(format!("{name}.ron"));
     let text = std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
     let mut file: SceneFile = ron::from_str(&text).unwrap_or_else(|e| panic!("{name}: {e}"));
-    file.effects.clear();
+    file.set_effects(Vec::new());
     Scene::build(&file, path.parent().expect("dir")).unwrap_or_else(|e| panic!("{name}: {e}"))
 }
 
@@ -897,7 +897,7 @@ fn depth_of_field_on_the_attended_object_runs_on_the_gpu_as_the_cpu_pass() {
             !r.has_attention_buffers(),
             "buffers come with the first frame"
         );
-        let e = s.effect(Effect::DEPTH_OF_FIELD).expect("listed");
+        let e = s.pass(&PostPass::DEPTH_OF_FIELD).expect("listed");
         let mut cpu: Box<dyn Pass> = match DepthOfField::from_effect(e) {
             Some(d) => Box::new(d),
             None => Box::new(

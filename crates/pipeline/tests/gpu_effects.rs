@@ -14,7 +14,7 @@ use pipeline::image_foveation::ImageFoveation;
 use pipeline::{BackendChoice, Method, Options, Renderer};
 use raycast::gpu::GpuRenderer;
 use raycast::render::Triggers;
-use raycast::scene::Effect;
+use raycast::scene::PostPass;
 use raycast::{Camera, Frame, Scene, SceneFile};
 
 const W: u32 = 160;
@@ -176,7 +176,7 @@ fn depth_of_field_on_the_gpu_is_the_cpu_pass() {
     ];
     for (what, effect, gaze) in cases {
         let s = scene(effect);
-        let e = s.effect(Effect::DEPTH_OF_FIELD).expect("listed");
+        let e = s.pass(&PostPass::DEPTH_OF_FIELD).expect("listed");
         let mut cpu = DepthOfField::from_effect(e).expect("dof");
         let mut expected = cast.clone();
         cpu.run(
@@ -223,7 +223,7 @@ fn depth_of_field_after_the_foveated_gpu_frame_is_the_cpu_pass() {
         .render_foveated(&cam, &mask, &Triggers::from_scene(&s))
         .expect("cast");
     let mut cpu =
-        DepthOfField::from_effect(s.effect(Effect::DEPTH_OF_FIELD).expect("listed")).expect("dof");
+        DepthOfField::from_effect(s.pass(&PostPass::DEPTH_OF_FIELD).expect("listed")).expect("dof");
     let mut expected = cast.clone();
     cpu.run(
         &mut expected,
@@ -341,7 +341,7 @@ fn odd_and_tiny_frames_match_too() {
         let mut expected = cast.clone();
         let mut image = ImageFoveation::default();
         image.apply(&mut expected, &model_on(&d), gaze);
-        let mut dof = DepthOfField::from_effect(s.effect(Effect::DEPTH_OF_FIELD).expect("listed"))
+        let mut dof = DepthOfField::from_effect(s.pass(&PostPass::DEPTH_OF_FIELD).expect("listed"))
             .expect("dof");
         dof.run(
             &mut expected,
@@ -386,7 +386,7 @@ fn refocusing_over_frames_follows_the_cpu_pass() {
     let i = far[far.len() / 2];
     let far_gaze = [(i % W as usize) as f64 + 0.5, (i / W as usize) as f64 + 0.5];
     let mut cpu =
-        DepthOfField::from_effect(s.effect(Effect::DEPTH_OF_FIELD).expect("listed")).expect("dof");
+        DepthOfField::from_effect(s.pass(&PostPass::DEPTH_OF_FIELD).expect("listed")).expect("dof");
     let mut r = renderer(&s, Method::Full, BackendChoice::Gpu);
     let mut focus = Vec::new();
     // The last frame's gaze is off the screen: its window holds nothing and
@@ -438,7 +438,7 @@ fn vergence_focus_on_the_gpu_is_the_cpu_pass() {
     let (cast, _) = reference.render_full(&cam).expect("cast");
     let s = scene("DepthOfField(pupil_mm: 8.0, focus: Vergence)");
     let mut cpu =
-        DepthOfField::from_effect(s.effect(Effect::DEPTH_OF_FIELD).expect("listed")).expect("dof");
+        DepthOfField::from_effect(s.pass(&PostPass::DEPTH_OF_FIELD).expect("listed")).expect("dof");
     let mut r = renderer(&s, Method::Full, BackendChoice::Gpu);
     assert_eq!(
         r.gpu_pass_names().len(),

@@ -16,7 +16,7 @@ use raycast::gpu::{wgpu, GpuError, GpuFrame, GpuPost, GpuRenderer, HIDDEN_HITS};
 use raycast::layers::pixel_layers;
 use raycast::ray::TriangleTest;
 use raycast::render::Triggers;
-use raycast::scene::Effect;
+use raycast::scene::PostPass;
 use raycast::{Camera, Frame, Scene, SceneFile, NO_OBJECT};
 
 const W: u32 = 160;
@@ -142,7 +142,7 @@ fn the_splat_pass_on_the_gpu_is_the_cpu_pass() {
         reference.set_surface(true);
         let (cast, _) = reference.render_full(&cam).expect("cast");
         let s = build(effect);
-        let e = s.effect(Effect::DEPTH_OF_FIELD).expect("listed");
+        let e = s.pass(&PostPass::DEPTH_OF_FIELD).expect("listed");
         let mut cpu = DepthOfFieldSplat::from_effect(e).expect("splat");
         let mut expected = cast.clone();
         let started = std::time::Instant::now();
@@ -217,7 +217,7 @@ fn the_splat_pass_after_the_foveated_gpu_frame_is_the_cpu_pass() {
     let (cast, _) = reference
         .render_foveated(&cam, &mask, &Triggers::from_scene(&s))
         .expect("cast");
-    let e = s.effect(Effect::DEPTH_OF_FIELD).expect("listed");
+    let e = s.pass(&PostPass::DEPTH_OF_FIELD).expect("listed");
     let mut cpu = DepthOfFieldSplat::from_effect(e).expect("splat");
     let mut expected = cast.clone();
     cpu.run(
@@ -408,7 +408,7 @@ fn defocused_highlights_on_the_gpu_are_the_cpu_pass() {
     reference.set_surface(true);
     let (cast, _) = reference.render_full(&cam).expect("cast");
     let s = scene("DepthOfField(pupil_mm: 8.0, focus: Fixed(depth_mm: 2100.0), method: Splat, highlights: true)");
-    let e = s.effect(Effect::DEPTH_OF_FIELD).expect("listed");
+    let e = s.pass(&PostPass::DEPTH_OF_FIELD).expect("listed");
     let mut cpu = DepthOfFieldSplat::from_effect(e).expect("splat");
     assert!(cpu.highlights.is_some(), "the scene turns them on");
     let mut off = DepthOfFieldSplat::from_effect(e).expect("splat");

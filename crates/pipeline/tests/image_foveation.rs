@@ -8,7 +8,7 @@ use foveation::{Display, SamplingModel};
 use pipeline::image_foveation::ImageFoveation;
 use pipeline::{BackendChoice, Method, Options, Renderer};
 use proptest::prelude::*;
-use raycast::scene::Effect;
+use raycast::scene::{Effect, Sampling};
 use raycast::{Camera, Frame, Layer, Scene, SceneFile};
 
 const W: u32 = 640;
@@ -29,7 +29,7 @@ fn scene(name: &str) -> Scene {
     let path = repo.join("config/scenes").join(format!("{name}.ron"));
     let text = std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
     let mut file: SceneFile = ron::from_str(&text).unwrap_or_else(|e| panic!("{name}: {e}"));
-    file.effects = vec![Effect::FoveatedSampling];
+    file.set_effects(vec![Effect::FoveatedSampling]);
     Scene::build(&file, path.parent().expect("dir")).unwrap_or_else(|e| panic!("{name}: {e}"))
 }
 
@@ -104,7 +104,8 @@ fn other_methods_build_no_pyramid_and_no_foveated_scene_falls_back() {
         assert_eq!(render(&s, method, [320.0, 256.0]).1, None, "{method:?}");
     }
     let mut plain = s.clone();
-    plain.effects.clear();
+    plain.sampling = Sampling::Full;
+    plain.passes.clear();
     assert_eq!(Method::Image.for_scene(&plain), Method::Full);
     assert_eq!(render(&plain, Method::Image, [320.0, 256.0]).1, None);
 }

@@ -9,7 +9,7 @@ use foveation::{Display, SamplingModel};
 use pipeline::methods::layers::{core_half_size, Layers};
 use pipeline::{BackendChoice, Method, Options, Renderer};
 use proptest::prelude::*;
-use raycast::scene::Effect;
+use raycast::scene::{Effect, Sampling};
 use raycast::{Camera, Frame, Scene};
 
 use fixtures::display_17in as display;
@@ -167,7 +167,8 @@ fn the_method_is_named_explained_and_recorded() {
     assert!(text.contains("1. layers [cpu]"), "{text}");
     // Without FoveatedSampling the scene is rendered at full resolution.
     let mut plain = scene("search-task");
-    plain.effects.clear();
+    plain.sampling = Sampling::Full;
+    plain.passes.clear();
     assert_eq!(layers().for_scene(&plain), Method::Full);
     // Other methods build nothing of it.
     let r = renderer(&s, &d, Method::Hybrid, BackendChoice::Cpu);

@@ -29,7 +29,7 @@ fn scene(name: &str) -> Scene {
     let path = repo.join("config/scenes").join(format!("{name}.ron"));
     let text = std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
     let mut file: SceneFile = ron::from_str(&text).unwrap_or_else(|e| panic!("{name}: {e}"));
-    file.effects = vec![Effect::FoveatedSampling];
+    file.set_effects(vec![Effect::FoveatedSampling]);
     Scene::build(&file, path.parent().expect("dir")).unwrap_or_else(|e| panic!("{name}: {e}"))
 }
 

@@ -7,7 +7,7 @@ use std::path::Path;
 
 use foveation::Display;
 use pipeline::{BackendChoice, Method, Options, Renderer};
-use raycast::scene::Effect;
+use raycast::scene::{Effect, PostPass};
 use raycast::{Camera, Frame, Layer, Scene, SceneFile, NO_OBJECT};
 
 fn repo() -> &'static Path {
@@ -30,7 +30,7 @@ fn scene(name: &str, effects: &[Effect]) -> Scene {
     let path = repo().join("config/scenes").join(format!("{name}.ron"));
     let text = std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
     let mut file: SceneFile = ron::from_str(&text).unwrap_or_else(|e| panic!("{name}: {e}"));
-    file.effects = effects.to_vec();
+    file.set_effects(effects.to_vec());
     Scene::build(&file, path.parent().expect("dir")).unwrap_or_else(|e| panic!("{name}: {e}"))
 }
 
@@ -228,7 +228,7 @@ fn an_effect_takes_its_parameters_from_the_scene_file() {
     let text = std::fs::read_to_string(&path).expect("bunny");
     let with = |effects: &str| {
         let t = text.replace(
-            "effects: [FoveatedSampling, SilhouetteRefinement, CreaseRefinement, DepthRefinement],",
+            "sampling: Foveated(refine: [Silhouette, Crease(angle_deg: 30.0), Depth(jump: 0.05)]),\n    passes: [],",
             &format!("effects: [FoveatedSampling, {effects}],"),
         );
         assert_ne!(t, text, "the bunny's effect line changed");
@@ -246,7 +246,10 @@ fn an_effect_takes_its_parameters_from_the_scene_file() {
     assert!(yellow(312, 200) && !yellow(332, 200));
     // The default size: `PorOverlay()`.
     let seed = with("PorOverlay()").expect("builds");
-    assert_eq!(seed.effect(Effect::POR_OVERLAY), Some(&Effect::POR_OVERLAY));
+    assert_eq!(
+        seed.pass(&PostPass::POR_OVERLAY),
+        Some(&PostPass::POR_OVERLAY)
+    );
     let e = with("PorOverlay(half_px: 0)").expect_err("refused");
     assert!(e.contains("effects[1].half_px"), "{e}");
     let e = with("PorOverlay(half_px: 4294967295)").expect_err("refused");

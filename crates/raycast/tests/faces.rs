@@ -75,9 +75,11 @@ fn face_scene(expression: u32, subdivisions: u32, x: f32, y: f32, turn: (f32, f3
             motion: None,
         }],
         lights: vec![Light::Headlight { intensity: 1.0 }],
-        effects: vec![Effect::FoveatedSampling, Effect::SilhouetteRefinement],
-        crease_deg: 30.0,
-        depth_jump: 0.05,
+        sampling: None,
+        passes: None,
+        effects: Some(vec![Effect::FoveatedSampling, Effect::SilhouetteRefinement]),
+        crease_deg: Some(30.0),
+        depth_jump: Some(0.05),
         camera: None,
     };
     Scene::build(&file, Path::new(".")).expect("face scene")

@@ -13,7 +13,7 @@ use foveation::{Display, GeislerPerry, Layout, SamplingModel};
 use raycast::gpu::GpuRenderer;
 use raycast::ray::TriangleTest;
 use raycast::render::{render, Mode, Settings, Triggers};
-use raycast::scene::{Light, MeshSource, Object};
+use raycast::scene::{Light, MeshSource, Object, Refinement, Sampling};
 use raycast::{Camera, Frame, Scene, SceneFile, NO_OBJECT};
 
 fn gpu(scene: &Scene) -> GpuRenderer {
@@ -192,13 +192,15 @@ fn sphere_scene(radius_mm: f32) -> Scene {
                 intensity: 0.3,
             },
         ],
-        effects: vec![
+        sampling: None,
+        passes: None,
+        effects: Some(vec![
             raycast::scene::Effect::FoveatedSampling,
             raycast::scene::Effect::SilhouetteRefinement,
             raycast::scene::Effect::CreaseRefinement,
-        ],
-        crease_deg: 30.0,
-        depth_jump: 0.05,
+        ]),
+        crease_deg: Some(30.0),
+        depth_jump: Some(0.05),
         camera: None,
     };
     Scene::build(&file, Path::new(".")).expect("builds")
@@ -272,7 +274,7 @@ fn cpu_foveated(scene: &Scene, d: &Display, gaze: [f64; 2]) -> (Frame, raycast::
     let g = d.geometry().expect("geometry");
     let model = SamplingModel::new(g, GeislerPerry::default(), 1.0, 17.0).expect("model");
     let s = Settings {
-        mode: Mode::Foveated,
+        mode: Mode::Hybrid,
         layout: Layout::Nyquist,
         triggers: Triggers::from_scene(scene),
         test: TriangleTest::Watertight,
@@ -426,13 +428,15 @@ fn noise_scene() -> Scene {
             motion: None,
         }],
         lights: vec![Light::Headlight { intensity: 1.0 }],
-        effects: vec![
+        sampling: None,
+        passes: None,
+        effects: Some(vec![
             raycast::scene::Effect::FoveatedSampling,
             raycast::scene::Effect::SilhouetteRefinement,
             raycast::scene::Effect::CreaseRefinement,
-        ],
-        crease_deg: 0.5,
-        depth_jump: 0.05,
+        ]),
+        crease_deg: Some(0.5),
+        depth_jump: Some(0.05),
         camera: None,
     };
     Scene::build(&file, Path::new(".")).expect("builds")
@@ -466,7 +470,6 @@ fn a_frame_beyond_the_storage_binding_limit_is_a_clear_error() {
 #[test]
 fn passes_follow_the_scene_effects() {
     use raycast::gpu::{foveated_stages, Stage};
-    use raycast::scene::Effect;
     let names = |scene: &Scene| -> Vec<&str> {
         foveated_stages(&Triggers::from_scene(scene))
             .iter()
@@ -489,16 +492,11 @@ fn passes_follow_the_scene_effects() {
     );
     // Every refinement effect: every stage.
     let mut every = sphere_scene(120.0);
-    every.effects = vec![
-        Effect::FoveatedSampling,
-        Effect::SilhouetteRefinement,
-        Effect::CreaseRefinement,
-        Effect::DepthRefinement,
-    ];
+    every.sampling = Sampling::default();
     assert_eq!(names(&every), all);
     // No refinement effects: no classification, no margin.
     let mut plain = sphere_scene(120.0);
-    plain.effects = vec![Effect::FoveatedSampling];
+    plain.sampling = Sampling::Foveated { refine: vec![] };
     assert_eq!(
         names(&plain),
         [
@@ -509,7 +507,9 @@ fn passes_follow_the_scene_effects() {
         ]
     );
     let mut crease_only = sphere_scene(120.0);
-    crease_only.effects = vec![Effect::FoveatedSampling, Effect::CreaseRefinement];
+    crease_only.sampling = Sampling::Foveated {
+        refine: vec![Refinement::Crease { angle_deg: 30.0 }],
+    };
     assert!(!names(&crease_only).contains(&"silhouette margin"));
     assert!(names(&crease_only).contains(&"classify cells"));
     // Rendering without refinement matches the CPU, and the GPU ran exactly

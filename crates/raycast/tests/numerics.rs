@@ -41,9 +41,11 @@ fn scene_of(
             motion: None,
         }],
         lights: vec![],
-        effects: vec![],
-        crease_deg: 30.0,
-        depth_jump: 0.05,
+        sampling: None,
+        passes: None,
+        effects: Some(vec![]),
+        crease_deg: Some(30.0),
+        depth_jump: Some(0.05),
         camera: None,
     };
     Scene::build(&file, std::path::Path::new(".")).expect("scene")

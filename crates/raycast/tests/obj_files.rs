@@ -170,9 +170,11 @@ fn scene_with_effects(effects: Vec<Effect>) -> SceneFile {
             motion: None,
         }],
         lights: vec![],
-        effects,
-        crease_deg: 30.0,
-        depth_jump: 0.5,
+        sampling: None,
+        passes: None,
+        effects: Some(effects),
+        crease_deg: Some(30.0),
+        depth_jump: Some(0.5),
         camera: None,
     }
 }

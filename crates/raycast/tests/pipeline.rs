@@ -41,7 +41,7 @@ fn frames_with(
         check_coverage,
     };
     let (full, _) = render(scene, &cam, &model, &s(Mode::Full), gaze).expect("full");
-    let (fov, stats) = render(scene, &cam, &model, &s(Mode::Foveated), gaze).expect("foveated");
+    let (fov, stats) = render(scene, &cam, &model, &s(Mode::Hybrid), gaze).expect("foveated");
     (full, fov, stats)
 }
 
@@ -104,9 +104,11 @@ fn big_spheres() -> Scene {
         })
         .collect(),
         lights: vec![Light::Headlight { intensity: 1.0 }],
-        effects: vec![Effect::FoveatedSampling, Effect::SilhouetteRefinement],
-        crease_deg: 30.0,
-        depth_jump: 0.05,
+        sampling: None,
+        passes: None,
+        effects: Some(vec![Effect::FoveatedSampling, Effect::SilhouetteRefinement]),
+        crease_deg: Some(30.0),
+        depth_jump: Some(0.05),
         camera: None,
     };
     Scene::build(&file, Path::new(".")).expect("scene")

@@ -211,9 +211,11 @@ fn triangle_scene(p: [Vec3; 3]) -> Scene {
             motion: None,
         }],
         lights: vec![Light::Headlight { intensity: 1.0 }],
-        effects: vec![Effect::FoveatedSampling],
-        crease_deg: 30.0,
-        depth_jump: 0.05,
+        sampling: None,
+        passes: None,
+        effects: Some(vec![Effect::FoveatedSampling]),
+        crease_deg: Some(30.0),
+        depth_jump: Some(0.05),
         camera: None,
     };
     Scene::build(&file, Path::new(".")).expect("scene")

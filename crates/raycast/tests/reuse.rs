@@ -36,7 +36,7 @@ impl<'a> View<'a> {
             cam: Camera::new(&g),
             model: SamplingModel::new(g, GeislerPerry::default(), 1.0, 17.0).expect("model"),
             settings: Settings {
-                mode: Mode::Foveated,
+                mode: Mode::Hybrid,
                 layout: Layout::Nyquist,
                 triggers: Triggers::from_scene(scene),
                 test: TriangleTest::Watertight,
@@ -209,7 +209,7 @@ fn frames_with_reuse_equal_fresh_frames_through_fixations_saccades_and_changes()
     v.settings.mode = Mode::Full;
     let r = step(&v, c, &mut frame, &mut scratch, "full");
     assert_eq!(r, ReuseStats::default(), "a full frame uses no cache");
-    v.settings.mode = Mode::Foveated;
+    v.settings.mode = Mode::Hybrid;
     let r = step(&v, c, &mut frame, &mut scratch, "after full");
     assert!(r.mask_reused, "after full: {r:?}");
 
@@ -502,14 +502,16 @@ fn small_scenes() -> &'static [Scene; 2] {
                 })
                 .collect(),
                 lights: vec![Light::Headlight { intensity: 1.0 }],
-                effects: vec![
+                sampling: None,
+                passes: None,
+                effects: Some(vec![
                     Effect::FoveatedSampling,
                     Effect::SilhouetteRefinement,
                     Effect::CreaseRefinement,
                     Effect::DepthRefinement,
-                ],
-                crease_deg: 30.0,
-                depth_jump: 0.05,
+                ]),
+                crease_deg: Some(30.0),
+                depth_jump: Some(0.05),
                 camera: None,
             };
             Scene::build(&file, Path::new(".")).expect("scene")

@@ -179,7 +179,9 @@ pub fn run(args: &DemoArgs, out: &mut dyn Write) -> Result<(), String> {
         let (frame, stats) = renderer.render(gaze).map_err(|e| e.to_string())?;
         let model = renderer
             .model_based()
-            .map(|m| crate::render_cmd::ModelBasedReport::new(m.last(), args.model_based.no_gaze).line())
+            .map(|m| {
+                crate::render_cmd::ModelBasedReport::new(m.last(), args.model_based.no_gaze).line()
+            })
             .or_else(|| renderer.ulod().map(|u| u.last().line()));
         line(
             out,

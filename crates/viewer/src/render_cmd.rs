@@ -257,7 +257,7 @@ pub fn run(args: &RenderArgs, out: &mut dyn Write) -> Result<(), String> {
     let mut renderer = Renderer::new(&scene, Camera::new(&geometry), model, &options)
         .map_err(|e| e.to_string())?;
     if renderer.depth_of_field().is_none() {
-        let why = match scene.effect(raycast::scene::Effect::DEPTH_OF_FIELD) {
+        let why = match scene.pass(&raycast::scene::PostPass::DEPTH_OF_FIELD) {
             Some(_) => "its DepthOfField uses method Splat, which has no mip levels (the maps are the mipmap method's)",
             None => "it lists no DepthOfField effect, so there is no map to write",
         };

@@ -232,7 +232,7 @@ fn every_command_honours_the_scene_effects_on_both_backends() {
     let plain = dir.path().join("plain.ron");
     let text = std::fs::read_to_string("../../config/scenes/bunny.ron").expect("bunny");
     let text = text.replace(
-        "effects: [FoveatedSampling, SilhouetteRefinement, CreaseRefinement, DepthRefinement],",
+        "sampling: Foveated(refine: [Silhouette, Crease(angle_deg: 30.0), Depth(jump: 0.05)]),\n    passes: [],",
         "effects: [],",
     );
     assert!(
@@ -279,7 +279,7 @@ fn a_bad_effect_parameter_names_file_line_and_field() {
     let bad = dir.path().join("bad.ron");
     let text = std::fs::read_to_string("../../config/scenes/bunny.ron").expect("bunny");
     let text = text.replace(
-        "effects: [FoveatedSampling, SilhouetteRefinement, CreaseRefinement, DepthRefinement],",
+        "sampling: Foveated(refine: [Silhouette, Crease(angle_deg: 30.0), Depth(jump: 0.05)]),\n    passes: [],",
         "effects: [FoveatedSampling,\n        PorOverlay(half_px: 0)],",
     );
     std::fs::write(&bad, &text).expect("write");

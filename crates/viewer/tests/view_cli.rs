@@ -149,7 +149,7 @@ fn explain_prints_the_passes_of_the_scene_effects() {
     let plain = dir.path().join("plain.ron");
     let text = std::fs::read_to_string("../../config/scenes/bunny.ron").expect("bunny");
     let text = text.replace(
-        "effects: [FoveatedSampling, SilhouetteRefinement, CreaseRefinement, DepthRefinement],",
+        "sampling: Foveated(refine: [Silhouette, Crease(angle_deg: 30.0), Depth(jump: 0.05)]),\n    passes: [],",
         "effects: [],",
     );
     std::fs::write(&plain, text).expect("write");

@@ -62,9 +62,11 @@ fn base_scene(name: String, design: &Design, effects: Vec<Effect>) -> SceneFile 
         materials,
         objects: Vec::new(),
         lights: vec![Light::Headlight { intensity: 1.0 }],
-        effects,
-        crease_deg: 30.0,
-        depth_jump: 0.05,
+        sampling: None,
+        passes: None,
+        effects: Some(effects),
+        crease_deg: Some(30.0),
+        depth_jump: Some(0.05),
         camera: None,
     }
 }
@@ -162,7 +164,7 @@ mod tests {
             assert_eq!(s.objects[at].mesh, mesh_name(t.target_mesh));
             let c = &d.conditions[t.condition];
             let e = effects_for(c);
-            assert_eq!(s.effects, e);
+            assert_eq!(s.effects.as_ref(), Some(&e));
             assert_eq!(
                 e.contains(&Effect::FoveatedSampling),
                 c.method == "hybrid" || c.method == "image"
@@ -173,7 +175,7 @@ mod tests {
             );
             let p = preview_scene(&d, t, &l);
             assert_eq!(p.objects.len(), 1);
-            assert!(p.effects.is_empty());
+            assert!(p.effects.as_ref().is_some_and(|e| e.is_empty()));
             assert_eq!(p.objects[0].mesh, mesh_name(t.target_mesh));
         }
     }

@@ -269,9 +269,9 @@ impl DepthOfFieldSplat {
     }
 
     /// The pass a scene's `DepthOfField(…, method: Splat)` asks for.
-    pub fn from_effect(effect: &raycast::scene::Effect) -> Option<Self> {
+    pub fn from_effect(effect: &raycast::scene::PostPass) -> Option<Self> {
         match effect {
-            raycast::scene::Effect::DepthOfField {
+            raycast::scene::PostPass::DepthOfField {
                 pupil_mm,
                 focal_length_mm,
                 retina_distance_mm,

@@ -1,8 +1,9 @@
-//! Effects: passes over a filled G-buffer, assembled from the scene's effect
-//! list. An effect the scene does not list is never constructed: it
-//! allocates nothing and runs nothing.
+//! Effects: passes over a filled G-buffer, assembled from the scene's
+//! `passes` (or the passes of an old-form file's effect list). A pass the
+//! scene does not list is never constructed: it allocates nothing and runs
+//! nothing.
 //!
-//! Adding an effect: a variant of `raycast::scene::Effect` (with its
+//! Adding an effect: a variant of `raycast::scene::PostPass` (with its
 //! parameters, parsed from the scene file), a module here implementing
 //! [`Pass`], and one arm in [`pass_for`]. A pass with a GPU implementation
 //! says so in [`Pass::into_gpu`]; the frame plan (`crate::plan`) puts it on
@@ -16,7 +17,7 @@ pub mod refocus;
 
 use foveation::SamplingModel;
 use raycast::gpu::{wgpu, GpuError, GpuFrame};
-use raycast::scene::{DofMethod, Effect};
+use raycast::scene::{DofMethod, PostPass};
 use raycast::{Camera, Frame, Scene};
 
 use crate::plan::{Channels, Role};
@@ -132,32 +133,26 @@ pub trait GpuPass: Send {
     }
 }
 
-/// The pass an effect of the scene file runs after the method, if any.
-/// Sampling and refinement effects configure the hybrid method and run no
-/// pass of their own.
-pub fn pass_for(effect: &Effect) -> Option<Box<dyn Pass>> {
+/// The pass a post pass of the scene file runs after the method.
+pub fn pass_for(effect: &PostPass) -> Option<Box<dyn Pass>> {
     match effect {
-        Effect::PorOverlay { half_px } => Some(Box::new(por_overlay::PorOverlay {
+        PostPass::PorOverlay { half_px } => Some(Box::new(por_overlay::PorOverlay {
             half_px: i64::from(*half_px),
         })),
-        Effect::DepthOfField { method, .. } => match method {
+        PostPass::DepthOfField { method, .. } => match method {
             DofMethod::Mipmap => depth_of_field::DepthOfField::from_effect(effect)
                 .map(|p| Box::new(p) as Box<dyn Pass>),
             DofMethod::Splat => dof_splat::DepthOfFieldSplat::from_effect(effect)
                 .map(|p| Box::new(p) as Box<dyn Pass>),
         },
-        Effect::FoveatedSampling
-        | Effect::SilhouetteRefinement
-        | Effect::CreaseRefinement
-        | Effect::DepthRefinement => None,
     }
 }
 
 /// The passes for `scene`, in the order its file lists them, plus the POR
 /// overlay when `por_overlay` asks for it and the scene does not.
 pub fn passes_for(scene: &Scene, por_overlay: bool) -> Vec<Box<dyn Pass>> {
-    let mut passes: Vec<Box<dyn Pass>> = scene.effects.iter().filter_map(pass_for).collect();
-    if por_overlay && !scene.has(Effect::POR_OVERLAY) {
+    let mut passes: Vec<Box<dyn Pass>> = scene.passes().iter().filter_map(pass_for).collect();
+    if por_overlay && !scene.has_pass(&PostPass::POR_OVERLAY) {
         passes.push(Box::new(por_overlay::PorOverlay::default()));
     }
     passes

@@ -46,7 +46,7 @@ pub(crate) fn cast(
     };
     g.set_surface(input.surface);
     let (got, stats) = match settings.mode {
-        Mode::Foveated => {
+        Mode::Hybrid => {
             // The mask kept across frames (the same gaze, or one within
             // the model's tolerance): the GPU keeps its upload and pixel
             // owners too.

@@ -26,7 +26,7 @@ pub static METHOD: MethodModule = MethodModule {
 
 fn make(setup: &MethodSetup<'_>) -> Result<Box<dyn FrameMethod>, RenderError> {
     Ok(Box::new(Hybrid {
-        settings: cast::settings(Mode::Foveated, setup),
+        settings: cast::settings(Mode::Hybrid, setup),
     }))
 }
 

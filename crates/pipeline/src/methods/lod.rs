@@ -19,7 +19,12 @@ pub static METHOD: MethodModule = MethodModule {
 };
 
 fn make(setup: &MethodSetup<'_>) -> Result<Box<dyn FrameMethod>, RenderError> {
-    ModelBased::new(setup.scene, setup.camera, Method::Lod, setup.options.model_based)
-        .map(|m| Box::new(m) as Box<dyn FrameMethod>)
-        .map_err(RenderError::Unsupported)
+    ModelBased::new(
+        setup.scene,
+        setup.camera,
+        Method::Lod,
+        setup.options.model_based,
+    )
+    .map(|m| Box::new(m) as Box<dyn FrameMethod>)
+    .map_err(RenderError::Unsupported)
 }

@@ -36,7 +36,7 @@ pub fn display_model(path: &Path) -> Result<(ScreenGeometry, SamplingModel), Str
 /// Foveated frames with the scene's refinement triggers (the default).
 pub fn foveated(scene: &Scene) -> Settings {
     Settings {
-        mode: Mode::Foveated,
+        mode: Mode::Hybrid,
         layout: Layout::Nyquist,
         triggers: Triggers::from_scene(scene),
         test: TriangleTest::Watertight,

@@ -98,15 +98,17 @@ use rayon::prelude::*;
 use crate::camera::Camera;
 use crate::frame::{Frame, Layer, RowMut, Texel, NO_OBJECT};
 use crate::ray::TriangleTest;
-use crate::scene::{Effect, Hit, Scene};
+use crate::scene::{Hit, Scene};
 use crate::shade::{shade, to_rgb8};
 
-/// Full resolution or foveated.
+/// What the ray caster casts: every pixel, or Murphy 2007's hybrid (the
+/// CSF ray mask, reconstruction, refinement). The caller decides, once,
+/// for the scene (`pipeline::Method::for_scene`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum Mode {
     Full,
     #[default]
-    Foveated,
+    Hybrid,
 }
 
 /// What decides that a cell needs its pixels cast.
@@ -123,17 +125,14 @@ pub struct Triggers {
 }
 
 impl Triggers {
-    /// The triggers a scene's effect list turns on.
+    /// The triggers a scene's sampling turns on.
     pub fn from_scene(scene: &Scene) -> Self {
+        let s = &scene.sampling;
         Self {
-            silhouette: scene.has(Effect::SilhouetteRefinement),
-            crease_deg: scene
-                .has(Effect::CreaseRefinement)
-                .then_some(scene.crease_deg),
-            depth_jump: scene
-                .has(Effect::DepthRefinement)
-                .then_some(scene.depth_jump),
-            margin: scene.has(Effect::SilhouetteRefinement),
+            silhouette: s.silhouette(),
+            crease_deg: s.crease_deg(),
+            depth_jump: s.depth_jump(),
+            margin: s.silhouette(),
         }
     }
 
@@ -292,7 +291,9 @@ pub fn render_with(
 ) -> Result<Stats, foveation::ParamError> {
     let start = Instant::now();
     let (w, h) = (cam.width_px as usize, cam.height_px as usize);
-    let foveated_mode = settings.mode == Mode::Foveated && scene.has(Effect::FoveatedSampling);
+    // The method is chosen once, for the scene, by the caller
+    // (`pipeline::Method::for_scene`): the mode is what runs.
+    let foveated_mode = settings.mode == Mode::Hybrid;
     // The mask first: a bad gaze leaves the frame (and the cache) as it was.
     let mut mask_generation = (0, 0);
     let kept = if foveated_mode {

@@ -12,6 +12,8 @@ use super::file::{
     check_colour, Light, Material, MeshSource, SceneFile, FACE_EXPRESSIONS, MAX_COLOUR,
 };
 use super::motion::{moving_scene, SceneMotion};
+use super::pass::PostPass;
+use super::sampling::Sampling;
 use super::{next_revision, Accel, Scene, WorldTriangle};
 use crate::accel::{Bvh, Bvh4};
 use crate::error::SceneError;
@@ -46,6 +48,8 @@ pub(super) fn hierarchy(triangles: Vec<WorldTriangle>) -> (Vec<WorldTriangle>, B
 
 /// A scene file checked and placed, before its hierarchy is built.
 struct Checked {
+    sampling: Sampling,
+    passes: Vec<PostPass>,
     triangles: Vec<WorldTriangle>,
     materials: Vec<Material>,
     object_material: Vec<u32>,
@@ -73,6 +77,8 @@ impl Scene {
     /// Errors name the field (`objects[3].mesh`) or the mesh file and line.
     pub fn build(file: &SceneFile, base_dir: &Path) -> Result<Self, SceneError> {
         let Checked {
+            sampling,
+            passes,
             triangles,
             materials,
             object_material,
@@ -99,9 +105,8 @@ impl Scene {
             object_materials,
             object_importance,
             lights,
-            effects: file.effects.clone(),
-            crease_deg: file.crease_deg,
-            depth_jump: file.depth_jump,
+            sampling,
+            passes,
             triangles,
             bvh4: Bvh4::collapse(&bvh),
             bvh,
@@ -123,7 +128,7 @@ impl Scene {
     }
 
     fn checked(file: &SceneFile, base_dir: &Path) -> Result<Checked, SceneError> {
-        check_effects(file)?;
+        let (sampling, passes) = file.sampling_and_passes()?;
         check_colour("background", file.background)?;
         let meshes = load_meshes(file, base_dir)?;
         let (materials, material_index) = check_materials(file)?;
@@ -134,9 +139,11 @@ impl Scene {
             object_importance,
         } = place_objects(file, &meshes, &material_index)?;
         check_lights(file)?;
-        check_refinement(file)?;
+        check_refinement(file, &sampling)?;
         let motion = moving_scene(file, &meshes)?;
         Ok(Checked {
+            sampling,
+            passes,
             triangles,
             materials,
             object_material,
@@ -149,26 +156,6 @@ impl Scene {
 /// Whether every component of `v` is finite.
 fn finite3(v: (f32, f32, f32)) -> bool {
     v.0.is_finite() && v.1.is_finite() && v.2.is_finite()
-}
-
-/// Each effect's parameters, and each kind listed once.
-fn check_effects(file: &SceneFile) -> Result<(), SceneError> {
-    for (i, e) in file.effects.iter().enumerate() {
-        e.validate(&format!("effects[{i}]"))?;
-        // Each effect is a switch or one pass with one set of
-        // parameters (`Scene::effect` reads the first): a second of a
-        // kind would run twice or be ignored.
-        if let Some(first) = file.effects[..i].iter().position(|x| x.same_kind(e)) {
-            return Err(SceneError::field(
-                format!("effects[{i}]"),
-                format!(
-                    "{} is listed twice (also effects[{first}]): each effect may appear once",
-                    e.kind_name()
-                ),
-            ));
-        }
-    }
-    Ok(())
 }
 
 /// Every mesh loaded (OBJ) or generated, by name; errors name
@@ -482,17 +469,22 @@ fn check_lights(file: &SceneFile) -> Result<(), SceneError> {
     Ok(())
 }
 
-/// The refinement parameters zero or positive.
-fn check_refinement(file: &SceneFile) -> Result<(), SceneError> {
+/// The refinement parameters zero or positive, in either form.
+fn check_refinement(file: &SceneFile, sampling: &Sampling) -> Result<(), SceneError> {
     for (name, v) in [
         ("crease_deg", file.crease_deg),
         ("depth_jump", file.depth_jump),
     ] {
-        if !(v.is_finite() && v >= 0.0) {
-            return Err(SceneError::field(name, "must be zero or positive"));
+        if let Some(v) = v {
+            if !(v.is_finite() && v >= 0.0) {
+                return Err(SceneError::field(name, "must be zero or positive"));
+            }
         }
     }
-    Ok(())
+    if file.is_old_form() {
+        return Ok(());
+    }
+    sampling.check_parameters("sampling")
 }
 
 /// An OBJ path from a scene file: absolute as it is, relative to the

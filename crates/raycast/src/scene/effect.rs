@@ -1,13 +1,21 @@
-//! The effects a scene file lists (foveated sampling, the refinement
-//! triggers and the post passes) with the parameters of each and their
-//! checks.
+//! The old form of a scene's effects: one list `effects: [FoveatedSampling,
+//! SilhouetteRefinement, …, DepthOfField(…)]` mixing the sampling, its
+//! refinement triggers and the post passes, with the refinement parameters
+//! (`crease_deg`, `depth_jump`) at the scene's top level. Labs have files
+//! in this form: it is still read, and translated into the new form
+//! ([`Sampling`] and [`PostPass`]) when a scene is built.
 
 use serde::{Deserialize, Serialize};
 
+use super::pass::{
+    default_dof_focal_length_mm, default_dof_pupil_mm, default_dof_retina_distance_mm,
+    default_por_half_px, DofFocus, DofMethod, DofRefocus, PostPass,
+};
+use super::sampling::{Refinement, Sampling};
 use crate::error::SceneError;
 
-/// Effects a scene asks for; the pipeline runs only these (DESIGN.md).
-/// Each kind may appear once in a scene (a second is an error naming both).
+/// An entry of the old form's `effects` list. Each kind may appear once in
+/// a scene (a second is an error naming both).
 ///
 /// An effect may carry parameters, written in the scene file as
 /// `Name(field: value, …)` (RON's struct variants: the parentheses are
@@ -69,111 +77,10 @@ pub enum Effect {
     },
 }
 
-/// How [`Effect::DepthOfField`] blurs (Lee 2009 offers two methods).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
-pub enum DofMethod {
-    /// Ch. 4: nonlinear mipmap interpolation (the default).
-    #[default]
-    Mipmap,
-    /// Ch. 5: point splatting on per-pixel layers, the hidden surfaces
-    /// cast by rays (CPU and GPU; slower, better partial occlusion).
-    Splat,
-}
-
-/// Where [`Effect::DepthOfField`] focuses.
-#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub enum DofFocus {
-    /// At the depth under the point of regard (a small-window median that
-    /// ignores the background).
-    #[default]
-    Gaze,
-    /// At a fixed eye distance (mm): beyond the focal length, or `inf`.
-    Fixed { depth_mm: f64 },
-    /// At the eye distance of the binocular 3-D gaze point (vergence,
-    /// Murphy & Duchowski 2001 eqs. 1–3) on frames whose tracker sample has
-    /// both eyes valid and converging; on other frames (one eye, a blink,
-    /// a mouse, parallel or diverging lines of sight) as `Gaze`.
-    Vergence,
-    /// At the depth of the object Lee's attention model (2009 ch. 3,
-    /// `crates/attention`) predicts the viewer attends, from the rendered
-    /// frame alone: no eye tracker needed. While no object is attended the
-    /// last focus is kept (before any, the eye is relaxed, at infinity).
-    Attention,
-}
-
-/// How [`Effect::DepthOfField`]'s focal depth follows a change of its focus
-/// target (Lee 2009 §6.1, the eye's refocusing latency). The filtered
-/// quantity is the accommodation in diopters (1/depth), not the depth.
-#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub enum DofRefocus {
-    /// The focal depth is the target's, frame by frame (no latency).
-    #[default]
-    Instant,
-    /// Eq. 6.1: a linear transition over `ms` milliseconds (Lee: 300 ms,
-    /// the 200–300 ms refocusing latency) from the focus shown when the
-    /// target jumped to the (tracked) new target.
-    Interpolate {
-        #[serde(default = "default_dof_refocus_ms")]
-        ms: f64,
-    },
-    /// A first-order low-pass filter of cut-off `hz` (Lee: below 2 Hz;
-    /// 1 Hz in his Fig. 6.1).
-    LowPass {
-        #[serde(default = "default_dof_refocus_hz")]
-        hz: f64,
-    },
-}
-
-/// Longest refocusing transition a scene may give, ms.
-pub const DOF_REFOCUS_MS_MAX: f64 = 10_000.0;
-
-/// Highest refocusing low-pass cut-off a scene may give, Hz.
-pub const DOF_REFOCUS_HZ_MAX: f64 = 100.0;
-
-fn default_dof_refocus_ms() -> f64 {
-    300.0
-}
-
-fn default_dof_refocus_hz() -> f64 {
-    1.0
-}
-
-/// Largest pupil (aperture) diameter a scene may give, mm: far beyond an
-/// eye's 8 mm, for exaggerated blur.
-pub const DOF_PUPIL_MM_MAX: f64 = 100.0;
-
-/// Largest focal length or lens-to-retina distance a scene may give, mm.
-pub const DOF_LENS_MM_MAX: f64 = 1000.0;
-
-fn default_dof_pupil_mm() -> f64 {
-    4.0
-}
-
-fn default_dof_focal_length_mm() -> f64 {
-    16.7
-}
-
-fn default_dof_retina_distance_mm() -> f64 {
-    24.0
-}
-
-/// The seed's POR box: 64 px across.
-pub const POR_HALF_PX: u32 = 32;
-
-/// Largest POR box half-size a scene may ask for (a 8192-px box: larger
-/// than any supported display).
-pub const POR_HALF_PX_MAX: u32 = 4096;
-
-fn default_por_half_px() -> u32 {
-    POR_HALF_PX
-}
-
 impl Effect {
     /// The POR overlay with the seed's size.
     pub const POR_OVERLAY: Effect = Effect::PorOverlay {
-        half_px: POR_HALF_PX,
+        half_px: super::pass::POR_HALF_PX,
     };
 
     /// Depth of field with its defaults (Lee's adult eye, focus at the gaze).
@@ -206,84 +113,83 @@ impl Effect {
         }
     }
 
-    /// Checks the parameters; the error names the field under `field`.
-    pub(super) fn validate(&self, field: &str) -> Result<(), SceneError> {
+    /// The post pass this entry asks for; `None` for the sampling and its
+    /// refinement triggers.
+    pub fn pass(&self) -> Option<PostPass> {
         match *self {
-            Effect::PorOverlay { half_px } if !(1..=POR_HALF_PX_MAX).contains(&half_px) => {
-                Err(SceneError::field(
-                    format!("{field}.half_px"),
-                    format!("must be 1 to {POR_HALF_PX_MAX} pixels, found {half_px}"),
-                ))
-            }
+            Effect::PorOverlay { half_px } => Some(PostPass::PorOverlay { half_px }),
             Effect::DepthOfField {
                 pupil_mm,
                 focal_length_mm,
                 retina_distance_mm,
                 focus,
                 refocus,
-                // Every method takes every lens; serde refuses an unknown
-                // method, naming the line.
                 method,
                 smooth_foreground,
                 highlights,
-            } => {
-                let bad = |name: &str, msg: String| {
-                    Err(SceneError::field(format!("{field}.{name}"), msg))
-                };
-                if highlights && method == DofMethod::Mipmap {
-                    return bad(
-                        "highlights",
-                        "applies to method Splat only (the mipmap method has no per-sample colours to extrapolate)".into(),
-                    );
-                }
-                if smooth_foreground && method == DofMethod::Splat {
-                    return bad(
-                        "smooth_foreground",
-                        "applies to method Mipmap only: Splat renders partial occlusion with the hidden surface".into(),
-                    );
-                }
-                if !(0.0..=DOF_PUPIL_MM_MAX).contains(&pupil_mm) {
-                    return bad(
-                        "pupil_mm",
-                        format!("must be 0 to {DOF_PUPIL_MM_MAX} mm, found {pupil_mm}"),
-                    );
-                }
-                for (name, v) in [
-                    ("focal_length_mm", focal_length_mm),
-                    ("retina_distance_mm", retina_distance_mm),
-                ] {
-                    if !(v > 0.0 && v <= DOF_LENS_MM_MAX) {
-                        return bad(
-                            name,
-                            format!("must be above 0 and at most {DOF_LENS_MM_MAX} mm, found {v}"),
-                        );
-                    }
-                }
-                if let DofFocus::Fixed { depth_mm } = focus {
-                    if depth_mm.is_nan() || depth_mm <= focal_length_mm {
-                        return bad(
-                            "focus.depth_mm",
-                            format!("must be beyond the focal length ({focal_length_mm} mm) or inf, found {depth_mm}"),
-                        );
-                    }
-                }
-                match refocus {
-                    DofRefocus::Interpolate { ms } if !(ms > 0.0 && ms <= DOF_REFOCUS_MS_MAX) => {
-                        bad(
-                            "refocus.ms",
-                            format!(
-                                "must be above 0 and at most {DOF_REFOCUS_MS_MAX} ms, found {ms}"
-                            ),
-                        )
-                    }
-                    DofRefocus::LowPass { hz } if !(hz > 0.0 && hz <= DOF_REFOCUS_HZ_MAX) => bad(
-                        "refocus.hz",
-                        format!("must be above 0 and at most {DOF_REFOCUS_HZ_MAX} Hz, found {hz}"),
-                    ),
-                    _ => Ok(()),
-                }
-            }
-            _ => Ok(()),
+            } => Some(PostPass::DepthOfField {
+                pupil_mm,
+                focal_length_mm,
+                retina_distance_mm,
+                focus,
+                refocus,
+                method,
+                smooth_foreground,
+                highlights,
+            }),
+            Effect::FoveatedSampling
+            | Effect::SilhouetteRefinement
+            | Effect::CreaseRefinement
+            | Effect::DepthRefinement => None,
         }
     }
+}
+
+/// The old form's list checked (each entry's parameters, each kind once;
+/// errors name `effects[i]…`) and translated: the sampling, with the
+/// refinement triggers the list turns on and the top-level parameters
+/// inside it, and the post passes in list order. Refinement triggers
+/// without `FoveatedSampling` had no effect and are dropped.
+pub(super) fn translate(
+    effects: &[Effect],
+    crease_deg: f32,
+    depth_jump: f32,
+) -> Result<(Sampling, Vec<PostPass>), SceneError> {
+    let mut passes = Vec::new();
+    for (i, e) in effects.iter().enumerate() {
+        if let Some(pass) = e.pass() {
+            pass.validate(&format!("effects[{i}]"))?;
+            passes.push(pass);
+        }
+        // Each effect is a switch or one pass with one set of
+        // parameters: a second of a kind would run twice or be ignored.
+        if let Some(first) = effects[..i].iter().position(|x| x.same_kind(e)) {
+            return Err(SceneError::field(
+                format!("effects[{i}]"),
+                format!(
+                    "{} is listed twice (also effects[{first}]): each effect may appear once",
+                    e.kind_name()
+                ),
+            ));
+        }
+    }
+    let has = |kind: Effect| effects.iter().any(|e| e.same_kind(&kind));
+    let sampling = if has(Effect::FoveatedSampling) {
+        let mut refine = Vec::new();
+        if has(Effect::SilhouetteRefinement) {
+            refine.push(Refinement::Silhouette);
+        }
+        if has(Effect::CreaseRefinement) {
+            refine.push(Refinement::Crease {
+                angle_deg: crease_deg,
+            });
+        }
+        if has(Effect::DepthRefinement) {
+            refine.push(Refinement::Depth { jump: depth_jump });
+        }
+        Sampling::Foveated { refine }
+    } else {
+        Sampling::Full
+    };
+    Ok((sampling, passes))
 }

@@ -1,12 +1,15 @@
 //! The scene file's schema (`config/scenes/*.ron`): meshes, materials,
-//! objects, lights, the effects it asks for and the camera's path, with
-//! the defaults a file may leave out.
+//! objects, lights, the sampling and post passes it asks for (or the old
+//! form's effect list) and the camera's path, with the defaults a file may
+//! leave out.
 
 use std::collections::BTreeMap;
 
 use serde::{Deserialize, Serialize};
 
-use super::effect::Effect;
+use super::effect::{self, Effect};
+use super::pass::PostPass;
+use super::sampling::{Sampling, DEFAULT_CREASE_DEG, DEFAULT_DEPTH_JUMP};
 use crate::error::SceneError;
 use crate::motion::Motion;
 
@@ -134,15 +137,28 @@ pub struct SceneFile {
     pub objects: Vec<Object>,
     #[serde(default = "default_lights")]
     pub lights: Vec<Light>,
-    #[serde(default = "default_effects")]
-    pub effects: Vec<Effect>,
-    /// Crease angle for `CreaseRefinement`, degrees.
-    #[serde(default = "default_crease")]
-    pub crease_deg: f32,
-    /// Depth ratio for `DepthRefinement`: refine when max/min hit distance
-    /// across a cell's corners exceeds 1 + this.
-    #[serde(default = "default_depth_jump")]
-    pub depth_jump: f32,
+    /// How the frame is sampled (`Full`, or `Foveated(refine: […])` with
+    /// the hybrid's refinement triggers); none given: the seed's, foveated
+    /// with every trigger ([`Sampling::default`]).
+    #[serde(default, skip_serializing_if = "Option::is_none", with = "present")]
+    pub sampling: Option<Sampling>,
+    /// The post passes, run in this order; none given: none.
+    #[serde(default, skip_serializing_if = "Option::is_none", with = "present")]
+    pub passes: Option<Vec<PostPass>>,
+    /// The old form's effect list (sampling, triggers and passes in one
+    /// list), read for older files; a file gives either this form or
+    /// `sampling`/`passes`, not both.
+    #[serde(default, skip_serializing_if = "Option::is_none", with = "present")]
+    pub effects: Option<Vec<Effect>>,
+    /// The old form's crease angle for `CreaseRefinement`, degrees (30
+    /// when not given).
+    #[serde(default, skip_serializing_if = "Option::is_none", with = "present")]
+    pub crease_deg: Option<f32>,
+    /// The old form's depth ratio for `DepthRefinement`: refine when
+    /// max/min hit distance across a cell's corners exceeds 1 + this (0.05
+    /// when not given).
+    #[serde(default, skip_serializing_if = "Option::is_none", with = "present")]
+    pub depth_jump: Option<f32>,
     /// A keyframed path of the viewer (eye and display together) through
     /// the world (`crate::motion`); none: the camera stands still.
     #[serde(default)]
@@ -157,21 +173,101 @@ fn default_lights() -> Vec<Light> {
     vec![Light::Headlight { intensity: 1.0 }]
 }
 
-fn default_effects() -> Vec<Effect> {
-    vec![
-        Effect::FoveatedSampling,
-        Effect::SilhouetteRefinement,
-        Effect::CreaseRefinement,
-        Effect::DepthRefinement,
-    ]
+impl SceneFile {
+    /// Replaces the file's sampling and passes, in whichever form it gave
+    /// them, by the old form's effect list (the refinement parameters
+    /// taken as the file gave them in the old form, else the defaults):
+    /// for code that composes scenes from such a list.
+    pub fn set_effects(&mut self, effects: Vec<Effect>) {
+        self.sampling = None;
+        self.passes = None;
+        self.effects = Some(effects);
+    }
+
+    /// Whether the file uses the old form (`effects`, `crease_deg`,
+    /// `depth_jump`).
+    pub fn is_old_form(&self) -> bool {
+        self.effects.is_some() || self.crease_deg.is_some() || self.depth_jump.is_some()
+    }
+
+    /// The sampling and post passes the file asks for, in either form: the
+    /// old form translated, defaults filled in. Errors name the field: a
+    /// file that mixes the forms (at its first old-form field), a kind
+    /// listed twice, a pass's bad parameter. The refinement parameters are
+    /// checked where the scene is built.
+    pub fn sampling_and_passes(&self) -> Result<(Sampling, Vec<PostPass>), SceneError> {
+        if self.is_old_form() {
+            if self.sampling.is_some() || self.passes.is_some() {
+                let old = if self.effects.is_some() {
+                    "effects"
+                } else if self.crease_deg.is_some() {
+                    "crease_deg"
+                } else {
+                    "depth_jump"
+                };
+                let new = if self.sampling.is_some() {
+                    "sampling"
+                } else {
+                    "passes"
+                };
+                return Err(SceneError::field(
+                    old,
+                    format!(
+                        "`{old}` is the old form and `{new}` the new: give either `effects` (with `crease_deg`, `depth_jump`) or `sampling` and `passes`, not both"
+                    ),
+                ));
+            }
+            let seed = vec![
+                Effect::FoveatedSampling,
+                Effect::SilhouetteRefinement,
+                Effect::CreaseRefinement,
+                Effect::DepthRefinement,
+            ];
+            return effect::translate(
+                self.effects.as_deref().unwrap_or(&seed),
+                self.crease_deg.unwrap_or(DEFAULT_CREASE_DEG),
+                self.depth_jump.unwrap_or(DEFAULT_DEPTH_JUMP),
+            );
+        }
+        let sampling = self.sampling.clone().unwrap_or_default();
+        sampling.check_triggers("sampling")?;
+        let passes = self.passes.clone().unwrap_or_default();
+        for (i, p) in passes.iter().enumerate() {
+            p.validate(&format!("passes[{i}]"))?;
+            if let Some(first) = passes[..i].iter().position(|x| x.same_kind(p)) {
+                return Err(SceneError::field(
+                    format!("passes[{i}]"),
+                    format!(
+                        "{} is listed twice (also passes[{first}]): each pass may appear once",
+                        p.kind_name()
+                    ),
+                ));
+            }
+        }
+        Ok((sampling, passes))
+    }
 }
 
-fn default_crease() -> f32 {
-    30.0
-}
+/// An optional field written as its bare value (`sampling: Full`, not
+/// `Some(Full)`): absent is `None`.
+mod present {
+    use serde::{Deserialize, Deserializer, Serialize, Serializer};
 
-fn default_depth_jump() -> f32 {
-    0.05
+    pub fn serialize<T: Serialize, S: Serializer>(
+        value: &Option<T>,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        match value {
+            Some(v) => v.serialize(serializer),
+            None => serializer.serialize_none(),
+        }
+    }
+
+    pub fn deserialize<'de, T: Deserialize<'de>, D: Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Option<T>, D::Error> {
+        T::deserialize(deserializer).map(Some)
+    }
 }
 
 /// Largest colour component and light intensity a scene may give: far

@@ -3,29 +3,34 @@
 //! screen centre at the origin, x right, y up, z towards the viewer; objects
 //! behind the screen have z < 0), with one BVH over all of them.
 //!
-//! The file's schema is in [`file`] (the post-effects it lists and their
-//! parameters in [`effect`]); building, checking and placing a scene is
-//! [`build`]; moving scenes pose themselves with [`motion`]; ray queries
-//! are in [`intersect`].
+//! The file's schema is in [`file`]: the sampling and its refinement
+//! triggers in [`sampling`], the post passes and their parameters in
+//! [`pass`], the old form's effect list in [`effect`]. Building, checking
+//! and placing a scene is [`build`]; moving scenes pose themselves with
+//! [`motion`]; ray queries are in [`intersect`].
 
 mod build;
 mod effect;
 mod file;
 mod intersect;
 mod motion;
+mod pass;
+mod sampling;
 
 use crate::accel::{Bvh, Bvh4, UniformGrid};
 use crate::ray::Aabb;
 use build::hierarchy;
 
 pub use build::{BYTES_PER_TRIANGLE, MAX_TRIANGLES};
-pub use effect::{
-    DofFocus, DofMethod, DofRefocus, Effect, DOF_LENS_MM_MAX, DOF_PUPIL_MM_MAX, DOF_REFOCUS_HZ_MAX,
-    DOF_REFOCUS_MS_MAX, POR_HALF_PX, POR_HALF_PX_MAX,
-};
+pub use effect::Effect;
 pub use file::{Light, Material, MeshSource, Object, SceneFile, FACE_EXPRESSIONS, MAX_COLOUR};
 pub use intersect::Hit;
 pub use motion::PoseState;
+pub use pass::{
+    DofFocus, DofMethod, DofRefocus, PostPass, DOF_LENS_MM_MAX, DOF_PUPIL_MM_MAX,
+    DOF_REFOCUS_HZ_MAX, DOF_REFOCUS_MS_MAX, POR_HALF_PX, POR_HALF_PX_MAX,
+};
+pub use sampling::{Refinement, Sampling, DEFAULT_CREASE_DEG, DEFAULT_DEPTH_JUMP};
 
 use glam::Vec3;
 use motion::SceneMotion;
@@ -53,9 +58,10 @@ pub struct Scene {
     /// object id like `object_materials`.
     pub object_importance: Vec<f32>,
     pub lights: Vec<Light>,
-    pub effects: Vec<Effect>,
-    pub crease_deg: f32,
-    pub depth_jump: f32,
+    /// How the frame is sampled, with the hybrid's refinement triggers.
+    pub sampling: Sampling,
+    /// The post passes, in order.
+    pub passes: Vec<PostPass>,
     /// Triangles in BVH leaf order.
     pub triangles: Vec<WorldTriangle>,
     pub bvh: Bvh,
@@ -134,9 +140,8 @@ impl Scene {
             object_materials: self.object_materials.clone(),
             object_importance: self.object_importance.clone(),
             lights,
-            effects: self.effects.clone(),
-            crease_deg: self.crease_deg,
-            depth_jump: self.depth_jump,
+            sampling: self.sampling.clone(),
+            passes: self.passes.clone(),
             triangles,
             bvh4: Bvh4::collapse(&bvh),
             bvh,
@@ -173,13 +178,18 @@ impl Scene {
         self.accel = Accel::Grid;
     }
 
-    /// Whether the scene lists an effect of `e`'s kind (parameters aside).
-    pub fn has(&self, e: Effect) -> bool {
-        self.effects.iter().any(|x| x.same_kind(&e))
+    /// The post passes, in order.
+    pub fn passes(&self) -> &[PostPass] {
+        &self.passes
     }
 
-    /// The scene's effect of `e`'s kind, with its parameters.
-    pub fn effect(&self, e: Effect) -> Option<&Effect> {
-        self.effects.iter().find(|x| x.same_kind(&e))
+    /// The scene's pass of `kind`'s kind, with its parameters.
+    pub fn pass(&self, kind: &PostPass) -> Option<&PostPass> {
+        self.passes.iter().find(|x| x.same_kind(kind))
+    }
+
+    /// Whether the scene asks for a pass of `kind`'s kind.
+    pub fn has_pass(&self, kind: &PostPass) -> bool {
+        self.pass(kind).is_some()
     }
 }

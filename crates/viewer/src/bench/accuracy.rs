@@ -6,7 +6,7 @@ use std::io::Write;
 use foveation::quality::{self, GazeWeights, Image};
 use foveation::{GeislerPerry, SamplingModel};
 use pipeline::Renderer;
-use raycast::scene::Effect;
+use raycast::scene::Sampling;
 use raycast::{Camera, Frame};
 
 use crate::args::AccelArg;
@@ -70,8 +70,8 @@ pub fn run(args: &AccuracyArgs, out: &mut dyn Write) -> Result<(), String> {
     }
     let mut scene = load_scene(&args.scene)?;
     // The sweep decides the passes, whatever the scene file lists.
-    if !scene.has(Effect::FoveatedSampling) {
-        scene.effects.push(Effect::FoveatedSampling);
+    if !scene.sampling.is_foveated() {
+        scene.sampling = Sampling::Foveated { refine: Vec::new() };
     }
     let camera = Camera::new(&geometry);
     let mut configs = configurations(args.quick);

@@ -497,7 +497,9 @@ fn evaluate(
     let radius = radius_px(geometry, args.radius_deg);
     // Effects with dynamics (refocusing) and scenes that move need every
     // frame rendered; a static scene without effects is rendered once.
-    let dynamic = !scene.effects.is_empty() || scene.is_moving();
+    let dynamic = scene.sampling != raycast::scene::Sampling::Full
+        || !scene.passes.is_empty()
+        || scene.is_moving();
     let centre = geometry.centre_px();
     let mut still: Option<(Frame, bool)> = None;
     let mut result = SessionResult {

@@ -30,7 +30,12 @@ impl Refinement {
         Triggers {
             silhouette,
             margin: silhouette,
-            crease_deg: (self == Refinement::SilhouetteCrease).then_some(scene.crease_deg),
+            crease_deg: (self == Refinement::SilhouetteCrease).then_some(
+                scene
+                    .sampling
+                    .crease_deg()
+                    .unwrap_or(raycast::scene::DEFAULT_CREASE_DEG),
+            ),
             depth_jump: None,
         }
     }

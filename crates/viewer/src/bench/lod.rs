@@ -31,7 +31,7 @@ use foveation::Display;
 use glam::{Quat, Vec3};
 use pipeline::{BackendChoice, Method, Options, Renderer};
 use raycast::raster::{self, RasterScratch};
-use raycast::scene::Effect;
+use raycast::scene::{Effect, Sampling};
 use raycast::{Camera, Frame, Scene};
 use serde::Serialize;
 
@@ -472,8 +472,8 @@ pub fn run(args: &LodArgs, out: &mut dyn Write) -> Result<(), String> {
     }
     for path in &args.scene {
         let mut s = load_scene(path)?;
-        if !s.has(Effect::FoveatedSampling) {
-            s.effects.push(Effect::FoveatedSampling);
+        if !s.sampling.is_foveated() {
+            s.sampling = Sampling::Foveated { refine: Vec::new() };
         }
         meshes.push((s.name.clone(), s));
     }

@@ -15,7 +15,7 @@ pub struct Placement {
 
 /// A torus of `2·segments·sides` faces (major radius 1, minor 0.35,
 /// rotated 60° and 20°), placed as asked, lit by a headlight, with the
-/// scene's `effects`.
+/// scene's `effects` (the old form's list).
 pub fn torus_scene(
     segments: u32,
     sides: u32,
@@ -45,9 +45,11 @@ pub fn torus_scene(
             motion: None,
         }],
         lights: vec![Light::Headlight { intensity: 1.0 }],
-        effects,
-        crease_deg: 30.0,
-        depth_jump: 0.05,
+        sampling: None,
+        passes: None,
+        effects: Some(effects),
+        crease_deg: Some(30.0),
+        depth_jump: Some(0.05),
         camera: None,
     };
     Scene::build(&file, Path::new(".")).map_err(|e| e.to_string())

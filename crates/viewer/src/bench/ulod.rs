@@ -134,9 +134,11 @@ fn generate(
         materials: Default::default(),
         objects: Vec::new(),
         lights: Vec::new(),
-        effects: Vec::new(),
-        crease_deg: 30.0,
-        depth_jump: 0.05,
+        sampling: None,
+        passes: None,
+        effects: Some(Vec::new()),
+        crease_deg: Some(30.0),
+        depth_jump: Some(0.05),
         camera: None,
     };
     let mut placed = Vec::with_capacity(count);

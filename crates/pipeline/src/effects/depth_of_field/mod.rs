@@ -217,9 +217,9 @@ impl DepthOfField {
 
     /// The pass for a scene's `DepthOfField` effect of the mipmap method;
     /// `None` for any other (the splatting method is another pass).
-    pub fn from_effect(effect: &raycast::scene::Effect) -> Option<Self> {
+    pub fn from_effect(effect: &raycast::scene::PostPass) -> Option<Self> {
         match effect {
-            raycast::scene::Effect::DepthOfField {
+            raycast::scene::PostPass::DepthOfField {
                 pupil_mm,
                 focal_length_mm,
                 retina_distance_mm,

@@ -398,7 +398,21 @@ impl RunWriter {
 
 /// Exports the session folders `dirs` as a BIDS dataset in `out` with task
 /// label `task`. See the module documentation for the layout and choices.
+/// The `method` column's levels describe full, hybrid and image; see
+/// [`export_bids_described`] for the other methods a design may name.
 pub fn export_bids(dirs: &[PathBuf], out: &Path, task: &str) -> Result<BidsExport, BidsError> {
+    export_bids_described(dirs, out, task, &[])
+}
+
+/// [`export_bids`] with the `method` column's levels described for every
+/// method in `methods` (name, one line of help: the renderer's list, e.g.
+/// a registered method module), besides full, hybrid and image.
+pub fn export_bids_described(
+    dirs: &[PathBuf],
+    out: &Path,
+    task: &str,
+    methods: &[(&str, &str)],
+) -> Result<BidsExport, BidsError> {
     if dirs.is_empty() {
         return Err(BidsError::NoInputs);
     }
@@ -602,6 +616,14 @@ pub fn export_bids(dirs: &[PathBuf], out: &Path, task: &str) -> Result<BidsExpor
             write_text(&guard, &events_path, &ev)?;
             export.files.push(events_path);
             let d = &info.display;
+            let mut method_levels = json!({"full": "full-resolution ray casting (control)", "hybrid": "hybrid gaze-contingent rendering", "image": "image-based foveation: every pixel cast, then blurred by a Gaussian pyramid at the ray mask's level per pixel"});
+            if let Some(levels) = method_levels.as_object_mut() {
+                for (name, help) in methods {
+                    levels
+                        .entry(name.to_string())
+                        .or_insert_with(|| json!(help));
+                }
+            }
             let events_json = json!({
                 "TaskName": task,
                 "TaskDescription": format!("Visual search, design {:?}: find the target mesh in the search grid and press the response key.", info.design_name),
@@ -618,7 +640,7 @@ pub fn export_bids(dirs: &[PathBuf], out: &Path, task: &str) -> Result<BidsExpor
                 "trial_type": {"Description": "Condition (scene type) name from the design file."},
                 "trial": {"Description": "Trial index within the session, from 0."},
                 "run": {"Description": "Run (repetition of all conditions) of the design, from 0; the file's run- entity is the sitting instead."},
-                "method": {"Description": "Rendering method (the condition's method in the design file; the plan column says what ran).", "Levels": {"full": "full-resolution ray casting (control)", "hybrid": "hybrid gaze-contingent rendering", "image": "image-based foveation: every pixel cast, then blurred by a Gaussian pyramid at the ray mask's level per pixel"}},
+                "method": {"Description": "Rendering method (the condition's method in the design file; the plan column says what ran).", "Levels": method_levels},
                 "inset_deg": {"Description": "Diameter of the full-resolution inset around the point of regard; n/a for the full method.", "Units": "deg"},
                 "silhouette_edges": {"Description": "Whether silhouette edges were kept in the periphery.", "Levels": {"1": "edges kept", "0": "edges discarded"}},
                 "target_row": {"Description": "Row of the target cell in the search grid, from 0."},

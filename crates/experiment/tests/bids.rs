@@ -2,7 +2,7 @@
 //! sample, n/a for invalid samples), the sidecars' REQUIRED keys, the
 //! events, the labels, and the refusals.
 
-use experiment::bids::{bids_label, export_bids, BidsError, BIDS_VERSION};
+use experiment::bids::{bids_label, export_bids, export_bids_described, BidsError, BIDS_VERSION};
 use experiment::session::{
     DisplayInfo, SampleRow, SessionInfo, TrialRow, TsvLog, DESIGN_RON, SAMPLES_TSV, SESSION_JSON,
     TRIALS_TSV,
@@ -321,6 +321,23 @@ fn synthetic_sessions_are_labelled() {
     let side =
         json(&out.join("sub-sim01/beh/sub-sim01_task-search_run-1_recording-eye1_physio.json"));
     assert_eq!(side["SyntheticData"], true);
+}
+
+#[test]
+fn the_method_levels_describe_every_method_the_renderer_names() {
+    let tmp = tempfile::tempdir().unwrap();
+    let a = make(tmp.path(), "P01", false, 30);
+    let out = tmp.path().join("bids");
+    let methods = [
+        ("layers", "Guenter et al. 2012's nested layers"),
+        ("full", "not used: full keeps its own description"),
+    ];
+    export_bids_described(&[a.dir], &out, "search", &methods).unwrap();
+    let side = json(&out.join("sub-P01/beh/sub-P01_task-search_run-1_events.json"));
+    let levels = &side["method"]["Levels"];
+    assert_eq!(levels["layers"], "Guenter et al. 2012's nested layers");
+    assert_eq!(levels["full"], "full-resolution ray casting (control)");
+    assert!(levels["hybrid"].is_string() && levels["image"].is_string());
 }
 
 #[test]

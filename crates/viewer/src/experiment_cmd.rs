@@ -214,7 +214,12 @@ pub fn run(args: &ExperimentArgs, out: &mut dyn Write) -> Result<(), String> {
             .map_err(|e| e.to_string())
         }
         ExperimentCommand::ExportBids(a) => {
-            let done = experiment::bids::export_bids(&a.dirs, &a.out, &a.task)
+            // Every method the renderer knows is described in the events'
+            // sidecar, so a design's module method (`layers`) has a level.
+            let methods: Vec<(&str, &str)> = pipeline::Method::all()
+                .map(|m| (m.name(), m.help()))
+                .collect();
+            let done = experiment::bids::export_bids_described(&a.dirs, &a.out, &a.task, &methods)
                 .map_err(|e| e.to_string())?;
             for w in &done.warnings {
                 eprintln!("warning: {w}");

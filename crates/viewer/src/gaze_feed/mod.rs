@@ -27,8 +27,6 @@ use tracker_hal::Recorder;
 pub use recordings::close_recordings_now;
 pub use setup::GazeSetup;
 pub use tracker_hal::supervisor::TrackerMsg;
-// Kept at their old path for `runner`; the handler is `crate::interrupt`.
-pub use crate::interrupt::{catch_interrupts, interrupted};
 
 /// How long [`GazeFeed::finish`] waits for the thread before detaching it.
 const JOIN_WAIT: Duration = Duration::from_millis(500);

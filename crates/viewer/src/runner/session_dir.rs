@@ -482,10 +482,10 @@ fn resume_differences(
         let Ok(was) = serde_json::from_value::<tracker_hal::TrackerConfig>(first) else {
             return Err("the first sitting's tracker settings cannot be read".into());
         };
-        let d = crate::tracker_cmd::tracker_differences_except(
+        let d = tracker_hal::config::differences::tracker_differences_except(
             &was,
             &gaze.tracker,
-            crate::tracker_cmd::CONNECTION_ONLY,
+            tracker_hal::config::differences::CONNECTION_ONLY,
         );
         if !d.is_empty() {
             return Err(format!(

@@ -133,7 +133,7 @@ pub fn run(opts: &RunOptions, out: &mut dyn Write) -> Result<(), String> {
         crate::screen::close_recordings_if_the_x_server_goes();
         EventLoop::new()
     }.map_err(|e| format!("cannot open a window ({}); the experiment needs a display (run under Xvfb on a machine without one)", crate::screen::plain_error(&e)))?;
-    crate::gaze_feed::catch_interrupts();
+    crate::interrupt::catch_interrupts();
     let record = dir.recording_path();
     let feed = setup_gaze
         .with_screen(setup.geometry.size_px())

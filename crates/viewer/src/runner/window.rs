@@ -80,7 +80,7 @@ impl ApplicationHandler for Runner<'_> {
                 }
             }
             WindowEvent::RedrawRequested => {
-                if crate::gaze_feed::interrupted() {
+                if crate::interrupt::interrupted() {
                     self.say("interrupted (Ctrl-C or SIGTERM): ending the session");
                     return self.quit(el);
                 }

@@ -18,10 +18,6 @@ pub use devices::devices;
 pub use record::{record, RecordArgs};
 pub use replay::{replay, InputFormat, ReplayArgs};
 pub use simulate::{simulate, simulated, HidLayoutArg, ScriptArg, SimulateArgs};
-// The comparison lives with `TrackerConfig`; `runner` reaches it here.
-pub use tracker_hal::config::differences::{
-    tracker_differences, tracker_differences_except, CONNECTION_ONLY,
-};
 
 /// A tracker file, with the error as a message.
 pub(crate) fn load_tracker(path: &Path) -> Result<TrackerConfig, String> {

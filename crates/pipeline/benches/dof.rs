@@ -26,13 +26,7 @@ const H: u32 = 512;
 const FOCUS_MM: f64 = 480.0;
 
 fn display() -> Display {
-    Display {
-        name: "17in".into(),
-        resolution_px: (W, H),
-        size_mm: (337.9, 270.3),
-        eye_distance_mm: 540.0,
-        eye_point_px: None,
-    }
+    Display::seed_17in(W, H)
 }
 
 fn scene() -> Scene {

@@ -28,13 +28,7 @@ use raycast::{Camera, Frame, Scene};
 const FOCUS_MM: f64 = 480.0;
 
 fn display(w: u32, h: u32) -> Display {
-    Display {
-        name: "17in".into(),
-        resolution_px: (w, h),
-        size_mm: (337.9, 270.3),
-        eye_distance_mm: 540.0,
-        eye_point_px: None,
-    }
+    Display::seed_17in(w, h)
 }
 
 #[path = "../tests/common/dof_wall.rs"]

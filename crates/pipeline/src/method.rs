@@ -113,7 +113,7 @@ impl Method {
 
     /// The method that will run for `scene` when `self` is asked for: the
     /// methods that follow the gaze (hybrid, image-based, model-based, and
-    /// modules that say so) need the scene to list `FoveatedSampling`;
+    /// modules that say so) need the scene to sample `Foveated`;
     /// without it the scene is rendered at full resolution, on every
     /// backend. `Ulod` follows attention, not the gaze, and runs whatever
     /// the scene lists.

@@ -101,7 +101,7 @@ pub struct MethodModule {
     pub aliases: &'static [&'static str],
     /// One line of help.
     pub help: &'static str,
-    /// Whether it follows the gaze: without the scene's `FoveatedSampling`
+    /// Whether it follows the gaze: unless the scene samples `Foveated`
     /// the scene is rendered at full resolution instead, like every
     /// foveated method.
     pub foveated: bool,

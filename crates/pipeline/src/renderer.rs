@@ -406,7 +406,7 @@ impl<'s> Renderer<'s> {
     }
 
     /// The method that runs (the one asked for, or `Full` when the scene
-    /// does not list `FoveatedSampling`).
+    /// does not sample `Foveated`).
     pub fn method(&self) -> Method {
         self.method
     }

@@ -18,13 +18,7 @@ const H: u32 = 512;
 
 /// The seed's 17" display at a reduced pixel count.
 fn camera() -> Camera {
-    let d = Display {
-        name: "17in".into(),
-        resolution_px: (W, H),
-        size_mm: (337.9, 270.3),
-        eye_distance_mm: 540.0,
-        eye_point_px: None,
-    };
+    let d = Display::seed_17in(W, H);
     Camera::new(&d.geometry().expect("geometry"))
 }
 
@@ -51,13 +45,7 @@ fn build(effects: &str) -> Result<Scene, raycast::SceneError> {
 }
 
 fn renderer(scene: &Scene, surface: bool) -> Renderer<'_> {
-    let d = Display {
-        name: "17in".into(),
-        resolution_px: (W, H),
-        size_mm: (337.9, 270.3),
-        eye_distance_mm: 540.0,
-        eye_point_px: None,
-    };
+    let d = Display::seed_17in(W, H);
     let g = d.geometry().expect("geometry");
     let model = pipeline::sampling_model(g, 1.0).expect("model");
     Renderer::new(

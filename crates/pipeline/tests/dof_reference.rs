@@ -16,13 +16,7 @@ const H: u32 = 128;
 const PUPIL_MM: f64 = 16.0;
 
 fn display() -> Display {
-    Display {
-        name: "17in".into(),
-        resolution_px: (W, H),
-        size_mm: (337.9, 270.3),
-        eye_distance_mm: 540.0,
-        eye_point_px: None,
-    }
+    Display::seed_17in(W, H)
 }
 
 #[path = "common/dof_wall.rs"]

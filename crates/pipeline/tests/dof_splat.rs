@@ -32,13 +32,7 @@ const LEE_CH5_FOREGROUND_DB: f64 = 36.33;
 const LEE_CH5_NO_HIDDEN_DB: f64 = 32.84;
 
 fn display(w: u32, h: u32) -> Display {
-    Display {
-        name: "17in".into(),
-        resolution_px: (w, h),
-        size_mm: (337.9, 270.3),
-        eye_distance_mm: 540.0,
-        eye_point_px: None,
-    }
+    Display::seed_17in(w, h)
 }
 
 fn camera() -> Camera {

@@ -20,15 +20,7 @@ fn scene() -> Scene {
 #[test]
 fn masks_follow_the_measured_eye_distance() {
     let scene = scene();
-    let g = Display {
-        name: "17in".into(),
-        resolution_px: (320, 256),
-        size_mm: (337.9, 270.3),
-        eye_distance_mm: 540.0,
-        eye_point_px: None,
-    }
-    .geometry()
-    .expect("geometry");
+    let g = Display::seed_17in(320, 256).geometry().expect("geometry");
     let options = Options {
         method: Method::Hybrid,
         reuse: true,

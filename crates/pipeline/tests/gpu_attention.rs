@@ -846,13 +846,7 @@ fn balls(effects: &str) -> Scene {
 
 /// The seed's 17" display at 160×128 pixels (as `tests/gpu_effects.rs`).
 fn small_display() -> Display {
-    Display {
-        name: "17in".into(),
-        resolution_px: (160, 128),
-        size_mm: (337.9, 270.3),
-        eye_distance_mm: 540.0,
-        eye_point_px: None,
-    }
+    Display::seed_17in(160, 128)
 }
 
 fn renderer(scene: &Scene, backend: BackendChoice) -> Renderer<'_> {

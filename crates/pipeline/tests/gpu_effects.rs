@@ -22,13 +22,7 @@ const H: u32 = 128;
 
 /// The seed's 17" display at a reduced pixel count (depth of field).
 fn display() -> Display {
-    Display {
-        name: "17in".into(),
-        resolution_px: (W, H),
-        size_mm: (337.9, 270.3),
-        eye_distance_mm: 540.0,
-        eye_point_px: None,
-    }
+    Display::seed_17in(W, H)
 }
 
 /// Image-based foveation: the 17" display's 640×512 pixel pitch (at 160×128
@@ -115,18 +109,8 @@ const GAZE: [f64; 2] = [80.0 - 80.0 * 160.0 / 337.9, 64.0];
 
 /// The largest difference of any channel, and how many channels differ.
 fn max_diff(a: &Frame, b: &Frame) -> (u8, usize) {
-    assert_eq!((a.width_px, a.height_px), (b.width_px, b.height_px));
     assert_eq!(a.hit, b.hit, "the hit mask is the cast's");
-    let d: Vec<u8> = a
-        .rgb
-        .iter()
-        .zip(&b.rgb)
-        .map(|(x, y)| x.abs_diff(*y))
-        .collect();
-    (
-        d.iter().copied().max().unwrap_or(0),
-        d.iter().filter(|&&v| v > 0).count(),
-    )
+    fixtures::channel_diff(a, b)
 }
 
 /// Channels that differ between two frames (how much a pass changed).
@@ -326,13 +310,7 @@ fn passes_are_paid_per_use_on_both_backends() {
 fn odd_and_tiny_frames_match_too() {
     let s = scene("FoveatedSampling, DepthOfField(pupil_mm: 8.0, focus: Fixed(depth_mm: 2100.0))");
     for (w, h) in [(1, 1), (7, 1), (75, 45)] {
-        let d = Display {
-            name: "odd".into(),
-            resolution_px: (w, h),
-            size_mm: (337.9, 270.3),
-            eye_distance_mm: 540.0,
-            eye_point_px: None,
-        };
+        let d = Display::seed_17in(w, h);
         let cam = camera_on(&d);
         let gaze = [f64::from(w) / 2.0, f64::from(h) / 2.0];
         let mut reference = gpu(&s);

@@ -25,13 +25,7 @@ const H: u32 = 128;
 const SPLAT: &str = "depth of field (Lee ch. 5, splatting)";
 
 fn display() -> Display {
-    Display {
-        name: "17in".into(),
-        resolution_px: (W, H),
-        size_mm: (337.9, 270.3),
-        eye_distance_mm: 540.0,
-        eye_point_px: None,
-    }
+    Display::seed_17in(W, H)
 }
 
 fn model() -> SamplingModel {
@@ -96,16 +90,7 @@ const GAZE: [f64; 2] = [80.0 - 80.0 * 160.0 / 337.9, 64.0];
 /// The largest difference of any channel, and how many channels differ.
 fn max_diff(a: &Frame, b: &Frame) -> (u8, usize) {
     assert_eq!(a.hit, b.hit, "the hit mask is the cast's");
-    let d: Vec<u8> = a
-        .rgb
-        .iter()
-        .zip(&b.rgb)
-        .map(|(x, y)| x.abs_diff(*y))
-        .collect();
-    (
-        d.iter().copied().max().unwrap_or(0),
-        d.iter().filter(|&&v| v > 0).count(),
-    )
+    fixtures::channel_diff(a, b)
 }
 
 fn changed(a: &Frame, b: &Frame) -> usize {

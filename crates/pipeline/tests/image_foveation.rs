@@ -15,13 +15,7 @@ const W: u32 = 640;
 const H: u32 = 512;
 
 fn display(w: u32, h: u32) -> Display {
-    Display {
-        name: "17in".into(),
-        resolution_px: (w, h),
-        size_mm: (337.9, 270.3),
-        eye_distance_mm: 540.0,
-        eye_point_px: None,
-    }
+    Display::seed_17in(w, h)
 }
 
 fn scene(name: &str) -> Scene {

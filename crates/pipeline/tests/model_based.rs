@@ -15,13 +15,7 @@ const W: u32 = 320;
 const H: u32 = 256;
 
 fn display() -> Display {
-    Display {
-        name: "17in".into(),
-        resolution_px: (W, H),
-        size_mm: (337.9, 270.3),
-        eye_distance_mm: 540.0,
-        eye_point_px: None,
-    }
+    Display::seed_17in(W, H)
 }
 
 fn scene(name: &str) -> Scene {

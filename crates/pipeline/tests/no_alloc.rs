@@ -63,13 +63,7 @@ fn scene(name: &str) -> Scene {
 /// The seed's 17" display at a quarter of its pixels (same size and
 /// distance), so the test stays quick.
 fn display() -> Display {
-    Display {
-        name: "17in".into(),
-        resolution_px: (640, 512),
-        size_mm: (337.9, 270.3),
-        eye_distance_mm: 540.0,
-        eye_point_px: None,
-    }
+    Display::seed_17in(640, 512)
 }
 
 /// Allocations (count, bytes) made while rendering `gazes` with `r`, each

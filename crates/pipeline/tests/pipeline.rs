@@ -16,13 +16,7 @@ fn repo() -> &'static Path {
 
 /// The seed's 17" display at a reduced pixel count (same size and distance).
 fn display(w: u32, h: u32) -> Display {
-    Display {
-        name: "17in".into(),
-        resolution_px: (w, h),
-        size_mm: (337.9, 270.3),
-        eye_distance_mm: 540.0,
-        eye_point_px: None,
-    }
+    Display::seed_17in(w, h)
 }
 
 /// A shipped scene with its effect list replaced.

@@ -10,13 +10,7 @@ use raycast::raster::{self, RasterScratch};
 use raycast::{Camera, Frame, Scene, SceneFile};
 
 fn display() -> Display {
-    Display {
-        name: "tiny".into(),
-        resolution_px: (200, 160),
-        size_mm: (337.9, 270.3),
-        eye_distance_mm: 540.0,
-        eye_point_px: None,
-    }
+    Display::seed_17in(200, 160)
 }
 
 /// Three spheres; the middle one bright red, the others dull grey; the

@@ -227,15 +227,9 @@ mod tests {
     use super::*;
 
     fn geometry() -> ScreenGeometry {
-        screen_geometry::Display {
-            name: "t".into(),
-            resolution_px: (1280, 1024),
-            size_mm: (337.9, 270.3),
-            eye_distance_mm: 540.0,
-            eye_point_px: None,
-        }
-        .geometry()
-        .expect("geometry")
+        screen_geometry::Display::seed_17in(1280, 1024)
+            .geometry()
+            .expect("geometry")
     }
 
     #[test]

@@ -141,15 +141,9 @@ mod tests {
     }
 
     fn seed_display() -> ScreenGeometry {
-        screen_geometry::Display {
-            name: "17in".into(),
-            resolution_px: (1280, 1024),
-            size_mm: (337.9, 270.3),
-            eye_distance_mm: 540.0,
-            eye_point_px: None,
-        }
-        .geometry()
-        .expect("geometry")
+        screen_geometry::Display::seed_17in(1280, 1024)
+            .geometry()
+            .expect("geometry")
     }
 
     #[test]

@@ -14,13 +14,7 @@ pub fn repo() -> &'static Path {
 /// The dissertation's 17" display at a reduced pixel count (same size and
 /// distance), so the tests stay fast; ppd drops, the maths is the same.
 pub fn display(w: u32, h: u32) -> Display {
-    Display {
-        name: "17in".into(),
-        resolution_px: (w, h),
-        size_mm: (337.9, 270.3),
-        eye_distance_mm: 540.0,
-        eye_point_px: None,
-    }
+    Display::seed_17in(w, h)
 }
 
 /// A shipped scene from `config/scenes`.

@@ -54,15 +54,9 @@ mod tests {
     }
 
     fn seed_display() -> ScreenGeometry {
-        foveation::Display {
-            name: "17in".into(),
-            resolution_px: (1280, 1024),
-            size_mm: (337.9, 270.3),
-            eye_distance_mm: 540.0,
-            eye_point_px: None,
-        }
-        .geometry()
-        .expect("geometry")
+        foveation::Display::seed_17in(1280, 1024)
+            .geometry()
+            .expect("geometry")
     }
 
     fn runs_display() -> ScreenGeometry {

@@ -688,7 +688,10 @@ fn absurd_eye_distances_are_refused_by_mask() {
 fn bad_colours_and_intensities_name_their_field() {
     let files = Files::new();
     let base = scene_text();
-    assert!(base.contains("\n    sampling:"), "the shipped scene's sampling line");
+    assert!(
+        base.contains("\n    sampling:"),
+        "the shipped scene's sampling line"
+    );
     let lit = base.replace(
         "\n    sampling:",
         "\n    lights: [Headlight(intensity: 1.0), Point(position_mm: (0.0, 0.0, 500.0), intensity: 0.5)],\n    sampling:",

@@ -133,6 +133,9 @@ pub struct Renderer<'s> {
     /// in order: the longest run of passes from the first that have a GPU
     /// implementation ([`Pass::into_gpu`]); empty on the CPU backend.
     gpu_passes: Vec<Box<dyn GpuPass>>,
+    /// [`Renderer::provenance`]: the plan in one line, rebuilt whenever
+    /// the plan changes.
+    provenance: String,
 }
 
 /// The passes split between the GPU (before the read-back) and the CPU.
@@ -230,7 +233,7 @@ impl<'s> Renderer<'s> {
         // first frame); each frame gives it again (the eye may move).
         gpu_passes.iter_mut().for_each(|p| p.prepare(&model));
         passes.iter_mut().for_each(|p| p.prepare(&model));
-        Ok(Self {
+        let mut renderer = Self {
             state,
             scene,
             posed: None,
@@ -253,7 +256,10 @@ impl<'s> Renderer<'s> {
             vergence_mm: None,
             gpu_hook,
             gpu_passes,
-        })
+            provenance: String::new(),
+        };
+        renderer.provenance = renderer.plan().provenance();
+        Ok(renderer)
     }
 
     /// Whether this frame's method must fill the surface buffers.
@@ -607,6 +613,7 @@ impl<'s> Renderer<'s> {
             self.gpu_passes.extend(gpu);
             self.passes.extend(cpu);
         }
+        self.provenance = self.plan().provenance();
     }
 
     /// Whether the POR box is drawn.
@@ -697,8 +704,10 @@ impl<'s> Renderer<'s> {
     /// that runs, the backend, and the passes in order with where each
     /// runs, e.g. `image on gpu; passes: image-based foveation (gpu)
     /// → POR box (cpu)`. No tabs or line breaks.
+    /// Built when the plan is (at set-up and by
+    /// [`Renderer::set_por_overlay`]), not per frame.
     pub fn provenance(&self) -> String {
-        self.plan().provenance()
+        self.provenance.clone()
     }
 
     /// What runs for one frame, as `view --explain` prints it: the method,

@@ -136,19 +136,7 @@ pub(crate) fn cell_mm(r: u32, c: u32, rows: u32, cols: u32, spacing: f64) -> (f6
 mod tests {
     use super::*;
 
-    fn murphy() -> Design {
-        Design::load(concat!(
-            env!("CARGO_MANIFEST_DIR"),
-            "/../../config/experiments/murphy2007-search.ron"
-        ))
-        .expect("design")
-    }
-
-    fn seed_display() -> ScreenGeometry {
-        screen_geometry::Display::seed_17in(1280, 1024)
-            .geometry()
-            .expect("geometry")
-    }
+    use crate::run::test_support::{murphy, seed_display};
 
     /// The construction gives the shipped search-task scene's numbers
     /// (3.5° objects, 20° grid at 54 cm).

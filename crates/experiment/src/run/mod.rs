@@ -23,3 +23,26 @@ pub mod on_display;
 pub mod participant;
 pub mod stimulus;
 pub mod trial_result;
+
+/// The seed's design and display, for this module's tests.
+#[cfg(test)]
+pub(crate) mod test_support {
+    use crate::Design;
+    use screen_geometry::ScreenGeometry;
+
+    /// `config/experiments/murphy2007-search.ron`.
+    pub fn murphy() -> Design {
+        Design::load(concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/../../config/experiments/murphy2007-search.ron"
+        ))
+        .expect("design")
+    }
+
+    /// The seed's 17-inch display at 1280×1024.
+    pub fn seed_display() -> ScreenGeometry {
+        screen_geometry::Display::seed_17in(1280, 1024)
+            .geometry()
+            .expect("geometry")
+    }
+}

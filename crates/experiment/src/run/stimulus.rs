@@ -130,21 +130,8 @@ pub fn preview_scene(design: &Design, trial: &Trial, layout: &Layout) -> SceneFi
 #[cfg(test)]
 mod tests {
     use super::*;
-    use screen_geometry::ScreenGeometry;
 
-    fn murphy() -> Design {
-        Design::load(concat!(
-            env!("CARGO_MANIFEST_DIR"),
-            "/../../config/experiments/murphy2007-search.ron"
-        ))
-        .expect("design")
-    }
-
-    fn seed_display() -> ScreenGeometry {
-        screen_geometry::Display::seed_17in(1280, 1024)
-            .geometry()
-            .expect("geometry")
-    }
+    use crate::run::test_support::{murphy, seed_display};
 
     #[test]
     fn scenes_place_the_plan_and_list_only_the_condition_effects() {

@@ -112,6 +112,7 @@ pub mod supervisor;
 #[cfg(test)]
 mod test_support;
 pub mod timing;
+pub mod virtual_mouse;
 
 pub use clock::{Clock, MonotonicClock, SharedClock};
 pub use config::{AttentionSourceConfig, Driver, TrackerConfig};

@@ -69,6 +69,17 @@ pub struct RunArgs {
     /// file it produces is marked synthetic.
     #[arg(long, value_name = "SEED")]
     pub simulate_participant: Option<u64>,
+    /// No window: the simulated participant's session on a virtual clock,
+    /// as fast as the machine renders (same screens, renderer and files;
+    /// the mouse tracker emulated on the same clock).
+    #[arg(long, requires = "simulate_participant")]
+    pub headless: bool,
+    /// Show the last search frame again while the gaze stays within DEG
+    /// degrees of the gaze it was rendered for (its rays and render time
+    /// repeated in frames.tsv). Default: 0.5 with --headless, else 0
+    /// (every frame rendered).
+    #[arg(long, value_name = "DEG")]
+    pub gaze_tolerance_deg: Option<f64>,
     /// Do not save each trial's search display (stimuli/trial-NNN.png, used
     /// for the scanpath pictures).
     #[arg(long)]
@@ -126,10 +137,26 @@ pub struct ExportArgs {
     pub task: String,
 }
 
+/// `--gaze-tolerance-deg`'s default with `--headless` (the live view's).
+const HEADLESS_TOLERANCE_DEG: f64 = 0.5;
+/// The largest `--gaze-tolerance-deg` (beyond, the fovea would lag the
+/// gaze by more than its own radius).
+const MAX_TOLERANCE_DEG: f64 = 2.0;
+
 pub fn run(args: &ExperimentArgs, out: &mut dyn Write) -> Result<(), String> {
     match &args.command {
         ExperimentCommand::Run(a) => {
             a.lsl.check()?;
+            let tolerance = a.gaze_tolerance_deg.unwrap_or(if a.headless {
+                HEADLESS_TOLERANCE_DEG
+            } else {
+                0.0
+            });
+            if !(0.0..=MAX_TOLERANCE_DEG).contains(&tolerance) {
+                return Err(format!(
+                    "--gaze-tolerance-deg {tolerance}: give 0 to {MAX_TOLERANCE_DEG} degrees"
+                ));
+            }
             let opts = RunOptions {
                 design: a.design.clone(),
                 participant: a.participant.clone(),
@@ -142,6 +169,8 @@ pub fn run(args: &ExperimentArgs, out: &mut dyn Write) -> Result<(), String> {
                 fullscreen: a.fullscreen,
                 monitor: a.monitor,
                 simulate: a.simulate_participant,
+                headless: a.headless,
+                gaze_tolerance_deg: (tolerance > 0.0).then_some(tolerance),
                 stimulus_pictures: !a.no_stimulus_pictures,
                 max_trials: a.max_trials,
                 screenshots: a.screenshots.clone(),

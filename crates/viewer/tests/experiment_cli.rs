@@ -957,3 +957,106 @@ fn an_image_condition_renders_image_based_and_its_frames_say_so() {
         std::fs::read_to_string(beh.join("sub-P01_task-search_run-2_events.json")).expect("json");
     assert!(sidecar.contains("\"plan\""), "{sidecar}");
 }
+
+/// A headless simulated session (`--headless`): no window and no display
+/// (DISPLAY unset), seven trials of the small design (calibration,
+/// validation, a break, the mid-point validation) on the virtual clock. Its
+/// samples, events and responses depend on the seeds alone: two runs give
+/// the same files byte for byte but for the render times, whatever the
+/// machine's load; every file says synthetic and the sitting's clock says
+/// virtual. Without a simulated participant `--headless` is refused.
+#[test]
+fn a_headless_session_runs_on_a_virtual_clock_and_repeats_exactly() {
+    let tmp = tempfile::tempdir().expect("tempdir");
+    let run = |out: &Path, extra: &[&str]| {
+        let mut c = common::gazecast();
+        c.env_remove("DISPLAY").env_remove("WAYLAND_DISPLAY");
+        c.args([
+            "experiment",
+            "run",
+            "tests/data/experiment/design-small.ron",
+            "--participant",
+            "P01",
+            "--tracker",
+            "tests/data/mouse-participant.ron",
+            "--display",
+            "tests/data/experiment/display-small.ron",
+            "--backend",
+            "cpu",
+            "--no-stimulus-pictures",
+            "--out",
+        ])
+        .arg(out)
+        .args(extra);
+        c.output().expect("the binary runs")
+    };
+    let refused = run(&tmp.path().join("none"), &["--headless"]);
+    assert!(!refused.status.success());
+    assert!(!tmp.path().join("none").exists());
+    let (a, b) = (tmp.path().join("a"), tmp.path().join("b"));
+    for out in [&a, &b] {
+        let o = run(
+            out,
+            &[
+                "--headless",
+                "--simulate-participant",
+                "4",
+                "--max-trials",
+                "7",
+            ],
+        );
+        let log = String::from_utf8_lossy(&o.stdout);
+        assert!(
+            o.status.success(),
+            "{log}\n{}",
+            String::from_utf8_lossy(&o.stderr)
+        );
+        assert!(log.contains("stopping after 7 trials"), "{log}");
+    }
+    let (da, db) = (
+        a.join("small-search").join("sub-P01"),
+        b.join("small-search").join("sub-P01"),
+    );
+    for file in ["samples.tsv", "events.tsv"] {
+        assert_eq!(
+            std::fs::read(da.join(file)).expect("a"),
+            std::fs::read(db.join(file)).expect("b"),
+            "{file} differs between two headless runs"
+        );
+    }
+    for col in [
+        "condition",
+        "rt_s",
+        "correct",
+        "target_row",
+        "target_col",
+        "clicked_row",
+        "clicked_col",
+        "search_onset_us",
+    ] {
+        assert_eq!(
+            column(&da.join("trials.tsv"), col),
+            column(&db.join("trials.tsv"), col),
+            "trials.tsv {col}"
+        );
+    }
+    // Seven trials: the break after six and its screens ran too.
+    assert_eq!(column(&da.join("trials.tsv"), "trial").len(), 7);
+    assert!(column(&da.join("trials.tsv"), "synthetic")
+        .iter()
+        .all(|s| s == "true"));
+    // Frames are one refresh period apart on the virtual clock.
+    let intervals = column(&da.join("frames.tsv"), "interval_ms");
+    assert!(
+        intervals[1..].iter().all(|i| i == "16.667"),
+        "{intervals:?}"
+    );
+    let info = std::fs::read_to_string(da.join("session.json")).expect("info");
+    assert!(
+        info.contains("virtual clock of a headless simulation"),
+        "{info}"
+    );
+    // The gaze tolerance (0.5° by default headless) kept frames, and says so.
+    let markers = std::fs::read_to_string(da.join("markers.tsv")).expect("markers");
+    assert!(markers.contains("frames-kept"), "{markers}");
+}

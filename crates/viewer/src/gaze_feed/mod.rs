@@ -125,6 +125,14 @@ impl GazeFeed {
 }
 
 impl GazeFeed {
+    /// The counts of a device without a supervisor (a headless
+    /// simulation's virtual mouse), for [`Self::report`].
+    pub fn set_faults(&self, faults: Faults) {
+        if let Ok(mut f) = self.faults.lock() {
+            *f = faults;
+        }
+    }
+
     /// The recording's write error, from the moment it happens (the
     /// tracker thread also sends it once as a status line).
     pub fn recording_failure(&self) -> Option<String> {

@@ -5,8 +5,10 @@ use std::path::Path;
 use std::sync::atomic::AtomicBool;
 use std::sync::{Arc, Mutex};
 
+use crossbeam_channel::Sender;
 use tracker_hal::calibration::Calibration;
-use tracker_hal::supervisor::{self, Faults, Map, Supervisor};
+use tracker_hal::supervisor::{self, Faults, Map, Supervisor, TrackerMsg};
+use tracker_hal::virtual_mouse::VirtualMouse;
 use tracker_hal::{DeviceClock, Driver, Recorder, Recording, RecordingHeader, TrackerConfig};
 
 use super::open::opener;
@@ -76,6 +78,59 @@ impl GazeSetup {
         matches!(self.tracker.driver, Driver::Mouse(_))
     }
 
+    /// The recording of this source at `record` (path, display name),
+    /// started.
+    fn recorder(&self, record: Option<(&Path, &str)>) -> Result<Option<Recorder>, String> {
+        let Some((path, display)) = record else {
+            return Ok(None);
+        };
+        let header = RecordingHeader {
+            tracker: self.tracker.clone(),
+            display: Some(display.to_string()),
+            note: format!("recorded by gazecast from {}", self.name),
+        };
+        let recorder =
+            Recorder::start(path, &header, 1 << 16).map_err(|e| format!("--record: {e}"))?;
+        recordings::remember(&recorder.tap());
+        Ok(Some(recorder))
+    }
+
+    /// The mouse tracker on a virtual clock, for a headless simulation: no
+    /// thread; the caller ticks the [`VirtualMouse`] (whose record bytes go
+    /// to the recording at `record`, as a live device's would) and sends
+    /// its samples to the feed's channel through the returned sender.
+    pub fn virtual_mouse(
+        self,
+        start_us: u64,
+        record: Option<(&Path, &str)>,
+    ) -> Result<(GazeFeed, VirtualMouse, Sender<TrackerMsg>), String> {
+        let Driver::Mouse(config) = &self.tracker.driver else {
+            return Err(format!(
+                "{}: a headless simulation drives the mouse tracker (config/trackers/mouse.ron)",
+                self.name
+            ));
+        };
+        let recorder = self.recorder(record)?;
+        let device = VirtualMouse::new(
+            config.clone(),
+            start_us,
+            recorder.as_ref().map(Recorder::tap),
+        );
+        let (tx, rx) = crossbeam_channel::unbounded();
+        let feed = GazeFeed {
+            rx,
+            cursor_tx: None,
+            stop: Arc::new(AtomicBool::new(false)),
+            thread: None,
+            recorder,
+            faults: Arc::new(Mutex::new(Faults::default())),
+            stopped: None,
+            mouse_timing: Arc::new(Mutex::new(None)),
+            attention: None,
+        };
+        Ok((feed, device, tx))
+    }
+
     /// Starts the tracker thread. With `calibration`, raw gaze maps through
     /// it instead of the tracker file's mapping; with `record`, every byte
     /// from and to the device goes to that recording (its own writer
@@ -85,24 +140,8 @@ impl GazeSetup {
         calibration: Option<Calibration>,
         record: Option<(&Path, &str)>,
     ) -> Result<GazeFeed, String> {
-        let recorder = match record {
-            Some((path, display)) => {
-                let header = RecordingHeader {
-                    tracker: self.tracker.clone(),
-                    display: Some(display.to_string()),
-                    note: format!("recorded by gazecast from {}", self.name),
-                };
-                Some(
-                    Recorder::start(path, &header, 1 << 16)
-                        .map_err(|e| format!("--record: {e}"))?,
-                )
-            }
-            None => None,
-        };
+        let recorder = self.recorder(record)?;
         let tap = recorder.as_ref().map(Recorder::tap);
-        if let Some(t) = &tap {
-            recordings::remember(t);
-        }
         let (cursor_tx, cursor_rx) = crossbeam_channel::unbounded();
         let (frame, mapping) = (self.tracker.frame(), self.tracker.mapping.clone());
         let map: Map = match calibration {

@@ -9,7 +9,6 @@ use experiment::run::acceptance::{
 use experiment::run::flow::Phase;
 use experiment::session::MarkerRow;
 use tracker_hal::calibration::{Procedure, Session, SessionRequest, TimedPoint};
-use tracker_hal::clock::monotonic_us;
 
 use super::state::Runner;
 use super::trial;
@@ -27,6 +26,7 @@ pub(super) enum Checking {
 impl Runner<'_> {
     /// Calibration and validation bookkeeping once per frame.
     pub(super) fn check(&mut self) {
+        let now = self.now();
         let mut outcome: Option<Result<String, String>> = None;
         let mut target = None;
         match &mut self.checking {
@@ -36,7 +36,7 @@ impl Runner<'_> {
                 for l in log {
                     self.dir.marker(&MarkerRow {
                         sitting: self.dir.sitting(),
-                        host_us: monotonic_us(),
+                        host_us: now,
                         trial: self.flow.trial().map(|t| t.index),
                         event: "calibration".into(),
                         detail: l,

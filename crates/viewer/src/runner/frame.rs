@@ -4,8 +4,6 @@
 
 use experiment::run::flow::Phase;
 use experiment::session::{FrameRow, MarkerRow};
-use tracker_hal::clock::monotonic_us;
-use winit::event_loop::ActiveEventLoop;
 
 use super::state::Runner;
 use super::trial;
@@ -17,7 +15,7 @@ impl Runner<'_> {
         trial::text_screen(&mut self.canvas, size, lines);
     }
 
-    pub(super) fn frame(&mut self, el: &ActiveEventLoop) -> Result<(), String> {
+    pub(super) fn frame(&mut self) -> Result<(), String> {
         if let Some(e) = self.dir.error() {
             return Err(format!("the session folder cannot be written: {e}"));
         }
@@ -25,7 +23,7 @@ impl Runner<'_> {
         self.drain();
         if let Some(p) = &self.participant {
             for a in p.take_actions() {
-                self.act(a, el);
+                self.act(a);
             }
         }
         if self.quitting {
@@ -80,8 +78,8 @@ impl Runner<'_> {
                     self.finished = true;
                     self.say("session complete");
                 }
-                if monotonic_us().saturating_sub(self.phase_since_us) > 1_000_000 {
-                    self.quit(el);
+                if self.now().saturating_sub(self.phase_since_us) > 1_000_000 {
+                    self.quit();
                 }
             }
             Phase::Calibration | Phase::Validation { .. } | Phase::DriftCheck => {}
@@ -99,15 +97,15 @@ impl Runner<'_> {
             }
         }
         if let Some(limit) = design.response.max_search_s {
-            let now = monotonic_us();
+            let now = self.now();
             let timed_out = phase == Phase::Search
                 && self
                     .trial
                     .as_mut()
-                    .is_some_and(|t| t.timed_out(limit) && t.respond(now));
+                    .is_some_and(|t| t.timed_out(limit, now) && t.respond(now));
             if timed_out {
                 self.marker("timeout", format!("no response within {limit} s"));
-                self.end_trial(None, el);
+                self.end_trial(None);
                 return Ok(());
             }
         }
@@ -134,9 +132,9 @@ impl Runner<'_> {
         }
         let submit_us = match (&mut self.screen, tex) {
             (Some(s), Some(tex)) => s.present(tex, rgb, size),
-            _ => monotonic_us(),
+            _ => self.now(),
         };
-        let present_us = monotonic_us();
+        let present_us = self.now();
         let interval_ms = self
             .last_submit_us
             .map(|t| submit_us.saturating_sub(t) as f64 / 1e3);

@@ -50,6 +50,7 @@ pub mod participant;
 
 mod calibrating;
 mod frame;
+mod headless;
 mod session_dir;
 mod setup;
 mod start;

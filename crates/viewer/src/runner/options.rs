@@ -30,6 +30,14 @@ pub struct RunOptions {
     /// Save the first frame shown of each kind of screen here
     /// (`<phase>.png`: instructions, calibration, preview, search, …).
     pub screenshots: Option<PathBuf>,
+    /// Run without a window on a virtual clock (with `simulate`, on the
+    /// mouse tracker): the same screens, renderer and files, as fast as
+    /// the machine renders.
+    pub headless: bool,
+    /// Show the last search frame again while the gaze stays within this
+    /// many degrees of the gaze it was rendered for (`None`: render every
+    /// frame).
+    pub gaze_tolerance_deg: Option<f64>,
     /// `--lsl`: publish the samples, frames and markers as LSL streams.
     pub lsl: crate::args::LslArgs,
 }

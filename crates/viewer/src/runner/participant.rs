@@ -56,7 +56,9 @@ pub enum Eye {
     },
 }
 
-/// The participant's thread.
+/// The participant: its own thread (a session in a window), or stepped
+/// by a headless simulation's loop on its virtual clock
+/// ([`Participant::inline`]).
 pub struct Participant {
     seen: Arc<Mutex<Seen>>,
     actions: Receiver<Action>,
@@ -64,6 +66,9 @@ pub struct Participant {
     thread: Option<std::thread::JoinHandle<()>>,
     /// The ISCAN writer, when the eye is one.
     writer: Option<std::thread::JoinHandle<()>>,
+    /// Headless: the behaviour, stepped by [`Participant::step`], and
+    /// where its actions go.
+    inline: Option<(Mutex<Behaviour>, Sender<Action>)>,
 }
 
 impl Participant {
@@ -100,7 +105,43 @@ impl Participant {
             stop,
             thread,
             writer,
+            inline: None,
         }
+    }
+
+    /// A participant without a thread, for a headless simulation: its
+    /// loop calls [`Participant::step`] with the virtual time each frame.
+    pub fn inline(geometry: ScreenGeometry, seed: u64) -> Self {
+        let (tx, actions) = crossbeam_channel::unbounded();
+        Self {
+            seen: Arc::new(Mutex::new(Seen::default())),
+            actions,
+            stop: Arc::new(AtomicBool::new(false)),
+            thread: None,
+            writer: None,
+            inline: Some((Mutex::new(Behaviour::new(geometry, seed)), tx)),
+        }
+    }
+
+    /// Headless: one look at the screen at `now_us` (virtual): where the
+    /// eye goes (dated, in time order), the act queued for
+    /// [`Participant::take_actions`]. Nothing for a threaded participant.
+    pub fn step(&self, now_us: u64) -> Vec<(u64, [f64; 2])> {
+        let Some((behaviour, tx)) = &self.inline else {
+            return Vec::new();
+        };
+        let seen = match self.seen.lock() {
+            Ok(s) => s.clone(),
+            Err(_) => return Vec::new(),
+        };
+        let Ok(mut b) = behaviour.lock() else {
+            return Vec::new();
+        };
+        let response = b.step(&seen, now_us);
+        if let Some(a) = response.action {
+            let _ = tx.send(a);
+        }
+        response.looks
     }
 
     /// A new screen is shown (since `since_us`, host µs): for a search,

@@ -104,8 +104,16 @@ impl SessionDir {
             distance_mm: display.eye_distance_mm,
         };
         let tracker_settings = serde_json::to_value(&gaze.tracker).ok();
-        let (started_unix_us, host_anchor_us) = wall_anchor();
-        let device_clock = gaze.device_clock().describe();
+        let (started_unix_us, mut host_anchor_us) = wall_anchor();
+        if opts.headless {
+            // The virtual clock's start is the sitting's host time then.
+            host_anchor_us = super::headless::START_US;
+        }
+        let device_clock = if opts.headless {
+            super::headless::VIRTUAL_CLOCK.to_string()
+        } else {
+            gaze.device_clock().describe()
+        };
         let mut aborted_trial = None;
         if exists {
             let mut info = SessionInfo::read(&info_path).map_err(|e| e.to_string())?;

@@ -23,4 +23,7 @@ pub(super) struct Setup {
     pub(super) cal_plans: (Plan, Plan),
     pub(super) drift_plan: Option<Plan>,
     pub(super) model: Model,
+    /// A search frame is shown again while the gaze stays within this many
+    /// degrees of the gaze it was rendered for.
+    pub(super) gaze_tolerance_deg: Option<f64>,
 }

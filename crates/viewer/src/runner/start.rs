@@ -12,11 +12,12 @@ use tracker_hal::clock::monotonic_us;
 use winit::event_loop::EventLoop;
 
 use super::design_check::check_design;
+use super::headless;
 use super::options::RunOptions;
 use super::participant::{self, Participant};
 use super::session_dir::SessionDir;
 use super::setup::Setup;
-use super::state::{Runner, NOMINAL_REFRESH_HZ};
+use super::state::{RunClock, Runner, NOMINAL_REFRESH_HZ};
 use crate::gaze_feed::GazeSetup;
 
 /// Runs (or resumes) a session to its end or until it is stopped.
@@ -47,7 +48,10 @@ pub fn run(opts: &RunOptions, out: &mut dyn Write) -> Result<(), String> {
     // The simulated participant's ISCAN: a pseudo-terminal whose slave the
     // tracker opens in place of the file's port.
     let mut iscan_master = None;
-    if opts.simulate.is_some() {
+    if opts.headless && (opts.simulate.is_none() || !setup_gaze.is_mouse()) {
+        return Err("--headless runs a simulated participant (--simulate-participant SEED) on the mouse tracker (--tracker config/trackers/mouse.ron): without a window there is no one else to look".into());
+    }
+    if opts.simulate.is_some() && !opts.headless {
         match &mut setup_gaze.tracker.driver {
             tracker_hal::Driver::Mouse(_) => {}
             tracker_hal::Driver::Iscan(c) => {
@@ -67,6 +71,16 @@ pub fn run(opts: &RunOptions, out: &mut dyn Write) -> Result<(), String> {
         }
     }
     let mut dir = SessionDir::open(opts, &design, &display, index, &setup_gaze)?;
+    // The session's clock: the host's, or a virtual one from its start.
+    let clock = if opts.headless {
+        RunClock::Virtual(headless::START_US)
+    } else {
+        RunClock::Host
+    };
+    let now = || match clock {
+        RunClock::Host => monotonic_us(),
+        RunClock::Virtual(t) => t,
+    };
     let suffix = format!(
         "{}-{}",
         crate::lsl_out::id_part(&design.name),
@@ -83,7 +97,7 @@ pub fn run(opts: &RunOptions, out: &mut dyn Write) -> Result<(), String> {
         let _ = writeln!(out, "{}: {line}", dir.path().display());
         dir.marker(&MarkerRow {
             sitting: dir.sitting(),
-            host_us: monotonic_us(),
+            host_us: now(),
             trial: None,
             event: "file-columns-added".into(),
             detail: line,
@@ -95,7 +109,7 @@ pub fn run(opts: &RunOptions, out: &mut dyn Write) -> Result<(), String> {
         // rows there are aborted (the analysis and the export leave them out).
         dir.marker(&MarkerRow {
             sitting: dir.sitting(),
-            host_us: monotonic_us(),
+            host_us: now(),
             trial: Some(trial),
             event: "aborted-trial".into(),
             detail: format!(
@@ -124,22 +138,31 @@ pub fn run(opts: &RunOptions, out: &mut dyn Write) -> Result<(), String> {
         cal_plans,
         drift_plan,
         model,
+        gaze_tolerance_deg: opts.gaze_tolerance_deg,
     };
     if let Some(d) = &opts.screenshots {
         std::fs::create_dir_all(d).map_err(|e| format!("--screenshots {}: {e}", d.display()))?;
     }
-    let event_loop =
-        {
+    let event_loop = if opts.headless {
+        None
+    } else {
         crate::screen::close_recordings_if_the_x_server_goes();
-        EventLoop::new()
-    }.map_err(|e| format!("cannot open a window ({}); the experiment needs a display (run under Xvfb on a machine without one)", crate::screen::plain_error(&e)))?;
+        Some(EventLoop::new().map_err(|e| format!("cannot open a window ({}); the experiment needs a display (run under Xvfb on a machine without one, or --headless with a simulated participant)", crate::screen::plain_error(&e)))?)
+    };
     crate::interrupt::catch_interrupts();
     let record = dir.recording_path();
-    let feed = setup_gaze
-        .with_screen(setup.geometry.size_px())
-        .spawn(None, Some((&record, display.name.as_str())))?;
+    let setup_gaze = setup_gaze.with_screen(setup.geometry.size_px());
+    let record = Some((record.as_path(), display.name.as_str()));
+    let start_us = now();
+    let (feed, mut virtual_tracker) = if opts.headless {
+        let (feed, device, tx) = setup_gaze.virtual_mouse(start_us, record)?;
+        (feed, Some((device, tx)))
+    } else {
+        (setup_gaze.spawn(None, record)?, None)
+    };
     let size_px = (setup.geometry.width_px, setup.geometry.height_px);
     let participant = match (opts.simulate, iscan_master) {
+        (Some(seed), _) if opts.headless => Some(Participant::inline(setup.geometry, seed)),
         (Some(seed), Some((port, config))) => Some(Participant::spawn(
             participant::Eye::Iscan {
                 port,
@@ -179,12 +202,13 @@ pub fn run(opts: &RunOptions, out: &mut dyn Write) -> Result<(), String> {
     );
     let mut runner = Runner {
         setup: &setup,
+        clock,
         out,
         dir,
         feed,
         screen: None,
         flow,
-        phase_since_us: monotonic_us(),
+        phase_since_us: start_us,
         calibration: None,
         attempts: 0,
         checking: None,
@@ -203,7 +227,16 @@ pub fn run(opts: &RunOptions, out: &mut dyn Write) -> Result<(), String> {
         shot: Default::default(),
     };
     runner.entered();
-    let result = event_loop.run_app(&mut runner);
+    let result = match (event_loop, virtual_tracker.take()) {
+        (Some(event_loop), _) => event_loop
+            .run_app(&mut runner)
+            .map_err(|e| format!("window: {e}")),
+        (None, Some((device, tx))) => {
+            headless::run(&mut runner, device, &tx);
+            Ok(())
+        }
+        (None, None) => Err("neither a window nor a headless simulation to run".into()),
+    };
     // The tracker first: the simulated participant's line closing under a
     // running tracker would be reported as a lost device.
     let recorded = runner.feed.finish();
@@ -224,5 +257,5 @@ pub fn run(opts: &RunOptions, out: &mut dyn Write) -> Result<(), String> {
     if let Some(e) = runner.error.take() {
         return Err(e);
     }
-    result.map_err(|e| format!("window: {e}"))
+    result
 }

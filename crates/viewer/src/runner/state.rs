@@ -10,7 +10,6 @@ use experiment::session::{MarkerRow, SampleRow};
 use tracker_hal::calibration::{Calibration, Procedure, Session, TimedPoint};
 use tracker_hal::clock::monotonic_us;
 use tracker_hal::events::TimedGaze;
-use winit::event_loop::ActiveEventLoop;
 
 use super::calibrating::Checking;
 use super::participant::Participant;
@@ -26,9 +25,21 @@ const RESPONSE_SAMPLES_WAIT: std::time::Duration = std::time::Duration::from_mil
 /// Refresh rate assumed when the monitor reports none (Hz).
 pub(super) const NOMINAL_REFRESH_HZ: f64 = 60.0;
 
-/// The session in its window.
+/// The session's clock.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(super) enum RunClock {
+    /// The host's monotonic clock (a session in a window).
+    Host,
+    /// A headless simulation's virtual clock (µs), advanced one frame
+    /// period at a time by its loop ([`super::headless`]); it starts at
+    /// the sitting's host anchor.
+    Virtual(u64),
+}
+
+/// The session in its window (or in a headless simulation).
 pub(super) struct Runner<'a> {
     pub(super) setup: &'a Setup,
+    pub(super) clock: RunClock,
     pub(super) out: &'a mut dyn Write,
     pub(super) dir: SessionDir,
     pub(super) feed: GazeFeed,
@@ -59,6 +70,14 @@ pub(super) struct Runner<'a> {
 }
 
 impl Runner<'_> {
+    /// Now on the session's clock (µs).
+    pub(super) fn now(&self) -> u64 {
+        match self.clock {
+            RunClock::Host => monotonic_us(),
+            RunClock::Virtual(t) => t,
+        }
+    }
+
     pub(super) fn say(&mut self, line: &str) {
         let _ = writeln!(self.out, "{line}");
     }
@@ -66,7 +85,7 @@ impl Runner<'_> {
     pub(super) fn marker(&mut self, event: &str, detail: String) {
         let row = MarkerRow {
             sitting: self.dir.sitting(),
-            host_us: monotonic_us(),
+            host_us: self.now(),
             trial: self.flow.trial().map(|t| t.index),
             event: event.to_string(),
             detail,
@@ -165,7 +184,7 @@ impl Runner<'_> {
 
     /// The screen changed: log it, tell the participant, set it up.
     pub(super) fn entered(&mut self) {
-        let now = monotonic_us();
+        let now = self.now();
         self.phase_since_us = now;
         let phase = self.flow.phase();
         let detail = self
@@ -234,7 +253,7 @@ impl Runner<'_> {
                 _ => (Vec::new(), None),
             };
             // The screen's set-up (the trial's scenes) took time: it starts now.
-            p.show(phase, monotonic_us(), &objects, target);
+            p.show(phase, self.now(), &objects, target);
         }
     }
 
@@ -244,7 +263,7 @@ impl Runner<'_> {
         self.entered();
     }
 
-    pub(super) fn act(&mut self, action: Action, el: &ActiveEventLoop) {
+    pub(super) fn act(&mut self, action: Action) {
         let phase = self.flow.phase();
         match action {
             Action::Space { host_us } => {
@@ -257,7 +276,7 @@ impl Runner<'_> {
                             if self.setup.design.response.confirm_click {
                                 self.advance();
                             } else {
-                                self.end_trial(None, el);
+                                self.end_trial(None);
                             }
                         }
                     }
@@ -274,19 +293,22 @@ impl Runner<'_> {
                 self.marker("click", format!("{host_us} {:.1} {:.1}", px[0], px[1]));
                 if phase == Phase::Confirm {
                     let cell = self.setup.layout.cell_at(px);
-                    self.end_trial(Some(cell), el);
+                    self.end_trial(Some(cell));
                 }
             }
         }
     }
 
     /// The trial's response is complete: write it, then the next screen.
-    pub(super) fn end_trial(&mut self, click: Option<Option<(u32, u32)>>, el: &ActiveEventLoop) {
+    pub(super) fn end_trial(&mut self, click: Option<Option<(u32, u32)>>) {
         // Its eye-movement events are computed on the tracker's clock: wait
         // (at most RESPONSE_SAMPLES_WAIT) until the tracker has delivered
         // the samples captured up to the response, however late delivery is.
+        // (A headless simulation has delivered them already: its tracker
+        // ticks up to the frame's virtual time before the frame.)
         let waited = std::time::Instant::now();
-        while self.trial.as_ref().is_some_and(TrialState::awaits_samples)
+        while self.clock == RunClock::Host
+            && self.trial.as_ref().is_some_and(TrialState::awaits_samples)
             && waited.elapsed() < RESPONSE_SAMPLES_WAIT
         {
             std::thread::sleep(std::time::Duration::from_millis(5));
@@ -295,6 +317,12 @@ impl Runner<'_> {
         let (Some(state), Some(t)) = (self.trial.take(), self.flow.trial().cloned()) else {
             return;
         };
+        if let Some((kept, frames, tolerance)) = state.kept_frames() {
+            self.marker(
+                "frames-kept",
+                format!("{kept} of {frames} search frames showed the frame before again (gaze within {tolerance}° of the gaze it was rendered for; frames.tsv repeats its rays and render time)"),
+            );
+        }
         let participant = self.dir.participant().to_string();
         let synthetic = self.participant.is_some();
         match state.finish(
@@ -308,7 +336,7 @@ impl Runner<'_> {
             Ok(line) => self.say(&line),
             Err(e) => {
                 self.error = Some(e);
-                return self.quit(el);
+                return self.quit();
             }
         }
         self.trials_this_sitting += 1;
@@ -321,13 +349,14 @@ impl Runner<'_> {
                 "stopping after {} trials as asked; --resume continues",
                 self.trials_this_sitting
             ));
-            return self.quit(el);
+            return self.quit();
         }
         self.advance();
     }
 
-    pub(super) fn quit(&mut self, el: &ActiveEventLoop) {
+    /// Ends the session after this frame (the window's handler closes
+    /// the event loop; the headless loop stops).
+    pub(super) fn quit(&mut self) {
         self.quitting = true;
-        el.exit();
     }
 }

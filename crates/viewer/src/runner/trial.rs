@@ -14,7 +14,6 @@ use pipeline::{BackendChoice, Method, Options, Renderer};
 use plotters::prelude::*;
 use plotters::style::text_anchor::{HPos, Pos, VPos};
 use raycast::{Camera, Frame, Scene};
-use tracker_hal::clock::monotonic_us;
 use tracker_hal::events::TimedGaze;
 
 use super::session_dir::SessionDir;
@@ -46,6 +45,13 @@ pub struct TrialState {
     last_plan: Option<String>,
     confirm_rgb: Option<Vec<u8>>,
     last: Option<Frame>,
+    /// The gaze the last search frame was rendered for, its rays and
+    /// render time (shown again within `tolerance`).
+    last_render: Option<([f64; 2], u64, f64)>,
+    /// `Setup::gaze_tolerance_deg` with the display, to measure it.
+    tolerance: Option<(f64, foveation::ScreenGeometry)>,
+    /// Search frames shown again (gaze within the tolerance).
+    kept_frames: u64,
     onset_us: Option<u64>,
     response_us: Option<u64>,
     frames: u64,
@@ -113,6 +119,9 @@ impl TrialState {
             last_plan: None,
             confirm_rgb: None,
             last: None,
+            last_render: None,
+            tolerance: setup.gaze_tolerance_deg.map(|t| (t, setup.geometry)),
+            kept_frames: 0,
             onset_us: None,
             response_us: None,
             frames: 0,
@@ -120,6 +129,13 @@ impl TrialState {
             rays: 0,
             samples: Vec::new(),
         })
+    }
+
+    /// Search frames shown again within the gaze tolerance, of the search
+    /// frames presented; `None` without a tolerance.
+    pub fn kept_frames(&self) -> Option<(u64, u64, f64)> {
+        self.tolerance
+            .map(|(t, _)| (self.kept_frames.min(self.frames), self.frames, t))
     }
 
     /// A gaze sample during the trial (kept until the trial is written:
@@ -144,8 +160,19 @@ impl TrialState {
         })
     }
 
-    /// Renders the search display for `gaze`: (rays, render ms).
+    /// Renders the search display for `gaze`: (rays, render ms). Within
+    /// the gaze tolerance of the last rendered frame's gaze, that frame is
+    /// shown again with its rays and render time (the cost of the picture
+    /// shown).
     pub fn render_search(&mut self, gaze: [f64; 2]) -> Result<(u64, f64), String> {
+        if let (Some((g, rays, ms)), Some((tol, geometry)), Some(_)) =
+            (self.last_render, self.tolerance, &self.last)
+        {
+            if geometry.eccentricity_deg(g, gaze) <= tol {
+                self.kept_frames += 1;
+                return Ok((rays, ms));
+            }
+        }
         let old = self.last.take();
         let (frame, stats, plan) = self
             .search
@@ -161,6 +188,7 @@ impl TrialState {
             self.search_plans.push(plan.clone());
         }
         self.last_plan = Some(plan);
+        self.last_render = Some((gaze, stats.rays_total, stats.time_ms));
         Ok((stats.rays_total, stats.time_ms))
     }
 
@@ -242,12 +270,12 @@ impl TrialState {
         }
     }
 
-    /// More than `limit_s` since the onset without a response.
-    pub fn timed_out(&self, limit_s: f64) -> bool {
+    /// More than `limit_s` since the onset without a response, at `now_us`.
+    pub fn timed_out(&self, limit_s: f64, now_us: u64) -> bool {
         self.response_us.is_none()
             && self
                 .onset_us
-                .is_some_and(|o| monotonic_us().saturating_sub(o) as f64 > limit_s * 1e6)
+                .is_some_and(|o| now_us.saturating_sub(o) as f64 > limit_s * 1e6)
     }
 
     /// Writes the trial: its eye-movement events, its row (then the files

@@ -44,7 +44,7 @@ impl ApplicationHandler for Runner<'_> {
         match event {
             WindowEvent::CloseRequested => {
                 self.say("window closed: ending the session (--resume continues it)");
-                self.quit(el)
+                self.quit()
             }
             WindowEvent::CursorMoved { position, .. } => {
                 self.cursor = [position.x, position.y];
@@ -56,7 +56,7 @@ impl ApplicationHandler for Runner<'_> {
                 ..
             } => {
                 let px = self.cursor;
-                self.act(Action::Click { host_us: now, px }, el);
+                self.act(Action::Click { host_us: now, px });
             }
             WindowEvent::KeyboardInput { event, .. }
                 if event.state == ElementState::Pressed && !event.repeat =>
@@ -65,9 +65,9 @@ impl ApplicationHandler for Runner<'_> {
                     Key::Named(NamedKey::Escape) => {
                         self.say("Esc: ending the session (--resume continues it)");
                         self.marker("key", "escape".into());
-                        self.quit(el)
+                        self.quit()
                     }
-                    Key::Named(NamedKey::Space) => self.act(Action::Space { host_us: now }, el),
+                    Key::Named(NamedKey::Space) => self.act(Action::Space { host_us: now }),
                     Key::Character("r") | Key::Character("R") => {
                         if matches!(self.checking, Some(Checking::Decide(_))) {
                             self.attempts = 0;
@@ -82,23 +82,23 @@ impl ApplicationHandler for Runner<'_> {
             WindowEvent::RedrawRequested => {
                 if crate::interrupt::interrupted() {
                     self.say("interrupted (Ctrl-C or SIGTERM): ending the session");
-                    return self.quit(el);
-                }
-                if let Err(e) = self.frame(el) {
+                    self.quit();
+                } else if let Err(e) = self.frame() {
                     // Keep the first error: it is the cause.
                     self.error.get_or_insert(e);
-                    return self.quit(el);
-                }
-                if let Some(e) = &self.error {
+                    self.quit();
+                } else if let Some(e) = &self.error {
                     let e = e.clone();
                     self.say(&format!("error: {e}"));
-                    return self.quit(el);
-                }
-                if let Some(s) = &self.screen {
+                    self.quit();
+                } else if let Some(s) = &self.screen {
                     s.window.request_redraw();
                 }
             }
             _ => {}
+        }
+        if self.quitting {
+            el.exit();
         }
     }
 }

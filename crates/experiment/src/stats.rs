@@ -92,7 +92,7 @@ fn check_finite(groups: &[&[f64]]) -> Result<(), StatsError> {
 }
 
 /// Mean, SD and standard error of one sample.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
 pub struct Summary {
     /// Number of values.
     pub n: usize,
@@ -131,7 +131,7 @@ pub fn summarize(xs: &[f64]) -> Result<Summary, StatsError> {
 }
 
 /// A one-way (between-groups) ANOVA table.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
 pub struct Anova {
     /// Between-groups sum of squares, `Σ nᵢ (x̄ᵢ − x̄)²`.
     pub ss_between: f64,
@@ -267,7 +267,7 @@ pub fn t_two_sided_p(t: f64, df: f64) -> Result<f64, StatsError> {
 }
 
 /// A repeated-measures (within-subjects) one-way ANOVA table.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
 pub struct RmAnova {
     /// Number of subjects `n`.
     pub subjects: usize,
@@ -403,7 +403,7 @@ pub fn rm_anova(data: &[&[f64]]) -> Result<RmAnova, StatsError> {
 }
 
 /// One pairwise comparison.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
 pub struct Pair {
     /// First group index.
     pub a: usize,

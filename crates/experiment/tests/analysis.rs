@@ -430,9 +430,27 @@ fn numbers_match_stats_called_directly() {
         "control",
     );
 
+    // stats.json: the same statistics at full precision (bit for bit).
+    let json: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(out.join("stats.json")).unwrap()).unwrap();
+    let f = json["anova"]["Done"]["anova"]["f"]
+        .as_f64()
+        .expect("F in stats.json");
+    assert_eq!(f, report.anova.done().unwrap().anova.f);
+    let gg = json["rm_anova"]["Done"]["rm"]["p_gg"]
+        .as_f64()
+        .expect("p_gg");
+    assert_eq!(gg, report.rm_anova.done().unwrap().rm.p_gg);
+    assert_eq!(json["synthetic"], serde_json::Value::Bool(false));
+    assert_eq!(
+        json["conditions"][0]["summary"]["mean"].as_f64(),
+        report.conditions[0].summary.map(|s| s.mean)
+    );
+
     // The files.
     for name in [
         "report.md",
+        "stats.json",
         "conditions.csv",
         "table-7.1.csv",
         "fig-7.3.png",

@@ -83,6 +83,17 @@ pub fn load_display(path: &Path) -> Result<foveation::Display, ConfigError> {
     Ok(display)
 }
 
+/// Loads a simulated observer's search model
+/// (`experiment::run::observer`) and checks it; errors name the file, the
+/// line and the field.
+pub fn load_observer(path: &Path) -> Result<experiment::run::observer::ObserverModel, ConfigError> {
+    let (model, text): (experiment::run::observer::ObserverModel, String) = load(path)?;
+    model
+        .validate()
+        .map_err(|(field, message)| invalid_field(path, &text, &field, message))?;
+    Ok(model)
+}
+
 /// Loads an experiment design and checks it
 /// (`experiment::Design::validate`); errors name the file, line and field.
 pub fn load_design(path: &Path) -> Result<experiment::Design, ConfigError> {

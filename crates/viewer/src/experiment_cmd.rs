@@ -69,6 +69,12 @@ pub struct RunArgs {
     /// file it produces is marked synthetic.
     #[arg(long, value_name = "SEED")]
     pub simulate_participant: Option<u64>,
+    /// The simulated participant searches with this observer model (RON,
+    /// config/participants/search-observer.ron): what it identifies at
+    /// each fixation depends on what the condition rendered there. A
+    /// model, not a person: its data are synthetic.
+    #[arg(long, value_name = "FILE.ron", requires = "simulate_participant")]
+    pub participant_model: Option<PathBuf>,
     /// No window: the simulated participant's session on a virtual clock,
     /// as fast as the machine renders (same screens, renderer and files;
     /// the mouse tracker emulated on the same clock).
@@ -170,6 +176,7 @@ pub fn run(args: &ExperimentArgs, out: &mut dyn Write) -> Result<(), String> {
                 monitor: a.monitor,
                 simulate: a.simulate_participant,
                 headless: a.headless,
+                participant_model: a.participant_model.clone(),
                 gaze_tolerance_deg: (tolerance > 0.0).then_some(tolerance),
                 stimulus_pictures: !a.no_stimulus_pictures,
                 max_trials: a.max_trials,

@@ -25,7 +25,7 @@
 //!
 //! Outputs (each through a temporary file and a rename; `OUT` may not be
 //! one of the inputs or inside one, and no input file is ever written):
-//! `report.md`, `conditions.csv`, `table-7.1.csv` (when the design has
+//! `report.md`, `stats.json` (every statistic at full precision), `conditions.csv`, `table-7.1.csv` (when the design has
 //! hybrid conditions), `fig-conditions.png`, `fig-7.3.png`, `fig-7.4.png`,
 //! and `scanpaths/<participant>-trial-NNN.png` for every trial that has a
 //! `stimuli/trial-NNN.png`. Files of these names that an earlier analyze
@@ -60,6 +60,9 @@ use write::write_outputs;
 
 /// `report.md`.
 pub const REPORT_MD: &str = "report.md";
+/// `stats.json`: every statistic of the report at full precision (the
+/// report rounds F to 2 decimals and p to 4), with `synthetic` first.
+pub const STATS_JSON: &str = "stats.json";
 /// `conditions.csv`.
 pub const CONDITIONS_CSV: &str = "conditions.csv";
 /// `trials.csv`: every analysed session's trial table in one plain CSV

@@ -6,7 +6,7 @@ use std::path::{Component, Path, PathBuf};
 
 use super::{
     AnalysisError, CONDITIONS_CSV, FIG_7_3, FIG_7_4, FIG_CONDITIONS, REPORT_MD, SCANPATHS_DIR,
-    TABLE_7_1_CSV, TRIALS_CSV,
+    STATS_JSON, TABLE_7_1_CSV, TRIALS_CSV,
 };
 use crate::session;
 
@@ -125,6 +125,7 @@ pub(crate) fn analyze_output_name(name: &str, scanpath: bool) -> bool {
     if !scanpath {
         return [
             REPORT_MD,
+            STATS_JSON,
             CONDITIONS_CSV,
             TRIALS_CSV,
             TABLE_7_1_CSV,

@@ -4,11 +4,13 @@
 
 use std::path::PathBuf;
 
+use serde::Serialize;
+
 use super::format::{fmt_df, fmt_p};
 use crate::stats::{Anova, Pair, RmAnova, Summary};
 
 /// A result that may have been skipped, with the reason.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, Serialize)]
 pub enum Computed<T> {
     /// Computed.
     Done(T),
@@ -27,7 +29,7 @@ impl<T> Computed<T> {
 }
 
 /// One input session, as the report lists it.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct SessionSummary {
     /// The folder.
     pub dir: PathBuf,
@@ -46,7 +48,7 @@ pub struct SessionSummary {
 }
 
 /// Search time in one condition.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct ConditionStats {
     /// Condition name.
     pub name: String,
@@ -65,7 +67,7 @@ pub struct ConditionStats {
 }
 
 /// Search time in a group of conditions (pooled trials).
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct GroupStats {
     /// Label (`"E"`, `"NE"`, `"Control"`).
     pub label: String,
@@ -76,7 +78,7 @@ pub struct GroupStats {
 }
 
 /// A one-way ANOVA with the group names.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct OneWay {
     /// Group names, in the order of the test.
     pub groups: Vec<String>,
@@ -98,7 +100,7 @@ impl OneWay {
 }
 
 /// One pairwise comparison, with the condition (or group) names.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct PairResult {
     /// First.
     pub a: String,
@@ -109,7 +111,7 @@ pub struct PairResult {
 }
 
 /// The seed's "significance of edges" analysis.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct EdgesAnalysis {
     /// E (edges kept), NE (edges discarded), Control — those present.
     pub groups: Vec<GroupStats>,
@@ -120,7 +122,7 @@ pub struct EdgesAnalysis {
 }
 
 /// The repeated-measures ANOVA on per-participant condition means.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct RmResult {
     /// The participants included (those with every condition).
     pub participants: Vec<String>,
@@ -149,7 +151,7 @@ impl RmResult {
 }
 
 /// One of the seed's pairs of interest.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct SeedPair {
     /// First condition.
     pub a: String,
@@ -162,7 +164,7 @@ pub struct SeedPair {
 }
 
 /// Table 7.1: mean search time by edges (rows) and inset (columns).
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct Table71 {
     /// Column insets (deg), ascending.
     pub insets: Vec<f64>,
@@ -173,7 +175,7 @@ pub struct Table71 {
 }
 
 /// One row of [`Table71`].
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct Table71Row {
     /// `"No Edges"` or `"Edges"`.
     pub label: String,
@@ -186,7 +188,7 @@ pub struct Table71Row {
 }
 
 /// Everything [`analyze`](super::analyze) computed and wrote.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct Report {
     /// Any session synthetic.
     pub synthetic: bool,

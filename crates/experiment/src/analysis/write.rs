@@ -9,7 +9,7 @@ use super::output::{remove_stale, OutputWriter};
 use super::report::{Computed, Report};
 use super::{
     AnalysisError, AnalyzeOptions, CONDITIONS_CSV, FIG_7_3, FIG_7_4, FIG_CONDITIONS, REPORT_MD,
-    SCANPATHS_DIR, TABLE_7_1_CSV, TRIALS_CSV,
+    SCANPATHS_DIR, STATS_JSON, TABLE_7_1_CSV, TRIALS_CSV,
 };
 use crate::figures::{Bar, BarChart, BarGroup, Fixation, Reference, Scanpath};
 use crate::session::{EventRow, TrialRow};
@@ -366,10 +366,18 @@ pub(crate) fn write_outputs(
     }
     let report_path = w.path(REPORT_MD);
     outputs.push(report_path.clone());
+    let stats_path = w.path(STATS_JSON);
+    outputs.push(stats_path.clone());
     remove_stale(w, &outputs, &mut report.warnings)?;
     report.outputs = outputs;
     let md = markdown(report);
     w.bytes(&report_path, md.as_bytes())?;
+    // Full precision; non-finite values (none expected) become null.
+    let json = serde_json::to_string_pretty(report).map_err(|e| AnalysisError::Output {
+        path: stats_path.clone(),
+        message: e.to_string(),
+    })?;
+    w.bytes(&stats_path, json.as_bytes())?;
     Ok(())
 }
 

@@ -13,12 +13,14 @@
 //! - [`acceptance`]: whether a calibration, validation or drift check is
 //!   good enough;
 //! - [`participant`]: the simulated participant's behaviour;
+//! - [`observer`]: the search model whose observer sees what is rendered;
 //! - [`trial_result`]: a finished trial's eye-movement events and click.
 
 pub mod acceptance;
 pub mod design_check;
 pub mod flow;
 pub mod layout;
+pub mod observer;
 pub mod on_display;
 pub mod participant;
 pub mod stimulus;

@@ -16,7 +16,9 @@
 //!   [`WRONG_CLICK`] to a neighbouring cell (so incorrect trials occur).
 //!
 //! Its search times are synthetic: they say nothing about people, and do
-//! not depend on the condition (the model never looks at the image).
+//! not depend on the condition (the model never looks at the image) —
+//! unless an observer model is given ([`Behaviour::with_observer`],
+//! [`super::observer`]): its search then depends on what was rendered.
 //!
 //! **Timing.** What it plans is dated by the plan, not by when it is
 //! asked: a search's fixations are all dated from the screen's start, and
@@ -29,6 +31,7 @@ use screen_geometry::ScreenGeometry;
 use tracker_hal::sim::{main_sequence_duration_ms, search_stops};
 
 use super::flow::Phase;
+use super::observer::{ObserverModel, ObserverSearch};
 
 /// Probability that the confirming click lands on a neighbouring cell.
 pub const WRONG_CLICK: f64 = 0.05;
@@ -53,6 +56,10 @@ pub struct Seen {
     /// Search display: every object's centre and the target's.
     pub objects: Vec<[f64; 2]>,
     pub target_object: Option<[f64; 2]>,
+    /// For an observer model ([`Behaviour::with_observer`]): the newest
+    /// search frame's gaze (px) and each object's visible fidelity in it
+    /// (`observer::cell_fidelity`, in the order of `objects`).
+    pub fidelity: Option<([f64; 2], Vec<f64>)>,
 }
 
 /// What one look at the screen gives: where the eye goes (host µs, px; in
@@ -104,6 +111,9 @@ pub struct Behaviour {
     /// The newest time a look was dated for: later looks are never dated
     /// before it (the tracker's cursor history is in time order).
     last_t: u64,
+    /// The search model that sees the rendering, when given.
+    observer: Option<ObserverModel>,
+    observer_search: Option<ObserverSearch>,
 }
 
 impl Behaviour {
@@ -119,7 +129,23 @@ impl Behaviour {
             click_px: geometry.centre_px(),
             looking: None,
             last_t: 0,
+            observer: None,
+            observer_search: None,
         }
+    }
+
+    /// Searches with `model` (`observer`): what it identifies at each
+    /// fixation depends on what the condition rendered there. Without it
+    /// the search is the stand-in described above, blind to the rendering.
+    pub fn with_observer(mut self, model: ObserverModel) -> Self {
+        self.observer = Some(model);
+        self
+    }
+
+    /// Whether the behaviour looks at the rendering (the runner then
+    /// computes each search frame's fidelity for it).
+    pub fn sees_rendering(&self) -> bool {
+        self.observer.is_some()
     }
 
     /// Looks at `p` from `t_us` on, unless it already does.
@@ -148,6 +174,19 @@ impl Behaviour {
             self.acted = false;
             match phase {
                 Phase::Preview => self.wait_ms = self.rng.random_range(500.0..900.0),
+                Phase::Search if self.observer.is_some() => {
+                    if let Some(m) = &self.observer {
+                        let centre = geometry.centre_px();
+                        self.observer_search = Some(ObserverSearch::start(
+                            m,
+                            centre,
+                            s.objects.len(),
+                            &mut self.rng,
+                        ));
+                        self.search = (Vec::new(), f64::INFINITY);
+                        self.look(centre, s.since_us, &mut out);
+                    }
+                }
                 Phase::Search => {
                     if let Some(t) = s.target_object {
                         self.search = search_plan(&geometry, &s.objects, t, &mut self.rng);
@@ -157,6 +196,13 @@ impl Behaviour {
                             self.look(p, at(t_ms), &mut out);
                         }
                     }
+                }
+                Phase::Confirm if self.observer_search.is_some() => {
+                    // Where it looks: the target if it found it.
+                    if let Some(o) = &self.observer_search {
+                        self.click_px = o.fixation();
+                    }
+                    self.wait_ms = self.rng.random_range(250.0..450.0);
                 }
                 Phase::Confirm => {
                     let t = s.target_object.unwrap_or(geometry.centre_px());
@@ -199,6 +245,27 @@ impl Behaviour {
                 }
             }
             Phase::Search => {
+                if let (Some(m), Some(search)) = (&self.observer, &mut self.observer_search) {
+                    let target = s
+                        .target_object
+                        .and_then(|t| s.objects.iter().position(|o| *o == t));
+                    let fidelity = s.fidelity.as_ref().map(|(g, q)| (*g, q.as_slice()));
+                    let step = search.step(
+                        m,
+                        &geometry,
+                        &s.objects,
+                        target,
+                        elapsed_ms,
+                        fidelity,
+                        &mut self.rng,
+                    );
+                    for (ms, p) in step.looks {
+                        self.look(p, at(ms), &mut out);
+                    }
+                    if let Some(ms) = step.space_ms {
+                        self.search.1 = ms;
+                    }
+                }
                 if !self.acted && elapsed_ms >= self.search.1 {
                     self.acted = true;
                     out.action = Some(Action::Space {

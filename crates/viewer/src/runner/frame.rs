@@ -166,6 +166,13 @@ impl Runner<'_> {
                 }
             }
         }
+        // What the observer model sees of the frame shown (after the
+        // search's onset is shown to it).
+        if let (Some(p), Some(t), Phase::Search) = (&self.participant, &self.trial, phase) {
+            if let Some((gaze, q)) = t.fidelity() {
+                p.show_fidelity(gaze, q);
+            }
+        }
         self.dir.frame(&FrameRow {
             sitting: self.dir.sitting(),
             host_us: present_us,

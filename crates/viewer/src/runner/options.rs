@@ -30,6 +30,9 @@ pub struct RunOptions {
     /// Save the first frame shown of each kind of screen here
     /// (`<phase>.png`: instructions, calibration, preview, search, …).
     pub screenshots: Option<PathBuf>,
+    /// The simulated participant searches with this observer model (it
+    /// sees what is rendered; `experiment::run::observer`).
+    pub participant_model: Option<PathBuf>,
     /// Run without a window on a virtual clock (with `simulate`, on the
     /// mouse tracker): the same screens, renderer and files, as fast as
     /// the machine renders.

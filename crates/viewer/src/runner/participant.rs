@@ -31,6 +31,7 @@ use std::time::Duration;
 
 use crossbeam_channel::{Receiver, Sender};
 use experiment::run::flow::Phase;
+use experiment::run::observer::ObserverModel;
 use experiment::run::participant::{Action, Behaviour, Seen};
 use foveation::ScreenGeometry;
 use rand::{Rng, SeedableRng};
@@ -74,7 +75,12 @@ pub struct Participant {
 impl Participant {
     /// Starts the participant; its gaze goes to `eye`, its actions to
     /// [`Participant::take_actions`].
-    pub fn spawn(eye: Eye, geometry: ScreenGeometry, seed: u64) -> Self {
+    pub fn spawn(
+        eye: Eye,
+        geometry: ScreenGeometry,
+        seed: u64,
+        observer: Option<ObserverModel>,
+    ) -> Self {
         let seen = Arc::new(Mutex::new(Seen::default()));
         let stop = Arc::new(AtomicBool::new(false));
         let (tx, actions) = crossbeam_channel::unbounded();
@@ -97,7 +103,13 @@ impl Participant {
         };
         let thread = std::thread::Builder::new()
             .name("participant".into())
-            .spawn(move || behave(&s, &st, cursor.as_ref(), &gaze, &tx, geometry, seed))
+            .spawn(move || {
+                let mut b = Behaviour::new(geometry, seed);
+                if let Some(m) = observer {
+                    b = b.with_observer(m);
+                }
+                behave(&s, &st, cursor.as_ref(), &gaze, &tx, b)
+            })
             .ok();
         Self {
             seen,
@@ -111,15 +123,19 @@ impl Participant {
 
     /// A participant without a thread, for a headless simulation: its
     /// loop calls [`Participant::step`] with the virtual time each frame.
-    pub fn inline(geometry: ScreenGeometry, seed: u64) -> Self {
+    pub fn inline(geometry: ScreenGeometry, seed: u64, observer: Option<ObserverModel>) -> Self {
         let (tx, actions) = crossbeam_channel::unbounded();
+        let mut b = Behaviour::new(geometry, seed);
+        if let Some(m) = observer {
+            b = b.with_observer(m);
+        }
         Self {
             seen: Arc::new(Mutex::new(Seen::default())),
             actions,
             stop: Arc::new(AtomicBool::new(false)),
             thread: None,
             writer: None,
-            inline: Some((Mutex::new(Behaviour::new(geometry, seed)), tx)),
+            inline: Some((Mutex::new(b), tx)),
         }
     }
 
@@ -160,6 +176,15 @@ impl Participant {
             s.target_px = None;
             s.objects = objects.to_vec();
             s.target_object = target;
+            s.fidelity = None;
+        }
+    }
+
+    /// The newest search frame's gaze (px) and each object's visible
+    /// fidelity in it, for an observer model.
+    pub fn show_fidelity(&self, gaze: [f64; 2], fidelity: Vec<f64>) {
+        if let Ok(mut s) = self.seen.lock() {
+            s.fidelity = Some((gaze, fidelity));
         }
     }
 
@@ -283,10 +308,8 @@ fn behave(
     cursor: Option<&Sender<CursorEvent>>,
     gaze: &Mutex<Gaze>,
     actions: &Sender<Action>,
-    geometry: ScreenGeometry,
-    seed: u64,
+    mut behaviour: Behaviour,
 ) {
-    let mut behaviour = Behaviour::new(geometry, seed);
     while !stop.load(Ordering::Relaxed) {
         std::thread::sleep(Duration::from_millis(4));
         let s = match seen.lock() {

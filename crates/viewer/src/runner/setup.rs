@@ -26,4 +26,8 @@ pub(super) struct Setup {
     /// A search frame is shown again while the gaze stays within this many
     /// degrees of the gaze it was rendered for.
     pub(super) gaze_tolerance_deg: Option<f64>,
+    /// The simulated observer's model, when it sees the rendering: each
+    /// trial then renders its search display at full resolution too, and
+    /// each new search frame's fidelity per object goes to it.
+    pub(super) observer: Option<experiment::run::observer::ObserverModel>,
 }

@@ -70,6 +70,10 @@ pub fn run(opts: &RunOptions, out: &mut dyn Write) -> Result<(), String> {
             }
         }
     }
+    let observer = match &opts.participant_model {
+        Some(p) => Some(crate::config::load_observer(p).map_err(|e| e.to_string())?),
+        None => None,
+    };
     let mut dir = SessionDir::open(opts, &design, &display, index, &setup_gaze)?;
     // The session's clock: the host's, or a virtual one from its start.
     let clock = if opts.headless {
@@ -139,6 +143,7 @@ pub fn run(opts: &RunOptions, out: &mut dyn Write) -> Result<(), String> {
         drift_plan,
         model,
         gaze_tolerance_deg: opts.gaze_tolerance_deg,
+        observer,
     };
     if let Some(d) = &opts.screenshots {
         std::fs::create_dir_all(d).map_err(|e| format!("--screenshots {}: {e}", d.display()))?;
@@ -162,7 +167,11 @@ pub fn run(opts: &RunOptions, out: &mut dyn Write) -> Result<(), String> {
     };
     let size_px = (setup.geometry.width_px, setup.geometry.height_px);
     let participant = match (opts.simulate, iscan_master) {
-        (Some(seed), _) if opts.headless => Some(Participant::inline(setup.geometry, seed)),
+        (Some(seed), _) if opts.headless => Some(Participant::inline(
+            setup.geometry,
+            seed,
+            setup.observer.clone(),
+        )),
         (Some(seed), Some((port, config))) => Some(Participant::spawn(
             participant::Eye::Iscan {
                 port,
@@ -171,11 +180,16 @@ pub fn run(opts: &RunOptions, out: &mut dyn Write) -> Result<(), String> {
             },
             setup.geometry,
             seed,
+            setup.observer.clone(),
         )),
-        (Some(seed), None) => feed
-            .cursor_tx
-            .clone()
-            .map(|tx| Participant::spawn(participant::Eye::Mouse(tx), setup.geometry, seed)),
+        (Some(seed), None) => feed.cursor_tx.clone().map(|tx| {
+            Participant::spawn(
+                participant::Eye::Mouse(tx),
+                setup.geometry,
+                seed,
+                setup.observer.clone(),
+            )
+        }),
         _ => None,
     };
     let resumed = start > 0;

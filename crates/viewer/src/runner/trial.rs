@@ -6,6 +6,7 @@
 use std::path::Path;
 
 use experiment::run::flow::Phase;
+use experiment::run::observer::cell_fidelity;
 use experiment::run::stimulus;
 use experiment::run::trial_result::{trial_events, trial_line, trial_row, Measured};
 use experiment::session;
@@ -31,6 +32,16 @@ self_cell::self_cell!(
     }
 );
 
+/// What an observer model needs of the search frames.
+struct ObserverFrames {
+    full_rgb: Vec<u8>,
+    block_px: usize,
+    radius_px: f64,
+    centres_px: Vec<[f64; 2]>,
+    size: (u32, u32),
+    fresh: Option<([f64; 2], Vec<f64>)>,
+}
+
 /// A trial from its preview to its response.
 pub struct TrialState {
     search: SearchScene,
@@ -52,6 +63,10 @@ pub struct TrialState {
     tolerance: Option<(f64, foveation::ScreenGeometry)>,
     /// Search frames shown again (gaze within the tolerance).
     kept_frames: u64,
+    /// For an observer model: the search display at full resolution, the
+    /// fidelity's block (px), and the newest rendered frame's gaze and
+    /// per-cell fidelity.
+    observer: Option<ObserverFrames>,
     onset_us: Option<u64>,
     response_us: Option<u64>,
     frames: u64,
@@ -111,6 +126,19 @@ impl TrialState {
         let search = SearchScene::try_new(scene, |s| {
             Renderer::new(s, camera, search_model, &options).map_err(|e| e.to_string())
         })?;
+        // Pay per use: the full-resolution search display only for an
+        // observer that compares what it sees with it.
+        let observer = match &setup.observer {
+            Some(m) => Some(ObserverFrames {
+                full_rgb: full_resolution(search.borrow_owner(), setup)?.0.rgb,
+                block_px: m.block_px(setup.geometry.local_ppd(setup.geometry.centre_px())),
+                radius_px: setup.layout.radius_px,
+                centres_px: setup.layout.centres_px.clone(),
+                size: (setup.geometry.width_px, setup.geometry.height_px),
+                fresh: None,
+            }),
+            None => None,
+        };
         Ok(Self {
             search,
             preview_rgb: frame.rgb,
@@ -122,6 +150,7 @@ impl TrialState {
             last_render: None,
             tolerance: setup.gaze_tolerance_deg.map(|t| (t, setup.geometry)),
             kept_frames: 0,
+            observer,
             onset_us: None,
             response_us: None,
             frames: 0,
@@ -129,6 +158,12 @@ impl TrialState {
             rays: 0,
             samples: Vec::new(),
         })
+    }
+
+    /// The search frame shown's gaze and each cell's visible fidelity in
+    /// it (row-major), for an observer model.
+    pub fn fidelity(&self) -> Option<([f64; 2], Vec<f64>)> {
+        self.observer.as_ref().and_then(|o| o.fresh.clone())
     }
 
     /// Search frames shown again within the gaze tolerance, of the search
@@ -189,6 +224,17 @@ impl TrialState {
         }
         self.last_plan = Some(plan);
         self.last_render = Some((gaze, stats.rays_total, stats.time_ms));
+        if let (Some(o), Some(f)) = (&mut self.observer, &self.last) {
+            let q = cell_fidelity(
+                &f.rgb,
+                &o.full_rgb,
+                o.size,
+                &o.centres_px,
+                o.radius_px,
+                o.block_px,
+            );
+            o.fresh = Some((gaze, q));
+        }
         Ok((stats.rays_total, stats.time_ms))
     }
 

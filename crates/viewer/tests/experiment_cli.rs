@@ -1059,4 +1059,73 @@ fn a_headless_session_runs_on_a_virtual_clock_and_repeats_exactly() {
     // The gaze tolerance (0.5° by default headless) kept frames, and says so.
     let markers = std::fs::read_to_string(da.join("markers.tsv")).expect("markers");
     assert!(markers.contains("frames-kept"), "{markers}");
+
+    // The observer model that sees the rendering runs headless too; a bad
+    // model file is refused naming its line and field, before any folder.
+    let model =
+        std::fs::read_to_string("../../config/participants/search-observer.ron").expect("model");
+    let bad = tmp.path().join("bad-observer.ron");
+    std::fs::write(&bad, model.replace("lapse: 0.05", "lapse: 2.0")).expect("write");
+    let o = run(
+        &tmp.path().join("bad"),
+        &[
+            "--headless",
+            "--simulate-participant",
+            "4",
+            "--participant-model",
+        ],
+    );
+    assert!(!o.status.success(), "a missing model path is refused");
+    let mut c = common::gazecast();
+    c.args([
+        "experiment",
+        "run",
+        "tests/data/experiment/design-small.ron",
+        "--participant",
+        "P01",
+        "--tracker",
+        "tests/data/mouse-participant.ron",
+        "--display",
+        "tests/data/experiment/display-small.ron",
+        "--headless",
+        "--simulate-participant",
+        "4",
+        "--participant-model",
+    ])
+    .arg(&bad)
+    .arg("--out")
+    .arg(tmp.path().join("bad"));
+    let o = c.output().expect("runs");
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        !o.status.success() && err.contains("lapse") && err.contains("bad-observer.ron:"),
+        "{err}"
+    );
+    assert!(!tmp.path().join("bad").exists());
+    let m = tmp.path().join("m");
+    let o = run(
+        &m,
+        &[
+            "--headless",
+            "--simulate-participant",
+            "4",
+            "--participant-model",
+            "config/participants/search-observer.ron",
+            "--max-trials",
+            "3",
+        ],
+    );
+    assert!(
+        o.status.success(),
+        "{}\n{}",
+        String::from_utf8_lossy(&o.stdout),
+        String::from_utf8_lossy(&o.stderr)
+    );
+    let dm = m.join("small-search").join("sub-P01");
+    assert_eq!(column(&dm.join("trials.tsv"), "trial").len(), 3);
+    // It searches differently from the stand-in with the same seed.
+    assert_ne!(
+        column(&dm.join("trials.tsv"), "rt_s"),
+        column(&da.join("trials.tsv"), "rt_s")[..3].to_vec()
+    );
 }

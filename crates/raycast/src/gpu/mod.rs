@@ -51,6 +51,7 @@ mod post;
 mod raster;
 mod readback;
 mod timer;
+mod traffic;
 mod upload;
 
 pub use device::{open_device, probe, GpuDevice};
@@ -58,8 +59,11 @@ pub use foveated::{foveated_stages, Stage};
 pub use hidden::HIDDEN_HITS;
 pub use post::{read_words, storage_buffer, GpuFrame, GpuPost};
 pub use raster::off_axis_projection;
+pub use traffic::{Traffic, TrafficCounter};
 /// The `wgpu` this backend is built on, for callers of [`GpuPost`].
 pub use wgpu;
+
+use std::sync::Arc;
 
 use crate::scene::Scene;
 
@@ -123,6 +127,12 @@ pub struct GpuRenderer {
     /// The raster path's pipelines and buffers, made by the first
     /// [`GpuRenderer::rasterize`].
     raster: Option<raster::GpuRaster>,
+    /// Every byte and call between the CPU and this device, since it was
+    /// made (shared with the passes that encode on its frames).
+    traffic: Arc<TrafficCounter>,
+    /// What the last frame (`render_full_with`, `render_foveated_kept`,
+    /// `rasterize`) moved, its post passes included.
+    frame_traffic: Traffic,
 }
 
 impl GpuRenderer {
@@ -142,7 +152,8 @@ impl GpuRenderer {
         let timer = opened
             .timestamps
             .then(|| Timer::new(&device, &opened.queue));
-        let scene_buffers = SceneBuffers::upload(&device, scene, max_binding)?;
+        let traffic = Arc::new(TrafficCounter::default());
+        let scene_buffers = SceneBuffers::upload(&device, &traffic, scene, max_binding)?;
         let layouts = Layouts::new(&device);
         let pipelines = Pipelines::new(&device, &layouts);
         let uniform = |label, size| {
@@ -180,6 +191,8 @@ impl GpuRenderer {
             surface: true,
             hidden: std::sync::OnceLock::new(),
             raster: None,
+            traffic,
+            frame_traffic: Traffic::default(),
             device,
         })
     }
@@ -226,5 +239,25 @@ impl GpuRenderer {
     /// The adapter in words (name, backend, type, driver).
     pub fn adapter(&self) -> &str {
         &self.adapter
+    }
+
+    /// What the last frame moved between the CPU and the GPU (its
+    /// uploads, read-backs, dispatches, draws and submissions, its post
+    /// passes included), counted at the `wgpu` calls; zero before the first.
+    pub fn frame_traffic(&self) -> Traffic {
+        self.frame_traffic
+    }
+
+    /// Everything this renderer has moved since it was made, the scene's
+    /// upload included: a caller that renders several times per frame (or
+    /// reads a frame's buffers after it) takes the difference of two totals.
+    pub fn traffic_total(&self) -> Traffic {
+        self.traffic.total()
+    }
+
+    /// The counter the renderer's calls go through, for passes that move
+    /// bytes on its device outside a frame's post hook.
+    pub fn traffic_counter(&self) -> &Arc<TrafficCounter> {
+        &self.traffic
     }
 }

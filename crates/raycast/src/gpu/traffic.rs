@@ -16,7 +16,7 @@ use std::sync::atomic::{AtomicU64, Ordering};
 
 /// Bytes and calls between the CPU and the GPU: one frame's
 /// ([`super::GpuRenderer::frame_traffic`]) or a total.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Hash)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Hash, serde::Serialize)]
 pub struct Traffic {
     /// Bytes uploaded: `write_buffer`, `write_texture`, buffers created
     /// with contents.

@@ -86,7 +86,8 @@ else
   jobs=("config/scenes/search-task.ron,config/scenes/bunny.ron,config/scenes/faces.ron,config/scenes/stress.ron,config/scenes/stress-dof.ron|config/displays/desktop-24in-1080p.ron,config/displays/desktop-27in-4k.ron")
   method_scene=config/scenes/stress-dof.ron
   method_displays="config/displays/desktop-24in-1080p.ron config/displays/desktop-27in-4k.ron"
-  methods="full hybrid image simplify lod ulod layers"
+  # ulod renders on the CPU only (its attention and levels are CPU code).
+  methods="full hybrid image simplify lod layers"
   repeats=10
 fi
 

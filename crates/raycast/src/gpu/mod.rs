@@ -28,6 +28,10 @@
 //!   [`crate::raster::rasterize`]); made on first use.
 //! - Where the adapter has timestamp queries, every pass is timed
 //!   ([`GpuRenderer::stage_ms`]).
+//! - Every byte uploaded or read back and every dispatch, draw and
+//!   submission goes through one [`TrafficCounter`] (the caller's post
+//!   passes too, [`GpuFrame::traffic`]): [`GpuRenderer::frame_traffic`] is
+//!   the last frame's [`Traffic`], counted at the `wgpu` calls.
 //!
 //! Any adapter works, including Mesa's lavapipe (software Vulkan), which is
 //! how the tests run on machines without a GPU. A buffer larger than the
@@ -39,7 +43,8 @@
 //! `pipelines` (the shader and its compute pipelines), `full` (the
 //! full-resolution frame), `foveated` (the foveated frame and its stages),
 //! `readback` (mapping and unpacking the frame), `post` (the caller's
-//! passes before the read-back), `raster` (the raster path).
+//! passes before the read-back), `raster` (the raster path), `traffic`
+//! (what a frame moves between the CPU and the GPU).
 
 mod buffers;
 mod device;

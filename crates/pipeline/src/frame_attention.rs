@@ -134,6 +134,7 @@ impl FrameAttention {
         let input = SaliencyInput {
             device: frame.device(),
             queue: frame.queue(),
+            traffic: frame.traffic(),
             pixels: frame.pixels(),
             depth: frame.depth(),
             ids: frame.object_ids(),

@@ -154,6 +154,12 @@ impl GpuAttention {
         &self.gpu.adapter
     }
 
+    /// Everything this model has moved to and from its device since it was
+    /// made (uploads, read-backs, dispatches, submissions).
+    pub fn traffic_total(&self) -> raycast::gpu::Traffic {
+        self.gpu.traffic.total()
+    }
+
     /// The CPU tracker that finishes each frame (its history, its
     /// configuration; its maps are not filled by GPU frames).
     pub fn tracker(&self) -> &AttentionTracker {
@@ -202,10 +208,10 @@ impl GpuAttention {
                 .chunks_exact(3)
                 .map(|c| u32::from(c[0]) | u32::from(c[1]) << 8 | u32::from(c[2]) << 16 | 1 << 24),
         );
-        let queue = &self.gpu.queue;
-        queue.write_buffer(&f.pixels, 0, bytemuck::cast_slice(&self.words));
-        queue.write_buffer(&f.depth, 0, bytemuck::cast_slice(frame.depth_mm));
-        queue.write_buffer(&f.ids, 0, bytemuck::cast_slice(frame.object));
+        let (queue, traffic) = (&self.gpu.queue, &self.gpu.traffic);
+        traffic.write_buffer(queue, &f.pixels, 0, bytemuck::cast_slice(&self.words));
+        traffic.write_buffer(queue, &f.depth, 0, bytemuck::cast_slice(frame.depth_mm));
+        traffic.write_buffer(queue, &f.ids, 0, bytemuck::cast_slice(frame.object));
         Ok(())
     }
 
@@ -218,6 +224,7 @@ impl GpuAttention {
         let input = SaliencyInput {
             device: &self.gpu.device,
             queue: &self.gpu.queue,
+            traffic: &self.gpu.traffic,
             pixels: &f.pixels,
             depth: &f.depth,
             ids: &f.ids,
@@ -271,7 +278,7 @@ impl GpuAttention {
     pub fn saliency_map(&self) -> Result<Option<Vec<f32>>, GpuAttentionError> {
         Ok(self
             .saliency
-            .read_saliency_map(&self.gpu.device, &self.gpu.queue)?)
+            .read_saliency_map(&self.gpu.device, &self.gpu.queue, &self.gpu.traffic)?)
     }
 
     /// The last frame's weights `w_f` (eq. 3.6) in `Feature::ALL` order.

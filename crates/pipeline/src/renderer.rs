@@ -1,7 +1,7 @@
 //! [`Renderer`]: the one entry that renders a frame.
 
 use foveation::{Layout, SamplingModel};
-use raycast::gpu::GpuError;
+use raycast::gpu::{GpuError, Traffic};
 use raycast::ray::TriangleTest;
 use raycast::render::{Scratch, StageTimes, Stats, Triggers};
 use raycast::{Camera, Frame, Scene};
@@ -136,6 +136,9 @@ pub struct Renderer<'s> {
     /// [`Renderer::provenance`]: the plan in one line, rebuilt whenever
     /// the plan changes.
     provenance: String,
+    /// What the last frame moved between the CPU and the GPU (the GPU
+    /// backend; default before the first frame).
+    traffic: Traffic,
 }
 
 /// The passes split between the GPU (before the read-back) and the CPU.
@@ -257,6 +260,7 @@ impl<'s> Renderer<'s> {
             gpu_hook,
             gpu_passes,
             provenance: String::new(),
+            traffic: Traffic::default(),
         };
         renderer.provenance = renderer.plan().provenance();
         Ok(renderer)
@@ -372,6 +376,7 @@ impl<'s> Renderer<'s> {
             vergence_mm,
         };
         let mut frame = self.spare.take().unwrap_or_default();
+        let traffic_before = self.gpu_traffic_total();
         let gpu = match &mut self.backend {
             Backend::Cpu => None,
             Backend::Gpu(g) => Some(g.as_mut()),
@@ -408,6 +413,9 @@ impl<'s> Renderer<'s> {
                 stats.time_ms += started.elapsed().as_secs_f64() * 1e3;
             }
         }
+        if let (Some(before), Some(after)) = (traffic_before, self.gpu_traffic_total()) {
+            self.traffic = after.since(before);
+        }
         Ok((frame, stats))
     }
 
@@ -441,6 +449,29 @@ impl<'s> Renderer<'s> {
         match &self.backend {
             Backend::Cpu => None,
             Backend::Gpu(g) => Some(g.adapter()),
+        }
+    }
+
+    /// Everything the GPU backend has moved so far (`None` on the CPU).
+    fn gpu_traffic_total(&self) -> Option<Traffic> {
+        match &self.backend {
+            Backend::Cpu => None,
+            Backend::Gpu(g) => Some(g.traffic_total()),
+        }
+    }
+
+    /// What the last frame moved between the CPU and the GPU, when the GPU
+    /// renders (`None` on the CPU backend): bytes uploaded
+    /// (`write_buffer`, buffers made with contents) and read back (ranges
+    /// mapped for reading), compute dispatches, draws and queue
+    /// submissions of the method's frame and of every GPU pass chained in
+    /// it, counted at the `wgpu` calls (`raycast::gpu::TrafficCounter`).
+    /// A frame that failed leaves the last good frame's figures. All zero
+    /// before the first frame.
+    pub fn gpu_traffic(&self) -> Option<Traffic> {
+        match &self.backend {
+            Backend::Cpu => None,
+            Backend::Gpu(_) => Some(self.traffic),
         }
     }
 

@@ -589,3 +589,109 @@ fn a_kept_mask_is_not_uploaded_again_and_renders_the_same_frame() {
         .expect("gpu renders");
     assert!(g.mask_upload_bytes() > 0);
 }
+
+/// Bytes of uniforms a foveated frame writes: `Params` (80 B: four u32
+/// and four vec4), `FovParams` (32 B) and the reset of its four atomic
+/// counters (16 B). A full-resolution frame writes `Params` alone.
+const FOVEATED_UNIFORM_BYTES: u64 = 80 + 32 + 16;
+const FULL_UNIFORM_BYTES: u64 = 80;
+/// Bytes per pixel the read-back maps: the packed colour word, and with
+/// the surface buffers the eye distance, object id and normal (4 + 4 + 4 + 12).
+const READ_BACK_PER_PIXEL: u64 = 24;
+const READ_BACK_PER_PIXEL_COLOUR_ONLY: u64 = 4;
+
+/// The bytes a timed frame of `passes` passes reads back for its
+/// timestamps (two u64 per pass), where the adapter has them.
+fn timestamp_bytes(g: &GpuRenderer, passes: u64) -> u64 {
+    if g.has_timestamps() {
+        16 * passes
+    } else {
+        0
+    }
+}
+
+/// Issue 35's traffic, counted at the `wgpu` calls: what a fresh foveated
+/// frame, a frame of a kept mask and a full frame upload, read back,
+/// dispatch and submit, exactly. Today a new mask uploads its pixel
+/// owners (4 B a pixel) besides its vertices and cells, a kept mask only
+/// the uniforms, and every frame reads the frame back (there is no frame
+/// without a read-back yet).
+#[test]
+fn every_frame_counts_its_uploads_read_backs_dispatches_and_submits() {
+    let scene = load("search-task");
+    let (w, h) = (320u64, 256u64);
+    let d = display(w as u32, h as u32);
+    let geo = d.geometry().expect("geometry");
+    let model = SamplingModel::new(geo, GeislerPerry::default(), 1.0, 17.0)
+        .expect("model")
+        .with_gaze_tolerance_deg(1.0)
+        .expect("tolerance");
+    let cam = Camera::new(&geo);
+    let triggers = Triggers::from_scene(&scene);
+    let stages = raycast::gpu::foveated_stages(&triggers).len() as u64;
+    let mut g = gpu(&scene);
+    assert_eq!(g.frame_traffic(), raycast::gpu::Traffic::default());
+    // The scene's upload is counted too (once, when the renderer is made).
+    let at_start = g.traffic_total();
+    assert!(at_start.uploaded_bytes > 0 && at_start.submits == 0);
+
+    let mut scratch = raycast::render::Scratch::default();
+    let mut frame_at = |g: &mut GpuRenderer, gaze: [f64; 2]| {
+        let (kept, generation) = scratch
+            .mask_for(&model, Layout::Nyquist, gaze)
+            .expect("mask");
+        let mask = scratch.mask().expect("a mask");
+        let mask_bytes = (std::mem::size_of_val(&mask.vertices[..])
+            + std::mem::size_of_val(&mask.cells[..])) as u64;
+        g.render_foveated_kept(&cam, mask, Some(generation), &triggers, None)
+            .expect("gpu renders");
+        (kept, mask_bytes, g.frame_traffic())
+    };
+    // A new mask: the uniforms, the mask's vertices and cells, and its
+    // pixel owners, 4 B a pixel.
+    let (kept, mask_bytes, t) = frame_at(&mut g, [150.0, 120.0]);
+    assert!(!kept);
+    assert!(mask_bytes > 0);
+    assert_eq!(
+        t.uploaded_bytes,
+        FOVEATED_UNIFORM_BYTES + mask_bytes + 4 * w * h,
+        "{t:?}"
+    );
+    assert_eq!(g.mask_upload_bytes(), mask_bytes + 4 * w * h);
+    // The whole G-buffer, the four counters, the timestamps.
+    assert_eq!(
+        t.read_back_bytes,
+        READ_BACK_PER_PIXEL * w * h + 16 + timestamp_bytes(&g, stages),
+        "{t:?}"
+    );
+    assert_eq!((t.dispatches, t.draws, t.submits), (stages, 0, 1), "{t:?}");
+    // A kept mask (within the 1° tolerance): the uniforms alone, ≤ 1 KiB.
+    let (kept, _, t) = frame_at(&mut g, [155.0, 122.0]);
+    assert!(kept);
+    assert_eq!(t.uploaded_bytes, FOVEATED_UNIFORM_BYTES, "{t:?}");
+    assert!(t.uploaded_bytes <= 1024);
+    assert_eq!((t.dispatches, t.submits), (stages, 1), "{t:?}");
+    // Without the surface buffers the read-back is the colour words only;
+    // it is never nothing: every frame comes back to the CPU today.
+    g.set_surface(false);
+    let (_, _, t) = frame_at(&mut g, [155.0, 122.0]);
+    assert_eq!(
+        t.read_back_bytes,
+        READ_BACK_PER_PIXEL_COLOUR_ONLY * w * h + 16 + timestamp_bytes(&g, stages),
+        "{t:?}"
+    );
+    // A full-resolution frame: its params, one dispatch, one submission.
+    g.set_surface(true);
+    g.render_full(&cam).expect("gpu renders");
+    let t = g.frame_traffic();
+    assert_eq!(t.uploaded_bytes, FULL_UNIFORM_BYTES, "{t:?}");
+    assert_eq!(
+        t.read_back_bytes,
+        READ_BACK_PER_PIXEL * w * h + timestamp_bytes(&g, 1),
+        "{t:?}"
+    );
+    assert_eq!((t.dispatches, t.draws, t.submits), (1, 0, 1), "{t:?}");
+    // The totals are the sum of the frames and the scene's upload.
+    let total = g.traffic_total().since(at_start);
+    assert_eq!(total.submits, 4);
+}

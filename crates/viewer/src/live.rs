@@ -29,6 +29,7 @@ use std::time::Instant;
 use crossbeam_channel::Receiver;
 use foveation::{Display, ScreenGeometry};
 use pipeline::{BackendChoice, Options, Renderer};
+use raycast::gpu::Traffic;
 use raycast::render::Stats;
 use raycast::{layers_rgb, Camera, Frame, Scene};
 use tracker_hal::clock::monotonic_us;
@@ -220,6 +221,9 @@ struct Viewer<'a> {
     /// process's clock.
     lsl: Option<crate::lsl_out::Outlets>,
     lsl_shift: crate::lsl_out::ReplayShift,
+    /// What each GPU frame moved between the CPU and the GPU
+    /// (`Renderer::gpu_traffic`; empty on the CPU backend).
+    traffic: Vec<Traffic>,
 }
 
 /// The newest valid gaze of a drain.
@@ -406,6 +410,7 @@ impl Viewer<'_> {
             self.say(&line);
         }
         let (mut frame, stats) = self.renderer.render(gaze).map_err(|e| e.to_string())?;
+        self.traffic.extend(self.renderer.gpu_traffic());
         if let Some(a) = &mut self.attention {
             let t = self.started.elapsed().as_secs_f64();
             self.feed
@@ -711,6 +716,7 @@ pub fn run(opts: &LiveOptions, out: &mut dyn Write) -> Result<(), LiveError> {
         stop_us: None,
         lsl,
         lsl_shift: crate::lsl_out::ReplayShift::new(opts.replay.is_some()),
+        traffic: Vec::new(),
     };
     viewer.say(&header);
     viewer.say(&plan_line);
@@ -747,6 +753,16 @@ pub fn run(opts: &LiveOptions, out: &mut dyn Write) -> Result<(), LiveError> {
             viewer.say(&rate);
         }
     }
+    if let Some(line) = traffic_line(&viewer.traffic) {
+        viewer.say(&line);
+    }
+    if let Some(s) = &viewer.screen {
+        let line = format!(
+            "presenting: {} B handed to write_texture in {} frames (the CPU frame copied into the window's surface, on either backend)",
+            s.presented_bytes, viewer.frames
+        );
+        viewer.say(&line);
+    }
     if let Some((c, d)) = viewer.clock {
         let line = format!("at the end: {}", clock_line(&c, &d));
         viewer.say(&line);
@@ -776,6 +792,29 @@ pub fn run(opts: &LiveOptions, out: &mut dyn Write) -> Result<(), LiveError> {
     viewer.log_error.map_or(Ok(()), |e| Err(e.into()))
 }
 
+/// The session summary's line on what the GPU frames moved between the
+/// CPU and the GPU (counted at the `wgpu` calls, per frame: p50 and max);
+/// `None` without GPU frames (the CPU backend).
+pub fn traffic_line(frames: &[Traffic]) -> Option<String> {
+    if frames.is_empty() {
+        return None;
+    }
+    let p50_max = |f: &dyn Fn(&Traffic) -> u64| {
+        let v: Vec<f64> = frames.iter().map(|t| f(t) as f64).collect();
+        let [p50, _, _] = p50_95_99(&v);
+        let max = frames.iter().map(f).max().unwrap_or(0);
+        format!("p50 {p50:.0} max {max}")
+    };
+    Some(format!(
+        "GPU traffic per frame over {} frames (counted at the wgpu calls): uploaded {} B, read back {} B, dispatches {}, submits {}",
+        frames.len(),
+        p50_max(&|t| t.uploaded_bytes),
+        p50_max(&|t| t.read_back_bytes),
+        p50_max(&|t| t.dispatches),
+        p50_max(&|t| t.submits),
+    ))
+}
+
 /// One log line about the tracker's clock model.
 pub fn clock_line(c: &tracker_hal::ClockState, d: &tracker_hal::DeviceClock) -> String {
     format!(
@@ -802,6 +841,28 @@ fn emit(out: &mut dyn Write, error: &mut Option<String>, line: &str) {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The summary's traffic line: nothing on the CPU backend; on the GPU
+    /// the median and the maximum of each figure over the frames.
+    #[test]
+    fn the_traffic_line_gives_p50_and_max_of_each_figure() {
+        assert_eq!(traffic_line(&[]), None);
+        let t = |up, down| Traffic {
+            uploaded_bytes: up,
+            read_back_bytes: down,
+            dispatches: 7,
+            draws: 0,
+            submits: 1,
+        };
+        let line = traffic_line(&[t(128, 4000), t(330_000, 4000), t(128, 4016)]).expect("a line");
+        assert!(line.contains("over 3 frames"), "{line}");
+        assert!(line.contains("uploaded p50 128 max 330000 B"), "{line}");
+        assert!(line.contains("read back p50 4000 max 4016 B"), "{line}");
+        assert!(
+            line.contains("dispatches p50 7 max 7, submits p50 1 max 1"),
+            "{line}"
+        );
+    }
 
     /// A flood of samples (a 1000 Hz tracker behind a slow frame) drains to
     /// the newest valid one in one go: blinks and non-finite points keep the

@@ -104,6 +104,10 @@ pub struct RenderReport {
     /// GPU time per stage of the last frame (ms), from timestamp queries,
     /// when the GPU rendered and the adapter has them.
     pub gpu_stages_ms: Vec<StageTime>,
+    /// What the last frame moved between the CPU and the GPU (bytes
+    /// uploaded and read back, dispatches, draws, submits, counted at the
+    /// `wgpu` calls), when the GPU rendered.
+    pub gpu_traffic: Option<raycast::gpu::Traffic>,
     pub threads: usize,
     pub mode: &'static str,
     pub scene: String,
@@ -308,6 +312,7 @@ pub fn run(args: &RenderArgs, out: &mut dyn Write) -> Result<(), String> {
             .iter()
             .map(|&(stage, ms)| StageTime { stage, ms })
             .collect(),
+        gpu_traffic: renderer.gpu_traffic(),
         threads: rayon::current_num_threads(),
         mode: renderer.method().name(),
         scene: scene.name.clone(),

@@ -117,6 +117,10 @@ pub struct Screen {
     bgra: bool,
     /// The frame in the surface's byte order, reused from frame to frame.
     staging: Vec<u8>,
+    /// Bytes handed to `write_texture` by every [`Screen::present`] so far
+    /// (the CPU frame into the surface texture; issue 35 wants it gone on
+    /// the GPU backend).
+    pub presented_bytes: u64,
 }
 
 impl Screen {
@@ -217,6 +221,7 @@ impl Screen {
             config,
             bgra: format == wgpu::TextureFormat::Bgra8Unorm,
             staging: Vec::new(),
+            presented_bytes: 0,
         })
     }
 
@@ -252,6 +257,7 @@ impl Screen {
                 q.copy_from_slice(&if bgra { [b, g, r, 255] } else { [r, g, b, 255] });
             }
         }
+        self.presented_bytes += self.staging.len() as u64;
         self.queue.write_texture(
             wgpu::TexelCopyTextureInfo {
                 texture: &tex.texture,

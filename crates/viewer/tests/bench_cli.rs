@@ -212,3 +212,80 @@ fn bench_stages_breaks_a_frame_down_on_the_cpu_and_the_gpu() {
     }
     assert!(!has("vertex rays"), "CPU stage names on the GPU: {gpu}");
 }
+
+/// `bench/gpu.sh --quick` (issue 35's prepared script) on this binary:
+/// it names the adapter, says when it is a CPU one, and writes the table
+/// and the JSON with every figure; the traffic it reports is the GPU
+/// core's: a kept mask uploads the 128 B of uniforms only, a new mask its
+/// pixel owners (4 B a pixel) besides; every frame reads its colour back.
+/// Without an adapter it fails with a clear message.
+#[test]
+fn the_gpu_script_runs_its_quick_mode_and_fails_clearly_without_an_adapter() {
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
+    let dir = tempfile::tempdir().expect("tempdir");
+    let script = |out: &std::path::Path| {
+        let mut c = std::process::Command::new("bash");
+        c.current_dir(&root)
+            .arg("bench/gpu.sh")
+            .arg(out)
+            .arg("--quick")
+            .env("GAZECAST_BIN", env!("CARGO_BIN_EXE_gazecast"));
+        c
+    };
+    let out = dir.path().join("gpu");
+    let run = script(&out).output().expect("bash runs");
+    let stderr = String::from_utf8_lossy(&run.stderr);
+    assert!(run.status.success(), "{stderr}");
+    let md = std::fs::read_to_string(out.join("gpu.md")).expect("gpu.md");
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("gpu.json")).expect("gpu.json"))
+            .expect("gpu.json parses");
+    let adapter = json["adapter"].as_str().expect("an adapter");
+    assert!(md.contains(&format!("Adapter: **{adapter}**")), "{md}");
+    if adapter.contains(", Cpu,") {
+        assert!(json["software_adapter"].as_bool().expect("a flag"));
+        assert!(md.contains("say nothing about a GPU's speed"), "{md}");
+    }
+    let rows = json["stages"]["rows"].as_array().expect("rows");
+    assert_eq!(
+        rows.len(),
+        3,
+        "the search task on two displays, stress-dof on one: {json}"
+    );
+    for r in rows {
+        let pixels = r["width_px"].as_u64().expect("width") * r["height_px"].as_u64().expect("h");
+        let traffic = r["traffic"].as_array().expect("traffic");
+        let of = |frame: &str, field: &str| {
+            traffic
+                .iter()
+                .find(|t| t["frame"] == frame)
+                .map(|t| t[field]["p50"].as_u64().expect("a count"))
+                .unwrap_or_else(|| panic!("no {frame} frame: {r}"))
+        };
+        assert!(
+            of("foveated, new mask", "uploaded_bytes") >= 4 * pixels,
+            "{r}"
+        );
+        assert!(of("full", "read_back_bytes") >= 4 * pixels, "{r}");
+        if r["scene"] == "search-task" {
+            // No GPU pass: the kept mask's frame uploads its uniforms only.
+            assert_eq!(of("foveated, kept mask", "uploaded_bytes"), 128, "{r}");
+            assert_eq!(of("full", "uploaded_bytes"), 80, "{r}");
+        }
+        assert!(r["loop_fps_new_mask"].as_f64().expect("a rate") > 0.0);
+    }
+    assert_eq!(json["methods"].as_array().expect("methods").len(), 3);
+    assert!(md.contains("| hybrid | search-task | 128x72 |"), "{md}");
+
+    // No adapter (wgpu asked for Metal on a machine without it): a clear
+    // failure, nothing half written.
+    let none = dir.path().join("none");
+    let run = script(&none)
+        .env("WGPU_BACKEND", "metal")
+        .output()
+        .expect("bash runs");
+    let stderr = String::from_utf8_lossy(&run.stderr);
+    assert_eq!(run.status.code(), Some(2), "{stderr}");
+    assert!(stderr.contains("no GPU adapter could render"), "{stderr}");
+    assert!(!none.join("gpu.md").exists());
+}

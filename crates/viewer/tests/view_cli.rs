@@ -733,3 +733,56 @@ fn a_lost_x_server_still_closes_the_recording() {
     assert!(r.warnings().is_empty(), "{:?}", r.warnings());
     assert!(r.device_chunks().count() > 10);
 }
+
+/// The session summary counts what the frames moved: on the GPU backend
+/// the renderer's traffic per frame (p50 and max over every frame, counted
+/// at the wgpu calls), on either backend the bytes the window's
+/// presentation handed to `write_texture` (4 B a pixel, every frame: the
+/// CPU frame copied into the surface).
+#[test]
+fn the_summary_counts_the_gpu_traffic_and_the_presentation_upload() {
+    let x = Xvfb::start();
+    let dir = tempfile::tempdir().expect("tempdir");
+    let display = dir.path().join("tiny.ron");
+    std::fs::write(
+        &display,
+        "Display(name: \"tiny\", resolution_px: (160, 128), size_mm: (42.24, 33.79), eye_distance_mm: 600.0)",
+    )
+    .expect("write display");
+    let run = |backend: &str| {
+        let mut c = windowed(&x);
+        c.args([
+            "view",
+            "--scene",
+            "config/scenes/search-task.ron",
+            "--backend",
+            backend,
+        ])
+        .arg("--display")
+        .arg(&display)
+        .args(["--replay", "tests/data/mouse-120hz.gzrec", "--frames", "3"]);
+        String::from_utf8_lossy(&c.succeed().stdout).to_string()
+    };
+    let presented = format!(
+        "presenting: {} B handed to write_texture in 3 frames",
+        3 * 4 * 160 * 128
+    );
+    let cpu = run("cpu");
+    assert!(!cpu.contains("GPU traffic"), "{cpu}");
+    assert!(cpu.contains(&presented), "{cpu}");
+    let gpu = run("gpu");
+    assert!(gpu.contains(&presented), "{gpu}");
+    let line = gpu
+        .lines()
+        .find(|l| l.starts_with("GPU traffic per frame over 3 frames"))
+        .unwrap_or_else(|| panic!("no traffic line: {gpu}"));
+    // Every frame reads at least its colour words back (4 B a pixel).
+    let max_read = line
+        .split("read back p50 ")
+        .nth(1)
+        .and_then(|r| r.split(" B").next())
+        .and_then(|r| r.split(" max ").nth(1))
+        .and_then(|m| m.parse::<u64>().ok())
+        .unwrap_or_else(|| panic!("no read-back figure: {line}"));
+    assert!(max_read >= 4 * 160 * 128, "{line}");
+}

@@ -42,7 +42,7 @@ use attention::{
     ObjectMeasure, MIN_MAP_SIZE,
 };
 use raycast::gpu::wgpu;
-use raycast::gpu::{read_words, storage_buffer, GpuError};
+use raycast::gpu::{read_words, storage_buffer, GpuError, TrafficCounter};
 
 use super::{dispatch_groups, level_layout, Kernels, Words, SLOT};
 use crate::gpu_attention::DEPTH_CAP_MM;
@@ -138,6 +138,8 @@ pub(crate) fn made_on_this_thread() -> u64 {
 pub(crate) struct SaliencyInput<'a> {
     pub device: &'a wgpu::Device,
     pub queue: &'a wgpu::Queue,
+    /// The counter its uploads, dispatches and read-backs go through.
+    pub traffic: &'a TrafficCounter,
     /// Packed colour words (`pack` in cast.wgsl); bit 24 is the hit flag.
     pub pixels: &'a wgpu::Buffer,
     /// Eye distance per pixel, f32 bits.
@@ -375,6 +377,7 @@ impl GpuSaliency {
             // Only the packed colour words are read: no colour tables.
             Kernels::without_colour_tables(
                 device,
+                input.traffic,
                 "attention.wgsl",
                 include_str!("attention.wgsl"),
                 &ENTRIES,
@@ -406,9 +409,12 @@ impl GpuSaliency {
             }
         };
         if self.uploaded_tables != self.tables {
-            input
-                .queue
-                .write_buffer(&b.tables, 0, bytemuck::cast_slice(&self.tables));
+            input.traffic.write_buffer(
+                input.queue,
+                &b.tables,
+                0,
+                bytemuck::cast_slice(&self.tables),
+            );
             self.uploaded_tables.clone_from(&self.tables);
         }
         // One uniform slot per pyramid level (the rows/cols dispatches read
@@ -464,7 +470,7 @@ impl GpuSaliency {
             words.pad_to(SLOT as usize);
             all.extend(words.0);
         }
-        input.queue.write_buffer(&b.params, 0, &all);
+        input.traffic.write_buffer(input.queue, &b.params, 0, &all);
         Ok(())
     }
 
@@ -535,29 +541,72 @@ impl GpuSaliency {
         let groups1 = |x: u32| [x.div_ceil(GROUP_1D), 1, 1];
         let stats_words = (GLOBALS + REC * n as usize) as u64;
         encoder.clear_buffer(&b.stats, 0, Some(4 * stats_words));
-        dispatch_groups(&mut encoder, &p[STATS], g, 0, groups2(m, h));
+        dispatch_groups(&mut encoder, input.traffic, &p[STATS], g, 0, groups2(m, h));
         if self.config.features.any_bottom_up() {
-            dispatch_groups(&mut encoder, &p[OBJECTS], g, 0, groups1(n));
-            dispatch_groups(&mut encoder, &p[CELLS], g, 0, groups2(m, m));
+            dispatch_groups(&mut encoder, input.traffic, &p[OBJECTS], g, 0, groups1(n));
+            dispatch_groups(&mut encoder, input.traffic, &p[CELLS], g, 0, groups2(m, m));
             let (levels, _) = level_layout(m, m, PYRAMID_LEVELS);
             for l in 0..PYRAMID_LEVELS - 1 {
                 let [_, _, src_h] = levels[l];
                 let [_, dst_w, dst_h] = levels[l + 1];
                 let [gx, gy, _] = groups2(dst_w, src_h);
-                dispatch_groups(&mut encoder, &p[ROWS], g, l as u32, [gx, gy, 6]);
+                dispatch_groups(
+                    &mut encoder,
+                    input.traffic,
+                    &p[ROWS],
+                    g,
+                    l as u32,
+                    [gx, gy, 6],
+                );
                 let [gx, gy, _] = groups2(dst_w, dst_h);
-                dispatch_groups(&mut encoder, &p[COLS], g, l as u32, [gx, gy, 6]);
+                dispatch_groups(
+                    &mut encoder,
+                    input.traffic,
+                    &p[COLS],
+                    g,
+                    l as u32,
+                    [gx, gy, 6],
+                );
             }
-            dispatch_groups(&mut encoder, &p[CONTRAST], g, 0, groups2(m, m));
-            dispatch_groups(&mut encoder, &p[COMBINE], g, 0, groups2(m, m));
+            dispatch_groups(
+                &mut encoder,
+                input.traffic,
+                &p[CONTRAST],
+                g,
+                0,
+                groups2(m, m),
+            );
+            dispatch_groups(
+                &mut encoder,
+                input.traffic,
+                &p[COMBINE],
+                g,
+                0,
+                groups2(m, m),
+            );
         }
-        dispatch_groups(&mut encoder, &p[NORMALISE], g, 0, groups2(m, m));
-        dispatch_groups(&mut encoder, &p[SALIENCY], g, 0, groups2(m, h));
-        dispatch_groups(&mut encoder, &p[PEAK], g, 0, groups2(m, h));
-        dispatch_groups(&mut encoder, &p[CENTROID], g, 0, groups1(n));
+        dispatch_groups(
+            &mut encoder,
+            input.traffic,
+            &p[NORMALISE],
+            g,
+            0,
+            groups2(m, m),
+        );
+        dispatch_groups(
+            &mut encoder,
+            input.traffic,
+            &p[SALIENCY],
+            g,
+            0,
+            groups2(m, h),
+        );
+        dispatch_groups(&mut encoder, input.traffic, &p[PEAK], g, 0, groups2(m, h));
+        dispatch_groups(&mut encoder, input.traffic, &p[CENTROID], g, 0, groups1(n));
         let (mut words, next) = read_words(
             input.device,
             input.queue,
+            input.traffic,
             encoder,
             &[(&b.stats, 0, stats_words)],
         )?;
@@ -623,6 +672,7 @@ impl GpuSaliency {
         &self,
         device: &wgpu::Device,
         queue: &wgpu::Queue,
+        traffic: &TrafficCounter,
     ) -> Result<Option<Vec<f32>>, GpuError> {
         let (Some(b), Some(_)) = (self.buffers.as_ref(), self.measured) else {
             return Ok(None);
@@ -634,6 +684,7 @@ impl GpuSaliency {
         let (mut words, _) = read_words(
             device,
             queue,
+            traffic,
             encoder,
             &[(&b.maps, u64::from(self.layout.m_sal), m * m)],
         )?;
@@ -692,7 +743,7 @@ mod tests {
                 gpu.max_binding,
             )
             .expect("a small buffer");
-            gpu.queue.write_buffer(&b, 0, bytes);
+            gpu.traffic.write_buffer(&gpu.queue, &b, 0, bytes);
             b
         };
         [
@@ -711,6 +762,7 @@ mod tests {
         SaliencyInput {
             device: &gpu.device,
             queue: &gpu.queue,
+            traffic: &gpu.traffic,
             pixels: &f[0],
             depth: &f[1],
             ids: &f[2],
@@ -736,7 +788,7 @@ mod tests {
         let objects = [ObjectInfo::still(1, 1.0)];
         let mut s = GpuSaliency::new(config);
         let map = |s: &GpuSaliency| {
-            s.read_saliency_map(&gpu.device, &gpu.queue)
+            s.read_saliency_map(&gpu.device, &gpu.queue, &gpu.traffic)
                 .expect("read back")
         };
         assert_eq!(map(&s), None, "before any frame");

@@ -230,6 +230,7 @@ impl DofFrame<'_> {
         let kernels = st.kernels.get_or_insert_with(|| {
             Kernels::new(
                 device,
+                frame.traffic(),
                 "dof.wgsl",
                 concat!(include_str!("pyramid.wgsl"), "\n", include_str!("dof.wgsl")),
                 &["dof_base", "dof_reduce", "dof_blend"],
@@ -313,14 +314,28 @@ impl DofFrame<'_> {
             words.pad_to(SLOT as usize);
             all.extend(words.0);
         }
-        frame.queue().write_buffer(&b.params, 0, &all);
+        frame.write_buffer(&b.params, 0, &all);
         let p = &kernels.pipelines;
-        dispatch(&mut encoder, &p[BASE], &b.group, 0, (w, h));
+        dispatch(&mut encoder, frame.traffic(), &p[BASE], &b.group, 0, (w, h));
         for src in 0..top {
             let [_, tw, th] = layout[src + 1];
-            dispatch(&mut encoder, &p[REDUCE], &b.group, src as u32, (tw, th));
+            dispatch(
+                &mut encoder,
+                frame.traffic(),
+                &p[REDUCE],
+                &b.group,
+                src as u32,
+                (tw, th),
+            );
         }
-        dispatch(&mut encoder, &p[BLEND], &b.group, 0, (w, h));
+        dispatch(
+            &mut encoder,
+            frame.traffic(),
+            &p[BLEND],
+            &b.group,
+            0,
+            (w, h),
+        );
         Ok(encoder)
     }
 }

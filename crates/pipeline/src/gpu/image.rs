@@ -141,6 +141,7 @@ impl ImageFrame<'_> {
         let kernels = st.kernels.get_or_insert_with(|| {
             Kernels::new(
                 device,
+                frame.traffic(),
                 "image_foveation.wgsl",
                 concat!(
                     include_str!("pyramid.wgsl"),
@@ -199,11 +200,10 @@ impl ImageFrame<'_> {
         let Some(b) = st.buffers.as_ref() else {
             return Ok(encoder);
         };
-        let queue = frame.queue();
         let key = (self.gaze_px.map(f64::to_bits), (w, h));
         if st.uploaded != Some(key) {
             let bytes: Vec<u8> = self.levels.iter().flat_map(|m| m.to_le_bytes()).collect();
-            queue.write_buffer(&b.level_map, 0, &bytes);
+            frame.write_buffer(&b.level_map, 0, &bytes);
             st.uploaded = Some(key);
         }
         let n_levels = needed + 1;
@@ -217,16 +217,37 @@ impl ImageFrame<'_> {
             words.pad_to(SLOT as usize);
             all.extend(words.0);
         }
-        queue.write_buffer(&b.params, 0, &all);
+        frame.write_buffer(&b.params, 0, &all);
         let p = &kernels.pipelines;
-        dispatch(&mut encoder, &p[BASE], &b.group, 0, (w, h));
+        dispatch(&mut encoder, frame.traffic(), &p[BASE], &b.group, 0, (w, h));
         for src in 0..needed {
             let [_, _, sh] = layout[src];
             let [_, tw, th] = layout[src + 1];
-            dispatch(&mut encoder, &p[ROWS], &b.group, src as u32, (tw, sh));
-            dispatch(&mut encoder, &p[COLUMNS], &b.group, src as u32, (tw, th));
+            dispatch(
+                &mut encoder,
+                frame.traffic(),
+                &p[ROWS],
+                &b.group,
+                src as u32,
+                (tw, sh),
+            );
+            dispatch(
+                &mut encoder,
+                frame.traffic(),
+                &p[COLUMNS],
+                &b.group,
+                src as u32,
+                (tw, th),
+            );
         }
-        dispatch(&mut encoder, &p[BLEND], &b.group, 0, (w, h));
+        dispatch(
+            &mut encoder,
+            frame.traffic(),
+            &p[BLEND],
+            &b.group,
+            0,
+            (w, h),
+        );
         Ok(encoder)
     }
 }

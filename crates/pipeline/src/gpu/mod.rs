@@ -51,7 +51,7 @@ pub(crate) use por::GpuPor;
 pub(crate) use splat::GpuSplat;
 
 use raycast::gpu::wgpu;
-use raycast::gpu::{GpuError, GpuFrame, GpuPost};
+use raycast::gpu::{GpuError, GpuFrame, GpuPost, TrafficCounter};
 
 use foveation::thin_lens::EyeLens;
 use raycast::scene::DofFocus;
@@ -100,30 +100,52 @@ impl Kernels {
     /// colour tables. `extra` lists bindings 4… as read-only or not.
     pub fn new(
         device: &wgpu::Device,
+        traffic: &TrafficCounter,
         label: &str,
         source: &str,
         entries: &[&str],
         extra: &[bool],
         params_bytes: u64,
     ) -> Self {
-        Self::build(device, label, source, entries, extra, params_bytes, true)
+        Self::build(
+            device,
+            traffic,
+            label,
+            source,
+            entries,
+            extra,
+            params_bytes,
+            true,
+        )
     }
 
     /// [`Kernels::new`] for a shader none of whose entry points decodes or
     /// encodes colour: no colour tables are made or bound.
     pub fn without_colour_tables(
         device: &wgpu::Device,
+        traffic: &TrafficCounter,
         label: &str,
         source: &str,
         entries: &[&str],
         extra: &[bool],
         params_bytes: u64,
     ) -> Self {
-        Self::build(device, label, source, entries, extra, params_bytes, false)
+        Self::build(
+            device,
+            traffic,
+            label,
+            source,
+            entries,
+            extra,
+            params_bytes,
+            false,
+        )
     }
 
+    #[allow(clippy::too_many_arguments)]
     fn build(
         device: &wgpu::Device,
+        traffic: &TrafficCounter,
         label: &str,
         source: &str,
         entries: &[&str],
@@ -187,7 +209,7 @@ impl Kernels {
             })
             .collect();
         let table = |what, words: &[f32]| {
-            wgpu::util::DeviceExt::create_buffer_init(
+            traffic.buffer_init(
                 device,
                 &wgpu::util::BufferInitDescriptor {
                     label: Some(what),
@@ -260,6 +282,7 @@ impl Kernels {
 /// with the uniform slot `slot`.
 pub(super) fn dispatch(
     encoder: &mut wgpu::CommandEncoder,
+    traffic: &TrafficCounter,
     pipeline: &wgpu::ComputePipeline,
     group: &wgpu::BindGroup,
     slot: u32,
@@ -267,6 +290,7 @@ pub(super) fn dispatch(
 ) {
     dispatch_groups(
         encoder,
+        traffic,
         pipeline,
         group,
         slot,
@@ -278,6 +302,7 @@ pub(super) fn dispatch(
 /// the uniform slot `slot`; nothing for an empty grid.
 pub(super) fn dispatch_groups(
     encoder: &mut wgpu::CommandEncoder,
+    traffic: &TrafficCounter,
     pipeline: &wgpu::ComputePipeline,
     group: &wgpu::BindGroup,
     slot: u32,
@@ -292,7 +317,7 @@ pub(super) fn dispatch_groups(
     });
     pass.set_pipeline(pipeline);
     pass.set_bind_group(0, group, &[slot * SLOT as u32]);
-    pass.dispatch_workgroups(groups[0], groups[1], groups[2]);
+    traffic.dispatch(&mut pass, groups[0], groups[1], groups[2]);
 }
 
 /// A uniform block written word by word (u32 or f32, 4 bytes each).

@@ -101,6 +101,7 @@ impl GpuPass for GpuPor {
         let kernels = self.kernels.get_or_insert_with(|| {
             Kernels::without_colour_tables(
                 device,
+                frame.traffic(),
                 "por.wgsl",
                 include_str!("por.wgsl"),
                 &["por_box"],
@@ -132,8 +133,15 @@ impl GpuPass for GpuPor {
         words.0.extend(cx.to_le_bytes());
         words.0.extend(cy.to_le_bytes());
         words.0.extend(r.to_le_bytes());
-        frame.queue().write_buffer(params, 0, &words.0);
-        dispatch(&mut encoder, &kernels.pipelines[0], group, 0, (bw, bh));
+        frame.write_buffer(params, 0, &words.0);
+        dispatch(
+            &mut encoder,
+            frame.traffic(),
+            &kernels.pipelines[0],
+            group,
+            0,
+            (bw, bh),
+        );
         Ok(encoder)
     }
 }

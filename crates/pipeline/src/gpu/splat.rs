@@ -265,6 +265,7 @@ impl SplatFrame<'_> {
         let (kernels, kn) = st.kernels.get_or_insert_with(|| {
             let kernels = Kernels::new(
                 device,
+                frame.traffic(),
                 "splat.wgsl",
                 include_str!("splat.wgsl"),
                 &[
@@ -276,7 +277,7 @@ impl SplatFrame<'_> {
                 &[true, true, false, false, false, false],
                 PARAMS_BYTES,
             );
-            let kn = wgpu::util::DeviceExt::create_buffer_init(
+            let kn = frame.traffic().buffer_init(
                 device,
                 &wgpu::util::BufferInitDescriptor {
                     label: Some("splat k_n table"),
@@ -359,16 +360,44 @@ impl SplatFrame<'_> {
             words.f(*u).f(*v);
         }
         words.pad_to(PARAMS_BYTES as usize);
-        frame.queue().write_buffer(&b.params, 0, &words.0);
+        frame.write_buffer(&b.params, 0, &words.0);
         encoder.clear_buffer(&b.acc, 0, None);
         let p = &kernels.pipelines;
-        dispatch(&mut encoder, &p[VISIBLE], &b.group, 0, (w, h));
+        dispatch(
+            &mut encoder,
+            frame.traffic(),
+            &p[VISIBLE],
+            &b.group,
+            0,
+            (w, h),
+        );
         if hidden {
             frame.cast_hidden(&mut encoder, &b.want, &b.hidden)?;
-            dispatch(&mut encoder, &p[HIDDEN], &b.group, 0, (w, h));
+            dispatch(
+                &mut encoder,
+                frame.traffic(),
+                &p[HIDDEN],
+                &b.group,
+                0,
+                (w, h),
+            );
         }
-        dispatch(&mut encoder, &p[SCATTER], &b.group, 0, (w, h));
-        dispatch(&mut encoder, &p[COMPOSE], &b.group, 0, (w, h));
+        dispatch(
+            &mut encoder,
+            frame.traffic(),
+            &p[SCATTER],
+            &b.group,
+            0,
+            (w, h),
+        );
+        dispatch(
+            &mut encoder,
+            frame.traffic(),
+            &p[COMPOSE],
+            &b.group,
+            0,
+            (w, h),
+        );
         Ok(encoder)
     }
 }

@@ -79,6 +79,9 @@ pub struct GpuDevice {
     pub adapter: String,
     /// `max_storage_buffer_binding_size` of the adapter (bytes).
     pub max_binding: u64,
+    /// The bytes and calls its users move through it (they upload, read
+    /// back, dispatch and submit through this counter).
+    pub traffic: std::sync::Arc<super::TrafficCounter>,
 }
 
 /// Opens a [`GpuDevice`] (no timestamp queries).
@@ -89,5 +92,6 @@ pub fn open_device() -> Result<GpuDevice, GpuError> {
         queue: opened.queue,
         adapter: opened.name,
         max_binding: opened.max_binding,
+        traffic: Default::default(),
     })
 }

@@ -170,6 +170,8 @@ impl GpuRenderer {
         post: Option<&mut dyn GpuPost>,
     ) -> Result<(Frame, Stats), GpuError> {
         let start = Instant::now();
+        let traffic = self.traffic.clone();
+        let before = traffic.total();
         let (w, h) = (cam.width_px, cam.height_px);
         let pixels = self.write_params(cam)?;
         let (nv, nc) = (mask.vertices.len() as u64, mask.cells.len() as u64);
@@ -204,8 +206,7 @@ impl GpuRenderer {
             depth_jump: triggers.depth_jump.unwrap_or(-1.0),
             pad: [0; 2],
         };
-        self.queue
-            .write_buffer(&self.fov_params, 0, bytemuck::bytes_of(&fov));
+        traffic.write_buffer(&self.queue, &self.fov_params, 0, bytemuck::bytes_of(&fov));
         // Triangles carry NO_VERTEX (u32::MAX) as their fourth corner, as
         // `foveated.wgsl` expects.
         const _: () = assert!(NO_VERTEX == u32::MAX);
@@ -218,18 +219,23 @@ impl GpuRenderer {
         };
         let pipelines = &self.pipelines;
         if upload && nv > 0 {
-            queue.write_buffer(&ft.mask_vertices, 0, bytemuck::cast_slice(&mask.vertices));
+            traffic.write_buffer(
+                &queue,
+                &ft.mask_vertices,
+                0,
+                bytemuck::cast_slice(&mask.vertices),
+            );
         }
         if upload && nc > 0 {
-            queue.write_buffer(&ft.mask_cells, 0, bytemuck::cast_slice(&mask.cells));
+            traffic.write_buffer(&queue, &ft.mask_cells, 0, bytemuck::cast_slice(&mask.cells));
         }
         if !owner.is_empty() {
-            queue.write_buffer(&ft.owner, 0, bytemuck::cast_slice(&owner));
+            traffic.write_buffer(&queue, &ft.owner, 0, bytemuck::cast_slice(&owner));
         }
         // Only now does the GPU hold this mask (an error above uploaded
         // nothing, and the next frame must upload it).
         self.uploaded_mask = key;
-        queue.write_buffer(&ft.counters, 0, &[0u8; 16]);
+        traffic.write_buffer(&queue, &ft.counters, 0, &[0u8; 16]);
         let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
             label: Some("foveated frame"),
         });
@@ -250,20 +256,20 @@ impl GpuRenderer {
             match stage {
                 Stage::CastVertices => {
                     let (x, y) = groups(nv);
-                    pass.dispatch_workgroups(x, y, 1);
+                    traffic.dispatch(&mut pass, x, y, 1);
                 }
                 Stage::ClassifyCells | Stage::SilhouetteMargin | Stage::CountRefinedCells => {
                     let (x, y) = groups(nc);
-                    pass.dispatch_workgroups(x, y, 1);
+                    traffic.dispatch(&mut pass, x, y, 1);
                 }
                 Stage::InterpolateOrList => {
-                    pass.dispatch_workgroups(w.div_ceil(8), h.div_ceil(8), 1)
+                    traffic.dispatch(&mut pass, w.div_ceil(8), h.div_ceil(8), 1)
                 }
                 Stage::PrepareDispatch => {
                     pass.set_bind_group(2, &ft.dispatch_group, &[]);
-                    pass.dispatch_workgroups(1, 1, 1);
+                    traffic.dispatch(&mut pass, 1, 1, 1);
                 }
-                Stage::CastListed => pass.dispatch_workgroups_indirect(&ft.dispatch, 0),
+                Stage::CastListed => traffic.dispatch_indirect(&mut pass, &ft.dispatch, 0),
             }
         }
         encoder = self.encode_post(target, post, (w, h), encoder)?;
@@ -272,15 +278,15 @@ impl GpuRenderer {
             t.resolve(&mut encoder, stages.len() as u32);
         }
         encoder.copy_buffer_to_buffer(&ft.counters, 0, &ft.counters_readback, 0, 16);
-        queue.submit(Some(encoder.finish()));
-        let frame = read_frame(&device, &target.readback, w, h, self.surface)?;
-        let counters = read_back(&device, &ft.counters_readback, 16)?;
+        traffic.submit(&queue, encoder.finish());
+        let frame = read_frame(&device, &traffic, &target.readback, w, h, self.surface)?;
+        let counters = read_back(&device, &traffic, &ft.counters_readback, 16)?;
         let [fovea, refine, cells_refined, _listed] =
             [0, 1, 2, 3].map(|k| counters.get(k).copied().map_or(0, u64::from));
         self.stage_ms = match &timer {
             Some(t) => {
                 let names: Vec<&'static str> = stages.iter().map(|s| s.name()).collect();
-                t.read(&device, &names)?
+                t.read(&device, &traffic, &names)?
             }
             None => Vec::new(),
         };
@@ -295,6 +301,7 @@ impl GpuRenderer {
             pixels_uncovered: 0,
             time_ms: start.elapsed().as_secs_f64() * 1e3,
         };
+        self.frame_traffic = traffic.total().since(before);
         Ok((frame, stats))
     }
 }

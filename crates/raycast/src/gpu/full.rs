@@ -64,8 +64,8 @@ impl GpuRenderer {
             ],
             background_rgb8: [r, g, b, 0],
         };
-        self.queue
-            .write_buffer(&self.params, 0, bytemuck::bytes_of(&params));
+        self.traffic
+            .write_buffer(&self.queue, &self.params, 0, bytemuck::bytes_of(&params));
         Ok(pixels)
     }
 
@@ -82,6 +82,8 @@ impl GpuRenderer {
         post: Option<&mut dyn GpuPost>,
     ) -> Result<(Frame, Stats), GpuError> {
         let start = Instant::now();
+        let traffic = self.traffic.clone();
+        let before = traffic.total();
         let (w, h) = (cam.width_px, cam.height_px);
         let pixels = self.write_params(cam)?;
         let device = self.device.clone();
@@ -101,19 +103,20 @@ impl GpuRenderer {
             let mut pass = begin_pass(&mut encoder, timer.as_ref(), 0, CAST_AND_SHADE);
             pass.set_pipeline(&pipeline);
             pass.set_bind_group(0, &target.bind_group, &[]);
-            pass.dispatch_workgroups(w.div_ceil(8), h.div_ceil(8), 1);
+            traffic.dispatch(&mut pass, w.div_ceil(8), h.div_ceil(8), 1);
         }
         encoder = self.encode_post(target, post, (w, h), encoder)?;
         copy_out(&mut encoder, &target.out, &target.readback, pixels);
         if let Some(t) = &timer {
             t.resolve(&mut encoder, 1);
         }
-        queue.submit(Some(encoder.finish()));
-        let frame = read_frame(&device, &target.readback, w, h, surface)?;
+        traffic.submit(&queue, encoder.finish());
+        let frame = read_frame(&device, &traffic, &target.readback, w, h, surface)?;
         self.stage_ms = match &timer {
-            Some(t) => t.read(&device, &[CAST_AND_SHADE])?,
+            Some(t) => t.read(&device, &traffic, &[CAST_AND_SHADE])?,
             None => Vec::new(),
         };
+        self.frame_traffic = traffic.total().since(before);
         let stats = Stats {
             rays_total: u64::from(pixels),
             rays_full: u64::from(pixels),

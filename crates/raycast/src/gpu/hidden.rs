@@ -99,7 +99,12 @@ impl GpuFrame<'_> {
         pass.set_pipeline(&cast.pipeline);
         pass.set_bind_group(0, hook.cast_group, &[]);
         pass.set_bind_group(1, &group, &[]);
-        pass.dispatch_workgroups(self.width.div_ceil(8), self.height.div_ceil(8), 1);
+        self.traffic.dispatch(
+            &mut pass,
+            self.width.div_ceil(8),
+            self.height.div_ceil(8),
+            1,
+        );
         Ok(())
     }
 }

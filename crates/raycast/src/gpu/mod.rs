@@ -28,6 +28,10 @@
 //!   [`crate::raster::rasterize`]); made on first use.
 //! - Where the adapter has timestamp queries, every pass is timed
 //!   ([`GpuRenderer::stage_ms`]).
+//! - Every byte uploaded or read back and every dispatch, draw and
+//!   submission goes through one [`TrafficCounter`] (the caller's post
+//!   passes too, [`GpuFrame::traffic`]): [`GpuRenderer::frame_traffic`] is
+//!   the last frame's [`Traffic`], counted at the `wgpu` calls.
 //!
 //! Any adapter works, including Mesa's lavapipe (software Vulkan), which is
 //! how the tests run on machines without a GPU. A buffer larger than the
@@ -39,7 +43,8 @@
 //! `pipelines` (the shader and its compute pipelines), `full` (the
 //! full-resolution frame), `foveated` (the foveated frame and its stages),
 //! `readback` (mapping and unpacking the frame), `post` (the caller's
-//! passes before the read-back), `raster` (the raster path).
+//! passes before the read-back), `raster` (the raster path), `traffic`
+//! (what a frame moves between the CPU and the GPU).
 
 mod buffers;
 mod device;
@@ -51,6 +56,7 @@ mod post;
 mod raster;
 mod readback;
 mod timer;
+mod traffic;
 mod upload;
 
 pub use device::{open_device, probe, GpuDevice};
@@ -58,8 +64,11 @@ pub use foveated::{foveated_stages, Stage};
 pub use hidden::HIDDEN_HITS;
 pub use post::{read_words, storage_buffer, GpuFrame, GpuPost};
 pub use raster::off_axis_projection;
+pub use traffic::{Traffic, TrafficCounter};
 /// The `wgpu` this backend is built on, for callers of [`GpuPost`].
 pub use wgpu;
+
+use std::sync::Arc;
 
 use crate::scene::Scene;
 
@@ -123,6 +132,12 @@ pub struct GpuRenderer {
     /// The raster path's pipelines and buffers, made by the first
     /// [`GpuRenderer::rasterize`].
     raster: Option<raster::GpuRaster>,
+    /// Every byte and call between the CPU and this device, since it was
+    /// made (shared with the passes that encode on its frames).
+    traffic: Arc<TrafficCounter>,
+    /// What the last frame (`render_full_with`, `render_foveated_kept`,
+    /// `rasterize`) moved, its post passes included.
+    frame_traffic: Traffic,
 }
 
 impl GpuRenderer {
@@ -142,7 +157,8 @@ impl GpuRenderer {
         let timer = opened
             .timestamps
             .then(|| Timer::new(&device, &opened.queue));
-        let scene_buffers = SceneBuffers::upload(&device, scene, max_binding)?;
+        let traffic = Arc::new(TrafficCounter::default());
+        let scene_buffers = SceneBuffers::upload(&device, &traffic, scene, max_binding)?;
         let layouts = Layouts::new(&device);
         let pipelines = Pipelines::new(&device, &layouts);
         let uniform = |label, size| {
@@ -180,6 +196,8 @@ impl GpuRenderer {
             surface: true,
             hidden: std::sync::OnceLock::new(),
             raster: None,
+            traffic,
+            frame_traffic: Traffic::default(),
             device,
         })
     }
@@ -226,5 +244,25 @@ impl GpuRenderer {
     /// The adapter in words (name, backend, type, driver).
     pub fn adapter(&self) -> &str {
         &self.adapter
+    }
+
+    /// What the last frame moved between the CPU and the GPU (its
+    /// uploads, read-backs, dispatches, draws and submissions, its post
+    /// passes included), counted at the `wgpu` calls; zero before the first.
+    pub fn frame_traffic(&self) -> Traffic {
+        self.frame_traffic
+    }
+
+    /// Everything this renderer has moved since it was made, the scene's
+    /// upload included: a caller that renders several times per frame (or
+    /// reads a frame's buffers after it) takes the difference of two totals.
+    pub fn traffic_total(&self) -> Traffic {
+        self.traffic.total()
+    }
+
+    /// The counter the renderer's calls go through, for passes that move
+    /// bytes on its device outside a frame's post hook.
+    pub fn traffic_counter(&self) -> &Arc<TrafficCounter> {
+        &self.traffic
     }
 }

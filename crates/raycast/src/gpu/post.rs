@@ -17,12 +17,14 @@
 //! encoder it is given and go on in a new one (to read a few words back,
 //! [`GpuFrame::read_words`]); the read-back is appended to the encoder it
 //! returns. Post passes are not timed in `stage_ms`: the frame's `Stats`
-//! time (wall clock) includes them.
+//! time (wall clock) includes them. What they upload, read back, dispatch
+//! and submit goes through [`GpuFrame::traffic`], so that it counts in the
+//! frame's [`Traffic`](super::Traffic).
 
 use super::buffers::storage;
 use super::hidden::HiddenHook;
 use super::readback::read_back;
-use super::GpuError;
+use super::{GpuError, TrafficCounter};
 
 /// A frame on the GPU after its cast, before its read-back.
 pub struct GpuFrame<'a> {
@@ -34,6 +36,8 @@ pub struct GpuFrame<'a> {
     pub(super) width: u32,
     pub(super) height: u32,
     pub(super) max_binding: u64,
+    /// The renderer's counter of bytes and calls.
+    pub(super) traffic: &'a TrafficCounter,
     /// The frame's cast bind group and the hidden-image pipeline.
     pub(super) hidden: HiddenHook<'a>,
 }
@@ -45,6 +49,18 @@ impl<'a> GpuFrame<'a> {
 
     pub fn queue(&self) -> &'a wgpu::Queue {
         self.queue
+    }
+
+    /// The renderer's counter: a pass uploads, dispatches and submits
+    /// through it (not through `queue()` directly), so that the frame's
+    /// [`Traffic`](super::Traffic) holds what it moved.
+    pub fn traffic(&self) -> &'a TrafficCounter {
+        self.traffic
+    }
+
+    /// `queue().write_buffer(…)`, counted.
+    pub fn write_buffer(&self, buffer: &wgpu::Buffer, offset: u64, data: &[u8]) {
+        self.traffic.write_buffer(self.queue, buffer, offset, data);
     }
 
     /// The packed colour words (see the module's notes), `width·height` of them.
@@ -96,7 +112,7 @@ impl<'a> GpuFrame<'a> {
         encoder: wgpu::CommandEncoder,
         reads: &[(&wgpu::Buffer, u64, u64)],
     ) -> Result<(Vec<Vec<u32>>, wgpu::CommandEncoder), GpuError> {
-        read_words(self.device, self.queue, encoder, reads)
+        read_words(self.device, self.queue, self.traffic, encoder, reads)
     }
 }
 
@@ -119,6 +135,7 @@ pub fn storage_buffer(
 pub fn read_words(
     device: &wgpu::Device,
     queue: &wgpu::Queue,
+    traffic: &TrafficCounter,
     mut encoder: wgpu::CommandEncoder,
     reads: &[(&wgpu::Buffer, u64, u64)],
 ) -> Result<(Vec<Vec<u32>>, wgpu::CommandEncoder), GpuError> {
@@ -144,8 +161,8 @@ pub fn read_words(
         }
         at += n;
     }
-    queue.submit(Some(encoder.finish()));
-    let words = read_back(device, &staging, 4 * total)?;
+    traffic.submit(queue, encoder.finish());
+    let words = read_back(device, traffic, &staging, 4 * total)?;
     let mut out = Vec::with_capacity(reads.len());
     let mut at = 0usize;
     for &(_, _, n) in reads {
@@ -195,6 +212,7 @@ impl super::GpuRenderer {
             width,
             height,
             max_binding: self.max_binding,
+            traffic: &self.traffic,
             hidden: super::hidden::HiddenHook {
                 layouts: &self.layouts,
                 cast_group: &target.bind_group,

@@ -337,6 +337,8 @@ impl GpuRenderer {
         frame: &mut Frame,
     ) -> Result<RasterStats, GpuError> {
         let start = Instant::now();
+        let traffic = self.traffic.clone();
+        let before = traffic.total();
         let (w, h) = (camera.width_px, camera.height_px);
         let pixels = self.write_params(camera)?;
         let limit = self.device.limits().max_texture_dimension_2d;
@@ -364,13 +366,15 @@ impl GpuRenderer {
         if pixels == 0 {
             *frame = Frame::blank(w, h, self.background_rgb8, Layer::Full, surface);
             stats.time_ms = start.elapsed().as_secs_f64() * 1e3;
+            self.frame_traffic = traffic.total().since(before);
             return Ok(stats);
         }
         let clip = projection
             .unwrap_or(DMat4::ZERO)
             .as_mat4()
             .to_cols_array_2d();
-        queue.write_buffer(
+        traffic.write_buffer(
+            &queue,
             &raster.params,
             0,
             bytemuck::bytes_of(&RasterParams { clip }),
@@ -424,7 +428,12 @@ impl GpuRenderer {
             .as_ref()
             .ok_or_else(|| GpuError::Readback("no raster vertex buffer".into()))?;
         if n_vertices > 0 {
-            queue.write_buffer(vertex_buffer, 0, bytemuck::cast_slice(&raster.staging));
+            traffic.write_buffer(
+                &queue,
+                vertex_buffer,
+                0,
+                bytemuck::cast_slice(&raster.staging),
+            );
         }
         let targets = raster
             .targets
@@ -488,7 +497,7 @@ impl GpuRenderer {
                 pass.set_pipeline(&raster.draw);
                 pass.set_bind_group(0, draw_group, &[]);
                 // n_vertices ≤ max_binding / 48 < 2^32.
-                pass.draw(0..n_vertices as u32, 0..1);
+                traffic.draw(&mut pass, 0..n_vertices as u32, 0..1);
             }
         }
         {
@@ -499,14 +508,15 @@ impl GpuRenderer {
             pass.set_pipeline(&raster.resolve);
             pass.set_bind_group(0, &target.bind_group, &[]);
             pass.set_bind_group(1, &targets.resolve_group, &[]);
-            pass.dispatch_workgroups(w.div_ceil(8), h.div_ceil(8), 1);
+            traffic.dispatch(&mut pass, w.div_ceil(8), h.div_ceil(8), 1);
         }
         copy_out(&mut encoder, &target.out, &target.readback, pixels);
-        queue.submit(Some(encoder.finish()));
-        *frame = read_frame(&device, &target.readback, w, h, surface)?;
+        traffic.submit(&queue, encoder.finish());
+        *frame = read_frame(&device, &traffic, &target.readback, w, h, surface)?;
         self.stage_ms.clear();
         stats.pixels_covered = frame.hit.iter().filter(|&&h| h).count() as u64;
         stats.time_ms = start.elapsed().as_secs_f64() * 1e3;
+        self.frame_traffic = traffic.total().since(before);
         Ok(stats)
     }
 }

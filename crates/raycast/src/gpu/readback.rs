@@ -4,7 +4,7 @@
 use std::sync::mpsc;
 
 use super::buffers::FrameBuffers;
-use super::GpuError;
+use super::{GpuError, TrafficCounter};
 use crate::frame::{Frame, Layer};
 
 /// Copies a frame's output buffers (`pixels` pixels) into their readback
@@ -27,6 +27,7 @@ pub(super) fn copy_out(
 /// them), waiting once, and copies their words out.
 fn read_all(
     device: &wgpu::Device,
+    traffic: &TrafficCounter,
     buffers: &[(&wgpu::Buffer, u64)],
 ) -> Result<Vec<Vec<u32>>, GpuError> {
     let err = |e: &dyn std::fmt::Display| GpuError::Readback(e.to_string());
@@ -35,6 +36,7 @@ fn read_all(
         .map(|&(buffer, bytes)| {
             let slice = buffer.slice(..bytes);
             let (tx, rx) = mpsc::channel();
+            traffic.read(bytes);
             slice.map_async(wgpu::MapMode::Read, move |r| {
                 let _ = tx.send(r);
             });
@@ -77,10 +79,11 @@ fn read_all(
 /// of its first `bytes` out.
 pub(super) fn read_back(
     device: &wgpu::Device,
+    traffic: &TrafficCounter,
     buffer: &wgpu::Buffer,
     bytes: u64,
 ) -> Result<Vec<u32>, GpuError> {
-    let mut all = read_all(device, &[(buffer, bytes)])?;
+    let mut all = read_all(device, traffic, &[(buffer, bytes)])?;
     all.pop()
         .ok_or_else(|| GpuError::Readback("nothing mapped".into()))
 }
@@ -88,6 +91,7 @@ pub(super) fn read_back(
 /// Reads a frame of `w` × `h` pixels from its readback buffers.
 pub(super) fn read_frame(
     device: &wgpu::Device,
+    traffic: &TrafficCounter,
     readback: &FrameBuffers,
     w: u32,
     h: u32,
@@ -101,11 +105,11 @@ pub(super) fn read_frame(
     let buffers = readback.each().map(|(b, per_pixel)| (b, per_pixel * n));
     if !surface {
         let [(pixels, bytes), ..] = buffers;
-        let words = read_back(device, pixels, bytes)?;
+        let words = read_back(device, traffic, pixels, bytes)?;
         unpack(&words, &mut frame);
         return Ok(frame);
     }
-    let [words, depth, object, normal]: [Vec<u32>; 4] = read_all(device, &buffers)?
+    let [words, depth, object, normal]: [Vec<u32>; 4] = read_all(device, traffic, &buffers)?
         .try_into()
         .map_err(|_| GpuError::Readback("a frame buffer was not mapped".into()))?;
     unpack(&words, &mut frame);

@@ -2,7 +2,7 @@
 
 use super::foveated::Stage;
 use super::readback::read_back;
-use super::GpuError;
+use super::{GpuError, TrafficCounter};
 
 /// A query set with two timestamps (begin, end) per pass, its resolve
 /// buffer and a readback buffer.
@@ -57,9 +57,10 @@ impl Timer {
     pub fn read(
         &self,
         device: &wgpu::Device,
+        traffic: &TrafficCounter,
         names: &[&'static str],
     ) -> Result<Vec<(&'static str, f64)>, GpuError> {
-        let words = read_back(device, &self.readback, 16 * names.len() as u64)?;
+        let words = read_back(device, traffic, &self.readback, 16 * names.len() as u64)?;
         let tick = |k: usize| u64::from(words[2 * k]) | (u64::from(words[2 * k + 1]) << 32);
         Ok(names
             .iter()

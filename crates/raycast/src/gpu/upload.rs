@@ -2,11 +2,9 @@
 //! triangles, the per-object materials, the lights and the gamma table
 //! (group 0, bindings 1–5 of `cast.wgsl`).
 
-use bytemuck::{Pod, Zeroable};
-use wgpu::util::DeviceExt;
-
-use super::GpuError;
+use super::{GpuError, TrafficCounter};
 use crate::scene::{Light, Scene};
+use bytemuck::{Pod, Zeroable};
 
 /// `Triangle` in cast.wgsl: corners (the first's w: the object id, bitcast)
 /// and corner normals.
@@ -134,6 +132,7 @@ impl SceneBuffers {
     /// Uploads `scene`, refusing any buffer above `max_binding` bytes.
     pub fn upload(
         device: &wgpu::Device,
+        traffic: &TrafficCounter,
         scene: &Scene,
         max_binding: u64,
     ) -> Result<Self, GpuError> {
@@ -145,13 +144,14 @@ impl SceneBuffers {
                     limit: max_binding,
                 });
             }
-            Ok(
-                device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            Ok(traffic.buffer_init(
+                device,
+                &wgpu::util::BufferInitDescriptor {
                     label: Some(what),
                     contents: bytes,
                     usage: wgpu::BufferUsages::STORAGE,
-                }),
-            )
+                },
+            ))
         };
         Ok(Self {
             bvh: upload("the BVH", bytemuck::cast_slice(&scene.bvh.nodes))?,

@@ -822,6 +822,8 @@ mod tests {
                 gaze_px: Some(g),
                 eyes_px: None,
                 eye_distance_mm: None,
+                eyes: [tracker_hal::sample::EyeSample::MISSING; 2],
+                eye_px: [None; 2],
             })
             .expect("send");
         }
@@ -838,6 +840,8 @@ mod tests {
                 gaze_px: bad,
                 eyes_px: None,
                 eye_distance_mm: None,
+                eyes: [tracker_hal::sample::EyeSample::MISSING; 2],
+                eye_px: [None; 2],
             })
             .expect("send");
         }

@@ -67,7 +67,7 @@ fn header_lines_are_the_documented_ones() {
             Box::new(|p| write_rows(p, &[trial(0)])),
         ),
         (
-            "sitting\tmapped_us\tdevice_us\tarrival_us\ttime_order\tsegment\ttrial\tphase\traw_x\traw_y\tx_px\ty_px",
+            "sitting\tmapped_us\tdevice_us\tarrival_us\ttime_order\tsegment\ttrial\tphase\traw_x\traw_y\tx_px\ty_px\tleft_x_px\tleft_y_px\tleft_pupil\tright_x_px\tright_y_px\tright_pupil",
             Box::new(|p| write_rows::<SampleRow>(p, &[])),
         ),
         (

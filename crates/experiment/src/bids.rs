@@ -4,16 +4,22 @@
 //!
 //! ```text
 //! OUT/
-//!   dataset_description.json   Name, BIDSVersion, DatasetType, GeneratedBy
+//!   dataset_description.json   Name, BIDSVersion, DatasetType, GeneratedBy, and the
+//!                              dataset metadata given (Authors, License, Funding, …)
 //!   README.md                  what the dataset is (and that it is synthetic, if so)
 //!   participants.tsv / .json   participant_id, participant, participant_index, synthetic
 //!   sub-<label>/beh/           one run per sitting (run-1, run-2, …):
-//!     sub-<label>_task-<task>_run-<n>_recording-eye1_physio.tsv.gz   no header:
-//!         timestamp  x_coordinate  y_coordinate  device_timestamp  arrival_timestamp
-//!     sub-<label>_task-<task>_run-<n>_recording-eye1_physio.json     the sidecar
-//!     sub-<label>_task-<task>_run-<n>_events.tsv                     one row per trial
-//!     sub-<label>_task-<task>_run-<n>_events.json                    columns + StimulusPresentation
+//!     <run>_recording-eye<k>_physio.tsv.gz   no header, one row per sample:
+//!         timestamp  x_coordinate  y_coordinate  [pupil_size]  device_timestamp  arrival_timestamp
+//!     <run>_recording-eye<k>_physio.json     the sidecar (RecordedEye, calibration, task)
+//!     <run>_recording-eye<k>_physioevents.tsv.gz   no header, one row per event or message:
+//!         onset  duration  trial_type  trial  x/y_coordinate  end_x/end_y_coordinate  message
+//!     <run>_recording-eye<k>_physioevents.json     its sidecar (OnsetSource "timestamp")
+//!     <run>_events.tsv                       one row per trial
+//!     <run>_events.json                      columns + StimulusPresentation
 //! ```
+//!
+//! (`<run>` is `sub-<label>_task-<task>_run-<n>`.)
 //!
 //! Choices (the specification leaves them to the exporter):
 //!
@@ -45,9 +51,31 @@
 //!   `session.json` if known. If fewer than two samples have increasing
 //!   timestamps the nominal rate is used, and without one the physio file
 //!   is skipped with a warning.
-//! - `RecordedEye` is `"cyclopean"`: the session files do not record which
-//!   eye, and the runner uses the tracker's combined (binocular average)
-//!   gaze.
+//! - **One recording per eye** where the tracker measured each eye
+//!   (`samples.tsv`'s per-eye columns): `recording-eye1` the left eye,
+//!   `recording-eye2` the right (a monocular device: only its eye, as
+//!   eye1), each with `pupil_size` where the tracker reported one (in the
+//!   device's own units: the sidecar says gazecast does not know whether
+//!   it is an area or a diameter). Otherwise (a mouse, the attention
+//!   source, a session from before the per-eye columns) one recording of
+//!   the combined gaze, `RecordedEye` `"cyclopean"`. Decided per run, by a
+//!   first pass over the samples.
+//! - **Physioevents** per recording: the session's `events.tsv`
+//!   (fixations, saccades, blinks, lost track; detected on the combined
+//!   gaze, so the same rows in each eye's file) and `markers.tsv` (as
+//!   `message` rows), aborted trials' rows left out, sorted by onset.
+//!   `onset` is on the physio file's `timestamp` clock (µs, host clock of
+//!   the sitting; `OnsetSource` `"timestamp"`), `duration` in seconds.
+//! - **Calibration fields** (`CalibrationCount`, `CalibrationType` `HV<n>`,
+//!   `CalibrationPosition` and `CalibrationUnit` pixel,
+//!   `AverageCalibrationError`, `MaximalCalibrationError`) from the
+//!   sitting's `calibration-fields` markers: their count, and the last.
+//!   A session without them (an earlier gazecast) has none of these.
+//! - **Dataset metadata** ([`BidsMetadata`]: a design's `bids` block and
+//!   `export-bids` flags): `Authors`, `License` and the other dataset
+//!   fields in `dataset_description.json`; `TaskName`, `TaskDescription`,
+//!   `Instructions`, `CogAtlasID`, `CogPOID` and the institution in every
+//!   run's sidecars.
 //! - Screen fields: REQUIRED in `_events.json` `StimulusPresentation` for
 //!   `"gaze-on-screen"` recordings (in metres and pixels, origin top-left),
 //!   repeated at the top level of the physio sidecar.

@@ -190,7 +190,7 @@ fn binocular_session(tmp: &Path) -> Made {
                     400.0 + (t % 90) as f64 * 2.0,
                 ];
                 let blink = t % 211 < 6;
-                let right_lost = !blink && t % 47 == 0;
+                let right_lost = !blink && t.is_multiple_of(47);
                 let eye = |off: [f64; 2], lost: bool| {
                     (!lost).then_some([combined[0] + off[0], combined[1] + off[1]])
                 };

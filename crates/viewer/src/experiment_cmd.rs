@@ -128,8 +128,9 @@ pub struct ExportArgs {
     /// design file instead of the first session folder's design.ron.
     #[arg(long, value_name = "FILE")]
     pub design: Option<PathBuf>,
+    /// Boxed: the enum of commands stays small.
     #[command(flatten)]
-    pub metadata: MetadataArgs,
+    pub metadata: Box<MetadataArgs>,
 }
 
 /// Dataset metadata for `export-bids`: each flag given replaces the

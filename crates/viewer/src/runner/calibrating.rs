@@ -150,10 +150,12 @@ fn calibration_marker(s: &Session) -> Option<CalibrationMarker> {
         .flatten()
         .map(|p| p.accuracy_deg)
         .fold(f64::NEG_INFINITY, f64::max);
-    Some(CalibrationMarker {
+    let m = CalibrationMarker {
         targets: s.calibration_run().plan.targets_px.len(),
         positions_px: c.points.iter().map(|p| p.1).collect(),
         average_deg: summary.accuracy_deg,
         maximal_deg,
-    })
+    };
+    // Only finite values: JSON has no NaN (the export reads it back).
+    CalibrationMarker::from_detail(&m.to_detail()).ok()
 }

@@ -22,6 +22,10 @@ export XDG_RUNTIME_DIR="${XDG_RUNTIME_DIR:-${TMPDIR:-/tmp}}"
 GAZECAST_PYLSL=$(scripts/lsl-venv.sh)
 export GAZECAST_PYLSL
 export LSLAPICFG="$PWD/tests/lsl/lsl_api.cfg"
+# The BIDS export's test runs the official validator (bids-validator-deno,
+# pinned, from PyPI) in a virtual environment made here.
+GAZECAST_BIDS_VALIDATOR=$(scripts/bids-venv.sh)
+export GAZECAST_BIDS_VALIDATOR
 log=$(mktemp)
 trap 'rm -f "$log"' EXIT
 cargo test --workspace --quiet 2>&1 | tee "$log"

@@ -4,16 +4,22 @@
 //!
 //! ```text
 //! OUT/
-//!   dataset_description.json   Name, BIDSVersion, DatasetType, GeneratedBy
+//!   dataset_description.json   Name, BIDSVersion, DatasetType, GeneratedBy, and the
+//!                              dataset metadata given (Authors, License, Funding, …)
 //!   README.md                  what the dataset is (and that it is synthetic, if so)
 //!   participants.tsv / .json   participant_id, participant, participant_index, synthetic
 //!   sub-<label>/beh/           one run per sitting (run-1, run-2, …):
-//!     sub-<label>_task-<task>_run-<n>_recording-eye1_physio.tsv.gz   no header:
-//!         timestamp  x_coordinate  y_coordinate  device_timestamp  arrival_timestamp
-//!     sub-<label>_task-<task>_run-<n>_recording-eye1_physio.json     the sidecar
-//!     sub-<label>_task-<task>_run-<n>_events.tsv                     one row per trial
-//!     sub-<label>_task-<task>_run-<n>_events.json                    columns + StimulusPresentation
+//!     <run>_recording-eye<k>_physio.tsv.gz   no header, one row per sample:
+//!         timestamp  x_coordinate  y_coordinate  [pupil_size]  device_timestamp  arrival_timestamp
+//!     <run>_recording-eye<k>_physio.json     the sidecar (RecordedEye, calibration, task)
+//!     <run>_recording-eye<k>_physioevents.tsv.gz   no header, one row per event or message:
+//!         onset  duration  trial_type  trial  x/y_coordinate  end_x/end_y_coordinate  message
+//!     <run>_recording-eye<k>_physioevents.json     its sidecar (OnsetSource "timestamp")
+//!     <run>_events.tsv                       one row per trial
+//!     <run>_events.json                      columns + StimulusPresentation
 //! ```
+//!
+//! (`<run>` is `sub-<label>_task-<task>_run-<n>`.)
 //!
 //! Choices (the specification leaves them to the exporter):
 //!
@@ -45,9 +51,31 @@
 //!   `session.json` if known. If fewer than two samples have increasing
 //!   timestamps the nominal rate is used, and without one the physio file
 //!   is skipped with a warning.
-//! - `RecordedEye` is `"cyclopean"`: the session files do not record which
-//!   eye, and the runner uses the tracker's combined (binocular average)
-//!   gaze.
+//! - **One recording per eye** where the tracker measured each eye
+//!   (`samples.tsv`'s per-eye columns): `recording-eye1` the left eye,
+//!   `recording-eye2` the right (a monocular device: only its eye, as
+//!   eye1), each with `pupil_size` where the tracker reported one (in the
+//!   device's own units: the sidecar says gazecast does not know whether
+//!   it is an area or a diameter). Otherwise (a mouse, the attention
+//!   source, a session from before the per-eye columns) one recording of
+//!   the combined gaze, `RecordedEye` `"cyclopean"`. Decided per run, by a
+//!   first pass over the samples.
+//! - **Physioevents** per recording: the session's `events.tsv`
+//!   (fixations, saccades, blinks, lost track; detected on the combined
+//!   gaze, so the same rows in each eye's file) and `markers.tsv` (as
+//!   `message` rows), aborted trials' rows left out, sorted by onset.
+//!   `onset` is on the physio file's `timestamp` clock (µs, host clock of
+//!   the sitting; `OnsetSource` `"timestamp"`), `duration` in seconds.
+//! - **Calibration fields** (`CalibrationCount`, `CalibrationType` `HV<n>`,
+//!   `CalibrationPosition` and `CalibrationUnit` pixel,
+//!   `AverageCalibrationError`, `MaximalCalibrationError`) from the
+//!   sitting's `calibration-fields` markers: their count, and the last.
+//!   A session without them (an earlier gazecast) has none of these.
+//! - **Dataset metadata** ([`BidsMetadata`]: a design's `bids` block and
+//!   `export-bids` flags): `Authors`, `License` and the other dataset
+//!   fields in `dataset_description.json`; `TaskName`, `TaskDescription`,
+//!   `Instructions`, `CogAtlasID`, `CogPOID` and the institution in every
+//!   run's sidecars.
 //! - Screen fields: REQUIRED in `_events.json` `StimulusPresentation` for
 //!   `"gaze-on-screen"` recordings (in metres and pixels, origin top-left),
 //!   repeated at the top level of the physio sidecar.
@@ -66,8 +94,10 @@
 //!   any error (a full disk included).
 
 use crate::analysis::{check_output_folder, OutputGuard};
+pub use crate::design::BidsMetadata;
 use crate::session::{
-    self, read_tsv, visit_tsv, AtomicFile, SampleRow, SessionFileError, SessionInfo, TrialRow,
+    self, read_tsv, visit_tsv, AtomicFile, CalibrationMarker, EventRow, MarkerRow, SampleRow,
+    SessionFileError, SessionInfo, TrialRow, CALIBRATION_MARKER, EVENTS_TSV, MARKERS_TSV,
     SAMPLES_TSV, SESSION_JSON, TRIALS_TSV,
 };
 use serde_json::{json, Value};
@@ -78,6 +108,29 @@ use std::path::{Path, PathBuf};
 /// The BIDS version the export follows (eye-tracking entered the
 /// specification in 1.11.0).
 pub const BIDS_VERSION: &str = "1.11.1";
+
+/// The warnings the official validator (bids-validator-deno) gives on an
+/// export with its dataset metadata filled in, each as (code, the key it
+/// names or `""` for any, the reason it stays): the one list the
+/// validator test accepts (`tests/bids_validator.rs`) and the README
+/// repeats. Every other warning, and any error, fails that test.
+pub const VALIDATOR_ALLOWED_WARNINGS: &[(&str, &str, &str)] = &[
+    (
+        "JSON_KEY_RECOMMENDED",
+        "HEDVersion",
+        "the export uses no HED tags; HEDVersion is for datasets that do",
+    ),
+    (
+        "JSON_KEY_RECOMMENDED",
+        "SourceDatasets",
+        "the source is gazecast session folders, not a dataset with a URL or DOI to cite",
+    ),
+    (
+        "UNKNOWN_PUPIL_SIZE",
+        "",
+        "gazecast passes the tracker's pupil value on unchanged and does not know whether the device reports an area or a diameter",
+    ),
+];
 
 /// What [`export_bids`] wrote.
 #[derive(Debug, Clone, PartialEq)]
@@ -134,6 +187,15 @@ pub enum BidsError {
         /// Its design.
         second_design: String,
     },
+    /// The dataset metadata breaks a rule (`field` as in the design
+    /// file's `bids` block).
+    #[error("dataset metadata {field}: {message}")]
+    Metadata {
+        /// The field, e.g. `authors[1]`.
+        field: String,
+        /// What is wrong.
+        message: String,
+    },
     /// The output folder is an input folder or inside one, or a file
     /// could not be written.
     #[error("{}: {message}", path.display())]
@@ -181,20 +243,103 @@ fn field(s: &str) -> String {
 /// The most sittings one session may have in an export.
 pub const MAX_SITTINGS: usize = 1000;
 
-/// One run's physio file while it is written.
-struct RunWriter {
+/// Which gaze a recording holds.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Eye {
+    /// The tracker's combined gaze (or the only one a source has).
+    Cyclopean,
+    /// The left eye.
+    Left,
+    /// The right eye.
+    Right,
+}
+
+impl Eye {
+    /// `RecordedEye`.
+    fn name(self) -> &'static str {
+        match self {
+            Eye::Cyclopean => "cyclopean",
+            Eye::Left => "left",
+            Eye::Right => "right",
+        }
+    }
+
+    /// The sample's x, y and pupil for this recording.
+    fn values(self, s: &SampleRow) -> (Option<f64>, Option<f64>, Option<f64>) {
+        match self {
+            Eye::Cyclopean => (s.x_px, s.y_px, None),
+            Eye::Left => (s.left_x_px, s.left_y_px, s.left_pupil),
+            Eye::Right => (s.right_x_px, s.right_y_px, s.right_pupil),
+        }
+    }
+}
+
+/// What one sitting's samples hold per eye (a first pass over
+/// `samples.tsv`): which eyes have any data, and which a pupil.
+#[derive(Debug, Clone, Copy, Default)]
+struct EyeScan {
+    left: bool,
+    right: bool,
+    left_pupil: bool,
+    right_pupil: bool,
+}
+
+impl EyeScan {
+    fn add(&mut self, s: &SampleRow) {
+        self.left |= s.left_x_px.is_some() || s.left_pupil.is_some();
+        self.right |= s.right_x_px.is_some() || s.right_pupil.is_some();
+        self.left_pupil |= s.left_pupil.is_some();
+        self.right_pupil |= s.right_pupil.is_some();
+    }
+
+    /// The recordings of the run: one per eye with data (left first), or
+    /// the combined gaze when no eye has its own; with a `pupil_size`
+    /// column where the eye has one.
+    fn recordings(self) -> Vec<(Eye, bool)> {
+        let mut r = Vec::new();
+        if self.left {
+            r.push((Eye::Left, self.left_pupil));
+        }
+        if self.right {
+            r.push((Eye::Right, self.right_pupil));
+        }
+        if r.is_empty() {
+            r.push((Eye::Cyclopean, false));
+        }
+        r
+    }
+}
+
+/// One recording (`recording-eyeN`) of a run while it is written.
+struct Recording {
+    eye: Eye,
+    /// `eye1`, `eye2`.
+    label: String,
+    pupil: bool,
     path: PathBuf,
     gz: flate2::write::GzEncoder<AtomicFile>,
+    valid: usize,
+}
+
+/// One run's physio files while they are written.
+struct RunWriter {
+    recordings: Vec<Recording>,
     first_us: Option<u64>,
     last_us: Option<u64>,
     last_device: Option<u64>,
     intervals: Vec<u64>,
     n: usize,
-    valid: usize,
     line: String,
 }
 
-/// What a run's sidecar needs from its session.
+/// A run's calibration: how many calibrations the sitting had, and the
+/// last one.
+struct RunCalibration {
+    count: usize,
+    last: CalibrationMarker,
+}
+
+/// What a run's sidecars need from its session.
 struct RunContext<'a> {
     info: &'a SessionInfo,
     meta: Option<&'a session::Sitting>,
@@ -204,22 +349,61 @@ struct RunContext<'a> {
     beh: &'a Path,
     stem: &'a str,
     samples_path: &'a Path,
+    calibration: Option<&'a RunCalibration>,
+    dataset: &'a BidsMetadata,
     export: &'a mut BidsExport,
 }
 
+/// A recording that was written: its label and eye.
+struct Written {
+    label: String,
+    eye: Eye,
+}
+
+/// The physio files of `stem`'s recording `label`.
+fn physio_name(stem: &str, label: &str, ext: &str) -> String {
+    format!("{stem}_recording-{label}_physio.{ext}")
+}
+
 impl RunWriter {
-    fn new(path: PathBuf, file: AtomicFile) -> Self {
-        Self {
-            path,
-            gz: flate2::write::GzEncoder::new(file, flate2::Compression::default()),
+    /// Opens one physio file per recording of `scan` (not committed
+    /// until [`RunWriter::finish`]).
+    fn new(
+        beh: &Path,
+        stem: &str,
+        scan: EyeScan,
+        guard: &OutputGuard,
+    ) -> Result<Self, SessionFileError> {
+        let mut recordings = Vec::new();
+        for (k, (eye, pupil)) in scan.recordings().into_iter().enumerate() {
+            let label = format!("eye{}", k + 1);
+            let path = beh.join(physio_name(stem, &label, "tsv.gz"));
+            guard.check(&path).map_err(|m| SessionFileError::Io {
+                path: path.clone(),
+                source: std::io::Error::other(m),
+            })?;
+            let file = AtomicFile::create(&path).map_err(|e| SessionFileError::Io {
+                path: path.clone(),
+                source: e,
+            })?;
+            recordings.push(Recording {
+                eye,
+                label,
+                pupil,
+                path,
+                gz: flate2::write::GzEncoder::new(file, flate2::Compression::default()),
+                valid: 0,
+            });
+        }
+        Ok(Self {
+            recordings,
             first_us: None,
             last_us: None,
             last_device: None,
             intervals: Vec::new(),
             n: 0,
-            valid: 0,
             line: String::new(),
-        }
+        })
     }
 
     /// One sample (timed, not aborted). Its mapped time must be later than
@@ -250,36 +434,40 @@ impl RunWriter {
         self.first_us.get_or_insert(s.mapped_us);
         self.last_us = Some(s.mapped_us);
         self.last_device = s.device_us;
-        let coord = |v: Option<f64>| match v {
+        self.n += 1;
+        let value = |v: Option<f64>| match v {
             Some(x) if x.is_finite() => format!("{x}"),
             _ => "n/a".to_string(),
         };
-        let (x, y) = match (s.x_px, s.y_px) {
-            (Some(x), Some(y)) if x.is_finite() && y.is_finite() => {
-                self.valid += 1;
-                (coord(Some(x)), coord(Some(y)))
+        let device = s.device_us.map_or("n/a".into(), |d| d.to_string());
+        for r in &mut self.recordings {
+            let (x, y, pupil) = r.eye.values(s);
+            let (x, y) = match (x, y) {
+                (Some(x), Some(y)) if x.is_finite() && y.is_finite() => {
+                    r.valid += 1;
+                    (value(Some(x)), value(Some(y)))
+                }
+                _ => ("n/a".into(), "n/a".into()),
+            };
+            self.line.clear();
+            self.line.push_str(&format!("{}\t{x}\t{y}\t", s.mapped_us));
+            if r.pupil {
+                self.line.push_str(&value(pupil));
+                self.line.push('\t');
             }
-            _ => ("n/a".into(), "n/a".into()),
-        };
-        self.line.clear();
-        self.line.push_str(&format!(
-            "{}\t{x}\t{y}\t{}\t{}\n",
-            s.mapped_us,
-            s.device_us.map_or("n/a".into(), |d| d.to_string()),
-            s.arrival_us
-        ));
-        self.n += 1;
-        self.gz
-            .write_all(self.line.as_bytes())
-            .map_err(|e| SessionFileError::Io {
-                path: self.path.clone(),
-                source: e,
-            })
+            self.line.push_str(&format!("{device}\t{}\n", s.arrival_us));
+            r.gz.write_all(self.line.as_bytes())
+                .map_err(|e| SessionFileError::Io {
+                    path: r.path.clone(),
+                    source: e,
+                })?;
+        }
+        Ok(())
     }
 
-    /// Commits the physio file and writes its sidecar; the physio file's
-    /// path, or `None` (and a warning) when no sampling rate is known.
-    fn finish(mut self, c: &mut RunContext) -> Result<Option<PathBuf>, BidsError> {
+    /// Commits the physio files and writes their sidecars; the recordings
+    /// written, none (and a warning) when no sampling rate is known.
+    fn finish(mut self, c: &mut RunContext) -> Result<Vec<Written>, BidsError> {
         self.intervals.sort_unstable();
         let m = self.intervals.len();
         let median_us = (m > 0).then(|| {
@@ -304,17 +492,16 @@ impl RunWriter {
                 "nominal rate from session.json (too few samples to estimate)".to_string(),
             ),
             (None, None) => {
-                drop(self.gz); // AtomicFile dropped uncommitted: nothing written.
+                // AtomicFiles dropped uncommitted: nothing written.
+                drop(self.recordings);
                 c.export.warnings.push(format!(
                     "{}: cannot estimate the sampling frequency of {} (no increasing timestamps) and session.json has no tracker_rate_hz; no physio file",
                     c.samples_path.display(),
                     c.stem
                 ));
-                return Ok(None);
+                return Ok(Vec::new());
             }
         };
-        let file = self.gz.finish().map_err(|e| out_err(&self.path, e))?;
-        file.commit().map_err(|e| out_err(&self.path, e))?;
         let d = &info.display;
         let device_clock = c.meta.map_or(
             "not recorded (a session of an earlier gazecast)".to_string(),
@@ -331,69 +518,265 @@ impl RunWriter {
                 "ClockResets": k.resets,
             })
         });
-        let mut sidecar = json!({
-            "SamplingFrequency": rate,
-            "SamplingFrequencyEstimate": rate_note,
-            "StartTime": 0.0,
-            "Columns": ["timestamp", "x_coordinate", "y_coordinate", "device_timestamp", "arrival_timestamp"],
-            "PhysioType": "eyetrack",
-            "RecordedEye": "cyclopean",
-            "SampleCoordinateSystem": "gaze-on-screen",
-            "Manufacturer": info.tracker,
-            "SoftwareVersions": info.software,
-            "ScreenSize": [d.width_mm / 1000.0, d.height_mm / 1000.0],
-            "ScreenResolution": [d.width_px, d.height_px],
-            "ScreenDistance": d.distance_mm / 1000.0,
-            "ScreenOrigin": ["top", "left"],
-            "timestamp": {
-                "Description": "The eye-tracker's timestamp of the sample (device_timestamp) mapped onto the host's monotonic clock by gazecast's clock model (rate fitted to the least-delayed arrivals, offset at the transport's minimum latency): the clock the events' onsets are on. Strictly increasing within the run; its intervals are the tracker's own.",
-                "Units": "us",
-                "Origin": "host monotonic clock of the sitting (this run)"
-            },
-            "x_coordinate": {
-                "LongName": "Gaze position (x)",
-                "Description": "Gaze position x-coordinate on the screen (the tracker's combined gaze), origin top-left, x to the right; n/a for an invalid sample (blink, lost track).",
-                "Units": "pixel"
-            },
-            "y_coordinate": {
-                "LongName": "Gaze position (y)",
-                "Description": "Gaze position y-coordinate on the screen, origin top-left, y downwards; n/a for an invalid sample.",
-                "Units": "pixel"
-            },
-            "device_timestamp": {
-                "Description": format!("The eye-tracker's own timestamp as decoded: {device_clock}. n/a where the tracker sends none."),
-                "Units": "us",
-                "Origin": "tracker clock"
-            },
-            "arrival_timestamp": {
-                "Description": "When the sample's bytes reached the host (delivery, not capture: it varies with the host's load; not used for timing).",
-                "Units": "us",
-                "Origin": "host monotonic clock of the sitting (this run)"
-            },
-            "SyntheticData": c.synthetic,
-            "Notes": if c.synthetic {
-                "SYNTHETIC DATA: simulated participant, not human data."
-            } else {
-                "Recorded data."
-            },
-            "TaskName": c.task,
-        });
-        if let (Some(clock), Some(obj)) = (clock, sidecar.as_object_mut()) {
-            obj.insert("ClockModel".into(), clock);
+        let binocular = self.recordings.len() > 1;
+        let mut written = Vec::new();
+        for r in self.recordings {
+            let file = r.gz.finish().map_err(|e| out_err(&r.path, e))?;
+            file.commit().map_err(|e| out_err(&r.path, e))?;
+            let (x_what, y_what) = match r.eye {
+                Eye::Cyclopean => (
+                    "Gaze position x-coordinate on the screen (the tracker's combined gaze: the point of regard the display followed), origin top-left, x to the right; n/a for an invalid sample (blink, lost track).",
+                    "Gaze position y-coordinate on the screen (the tracker's combined gaze), origin top-left, y downwards; n/a for an invalid sample.",
+                ),
+                Eye::Left => (
+                    "The left eye's gaze position x-coordinate on the screen, origin top-left, x to the right (its raw point through the session's calibration, fitted on the combined gaze); n/a where the tracker did not track this eye.",
+                    "The left eye's gaze position y-coordinate on the screen, origin top-left, y downwards; n/a where the tracker did not track this eye.",
+                ),
+                Eye::Right => (
+                    "The right eye's gaze position x-coordinate on the screen, origin top-left, x to the right (its raw point through the session's calibration, fitted on the combined gaze); n/a where the tracker did not track this eye.",
+                    "The right eye's gaze position y-coordinate on the screen, origin top-left, y downwards; n/a where the tracker did not track this eye.",
+                ),
+            };
+            let mut columns = vec!["timestamp", "x_coordinate", "y_coordinate"];
+            if r.pupil {
+                columns.push("pupil_size");
+            }
+            columns.extend(["device_timestamp", "arrival_timestamp"]);
+            let mut sidecar = json!({
+                "SamplingFrequency": rate,
+                "SamplingFrequencyEstimate": rate_note,
+                "StartTime": 0.0,
+                "Columns": columns,
+                "PhysioType": "eyetrack",
+                "RecordedEye": r.eye.name(),
+                "SampleCoordinateSystem": "gaze-on-screen",
+                "Manufacturer": info.tracker,
+                "SoftwareVersions": info.software,
+                "ScreenSize": [d.width_mm / 1000.0, d.height_mm / 1000.0],
+                "ScreenResolution": [d.width_px, d.height_px],
+                "ScreenDistance": d.distance_mm / 1000.0,
+                "ScreenOrigin": ["top", "left"],
+                "timestamp": {
+                    "Description": "The eye-tracker's timestamp of the sample (device_timestamp) mapped onto the host's monotonic clock by gazecast's clock model (rate fitted to the least-delayed arrivals, offset at the transport's minimum latency): the clock the events' onsets and the physioevents' onsets are on. Strictly increasing within the run; its intervals are the tracker's own.",
+                    "Units": "us",
+                    "Origin": "host monotonic clock of the sitting (this run)"
+                },
+                "x_coordinate": {
+                    "LongName": "Gaze position (x)",
+                    "Description": x_what,
+                    "Units": "pixel"
+                },
+                "y_coordinate": {
+                    "LongName": "Gaze position (y)",
+                    "Description": y_what,
+                    "Units": "pixel"
+                },
+                "device_timestamp": {
+                    "Description": format!("The eye-tracker's own timestamp as decoded: {device_clock}. n/a where the tracker sends none."),
+                    "Units": "us",
+                    "Origin": "tracker clock"
+                },
+                "arrival_timestamp": {
+                    "Description": "When the sample's bytes reached the host (delivery, not capture: it varies with the host's load; not used for timing).",
+                    "Units": "us",
+                    "Origin": "host monotonic clock of the sitting (this run)"
+                },
+                "SyntheticData": c.synthetic,
+                "Notes": match (c.synthetic, binocular) {
+                    (true, _) => "SYNTHETIC DATA: simulated participant, not human data.",
+                    (false, true) => "Recorded data; one recording per eye (eye1 left, eye2 right).",
+                    (false, false) => "Recorded data.",
+                },
+            });
+            if let Some(obj) = sidecar.as_object_mut() {
+                if r.pupil {
+                    obj.insert(
+                        "pupil_size".into(),
+                        json!({
+                            "Description": "Pupil size of this eye as the eye tracker reports it, in the tracker's own units (gazecast passes the device's value on unchanged and does not know which measure of the pupil the device reports); n/a where the tracker reports none.",
+                            "Units": "n/a"
+                        }),
+                    );
+                }
+                if let Some(k) = c.calibration {
+                    obj.insert("CalibrationCount".into(), json!(k.count));
+                    obj.insert(
+                        "CalibrationType".into(),
+                        json!(format!("HV{}", k.last.targets)),
+                    );
+                    obj.insert("CalibrationPosition".into(), json!(k.last.positions_px));
+                    obj.insert("CalibrationUnit".into(), json!("pixel"));
+                    obj.insert("AverageCalibrationError".into(), json!(k.last.average_deg));
+                    obj.insert("MaximalCalibrationError".into(), json!(k.last.maximal_deg));
+                    obj.insert(
+                        "CalibrationDescription".into(),
+                        json!("The sitting's last calibration: HV<n> is a grid of n targets; CalibrationPosition lists the targets the fit used (screen pixels, origin top-left); the errors are the accuracies (degrees of visual angle) of its validation on the combined gaze: the mean over the validation points with data and the worst point."),
+                    );
+                }
+                if let Some(clock) = clock.clone() {
+                    obj.insert("ClockModel".into(), clock);
+                }
+                task_fields(obj, c.task, c.info, c.dataset);
+            }
+            let json_path = c.beh.join(physio_name(c.stem, &r.label, "json"));
+            write_json(c.guard, &json_path, &sidecar)?;
+            c.export.files.push(r.path.clone());
+            c.export.files.push(json_path);
+            if r.valid < self.n {
+                c.export.warnings.push(format!(
+                    "{}_recording-{} ({}): {} of {} samples invalid (n/a)",
+                    c.stem,
+                    r.label,
+                    r.eye.name(),
+                    self.n - r.valid,
+                    self.n
+                ));
+            }
+            written.push(Written {
+                label: r.label,
+                eye: r.eye,
+            });
         }
-        let json_path = c.beh.join(format!("{}_recording-eye1_physio.json", c.stem));
-        write_json(c.guard, &json_path, &sidecar)?;
-        c.export.files.push(json_path);
-        if self.valid < self.n {
-            c.export.warnings.push(format!(
-                "{}: {} of {} samples invalid (n/a)",
-                c.stem,
-                self.n - self.valid,
-                self.n
-            ));
-        }
-        Ok(Some(self.path))
+        Ok(written)
     }
+}
+
+/// The task's fields shared by every sidecar of a run (events, physio,
+/// physioevents): `TaskName`, `TaskDescription`, and the dataset
+/// metadata's instructions, task ids and institution, where set.
+fn task_fields(
+    obj: &mut serde_json::Map<String, Value>,
+    task: &str,
+    info: &SessionInfo,
+    dataset: &BidsMetadata,
+) {
+    obj.insert("TaskName".into(), json!(task));
+    let description = dataset.task_description.clone().unwrap_or_else(|| {
+        format!(
+            "Visual search, design {:?}: find the target mesh in the search grid and press the response key.",
+            info.design_name
+        )
+    });
+    obj.insert("TaskDescription".into(), json!(description));
+    for (key, value) in [
+        ("Instructions", &dataset.instructions),
+        ("CogAtlasID", &dataset.cog_atlas_id),
+        ("CogPOID", &dataset.cog_po_id),
+        ("InstitutionName", &dataset.institution_name),
+        ("InstitutionAddress", &dataset.institution_address),
+        (
+            "InstitutionalDepartmentName",
+            &dataset.institutional_department_name,
+        ),
+    ] {
+        if let Some(v) = value {
+            obj.insert(key.into(), json!(v));
+        }
+    }
+}
+
+/// One row of a `_physioevents.tsv.gz`.
+struct PhysioEvent {
+    /// On the physio file's `timestamp` clock (µs).
+    onset_us: u64,
+    duration_s: Option<f64>,
+    trial_type: String,
+    trial: Option<usize>,
+    xy: Option<[f64; 4]>,
+    message: Option<String>,
+}
+
+/// The columns of a `_physioevents.tsv.gz`, in order.
+const PHYSIOEVENTS_COLUMNS: [&str; 9] = [
+    "onset",
+    "duration",
+    "trial_type",
+    "trial",
+    "x_coordinate",
+    "y_coordinate",
+    "end_x_coordinate",
+    "end_y_coordinate",
+    "message",
+];
+
+/// Writes the physioevents of one recording: `events` (sorted by onset)
+/// as `<stem>_recording-<label>_physioevents.tsv.gz` and its sidecar.
+fn write_physioevents(
+    c: &mut RunContext,
+    w: &Written,
+    events: &[PhysioEvent],
+) -> Result<(), BidsError> {
+    let path = c.beh.join(format!(
+        "{}_recording-{}_physioevents.tsv.gz",
+        c.stem, w.label
+    ));
+    c.guard.check(&path).map_err(|m| out_err(&path, m))?;
+    let file = AtomicFile::create(&path).map_err(|e| out_err(&path, e))?;
+    let mut gz = flate2::write::GzEncoder::new(file, flate2::Compression::default());
+    let na = || "n/a".to_string();
+    for e in events {
+        let xy = |k: usize| e.xy.map_or_else(na, |v| format!("{}", v[k]));
+        let line = format!(
+            "{}\t{}\t{}\t{}\t{}\t{}\t{}\t{}\t{}\n",
+            e.onset_us,
+            e.duration_s.map_or_else(na, |d| format!("{d:.6}")),
+            field(&e.trial_type),
+            e.trial.map_or_else(na, |t| t.to_string()),
+            xy(0),
+            xy(1),
+            xy(2),
+            xy(3),
+            e.message.as_deref().map_or_else(na, field),
+        );
+        gz.write_all(line.as_bytes())
+            .map_err(|e| out_err(&path, e))?;
+    }
+    let file = gz.finish().map_err(|e| out_err(&path, e))?;
+    file.commit().map_err(|e| out_err(&path, e))?;
+    let mut sidecar = json!({
+        "Columns": PHYSIOEVENTS_COLUMNS,
+        "Description": format!(
+            "Eye-movement events (fixations, saccades, blinks, lost track) and the runner's messages (markers.tsv) of this run. The events were detected by gazecast (I-VT on the tracker's clock, then the merge of congruent fixations) on the combined gaze of {}, not on this recording alone.",
+            if w.eye == Eye::Cyclopean { "the tracker" } else { "both eyes" }
+        ),
+        "OnsetSource": "timestamp",
+        "onset": {
+            "Description": "Start of the event on the physio file's timestamp clock: the tracker's time mapped onto the host monotonic clock of the sitting (events: the event's first sample; messages: the host clock when the runner wrote the marker).",
+            "Units": "us",
+            "Origin": "host monotonic clock of the sitting (this run)"
+        },
+        "duration": {
+            "Description": "From the event's first to its last sample (mapped times); n/a for a message.",
+            "Units": "s"
+        },
+        "trial_type": {
+            "Description": "What happened.",
+            "Levels": {
+                "fixation": "a fixation (x/y: its centroid)",
+                "saccade": "a saccade (x/y: its start, end_x/end_y: its end)",
+                "blink": "a blink (samples without gaze, short enough to be a blink)",
+                "lost": "track lost (samples without gaze, too long for a blink)",
+                "message": "a runner marker (message: its event and detail)"
+            }
+        },
+        "trial": {"Description": "Trial index within the session, from 0; n/a outside trials."},
+        "x_coordinate": {"Description": "Fixation: centroid x; saccade: start x; screen origin top-left; n/a for a blink, lost track or message.", "Units": "pixel"},
+        "y_coordinate": {"Description": "Fixation: centroid y; saccade: start y; n/a as x_coordinate.", "Units": "pixel"},
+        "end_x_coordinate": {"Description": "Fixation: as x_coordinate; saccade: end x.", "Units": "pixel"},
+        "end_y_coordinate": {"Description": "Fixation: as y_coordinate; saccade: end y.", "Units": "pixel"},
+        "message": {"Description": "For a message: the marker's event and detail as the runner wrote them (markers.tsv; times in a detail are on the host monotonic clock of the sitting, us); n/a for an eye-movement event."},
+    });
+    if let Some(obj) = sidecar.as_object_mut() {
+        task_fields(obj, c.task, c.info, c.dataset);
+    }
+    let json_path = c.beh.join(format!(
+        "{}_recording-{}_physioevents.json",
+        c.stem, w.label
+    ));
+    write_json(c.guard, &json_path, &sidecar)?;
+    c.export.files.push(path);
+    c.export.files.push(json_path);
+    Ok(())
 }
 
 /// Exports the session folders `dirs` as a BIDS dataset in `out` with task
@@ -413,6 +796,23 @@ pub fn export_bids_described(
     task: &str,
     methods: &[(&str, &str)],
 ) -> Result<BidsExport, BidsError> {
+    export_bids_with(dirs, out, task, methods, &BidsMetadata::default())
+}
+
+/// [`export_bids_described`] with the dataset metadata `dataset`
+/// (authors, licence, instructions, institution: from the design file's
+/// `bids` block and the command line) in `dataset_description.json` and
+/// every run's sidecars.
+pub fn export_bids_with(
+    dirs: &[PathBuf],
+    out: &Path,
+    task: &str,
+    methods: &[(&str, &str)],
+    dataset: &BidsMetadata,
+) -> Result<BidsExport, BidsError> {
+    dataset
+        .validate()
+        .map_err(|(field, message)| BidsError::Metadata { field, message })?;
     if dirs.is_empty() {
         return Err(BidsError::NoInputs);
     }
@@ -483,8 +883,16 @@ pub fn export_bids_described(
         std::fs::create_dir_all(&beh).map_err(|e| out_err(&beh, e))?;
         let completed = session::completing_sittings(&trials.rows);
 
-        // Samples → one physio.tsv.gz per sitting (a BIDS run), streamed.
+        // Samples → one physio.tsv.gz per sitting (a BIDS run) and eye,
+        // streamed; a first pass finds which eyes each sitting has.
         let samples_path = dir.join(SAMPLES_TSV);
+        let mut scans: BTreeMap<u32, EyeScan> = BTreeMap::new();
+        visit_tsv::<SampleRow>(&samples_path, |s, _| {
+            if !session::aborted(&completed, s.sitting, s.trial) && s.is_timed() {
+                scans.entry(s.sitting).or_default().add(&s);
+            }
+            Ok(())
+        })?;
         let mut runs: BTreeMap<u32, RunWriter> = BTreeMap::new();
         let mut aborted = 0usize;
         let mut untimed = 0usize;
@@ -506,19 +914,9 @@ pub fn export_bids_described(
                         message: format!("more than {MAX_SITTINGS} sittings"),
                     });
                 }
-                let gz_path = beh.join(format!(
-                    "sub-{label}_task-{task}_run-{}_recording-eye1_physio.tsv.gz",
-                    s.sitting
-                ));
-                guard.check(&gz_path).map_err(|m| SessionFileError::Io {
-                    path: gz_path.clone(),
-                    source: std::io::Error::other(m),
-                })?;
-                let file = AtomicFile::create(&gz_path).map_err(|e| SessionFileError::Io {
-                    path: gz_path.clone(),
-                    source: e,
-                })?;
-                runs.insert(s.sitting, RunWriter::new(gz_path, file));
+                let stem = format!("sub-{label}_task-{task}_run-{}", s.sitting);
+                let scan = scans.get(&s.sitting).copied().unwrap_or_default();
+                runs.insert(s.sitting, RunWriter::new(&beh, &stem, scan, &guard)?);
             }
             let Some(run) = runs.get_mut(&s.sitting) else {
                 return Ok(());
@@ -538,6 +936,8 @@ pub fn export_bids_described(
                 "sub-{label}: {untimed} samples with a repeated or backwards tracker timestamp left out"
             ));
         }
+        let (physio_events, calibrations) =
+            read_physio_events(dir, &completed, &mut export.warnings)?;
         let mut sittings: Vec<u32> = runs.keys().copied().collect();
         sittings.extend(trials.rows.iter().map(|t| t.sitting));
         sittings.sort_unstable();
@@ -568,7 +968,7 @@ pub fn export_bids_described(
             };
             if let Some(run) = runs.remove(&sitting) {
                 written += run.n;
-                if let Some(path) = run.finish(&mut RunContext {
+                let mut c = RunContext {
                     info,
                     meta,
                     synthetic,
@@ -577,9 +977,19 @@ pub fn export_bids_described(
                     beh: &beh,
                     stem: &stem,
                     samples_path: &samples_path,
+                    calibration: calibrations.get(&sitting),
+                    dataset,
                     export: &mut export,
-                })? {
-                    export.files.push(path);
+                };
+                let recordings = run.finish(&mut c)?;
+                let none = Vec::new();
+                let events = physio_events.get(&sitting).unwrap_or(&none);
+                // A run without events or messages (a session from before
+                // events.tsv and markers.tsv) has no physioevents file.
+                if !events.is_empty() {
+                    for w in &recordings {
+                        write_physioevents(&mut c, w, events)?;
+                    }
                 }
             }
             // Trials → events.tsv.
@@ -624,9 +1034,7 @@ pub fn export_bids_described(
                         .or_insert_with(|| json!(help));
                 }
             }
-            let events_json = json!({
-                "TaskName": task,
-                "TaskDescription": format!("Visual search, design {:?}: find the target mesh in the search grid and press the response key.", info.design_name),
+            let mut events_json = json!({
                 "StimulusPresentation": {
                     "ScreenDistance": d.distance_mm / 1000.0,
                     "ScreenOrigin": ["top", "left"],
@@ -649,6 +1057,9 @@ pub fn export_bids_described(
                 "correct": {"Description": "Whether the clicked cell was the target.", "Levels": {"1": "correct", "0": "incorrect", "n/a": "no click recorded"}},
                 "plan": {"Description": "What rendered the search display: gazecast's provenance line of the trial's renderer (trials.tsv plan): the method that ran, the backend, and the passes in order with where each ran, e.g. \"image on gpu; passes: image-based foveation (gpu)\" or \"hybrid on cpu; passes: none\" (sessions recorded before gazecast gave each method one name say \"image-based\" and \"foveated\" for image and hybrid). Plans that changed during the search are joined by \" | \". n/a for a session recorded before gazecast wrote it."},
             });
+            if let Some(obj) = events_json.as_object_mut() {
+                task_fields(obj, task, info, dataset);
+            }
             let events_json_path = beh.join(format!("{stem}_events.json"));
             write_json(&guard, &events_json_path, &events_json)?;
             export.files.push(events_json_path);
@@ -696,10 +1107,7 @@ pub fn export_bids_described(
         format!("{design_name}{NAME_SUFFIX}")
     };
     let dd = out.join(DATASET_DESCRIPTION);
-    write_json(
-        &guard,
-        &dd,
-        &json!({
+    let mut description = json!({
             "Name": name,
             "BIDSVersion": BIDS_VERSION,
             "DatasetType": "raw",
@@ -712,8 +1120,32 @@ pub fn export_bids_described(
                     "Exported from gazecast session folders."
                 },
             }],
-        }),
-    )?;
+    });
+    if let Some(obj) = description.as_object_mut() {
+        let lists = [
+            ("Authors", &dataset.authors),
+            ("Funding", &dataset.funding),
+            ("EthicsApprovals", &dataset.ethics_approvals),
+            ("ReferencesAndLinks", &dataset.references_and_links),
+        ];
+        for (key, values) in lists {
+            if !values.is_empty() {
+                obj.insert(key.into(), json!(values));
+            }
+        }
+        let texts = [
+            ("License", &dataset.license),
+            ("Acknowledgements", &dataset.acknowledgements),
+            ("HowToAcknowledge", &dataset.how_to_acknowledge),
+            ("DatasetDOI", &dataset.dataset_doi),
+        ];
+        for (key, value) in texts {
+            if let Some(v) = value {
+                obj.insert(key.into(), json!(v));
+            }
+        }
+    }
+    write_json(&guard, &dd, &description)?;
     export.files.push(dd);
     let readme = out.join("README.md");
     let mut text = String::new();
@@ -722,10 +1154,13 @@ pub fn export_bids_described(
     }
     text.push_str(&format!(
         "# {design_name}\n\nVisual search with gaze-contingent rendering (gazecast), exported to BIDS {BIDS_VERSION}.\n\n\
-Per participant, `beh/` holds one run per sitting (a session resumed later has several): the eye-tracking recording \
-(`_run-N_recording-eye1_physio.tsv.gz`, PhysioType eyetrack: timestamp (the tracker's timestamp mapped onto the host clock, us), \
-x_coordinate and y_coordinate (screen pixels, origin top-left, n/a for invalid samples), device_timestamp (the tracker's own clock, us), \
-arrival_timestamp (host arrival, us)) and one event per search trial (`_run-N_events.tsv`: onset and duration in s since the run's first sample).\n"
+Per participant, `beh/` holds one run per sitting (a session resumed later has several): the eye-tracking recordings \
+(`_run-N_recording-eyeK_physio.tsv.gz`, PhysioType eyetrack: one per eye where the tracker measured each eye (eye1 left, eye2 right; RecordedEye in the sidecar), \
+else one of the combined gaze (cyclopean); columns timestamp (the tracker's timestamp mapped onto the host clock of the sitting, us), \
+x_coordinate and y_coordinate (screen pixels, origin top-left, n/a for invalid samples), pupil_size where the tracker reports it (its own units), \
+device_timestamp (the tracker's own clock, us), arrival_timestamp (host arrival, us)), their eye-movement events and the runner's messages \
+(`_run-N_recording-eyeK_physioevents.tsv.gz`: onsets on the timestamp clock, us) and one event per search trial \
+(`_run-N_events.tsv`: onset and duration in s since the run's first sample).\n"
     ));
     write_text(&guard, &readme, &text)?;
     export.files.push(readme);
@@ -971,17 +1406,120 @@ fn remove_stale_runs(
         let (run, suffix) = rest.split_once('_').unwrap_or((rest, ""));
         let ours = !run.is_empty()
             && run.chars().all(|c| c.is_ascii_digit())
-            && [
-                "recording-eye1_physio.tsv.gz",
-                "recording-eye1_physio.json",
-                "events.tsv",
-                "events.json",
-            ]
-            .contains(&suffix);
+            && (["events.tsv", "events.json"].contains(&suffix)
+                || ["eye1", "eye2"].iter().any(|eye| {
+                    suffix
+                        .strip_prefix("recording-")
+                        .and_then(|r| r.strip_prefix(eye))
+                        .is_some_and(|r| {
+                            [
+                                "_physio.tsv.gz",
+                                "_physio.json",
+                                "_physioevents.tsv.gz",
+                                "_physioevents.json",
+                            ]
+                            .contains(&r)
+                        })
+                }));
         let path = e.path();
         if ours && !written.contains(&path) {
             std::fs::remove_file(&path).map_err(|e| out_err(&path, e))?;
         }
     }
     Ok(())
+}
+
+/// A session's physioevents per sitting (its `events.tsv` and
+/// `markers.tsv`, rows of aborted trials left out, sorted by onset) and
+/// each sitting's calibrations (its `calibration-fields` markers). A
+/// missing file gives none, with a warning; a marker whose detail is not
+/// a calibration's is an error naming the file and line.
+#[allow(clippy::type_complexity)]
+fn read_physio_events(
+    dir: &Path,
+    completed: &std::collections::HashMap<usize, u32>,
+    warnings: &mut Vec<String>,
+) -> Result<
+    (
+        BTreeMap<u32, Vec<PhysioEvent>>,
+        BTreeMap<u32, RunCalibration>,
+    ),
+    BidsError,
+> {
+    let mut events: BTreeMap<u32, Vec<PhysioEvent>> = BTreeMap::new();
+    let mut calibrations: BTreeMap<u32, RunCalibration> = BTreeMap::new();
+    let path = dir.join(EVENTS_TSV);
+    if path.exists() {
+        let read = read_tsv::<EventRow>(&path)?;
+        warnings.extend(read.warnings.iter().map(|w| w.to_string()));
+        for e in read.rows {
+            if session::aborted(completed, e.sitting, e.trial) {
+                continue;
+            }
+            let xy = [e.x_px, e.y_px, e.end_x_px, e.end_y_px];
+            events.entry(e.sitting).or_default().push(PhysioEvent {
+                onset_us: e.onset_us,
+                duration_s: Some(e.end_us.saturating_sub(e.onset_us) as f64 / 1e6),
+                xy: (matches!(e.kind.as_str(), "fixation" | "saccade")
+                    && xy.iter().all(|v| v.is_finite()))
+                .then_some(xy),
+                trial_type: e.kind,
+                trial: e.trial,
+                message: None,
+            });
+        }
+    } else {
+        warnings.push(format!(
+            "{}: not found; the physioevents hold no eye-movement events",
+            path.display()
+        ));
+    }
+    let path = dir.join(MARKERS_TSV);
+    if path.exists() {
+        let read = read_tsv::<MarkerRow>(&path)?;
+        warnings.extend(read.warnings.iter().map(|w| w.to_string()));
+        for (m, line) in read.rows.into_iter().zip(read.lines) {
+            if m.event == CALIBRATION_MARKER {
+                let last = CalibrationMarker::from_detail(&m.detail).map_err(|message| {
+                    SessionFileError::Parse {
+                        path: path.clone(),
+                        line,
+                        column: Some("detail".into()),
+                        message: format!("not a calibration's fields: {message}"),
+                    }
+                })?;
+                let k = calibrations.entry(m.sitting).or_insert(RunCalibration {
+                    count: 0,
+                    last: last.clone(),
+                });
+                k.count += 1;
+                k.last = last;
+            }
+            if session::aborted(completed, m.sitting, m.trial) {
+                continue;
+            }
+            let message = if m.detail.is_empty() {
+                m.event.clone()
+            } else {
+                format!("{}: {}", m.event, m.detail)
+            };
+            events.entry(m.sitting).or_default().push(PhysioEvent {
+                onset_us: m.host_us,
+                duration_s: None,
+                trial_type: "message".into(),
+                trial: m.trial,
+                xy: None,
+                message: Some(message),
+            });
+        }
+    } else {
+        warnings.push(format!(
+            "{}: not found; the physioevents hold no messages and the sidecars no calibration",
+            path.display()
+        ));
+    }
+    for list in events.values_mut() {
+        list.sort_by_key(|e| e.onset_us);
+    }
+    Ok((events, calibrations))
 }

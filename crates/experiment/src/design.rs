@@ -64,6 +64,11 @@ pub struct Design {
     /// Optional single-point drift checks between trials.
     #[serde(default)]
     pub drift_check: Option<DriftCheck>,
+    /// Optional dataset metadata for the BIDS export (authors, licence,
+    /// instructions, institution); `experiment export-bids` flags
+    /// override it field by field.
+    #[serde(default)]
+    pub bids: Option<BidsMetadata>,
 }
 
 /// One independent variable.
@@ -397,6 +402,7 @@ impl Design {
             let mut v = serde_json::to_value(d).unwrap_or(serde_json::Value::Null);
             if let Some(map) = v.as_object_mut() {
                 map.remove("description");
+                map.remove("bids");
             }
             v
         };
@@ -542,6 +548,11 @@ impl Design {
                 ));
             }
             positive_finite(d.threshold_deg, "drift_check.threshold_deg")?;
+        }
+        if let Some(b) = &self.bids {
+            b.validate().map_err(|(field, message)| {
+                DesignError::invalid(format!("bids.{field}"), message)
+            })?;
         }
         Ok(())
     }
@@ -747,5 +758,170 @@ fn positive_finite(x: f64, field: &str) -> Result<(), DesignError> {
             field,
             format!("must be a positive finite number of degrees, got {x}"),
         ))
+    }
+}
+
+/// Dataset metadata for the BIDS export: who made the data, under which
+/// licence, what the participants were told, and where. Every field is
+/// optional (`experiment export-bids` flags set or override each); none
+/// changes what a participant sees, so designs that differ only here
+/// pool ([`Design::differences`] ignores it). In a design file:
+///
+/// ```text
+/// bids: Some((
+///     authors: ["A. Person", "B. Person"],
+///     license: Some("CC-BY-4.0"),
+///     instructions: Some("Find the object that matches the target …"),
+///     institution_name: Some("Some University"),
+/// )),
+/// ```
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct BidsMetadata {
+    /// `Authors` of `dataset_description.json`: one person per entry.
+    #[serde(default)]
+    pub authors: Vec<String>,
+    /// `License`: the data's licence, an SPDX identifier where there is
+    /// one (`"CC0-1.0"`, `"CC-BY-4.0"`, `"PDDL-1.0"`).
+    #[serde(default)]
+    pub license: Option<String>,
+    /// `Acknowledgements`: who else contributed.
+    #[serde(default)]
+    pub acknowledgements: Option<String>,
+    /// `HowToAcknowledge`: how to cite the data.
+    #[serde(default)]
+    pub how_to_acknowledge: Option<String>,
+    /// `Funding`: one source per entry.
+    #[serde(default)]
+    pub funding: Vec<String>,
+    /// `EthicsApprovals`: one approval per entry (board, number).
+    #[serde(default)]
+    pub ethics_approvals: Vec<String>,
+    /// `ReferencesAndLinks`: papers and pages about the data.
+    #[serde(default)]
+    pub references_and_links: Vec<String>,
+    /// `DatasetDOI`: the dataset's DOI as a URI (`"doi:10.…"`).
+    #[serde(default)]
+    pub dataset_doi: Option<String>,
+    /// `Instructions`: the text given to the participants before the
+    /// recording (in every run's sidecars).
+    #[serde(default)]
+    pub instructions: Option<String>,
+    /// `TaskDescription`: replaces gazecast's one-line description of the
+    /// visual search.
+    #[serde(default)]
+    pub task_description: Option<String>,
+    /// `CogAtlasID`: the Cognitive Atlas task's URI.
+    #[serde(default)]
+    pub cog_atlas_id: Option<String>,
+    /// `CogPOID`: the CogPO term's URI.
+    #[serde(default)]
+    pub cog_po_id: Option<String>,
+    /// `InstitutionName`: the institution in charge of the equipment.
+    #[serde(default)]
+    pub institution_name: Option<String>,
+    /// `InstitutionAddress`: its address.
+    #[serde(default)]
+    pub institution_address: Option<String>,
+    /// `InstitutionalDepartmentName`: the department.
+    #[serde(default)]
+    pub institutional_department_name: Option<String>,
+}
+
+impl BidsMetadata {
+    /// `self` with every field that `over` sets replaced by `over`'s (a
+    /// list replaces the whole list).
+    pub fn overlay(&self, over: &BidsMetadata) -> BidsMetadata {
+        let text = |a: &Option<String>, b: &Option<String>| b.clone().or_else(|| a.clone());
+        let list =
+            |a: &Vec<String>, b: &Vec<String>| if b.is_empty() { a.clone() } else { b.clone() };
+        BidsMetadata {
+            authors: list(&self.authors, &over.authors),
+            license: text(&self.license, &over.license),
+            acknowledgements: text(&self.acknowledgements, &over.acknowledgements),
+            how_to_acknowledge: text(&self.how_to_acknowledge, &over.how_to_acknowledge),
+            funding: list(&self.funding, &over.funding),
+            ethics_approvals: list(&self.ethics_approvals, &over.ethics_approvals),
+            references_and_links: list(&self.references_and_links, &over.references_and_links),
+            dataset_doi: text(&self.dataset_doi, &over.dataset_doi),
+            instructions: text(&self.instructions, &over.instructions),
+            task_description: text(&self.task_description, &over.task_description),
+            cog_atlas_id: text(&self.cog_atlas_id, &over.cog_atlas_id),
+            cog_po_id: text(&self.cog_po_id, &over.cog_po_id),
+            institution_name: text(&self.institution_name, &over.institution_name),
+            institution_address: text(&self.institution_address, &over.institution_address),
+            institutional_department_name: text(
+                &self.institutional_department_name,
+                &over.institutional_department_name,
+            ),
+        }
+    }
+
+    /// Checks every value: no empty text (a field left out is the way to
+    /// say nothing), the DOI a `doi:` URI, the two task ids web
+    /// addresses. `Err((field, message))`, the field as named in the
+    /// design file (`authors[1]`).
+    pub fn validate(&self) -> Result<(), (String, String)> {
+        let lists: [(&str, &Vec<String>); 4] = [
+            ("authors", &self.authors),
+            ("funding", &self.funding),
+            ("ethics_approvals", &self.ethics_approvals),
+            ("references_and_links", &self.references_and_links),
+        ];
+        for (name, values) in lists {
+            for (i, v) in values.iter().enumerate() {
+                if v.trim().is_empty() {
+                    return Err((
+                        format!("{name}[{i}]"),
+                        "is empty: leave it out instead".into(),
+                    ));
+                }
+            }
+        }
+        let texts: [(&str, &Option<String>); 11] = [
+            ("license", &self.license),
+            ("acknowledgements", &self.acknowledgements),
+            ("how_to_acknowledge", &self.how_to_acknowledge),
+            ("dataset_doi", &self.dataset_doi),
+            ("instructions", &self.instructions),
+            ("task_description", &self.task_description),
+            ("cog_atlas_id", &self.cog_atlas_id),
+            ("cog_po_id", &self.cog_po_id),
+            ("institution_name", &self.institution_name),
+            ("institution_address", &self.institution_address),
+            (
+                "institutional_department_name",
+                &self.institutional_department_name,
+            ),
+        ];
+        for (name, value) in texts {
+            if value.as_deref().is_some_and(|v| v.trim().is_empty()) {
+                return Err((name.into(), "is empty: leave it out (None) instead".into()));
+            }
+        }
+        if let Some(d) = &self.dataset_doi {
+            if !d.starts_with("doi:") {
+                return Err((
+                    "dataset_doi".into(),
+                    format!(
+                        "{d:?}: must be a URI such as \"doi:10.18112/openneuro.ds000001.v1.0.0\""
+                    ),
+                ));
+            }
+        }
+        for (name, value) in [
+            ("cog_atlas_id", &self.cog_atlas_id),
+            ("cog_po_id", &self.cog_po_id),
+        ] {
+            if let Some(v) = value {
+                if !(v.starts_with("https://") || v.starts_with("http://")) {
+                    return Err((
+                        name.into(),
+                        format!("{v:?}: must be a web address (https://…)"),
+                    ));
+                }
+            }
+        }
+        Ok(())
     }
 }

@@ -73,6 +73,12 @@ fn make(root: &Path, participant: &str, synthetic: bool, n_samples: usize) -> Ma
             raw_y: Some(0.25),
             x_px: valid.then_some(100.25 + i as f64),
             y_px: valid.then_some(200.5),
+            left_x_px: None,
+            left_y_px: None,
+            left_pupil: None,
+            right_x_px: None,
+            right_y_px: None,
+            right_pupil: None,
         };
         log.write(&s).unwrap();
         samples.push(s);
@@ -473,6 +479,12 @@ fn a_two_sitting_session_exports_one_monotonic_run_per_sitting() {
         raw_y: None,
         x_px: Some(640.0),
         y_px: Some(512.0),
+        left_x_px: None,
+        left_y_px: None,
+        left_pupil: None,
+        right_x_px: None,
+        right_y_px: None,
+        right_pupil: None,
     };
     // Sitting 1: trials 0 and 1 (120 samples each), trial 2 aborted (57).
     for i in 0..297u64 {

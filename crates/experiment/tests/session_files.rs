@@ -67,7 +67,7 @@ fn header_lines_are_the_documented_ones() {
             Box::new(|p| write_rows(p, &[trial(0)])),
         ),
         (
-            "sitting\tmapped_us\tdevice_us\tarrival_us\ttime_order\tsegment\ttrial\tphase\traw_x\traw_y\tx_px\ty_px",
+            "sitting\tmapped_us\tdevice_us\tarrival_us\ttime_order\tsegment\ttrial\tphase\traw_x\traw_y\tx_px\ty_px\tleft_x_px\tleft_y_px\tleft_pupil\tright_x_px\tright_y_px\tright_pupil",
             Box::new(|p| write_rows::<SampleRow>(p, &[])),
         ),
         (
@@ -130,6 +130,12 @@ fn columns_are_the_serde_field_names() {
         raw_y: None,
         x_px: None,
         y_px: None,
+        left_x_px: None,
+        left_y_px: None,
+        left_pupil: None,
+        right_x_px: None,
+        right_y_px: None,
+        right_pupil: None,
     };
     assert_eq!(serde_header(&s), cols::<SampleRow>());
     let e = EventRow {
@@ -367,6 +373,12 @@ fn sample_row() -> impl Strategy<Value = SampleRow> {
                 raw_y,
                 x_px,
                 y_px,
+                left_x_px: None,
+                left_y_px: None,
+                left_pupil: None,
+                right_x_px: None,
+                right_y_px: None,
+                right_pupil: None,
             },
         )
 }
@@ -963,6 +975,12 @@ fn every_row_reaches_the_os_by_default_and_batches_flush_on_drop() {
         raw_y: None,
         x_px: Some(640.25),
         y_px: None,
+        left_x_px: None,
+        left_y_px: None,
+        left_pupil: None,
+        right_x_px: None,
+        right_y_px: None,
+        right_pupil: None,
     };
     let mut log = TsvLog::<SampleRow>::append_to(&p).unwrap();
     log.write(&s(1)).unwrap();

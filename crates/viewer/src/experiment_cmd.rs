@@ -141,6 +141,88 @@ pub struct ExportArgs {
     /// BIDS task label.
     #[arg(long, default_value = "search")]
     pub task: String,
+    /// Take the dataset metadata (the design's `bids` block) from this
+    /// design file instead of the first session folder's design.ron.
+    #[arg(long, value_name = "FILE")]
+    pub design: Option<PathBuf>,
+    /// Boxed: the enum of commands stays small.
+    #[command(flatten)]
+    pub metadata: Box<MetadataArgs>,
+}
+
+/// Dataset metadata for `export-bids`: each flag given replaces the
+/// design's `bids` field of the same name (a repeated flag's values
+/// replace the whole list).
+#[derive(Debug, Clone, Default, clap::Args)]
+pub struct MetadataArgs {
+    /// An author of the dataset (repeat for each, in order): `Authors`.
+    #[arg(long = "author", value_name = "NAME")]
+    pub authors: Vec<String>,
+    /// The data's licence, an SPDX identifier such as CC0-1.0: `License`.
+    #[arg(long, value_name = "ID")]
+    pub license: Option<String>,
+    /// `Acknowledgements`.
+    #[arg(long, value_name = "TEXT")]
+    pub acknowledgements: Option<String>,
+    /// How to cite the data: `HowToAcknowledge`.
+    #[arg(long, value_name = "TEXT")]
+    pub how_to_acknowledge: Option<String>,
+    /// A funding source (repeat for each): `Funding`.
+    #[arg(long, value_name = "TEXT")]
+    pub funding: Vec<String>,
+    /// An ethics approval (repeat for each): `EthicsApprovals`.
+    #[arg(long = "ethics-approval", value_name = "TEXT")]
+    pub ethics_approvals: Vec<String>,
+    /// A paper or page about the data (repeat for each): `ReferencesAndLinks`.
+    #[arg(long = "reference", value_name = "TEXT")]
+    pub references_and_links: Vec<String>,
+    /// The dataset's DOI as a URI (doi:10.…): `DatasetDOI`.
+    #[arg(long, value_name = "URI")]
+    pub dataset_doi: Option<String>,
+    /// The instructions given to the participants: `Instructions`.
+    #[arg(long, value_name = "TEXT")]
+    pub instructions: Option<String>,
+    /// Replaces gazecast's description of the task: `TaskDescription`.
+    #[arg(long, value_name = "TEXT")]
+    pub task_description: Option<String>,
+    /// The Cognitive Atlas task's URI: `CogAtlasID`.
+    #[arg(long, value_name = "URI")]
+    pub cog_atlas_id: Option<String>,
+    /// The CogPO term's URI: `CogPOID`.
+    #[arg(long, value_name = "URI")]
+    pub cog_po_id: Option<String>,
+    /// `InstitutionName`.
+    #[arg(long, value_name = "TEXT")]
+    pub institution_name: Option<String>,
+    /// `InstitutionAddress`.
+    #[arg(long, value_name = "TEXT")]
+    pub institution_address: Option<String>,
+    /// `InstitutionalDepartmentName`.
+    #[arg(long, value_name = "TEXT")]
+    pub institutional_department_name: Option<String>,
+}
+
+impl MetadataArgs {
+    /// The flags as metadata to lay over the design's.
+    pub fn metadata(&self) -> experiment::design::BidsMetadata {
+        experiment::design::BidsMetadata {
+            authors: self.authors.clone(),
+            license: self.license.clone(),
+            acknowledgements: self.acknowledgements.clone(),
+            how_to_acknowledge: self.how_to_acknowledge.clone(),
+            funding: self.funding.clone(),
+            ethics_approvals: self.ethics_approvals.clone(),
+            references_and_links: self.references_and_links.clone(),
+            dataset_doi: self.dataset_doi.clone(),
+            instructions: self.instructions.clone(),
+            task_description: self.task_description.clone(),
+            cog_atlas_id: self.cog_atlas_id.clone(),
+            cog_po_id: self.cog_po_id.clone(),
+            institution_name: self.institution_name.clone(),
+            institution_address: self.institution_address.clone(),
+            institutional_department_name: self.institutional_department_name.clone(),
+        }
+    }
 }
 
 /// `--gaze-tolerance-deg`'s default with `--headless` (the live view's).
@@ -255,8 +337,23 @@ pub fn run(args: &ExperimentArgs, out: &mut dyn Write) -> Result<(), String> {
             let methods: Vec<(&str, &str)> = pipeline::Method::all()
                 .map(|m| (m.name(), m.help()))
                 .collect();
-            let done = experiment::bids::export_bids_described(&a.dirs, &a.out, &a.task, &methods)
-                .map_err(|e| e.to_string())?;
+            // The dataset metadata: the design's `bids` block (the first
+            // session's copy, or --design), each flag laid over it; a bad
+            // value names the file, line and field, or the flag.
+            let design_path = match (&a.design, a.dirs.first()) {
+                (Some(p), _) => p.clone(),
+                (None, Some(dir)) => dir.join(experiment::session::DESIGN_RON),
+                (None, None) => return Err("no session folders given".into()),
+            };
+            let flags = a.metadata.metadata();
+            flags
+                .validate()
+                .map_err(|(field, message)| format!("--{}: {message}", flag_name(&field)))?;
+            let design = crate::config::load_design(&design_path).map_err(|e| e.to_string())?;
+            let dataset = design.bids.unwrap_or_default().overlay(&flags);
+            let done =
+                experiment::bids::export_bids_with(&a.dirs, &a.out, &a.task, &methods, &dataset)
+                    .map_err(|e| e.to_string())?;
             for w in &done.warnings {
                 eprintln!("warning: {w}");
             }
@@ -270,5 +367,16 @@ pub fn run(args: &ExperimentArgs, out: &mut dyn Write) -> Result<(), String> {
             )
             .map_err(|e| e.to_string())
         }
+    }
+}
+
+/// The `export-bids` flag of a metadata field (`authors[1]` → `author`).
+fn flag_name(field: &str) -> String {
+    let name = field.split('[').next().unwrap_or(field);
+    match name {
+        "authors" => "author".into(),
+        "ethics_approvals" => "ethics-approval".into(),
+        "references_and_links" => "reference".into(),
+        other => other.replace('_', "-"),
     }
 }

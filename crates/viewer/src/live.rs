@@ -883,6 +883,8 @@ mod tests {
                 gaze_px: Some(g),
                 eyes_px: None,
                 eye_distance_mm: None,
+                eyes: [tracker_hal::sample::EyeSample::MISSING; 2],
+                eye_px: [None; 2],
             })
             .expect("send");
         }
@@ -899,6 +901,8 @@ mod tests {
                 gaze_px: bad,
                 eyes_px: None,
                 eye_distance_mm: None,
+                eyes: [tracker_hal::sample::EyeSample::MISSING; 2],
+                eye_px: [None; 2],
             })
             .expect("send");
         }

@@ -335,6 +335,38 @@ fn a_simulated_participant_on_an_uncalibrated_iscan_is_calibrated_and_searches()
     assert!(raw.iter().all(|r| (0.0..=512.0).contains(r)));
     assert!(x_px.iter().all(|x| (-64.0..=704.0).contains(x)));
     assert!(raw.iter().zip(&x_px).any(|(r, x)| (r - x).abs() > 20.0));
+    // The binocular ISCAN's eyes each have their own mapped gaze, and the
+    // BIDS export gives one recording per eye with the calibration.
+    let (left, right) = (pick("left_x_px"), pick("right_x_px"));
+    assert!(left.len() > 60 && right.len() > 60, "{left:?} {right:?}");
+    let bids = tmp.path().join("bids");
+    common::gazecast()
+        .args(["experiment", "export-bids"])
+        .arg(&dir)
+        .arg("--out")
+        .arg(&bids)
+        .succeed();
+    let beh = bids.join("sub-S07/beh");
+    for (k, eye) in [(1, "left"), (2, "right")] {
+        let path = beh.join(format!(
+            "sub-S07_task-search_run-1_recording-eye{k}_physio.json"
+        ));
+        let side: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(&path).expect("sidecar")).expect("json");
+        assert_eq!(side["RecordedEye"], eye, "{side}");
+        assert!(side["CalibrationCount"].as_u64() >= Some(1), "{side}");
+        assert!(
+            side["AverageCalibrationError"]
+                .as_f64()
+                .is_some_and(|a| a <= 1.0),
+            "{side}"
+        );
+        assert!(beh
+            .join(format!(
+                "sub-S07_task-search_run-1_recording-eye{k}_physioevents.tsv.gz"
+            ))
+            .exists());
+    }
 }
 
 /// A bad design names its file, line and field; `plan` lists a

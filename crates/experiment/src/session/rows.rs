@@ -110,9 +110,40 @@ pub struct SampleRow {
     /// Gaze y in display pixels (origin top-left, y down).
     #[serde(with = "na")]
     pub y_px: Option<f64>,
+    /// The left eye's gaze x in display pixels, when the tracker measures
+    /// each eye (a binocular or monocular device, not the mouse or the
+    /// attention source) and the eye was tracked; `n/a` otherwise and in
+    /// a file written before the per-eye columns.
+    #[serde(default, with = "na")]
+    pub left_x_px: Option<f64>,
+    /// The left eye's gaze y in display pixels.
+    #[serde(default, with = "na")]
+    pub left_y_px: Option<f64>,
+    /// The left eye's pupil size as the tracker reports it (the device's
+    /// own units), `n/a` where it reports none.
+    #[serde(default, with = "na")]
+    pub left_pupil: Option<f64>,
+    /// The right eye's gaze x in display pixels (as `left_x_px`).
+    #[serde(default, with = "na")]
+    pub right_x_px: Option<f64>,
+    /// The right eye's gaze y in display pixels.
+    #[serde(default, with = "na")]
+    pub right_y_px: Option<f64>,
+    /// The right eye's pupil size (as `left_pupil`).
+    #[serde(default, with = "na")]
+    pub right_pupil: Option<f64>,
 }
 
 impl SampleRow {
+    /// Whether the sample has any per-eye data (a position or a pupil of
+    /// either eye).
+    pub fn has_eye_data(&self) -> bool {
+        self.left_x_px.is_some()
+            || self.left_pupil.is_some()
+            || self.right_x_px.is_some()
+            || self.right_pupil.is_some()
+    }
+
     /// Whether the sample has a time of its own (not a repeated, backwards
     /// or ahead device time, whose `mapped_us` is the previous one's).
     pub fn is_timed(&self) -> bool {
@@ -164,6 +195,45 @@ pub struct MarkerRow {
     pub event: String,
     /// Free text (no tabs or line breaks).
     pub detail: String,
+}
+
+/// The `event` of the marker a calibration writes when it is fitted and
+/// validated: its detail is a [`CalibrationMarker`] as one line of JSON.
+pub const CALIBRATION_MARKER: &str = "calibration-fields";
+
+/// What a calibration (fit and validation) leaves for the BIDS export's
+/// calibration fields: the detail of a [`CALIBRATION_MARKER`] marker.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CalibrationMarker {
+    /// Targets the calibration showed (its plan: 9 for a 3 × 3 grid).
+    pub targets: usize,
+    /// The targets the fit used, in display pixels (origin top-left).
+    pub positions_px: Vec<[f64; 2]>,
+    /// Mean accuracy over the validation points with data (degrees of
+    /// visual angle).
+    pub average_deg: f64,
+    /// The worst validation point's accuracy (degrees).
+    pub maximal_deg: f64,
+}
+
+impl CalibrationMarker {
+    /// The marker's detail: one line of JSON (no tab, no line break).
+    pub fn to_detail(&self) -> String {
+        serde_json::to_string(self).unwrap_or_default()
+    }
+
+    /// Reads a marker's detail back; `Err` says why it is not one.
+    pub fn from_detail(detail: &str) -> Result<Self, String> {
+        let m: Self = serde_json::from_str(detail).map_err(|e| e.to_string())?;
+        let finite = m.average_deg.is_finite()
+            && m.maximal_deg.is_finite()
+            && m.positions_px.iter().flatten().all(|v| v.is_finite());
+        if !finite {
+            return Err("a value is not finite".into());
+        }
+        Ok(m)
+    }
 }
 
 /// One rendered frame (`frames.tsv`).
@@ -302,7 +372,14 @@ impl TsvRow for SampleRow {
         "raw_y",
         "x_px",
         "y_px",
+        "left_x_px",
+        "left_y_px",
+        "left_pupil",
+        "right_x_px",
+        "right_y_px",
+        "right_pupil",
     ];
+    const LATER_COLUMNS: usize = 6;
 }
 
 impl TsvRow for EventRow {

@@ -1,6 +1,7 @@
 //! What the tracker thread tells the window: [`TrackerMsg`], and the
 //! times and status lines it carries.
 
+use crate::sample::EyeSample;
 use crate::timing::{ClockState, DeviceClock, TimeOrder};
 
 /// What the tracker thread tells the window.
@@ -37,6 +38,17 @@ pub enum TrackerMsg {
         /// in the screen plane), when plausible
         /// ([`screen_geometry::EYE_DISTANCE_RANGE_MM`]); `None` otherwise.
         eye_distance_mm: Option<f64>,
+        /// Each eye (left, right) as the device reported it, when the
+        /// device measures eyes (not the mouse or the attention source,
+        /// whose decoders copy one point into both): its point in raw
+        /// tracker units (`None` when that eye was not tracked or is not
+        /// finite) and its pupil size in the device's units where it
+        /// reports one; both [`EyeSample::MISSING`] otherwise. For the
+        /// per-eye columns of a session's samples.
+        eyes: [EyeSample; 2],
+        /// Those eyes' points mapped onto the screen (px) by the source's
+        /// mapping, each when plausible; `None` otherwise.
+        eye_px: [Option<[f64; 2]>; 2],
     },
     /// The tracker's clock model was updated (offset, drift, corrections),
     /// with how the device times are obtained.

@@ -152,6 +152,16 @@ pub fn run(mut open: impl FnMut() -> Result<Source, String>, supervisor: Supervi
                             .and_then(&map)
                             .filter(|&p| crate::plausibility::plausible(p, screen_px))
                     };
+                    let measured = |e: &crate::sample::EyeSample| crate::sample::EyeSample {
+                        position: e.position.filter(|p| p[0].is_finite() && p[1].is_finite()),
+                        pupil: e.pupil.filter(|p| p.is_finite()),
+                    };
+                    let eyes = if binocular {
+                        [measured(&s.left), measured(&s.right)]
+                    } else {
+                        [crate::sample::EyeSample::MISSING; 2]
+                    };
+                    let eye_px = [eyes[0], eyes[1]].map(|e| eye(&e));
                     let eyes_px = match (eye(&s.left), eye(&s.right)) {
                         (Some(l), Some(r)) if binocular && gaze_px.is_some() => Some([l, r]),
                         _ => None,
@@ -188,6 +198,8 @@ pub fn run(mut open: impl FnMut() -> Result<Source, String>, supervisor: Supervi
                         gaze_px,
                         eyes_px,
                         eye_distance_mm: crate::plausibility::eye_distance_mm(&s),
+                        eyes,
+                        eye_px,
                     });
                     let due = far_reported
                         .is_none_or(|(t, n)| n != far && t.elapsed() >= FAR_REPORT_EVERY);

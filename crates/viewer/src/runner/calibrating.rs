@@ -7,7 +7,7 @@ use experiment::run::acceptance::{
     calibration_outcome, validation_outcome, MAX_CALIBRATION_ATTEMPTS,
 };
 use experiment::run::flow::Phase;
-use experiment::session::MarkerRow;
+use experiment::session::{CalibrationMarker, MarkerRow, CALIBRATION_MARKER};
 use tracker_hal::calibration::{Procedure, Session, SessionRequest, TimedPoint};
 
 use super::state::Runner;
@@ -47,6 +47,15 @@ impl Runner<'_> {
                         SessionRequest::Save => {
                             let summary = s.summary();
                             self.calibration = s.calibration().cloned();
+                            if let Some(m) = calibration_marker(s) {
+                                self.dir.marker(&MarkerRow {
+                                    sitting: self.dir.sitting(),
+                                    host_us: monotonic_us(),
+                                    trial: self.flow.trial().map(|t| t.index),
+                                    event: CALIBRATION_MARKER.into(),
+                                    detail: m.to_detail(),
+                                });
+                            }
                             outcome = Some(calibration_outcome(&self.setup.design, summary));
                         }
                         SessionRequest::Abort(e) => {
@@ -127,4 +136,26 @@ impl Runner<'_> {
         };
         trial::target_screen(&mut self.canvas, size, target, &lines);
     }
+}
+
+/// The calibration's fields for the BIDS export: the targets shown, the
+/// ones fitted, and the validation's mean and worst accuracy; `None`
+/// without a fit or a validation point with data.
+fn calibration_marker(s: &Session) -> Option<CalibrationMarker> {
+    let c = s.calibration()?;
+    let summary = s.summary()?;
+    let maximal_deg = s
+        .points()
+        .iter()
+        .flatten()
+        .map(|p| p.accuracy_deg)
+        .fold(f64::NEG_INFINITY, f64::max);
+    let m = CalibrationMarker {
+        targets: s.calibration_run().plan.targets_px.len(),
+        positions_px: c.points.iter().map(|p| p.1).collect(),
+        average_deg: summary.accuracy_deg,
+        maximal_deg,
+    };
+    // Only finite values: JSON has no NaN (the export reads it back).
+    CalibrationMarker::from_detail(&m.to_detail()).ok()
 }

@@ -117,18 +117,24 @@ impl Runner<'_> {
                     segment,
                     raw,
                     gaze_px,
+                    eyes,
+                    eye_px,
                     ..
                 } => {
-                    let mapped = match (&self.calibration, raw) {
-                        (Some(c), Some(r)) => c.map(r),
-                        _ => gaze_px,
-                    }
-                    .filter(|g| {
-                        tracker_hal::plausibility::plausible(
-                            *g,
-                            Some(self.setup.geometry.size_px()),
-                        )
-                    });
+                    // The combined gaze, and each eye's point alike: the
+                    // session's calibration once there is one, the
+                    // source's mapping before.
+                    let screen = Some(self.setup.geometry.size_px());
+                    let map = |raw: Option<[f64; 2]>, source: Option<[f64; 2]>| {
+                        match (&self.calibration, raw) {
+                            (Some(c), Some(r)) => c.map(r),
+                            _ => source,
+                        }
+                        .filter(|g| tracker_hal::plausibility::plausible(*g, screen))
+                    };
+                    let mapped = map(raw, gaze_px);
+                    let left = map(eyes[0].position, eye_px[0]);
+                    let right = map(eyes[1].position, eye_px[1]);
                     self.dir.sample(&SampleRow {
                         sitting: self.dir.sitting(),
                         mapped_us,
@@ -142,6 +148,12 @@ impl Runner<'_> {
                         raw_y: raw.map(|r| r[1]),
                         x_px: mapped.map(|g| g[0]),
                         y_px: mapped.map(|g| g[1]),
+                        left_x_px: left.map(|g| g[0]),
+                        left_y_px: left.map(|g| g[1]),
+                        left_pupil: eyes[0].pupil,
+                        right_x_px: right.map(|g| g[0]),
+                        right_y_px: right.map(|g| g[1]),
+                        right_pupil: eyes[1].pupil,
                     });
                     if let Some(g) = mapped {
                         self.gaze = g;

@@ -96,6 +96,10 @@ impl VirtualMouse {
                     gaze_px: raw,
                     eyes_px: None,
                     eye_distance_mm: None,
+                    // The mouse measures no eyes (its decoder copies one
+                    // point into both).
+                    eyes: [crate::EyeSample::MISSING; 2],
+                    eye_px: [None, None],
                 });
             }
         }

@@ -50,7 +50,7 @@ impl Runner<'_> {
                             if let Some(m) = calibration_marker(s) {
                                 self.dir.marker(&MarkerRow {
                                     sitting: self.dir.sitting(),
-                                    host_us: monotonic_us(),
+                                    host_us: now,
                                     trial: self.flow.trial().map(|t| t.index),
                                     event: CALIBRATION_MARKER.into(),
                                     detail: m.to_detail(),

@@ -1,6 +1,7 @@
 //! The design's check as `experiment run` and `experiment plan` make it:
 //! `experiment::run::design_check` with the renderer's own part, the
-//! sampling model of the design's contrast and of each condition's inset.
+//! sampling model of the design's contrast and of each condition's
+//! contrast and inset.
 
 use experiment::design::Design;
 use experiment::run::design_check::{self, Checked};
@@ -13,8 +14,12 @@ pub fn sampling_models(design: &Design, geometry: &ScreenGeometry) -> Result<(),
     pipeline::sampling_model(*geometry, design.contrast)
         .map_err(|e| ("contrast".to_string(), e.to_string()))?;
     for (i, c) in design.conditions.iter().enumerate() {
+        if let Some(k) = c.contrast {
+            pipeline::sampling_model(*geometry, k)
+                .map_err(|e| (format!("conditions[{i}].contrast"), e.to_string()))?;
+        }
         if let Some(d) = c.inset_deg {
-            pipeline::sampling_model(*geometry, design.contrast)
+            pipeline::sampling_model(*geometry, c.contrast_or(design.contrast))
                 .and_then(|m| m.with_inset_deg(d))
                 .map_err(|e| (format!("conditions[{i}].inset_deg"), e.to_string()))?;
         }

@@ -227,8 +227,20 @@ impl Runner<'_> {
         }
         if let Some(p) = &self.participant {
             let (objects, target) = match (&self.trial, self.flow.trial()) {
+                // The reference cell holds the target mesh but is not
+                // the target to find: never a stop of the search.
                 (Some(_), Some(t)) => (
-                    self.setup.layout.centres_px.clone(),
+                    self.setup
+                        .layout
+                        .centres_px
+                        .iter()
+                        .enumerate()
+                        .filter(|&(k, _)| {
+                            t.reference_cell
+                                .is_none_or(|(r, c)| (r * self.setup.layout.cols + c) as usize != k)
+                        })
+                        .map(|(_, p)| *p)
+                        .collect(),
                     Some(self.setup.layout.centre_px(t.target_cell)),
                 ),
                 _ => (Vec::new(), None),

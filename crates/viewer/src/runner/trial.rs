@@ -1,6 +1,7 @@
 //! One trial on the screen: its scenes (search display and target
 //! preview), the search display's renderer with the condition's method,
-//! the response times, and what is written when it ends; and the plain
+//! the full-resolution reference drawn over its frames, the response
+//! times and costs, and what is written when it ends; and the plain
 //! screens (text, calibration targets).
 
 use std::path::Path;
@@ -51,6 +52,17 @@ pub struct TrialState {
     frames: u64,
     late: u64,
     rays: u64,
+    /// The design's full-resolution reference (`ReferenceDetail::Full`),
+    /// drawn over every search frame; `None` without one.
+    reference: Option<ReferencePixels>,
+    /// The last search frame's render time (ms) and triangles drawn,
+    /// until it is presented.
+    pending: Option<(f64, Option<u64>)>,
+    /// Render time (ms) of each presented search frame.
+    render_ms: Vec<f64>,
+    /// Triangles drawn over the presented search frames (methods that
+    /// draw triangles).
+    triangles: Option<u64>,
     /// The gaze samples (times, px or invalid) from the preview on.
     samples: Vec<TimedGaze>,
 }
@@ -77,6 +89,72 @@ fn full_resolution(scene: &Scene, setup: &Setup) -> Result<(Frame, String), Stri
     Ok((frame, full.provenance()))
 }
 
+/// The full-resolution reference's pixels: where its frame hit the mesh,
+/// with their colours.
+struct ReferencePixels {
+    width_px: u32,
+    height_px: u32,
+    /// Pixel indices (row-major) where the reference frame hit its mesh.
+    pixels: Vec<usize>,
+    /// Their colours (sRGB bytes).
+    rgb: Vec<[u8; 3]>,
+}
+
+impl ReferencePixels {
+    /// The pixels of `frame` (the reference mesh alone, at full
+    /// resolution) that hit the mesh: its object-id buffer where the frame
+    /// has one, its hit buffer otherwise (the scene has one object).
+    fn of(frame: &Frame) -> Self {
+        let n = frame.width_px as usize * frame.height_px as usize;
+        let on = |i: usize| match frame.object.get(i) {
+            Some(&o) => o == 0,
+            None => frame.hit.get(i).copied().unwrap_or(false),
+        };
+        let pixels: Vec<usize> = (0..n).filter(|&i| on(i)).collect();
+        let rgb = pixels
+            .iter()
+            .map(|&i| {
+                let c = frame.rgb.get(3 * i..3 * i + 3).unwrap_or(&[0, 0, 0]);
+                [c[0], c[1], c[2]]
+            })
+            .collect();
+        Self {
+            width_px: frame.width_px,
+            height_px: frame.height_px,
+            pixels,
+            rgb,
+        }
+    }
+
+    /// Draws the reference over `frame` (the condition's, after its
+    /// passes).
+    fn draw(&self, frame: &mut Frame) -> Result<(), String> {
+        if (frame.width_px, frame.height_px) != (self.width_px, self.height_px)
+            || frame.rgb.len() < 3 * self.width_px as usize * self.height_px as usize
+        {
+            return Err(format!(
+                "the search frame is {}×{} px, the reference's {}×{}",
+                frame.width_px, frame.height_px, self.width_px, self.height_px
+            ));
+        }
+        for (&i, c) in self.pixels.iter().zip(&self.rgb) {
+            frame.rgb[3 * i..3 * i + 3].copy_from_slice(c);
+        }
+        Ok(())
+    }
+}
+
+/// Triangles the renderer's method drew in its last frame: the
+/// model-based methods' and ULOD's; `None` for the ray-cast methods.
+fn triangles_drawn(r: &Renderer<'_>) -> Option<u64> {
+    r.model_based()
+        .map(|m| m.last().triangles_drawn as u64)
+        .or_else(|| {
+            r.ulod()
+                .map(|u| (u.last().triangles_opaque + u.last().triangles_blended) as u64)
+        })
+}
+
 fn build(file: &raycast::SceneFile) -> Result<Scene, String> {
     Scene::build(file, Path::new(".")).map_err(|e| format!("stimulus scene {}: {e}", file.name))
 }
@@ -87,12 +165,28 @@ impl TrialState {
         let design = &setup.design;
         let condition = &design.conditions[trial.condition];
         let camera = Camera::new(&setup.geometry);
-        let preview = build(&stimulus::preview_scene(design, trial, &setup.layout))?;
+        let preview_file = stimulus::preview_scene(design, trial, &setup.layout);
+        let preview = build(&preview_file)?;
         let (frame, preview_plan) = full_resolution(&preview, setup)?;
-        let search_model = pipeline::sampling_model(setup.geometry, design.contrast)
-            .map_err(|e| format!("contrast: {e}"))?
-            .with_inset_deg(condition.inset_deg.unwrap_or(0.0))
-            .map_err(|e| format!("conditions[{}].inset_deg: {e}", trial.condition))?;
+        // The full-resolution reference: at the centre it is the preview
+        // (same mesh, same place), whose frame is reused.
+        let reference = match stimulus::reference_scene(design, trial, &setup.layout) {
+            None => None,
+            Some(file) if file.objects == preview_file.objects => Some(ReferencePixels::of(&frame)),
+            Some(file) => {
+                let (f, _) = full_resolution(&build(&file)?, setup)?;
+                Some(ReferencePixels::of(&f))
+            }
+        };
+        // The condition's contrast, or the design's.
+        let search_model =
+            pipeline::sampling_model(setup.geometry, condition.contrast_or(design.contrast))
+                .map_err(|e| match condition.contrast {
+                    Some(_) => format!("conditions[{}].contrast: {e}", trial.condition),
+                    None => format!("contrast: {e}"),
+                })?
+                .with_inset_deg(condition.inset_deg.unwrap_or(0.0))
+                .map_err(|e| format!("conditions[{}].inset_deg: {e}", trial.condition))?;
         let scene = build(&stimulus::search_scene(design, trial, &setup.layout))?;
         let options = Options {
             method: condition_method(&condition.method)
@@ -100,6 +194,14 @@ impl TrialState {
             backend: setup.backend,
             // Fixations re-cast only what the cache lacks (same frames).
             reuse: true,
+            // Luebke & Hallen's best-effort mode (simplify), when the
+            // condition gives a budget.
+            model_based: pipeline::model_based::ModelBasedOptions {
+                budget: condition
+                    .triangle_budget
+                    .map(|b| usize::try_from(b).unwrap_or(usize::MAX)),
+                ..Default::default()
+            },
             ..Options::default()
         };
         let search = SearchScene::try_new(scene, |s| {
@@ -118,6 +220,10 @@ impl TrialState {
             frames: 0,
             late: 0,
             rays: 0,
+            reference,
+            pending: None,
+            render_ms: Vec::new(),
+            triangles: None,
             samples: Vec::new(),
         })
     }
@@ -144,24 +250,32 @@ impl TrialState {
         })
     }
 
-    /// Renders the search display for `gaze`: (rays, render ms).
+    /// Renders the search display for `gaze`, with the full-resolution
+    /// reference drawn over the condition's frame: (rays, render ms).
     pub fn render_search(&mut self, gaze: [f64; 2]) -> Result<(u64, f64), String> {
         let old = self.last.take();
-        let (frame, stats, plan) = self
+        let (mut frame, stats, plan, triangles) = self
             .search
             .with_dependent_mut(|_, r| {
                 if let Some(f) = old {
                     r.recycle(f);
                 }
-                r.render(gaze).map(|(f, s)| (f, s, r.provenance()))
+                r.render(gaze)
+                    .map(|(f, s)| (f, s, r.provenance(), triangles_drawn(r)))
             })
             .map_err(|e| e.to_string())?;
+        let started = std::time::Instant::now();
+        if let Some(reference) = &self.reference {
+            reference.draw(&mut frame)?;
+        }
+        let ms = stats.time_ms + started.elapsed().as_secs_f64() * 1e3;
+        self.pending = Some((ms, triangles));
         self.last = Some(frame);
         if !self.search_plans.contains(&plan) {
             self.search_plans.push(plan.clone());
         }
         self.last_plan = Some(plan);
-        Ok((stats.rays_total, stats.time_ms))
+        Ok((stats.rays_total, ms))
     }
 
     /// What drew the picture of `phase` ([`TrialState::rgb`]): the search
@@ -223,6 +337,12 @@ impl TrialState {
         self.frames += 1;
         self.late += u64::from(late);
         self.rays += rays;
+        if let Some((ms, triangles)) = self.pending.take() {
+            self.render_ms.push(ms);
+            if let Some(t) = triangles {
+                *self.triangles.get_or_insert(0) += t;
+            }
+        }
         if self.onset_us.is_none() {
             self.onset_us = Some(present_us);
             return true;
@@ -282,6 +402,8 @@ impl TrialState {
             frames: self.frames,
             frames_late: self.late,
             rays: self.rays,
+            triangles: self.triangles,
+            render_ms: self.render_ms.clone(),
             plan: self.search_plan(),
         };
         let row = trial_row(

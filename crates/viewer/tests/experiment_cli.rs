@@ -397,6 +397,44 @@ fn plan_lists_the_trials_and_a_bad_design_names_file_line_and_field() {
     );
 }
 
+/// `plan` on the shipped designs: every method of §8.1's comparison is one
+/// the renderer knows (the check `run` makes), and each trial lists the
+/// reference at the centre cell, which is never the target's.
+#[test]
+fn plan_accepts_the_families_comparison_and_lists_the_reference() {
+    for (design, trials) in [
+        ("config/experiments/families-comparison.ron", 40),
+        ("config/experiments/murphy2007-search.ron", 44),
+    ] {
+        let out = common::gazecast()
+            .args(["experiment", "plan", design])
+            .succeed();
+        let text = String::from_utf8_lossy(&out.stdout);
+        let mut lines = text.lines();
+        let header: Vec<&str> = lines.next().expect("a header").split('\t').collect();
+        let at = |name: &str| {
+            header
+                .iter()
+                .position(|h| *h == name)
+                .unwrap_or_else(|| panic!("{design}: no column {name}"))
+        };
+        let rows: Vec<Vec<&str>> = lines.map(|l| l.split('\t').collect()).collect();
+        assert_eq!(rows.len(), trials, "{design}");
+        for r in &rows {
+            assert_eq!(
+                (r[at("reference_row")], r[at("reference_col")]),
+                ("2", "2"),
+                "{design}"
+            );
+            assert_ne!(
+                (r[at("target_row")], r[at("target_col")]),
+                ("2", "2"),
+                "{design}"
+            );
+        }
+    }
+}
+
 /// A session killed with SIGKILL in the middle keeps every trial it had
 /// finished, and `--resume` completes it without a gap or a repeat.
 #[test]
@@ -494,7 +532,9 @@ fn a_design_that_does_not_fit_its_display_is_refused_before_the_session_folder()
         ),
         (
             "big",
-            good.replace("grid: (5, 5)", "grid: (32, 32)")
+            // 31×33 (odd, so the seed's reference has a centre): 1023
+            // cells of 20 480 triangles.
+            good.replace("grid: (5, 5)", "grid: (31, 33)")
                 .replace("object_deg: 3.5", "object_deg: 0.5"),
             "`stimulus`",
             "20000000 triangles",
@@ -871,11 +911,18 @@ fn an_image_condition_renders_image_based_and_its_frames_say_so() {
     }
     assert!(phases.iter().any(|p| p == "search"));
 
-    // As a gazecast before the plan column wrote them.
-    for f in [&trials, &frames] {
+    // As a gazecast before the plan column wrote them (in trials.tsv the
+    // reference and cost columns came after it).
+    for (f, n) in [(&trials, 6), (&frames, 1)] {
         let cut: String = lines(f)
             .iter()
-            .map(|l| l.rsplit_once('\t').expect("a tab").0.to_string() + "\n")
+            .map(|l| {
+                let mut l = l.as_str();
+                for _ in 0..n {
+                    l = l.rsplit_once('\t').expect("a tab").0;
+                }
+                l.to_string() + "\n"
+            })
             .collect();
         assert!(!cut.contains("plan") && !cut.contains("on cpu"));
         std::fs::write(f, cut).expect("write");
@@ -884,8 +931,10 @@ fn an_image_condition_renders_image_based_and_its_frames_say_so() {
     // Sitting 2: the rest, on the old files.
     let log = run("6", &["--resume"]);
     assert!(
-        log.contains("trials.tsv: written before its column plan existed")
-            && log.contains("frames.tsv: written before its column plan existed"),
+        log.contains(
+            "trials.tsv: written before its columns plan, reference_row, reference_col, \
+             mean_triangles, mean_render_ms, p95_render_ms existed"
+        ) && log.contains("frames.tsv: written before its column plan existed"),
         "{log}"
     );
     assert_eq!(

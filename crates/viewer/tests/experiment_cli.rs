@@ -1006,3 +1006,131 @@ fn an_image_condition_renders_image_based_and_its_frames_say_so() {
         std::fs::read_to_string(beh.join("sub-P01_task-search_run-2_events.json")).expect("json");
     assert!(sidecar.contains("\"plan\""), "{sidecar}");
 }
+
+/// An RGB PNG's size and bytes.
+fn read_rgb(path: &Path) -> ((u32, u32), Vec<u8>) {
+    let file = std::fs::File::open(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    let mut reader = png::Decoder::new(std::io::BufReader::new(file))
+        .read_info()
+        .expect("a PNG");
+    let mut buf = vec![0; reader.output_buffer_size()];
+    let info = reader.next_frame(&mut buf).expect("a frame");
+    assert_eq!(info.color_type, png::ColorType::Rgb, "{}", path.display());
+    buf.truncate(info.buffer_size());
+    ((info.width, info.height), buf)
+}
+
+/// The reference with `detail: Full` is drawn at full resolution whatever
+/// the method: a reference at the corner cell (0, 0), 12° from the gaze at
+/// the centre, in an NE2 search frame equals the full-resolution stimulus
+/// picture pixel for pixel over the face, while the face in the other top
+/// corner (0, 4), as far out, is the hybrid method's degraded one.
+#[test]
+fn a_full_reference_is_drawn_at_full_resolution_under_the_hybrid_method() {
+    let tmp = tempfile::tempdir().expect("tempdir");
+    let design = tmp.path().join("reference.ron");
+    let small = small_design();
+    let start = small.find("    conditions: [").expect("conditions");
+    let end = start + small[start..].find("    ],\n").expect("end") + "    ],\n".len();
+    let text = format!(
+        "{}{}{}",
+        &small[..start],
+        r#"    conditions: [
+        (name: "NE2", method: "hybrid", inset_deg: Some(2.0), silhouette_edges: false, levels: {"inset_deg": "2", "silhouette_edges": "discarded"}),
+        (name: "control", method: "full"),
+    ],
+"#,
+        &small[end..]
+    )
+    .replace("break_after_trials: Some(6)", "break_after_trials: None")
+    .replace(
+        "grid_deg: 20.0)",
+        "grid_deg: 20.0, reference: Some((at: Cell(0, 0), detail: Full)))",
+    );
+    std::fs::write(&design, &text).expect("write");
+    let shots = tmp.path().join("shots");
+    std::fs::create_dir(&shots).expect("mkdir");
+    let x = Xvfb::start();
+    let out = tmp.path().join("data");
+    let o = windowed(&x)
+        .args(["experiment", "run"])
+        .arg(&design)
+        .args([
+            "--participant",
+            "P01",
+            "--tracker",
+            "tests/data/mouse-participant.ron",
+            "--display",
+            "tests/data/experiment/display-small.ron",
+            "--backend",
+            "cpu",
+            "--simulate-participant",
+            "4",
+            "--max-trials",
+            "1",
+            "--screenshots",
+        ])
+        .arg(&shots)
+        .arg("--out")
+        .arg(&out)
+        .output()
+        .expect("runs");
+    assert!(
+        o.status.success(),
+        "{}\n{}",
+        String::from_utf8_lossy(&o.stdout),
+        String::from_utf8_lossy(&o.stderr)
+    );
+    let dir = out.join("small-search/sub-P01");
+    assert_eq!(column(&dir.join("trials.tsv"), "condition"), ["NE2"]);
+    assert_eq!(column(&dir.join("trials.tsv"), "reference_row"), ["0"]);
+    assert_eq!(column(&dir.join("trials.tsv"), "reference_col"), ["0"]);
+    let (size, search) = read_rgb(&shots.join("search.png"));
+    let (full_size, full) = read_rgb(&dir.join("stimuli/trial-000.png"));
+    assert_eq!(size, full_size);
+    let d = experiment::Design::from_ron_str(&text).expect("design");
+    let geometry = foveation::Display {
+        name: "small".into(),
+        resolution_px: (640, 512),
+        size_mm: (168.95, 135.15),
+        eye_distance_mm: 270.0,
+        eye_point_px: None,
+    }
+    .geometry()
+    .expect("geometry");
+    let layout = experiment::run::layout::Layout::new(&d, &geometry);
+    let background = &full[0..3];
+    // (face pixels, of them differing) within a cell's face.
+    let compare = |cell: (u32, u32)| {
+        let c = layout.centre_px(cell);
+        let r = layout.radius_px * 1.2;
+        let (mut face, mut differ) = (0, 0);
+        for y in 0..size.1 {
+            for x in 0..size.0 {
+                let (fx, fy) = (f64::from(x) + 0.5, f64::from(y) + 0.5);
+                if (fx - c[0]).hypot(fy - c[1]) > r {
+                    continue;
+                }
+                let i = 3 * (y * size.0 + x) as usize;
+                if &full[i..i + 3] == background {
+                    continue;
+                }
+                face += 1;
+                differ += usize::from(search[i..i + 3] != full[i..i + 3]);
+            }
+        }
+        (face, differ)
+    };
+    let (face, differ) = compare((0, 0));
+    assert!(face > 500, "the reference face: {face} px");
+    assert_eq!(
+        differ, 0,
+        "the reference differs from full resolution at {differ} px"
+    );
+    let (face, differ) = compare((0, 4));
+    assert!(face > 500, "the corner face: {face} px");
+    assert!(
+        differ > face / 20,
+        "the non-reference corner face should be degraded by NE2: {differ} of {face} px differ"
+    );
+}

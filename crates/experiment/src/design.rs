@@ -19,10 +19,17 @@ use std::path::Path;
 /// The rendering methods whose parameters a condition states here (an
 /// inset, kept silhouette edges): names of `pipeline::Method`
 /// (`Method::name`). A condition may also name any other method the
-/// renderer registers, without parameters; the viewer checks the name
-/// against `pipeline::Method::all` when it loads the design. Kept as
+/// renderer registers (`layers`, `simplify`, `lod`, `ulod`, a method
+/// module), with the parameters it takes (a `contrast` for the CSF
+/// methods, a `triangle_budget` for `simplify`); the viewer checks the
+/// name against `pipeline::Method::all` when it loads the design. Kept as
 /// strings so that this crate stays free of the renderer.
 pub const METHODS: &[&str] = &["full", "hybrid", "image"];
+
+/// The methods that select from the CSF sampling model, so that a
+/// condition's `contrast` moves their degradation: the hybrid mask, the
+/// image-based blur and the nested layers' sizes.
+pub const CONTRAST_METHODS: &[&str] = &["hybrid", "image", "layers"];
 
 /// An experiment design, as read from `config/experiments/*.ron`.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -53,8 +60,10 @@ pub struct Design {
     /// How a search ends (Space; optionally a click on the found object).
     #[serde(default)]
     pub response: Response,
-    /// Michelson contrast C of the CSF sampling model for every hybrid
-    /// condition (the renderer's knob: 1 is the worst case). The CSF's own
+    /// Michelson contrast C of the CSF sampling model for every condition
+    /// whose method samples by the CSF (hybrid, image, layers), unless the
+    /// condition gives its own `contrast` (the renderer's knob: 1 is the
+    /// worst case). The CSF's own
     /// one-ray-per-pixel disc grows with C; an inset smaller than it changes
     /// nothing (see `config/experiments/murphy2007-search.ron`).
     #[serde(default = "default_contrast")]
@@ -102,6 +111,35 @@ pub struct Condition {
     /// outside the factorial (Murphy's full-resolution scene) lists none.
     #[serde(default)]
     pub levels: BTreeMap<String, String>,
+    /// The CSF sampling model's Michelson contrast for this condition,
+    /// overriding the design's `contrast` (`None`: the design's). Only for
+    /// the methods that sample by the CSF ([`CONTRAST_METHODS`]: hybrid,
+    /// image, layers), where it moves the "imperceptible" point: at 1 (the
+    /// worst case) no detail of any contrast should be visibly degraded;
+    /// below 1 the model assumes the scene's detail is of at most that
+    /// contrast and degrades more (detail of higher contrast may then be
+    /// seen degraded). In (0, 1].
+    #[serde(default)]
+    pub contrast: Option<f64>,
+    /// Luebke & Hallen §5.3's best-effort mode for the `simplify` method:
+    /// at most this many triangles a frame over the whole search display,
+    /// the most perceptible fold undone first (`None`: their
+    /// imperceptible mode, every fold judged invisible by their CSF
+    /// model). 1 to 10⁹; `simplify` only.
+    #[serde(default)]
+    pub triangle_budget: Option<u64>,
+}
+
+/// Most triangles a condition's `triangle_budget` may ask for (the
+/// renderer's bound, `pipeline::model_based::MAX_TRIANGLE_BUDGET`).
+pub const MAX_TRIANGLE_BUDGET: u64 = 1_000_000_000;
+
+impl Condition {
+    /// The contrast the condition's sampling model uses: its own, or the
+    /// design's `contrast`.
+    pub fn contrast_or(&self, design_contrast: f64) -> f64 {
+        self.contrast.unwrap_or(design_contrast)
+    }
 }
 
 /// Counterbalancing of condition order across participants.
@@ -151,6 +189,125 @@ pub struct Stimulus {
     /// approximately 20 degrees").
     #[serde(default = "default_grid_deg")]
     pub grid_deg: f64,
+    /// The reference: a copy of the target mesh at a fixed cell, which the
+    /// participant may look back at during the search (Murphy 2007
+    /// §7.1.4: "The target mesh was then placed both in the center of the
+    /// scene and at a random location in the grid"; the appendix's
+    /// instructions: "you may refer back to the target in the center of
+    /// the screen"; §7.3: a search "started at the center of the screen,
+    /// where the high resolution reference mesh was displayed"). The
+    /// target's other cell is then drawn among the cells other than the
+    /// reference's, so the reference is never the target to be found.
+    ///
+    /// Absent from the file: the seed's `Some((at: Centre, detail: Full))`.
+    /// `None`: no reference; the target may be at any cell, the centre
+    /// included (gazecast before the field existed).
+    #[serde(default = "default_reference")]
+    pub reference: Option<Reference>,
+}
+
+/// Where the reference stands and how it is drawn
+/// ([`Stimulus::reference`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Reference {
+    /// The reference's cell.
+    pub at: ReferenceCell,
+    /// How it is rendered.
+    pub detail: ReferenceDetail,
+}
+
+/// The reference's cell in the search grid.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub enum ReferenceCell {
+    /// The grid's centre cell, `(rows / 2, columns / 2)`: the seed's (the
+    /// 5×5 grid's cell (2, 2), at the screen's centre). A grid with an
+    /// even number of rows or columns has no centre cell and must name
+    /// one with `Cell` (or have no reference).
+    Centre,
+    /// The cell at (row, column), from 0, row 0 at the top: any cell of
+    /// the grid.
+    Cell(u32, u32),
+}
+
+/// How the reference is rendered.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub enum ReferenceDetail {
+    /// At full resolution whatever the condition, as the seed's "high
+    /// resolution reference mesh": once per trial the target mesh alone
+    /// at the reference cell is rendered at full resolution (for `Centre`
+    /// that is the target preview's frame, reused), and its pixels that
+    /// hit the mesh are drawn over every search frame, after the
+    /// condition's method and its passes. So it looks the same under every
+    /// method (full, hybrid, image, simplify, lod, ulod, layers), fixated
+    /// or not; everything else on the screen is the condition's. The
+    /// search scene still holds the reference object, so the method's own
+    /// frame (its rays, triangles, times) is that of the whole display.
+    Full,
+    /// An ordinary object of the search display, rendered by the
+    /// condition's method like every other: at full detail where the
+    /// method gives full detail (around the gaze), degraded in the
+    /// periphery (coarser rays, simplified geometry, blur, coarser layers)
+    /// when the participant looks elsewhere.
+    AsCondition,
+}
+
+impl Stimulus {
+    /// The reference's cell (row, column), `None` without a reference.
+    /// For `Centre`, `(rows / 2, columns / 2)` (the centre of an odd
+    /// grid; validation refuses an even one).
+    pub fn reference_cell(&self) -> Option<(u32, u32)> {
+        self.reference.map(|r| match r.at {
+            ReferenceCell::Centre => (self.grid.0 / 2, self.grid.1 / 2),
+            ReferenceCell::Cell(row, col) => (row, col),
+        })
+    }
+
+    /// Checks the reference against the grid (which must already be at
+    /// least 1×1).
+    fn validate_reference(&self) -> Result<(), DesignError> {
+        let Some(reference) = self.reference else {
+            return Ok(());
+        };
+        let (rows, cols) = self.grid;
+        if u64::from(rows) * u64::from(cols) < 2 {
+            return Err(DesignError::invalid(
+                "stimulus.reference",
+                format!(
+                    "a reference needs at least 2 cells (its own and the target's other), the \
+                     grid has {rows}x{cols}; give None"
+                ),
+            ));
+        }
+        match reference.at {
+            ReferenceCell::Centre => {
+                if rows % 2 == 0 || cols % 2 == 0 {
+                    return Err(DesignError::invalid(
+                        "stimulus.reference.at",
+                        format!(
+                            "a {rows}x{cols} grid has no centre cell (an even number of rows or \
+                             columns); give the reference's cell as Cell(row, column), or None \
+                             for no reference"
+                        ),
+                    ));
+                }
+            }
+            ReferenceCell::Cell(r, c) => {
+                if r >= rows || c >= cols {
+                    return Err(DesignError::invalid(
+                        "stimulus.reference.at",
+                        format!(
+                            "Cell({r}, {c}) is outside the {rows}x{cols} grid (rows 0 to {}, \
+                             columns 0 to {})",
+                            rows - 1,
+                            cols - 1
+                        ),
+                    ));
+                }
+            }
+        }
+        Ok(())
+    }
 }
 
 /// Longest condition name, factor name or factor level (characters).
@@ -264,6 +421,12 @@ fn default_object_deg() -> f64 {
 }
 fn default_grid_deg() -> f64 {
     20.0
+}
+fn default_reference() -> Option<Reference> {
+    Some(Reference {
+        at: ReferenceCell::Centre,
+        detail: ReferenceDetail::Full,
+    })
 }
 
 /// How a search ends.
@@ -480,6 +643,7 @@ impl Design {
                 format!("at most 1024 cells, got {rows}x{cols}"),
             ));
         }
+        st.validate_reference()?;
         positive_finite(st.object_deg, "stimulus.object_deg")?;
         positive_finite(st.grid_deg, "stimulus.grid_deg")?;
         if st.object_deg >= 170.0 || st.grid_deg >= 170.0 {
@@ -671,6 +835,43 @@ impl Design {
                             ),
                         ));
                     }
+                }
+            }
+            if let Some(k) = c.contrast {
+                if !CONTRAST_METHODS.contains(&c.method.as_str()) {
+                    return Err(DesignError::invalid(
+                        at("contrast"),
+                        format!(
+                            "only the methods that sample by the CSF ({}) take a contrast; {:?} \
+                             does not read it",
+                            CONTRAST_METHODS.join(", "),
+                            c.method
+                        ),
+                    ));
+                }
+                if !(k.is_finite() && k > 0.0 && k <= 1.0) {
+                    return Err(DesignError::invalid(
+                        at("contrast"),
+                        format!("must be a Michelson contrast in (0, 1], got {k}"),
+                    ));
+                }
+            }
+            if let Some(b) = c.triangle_budget {
+                if c.method != "simplify" {
+                    return Err(DesignError::invalid(
+                        at("triangle_budget"),
+                        format!(
+                            "the triangle budget is Luebke & Hallen's best-effort mode, for the \
+                             simplify method only (not {:?})",
+                            c.method
+                        ),
+                    ));
+                }
+                if !(1..=MAX_TRIANGLE_BUDGET).contains(&b) {
+                    return Err(DesignError::invalid(
+                        at("triangle_budget"),
+                        format!("must be 1 to {MAX_TRIANGLE_BUDGET} triangles, got {b}"),
+                    ));
                 }
             }
             for (factor, level) in &c.levels {

@@ -6,7 +6,11 @@
 //! stimulus seed derived from the design seed, the participant and the
 //! trial, the target's grid cell drawn from that seed, and the steps that
 //! come before the trial (break, calibration, validation, drift check).
-//! The same inputs always give the same plan, on every platform.
+//! With a reference (`stimulus.reference`, the seed's: the target mesh at
+//! the centre, Murphy 2007 §7.1.4), the reference cell holds the target
+//! mesh too and the target's cell is drawn among the other cells, never
+//! the reference's. The same inputs always give the same plan, on every
+//! platform.
 
 use crate::counterbalance::{latin_square, williams};
 use crate::design::{Counterbalancing, Design, DesignError, RunOrder};
@@ -46,16 +50,23 @@ pub struct Trial {
     pub condition_name: String,
     /// Stimulus seed: [`trial_seed`]`(stimulus.seed, participant, index)`.
     pub seed: u64,
-    /// Target cell (row, column) in the search grid, drawn from `seed`.
+    /// Target cell (row, column) in the search grid, drawn from `seed`
+    /// uniformly among the cells other than the reference's (among all
+    /// cells without a reference).
     pub target_cell: (u32, u32),
+    /// The reference's cell (`Design::stimulus.reference_cell`), which
+    /// holds the target mesh too; `None` without a reference (and in a
+    /// plan written before the field existed).
+    #[serde(default)]
+    pub reference_cell: Option<(u32, u32)>,
     /// The target mesh, `0..stimulus.meshes`: drawn without replacement
     /// from the participant's pre-seeded pool in which every mesh appears
     /// equally often (Murphy 2007 §7.1.4), so each mesh is the target
     /// `total / meshes` times (± 1 when that does not divide).
     pub target_mesh: u32,
     /// The mesh in every grid cell, row-major (`grid.0 × grid.1`): the
-    /// target at `target_cell`, every other cell one of the non-target
-    /// meshes drawn uniformly from `seed`.
+    /// target at `target_cell` and at `reference_cell`, every other cell
+    /// one of the non-target meshes drawn uniformly from `seed`.
     pub cells: Vec<u32>,
     /// Steps to run before this trial, in order.
     pub before: Vec<Step>,
@@ -81,6 +92,8 @@ pub fn plan(design: &Design, participant: usize) -> Result<Vec<Trial>, DesignErr
     let midpoint = total / 2;
     let meshes = design.stimulus.meshes;
     let pool = target_pool(design.stimulus.seed, participant as u64, meshes, total);
+    let reference_cell = design.stimulus.reference_cell();
+    let reference = reference_cell.map(|(r, c)| u64::from(r) * u64::from(grid_cols) + u64::from(c));
     let mut trials = Vec::with_capacity(total);
     for run in 0..design.runs as usize {
         let row = match design.run_order {
@@ -91,7 +104,19 @@ pub fn plan(design: &Design, participant: usize) -> Result<Vec<Trial>, DesignErr
             let index = run * per_run + trial_in_run;
             let seed = trial_seed(design.stimulus.seed, participant as u64, index as u64);
             let mut rng = SplitMix64(seed);
-            let cell = rng.below(cells);
+            // Uniform over the cells other than the reference's (validation
+            // keeps at least one), or over every cell without one.
+            let cell = match reference {
+                Some(k) => {
+                    let x = rng.below(cells - 1);
+                    if x >= k {
+                        x + 1
+                    } else {
+                        x
+                    }
+                }
+                None => rng.below(cells),
+            };
             let target_cell = (
                 (cell / u64::from(grid_cols)) as u32,
                 (cell % u64::from(grid_cols)) as u32,
@@ -99,7 +124,7 @@ pub fn plan(design: &Design, participant: usize) -> Result<Vec<Trial>, DesignErr
             let target_mesh = pool[index];
             let layout: Vec<u32> = (0..cells)
                 .map(|c| {
-                    if c == cell {
+                    if c == cell || Some(c) == reference {
                         target_mesh
                     } else {
                         // One of the meshes - 1 others, uniformly.
@@ -144,6 +169,7 @@ pub fn plan(design: &Design, participant: usize) -> Result<Vec<Trial>, DesignErr
                 condition_name: design.conditions[condition].name.clone(),
                 seed,
                 target_cell,
+                reference_cell,
                 target_mesh,
                 cells: layout,
                 before,

@@ -144,6 +144,11 @@ fn make_session(dir: &Path, g: &Gen) -> Vec<TrialRow> {
             mean_rays: 50_000.0,
             synthetic: g.synthetic,
             plan: None,
+            reference_row: None,
+            reference_col: None,
+            mean_triangles: None,
+            mean_render_ms: None,
+            p95_render_ms: None,
         };
         trials.write(&row).unwrap();
         if g.stimuli.contains(&t.index) {
@@ -789,6 +794,11 @@ fn a_design_without_the_factors_gets_the_per_condition_table_only() {
                 mean_rays: 0.0,
                 synthetic: false,
                 plan: None,
+                reference_row: None,
+                reference_col: None,
+                mean_triangles: None,
+                mean_render_ms: None,
+                p95_render_ms: None,
             })
             .unwrap();
         }
@@ -1162,7 +1172,7 @@ fn sessions_with_different_stimuli_are_not_pooled() {
     let out = tmp.path().join("out");
     let cases = [
         ("meshes: 4", "meshes: 64", "stimulus.meshes: 4 → 64"),
-        ("grid: (5, 5)", "grid: (5, 6)", "stimulus.grid[1]: 5 → 6"),
+        ("grid: (5, 5)", "grid: (5, 7)", "stimulus.grid[1]: 5 → 7"),
         (
             "object_deg: 3.5",
             "object_deg: 2.5",

@@ -116,6 +116,11 @@ fn make(root: &Path, participant: &str, synthetic: bool, n_samples: usize) -> Ma
                 None,
             ][k]
                 .map(String::from),
+            reference_row: None,
+            reference_col: None,
+            mean_triangles: None,
+            mean_render_ms: None,
+            p95_render_ms: None,
         })
         .collect();
     for t in &trials {

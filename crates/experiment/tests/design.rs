@@ -311,3 +311,177 @@ proptest::proptest! {
         }
     }
 }
+
+/// The seed design writes its reference out (the target mesh at the
+/// centre, at full resolution), and a design without the field gets the
+/// same; `None` is no reference.
+#[test]
+fn the_reference_defaults_to_the_seeds_and_none_turns_it_off() {
+    use experiment::design::{Reference, ReferenceCell, ReferenceDetail};
+    let seed = Reference {
+        at: ReferenceCell::Centre,
+        detail: ReferenceDetail::Full,
+    };
+    let d = Design::load(MURPHY).expect("valid design");
+    assert_eq!(d.stimulus.reference, Some(seed));
+    assert_eq!(d.stimulus.reference_cell(), Some((2, 2)));
+    let text = murphy_text();
+    let line = text
+        .lines()
+        .find(|l| l.trim_start().starts_with("reference:"))
+        .expect("the seed design writes the field");
+    let absent = Design::from_ron_str(&text.replace(line, "")).expect("valid without it");
+    assert_eq!(absent.stimulus.reference, Some(seed));
+    let none = Design::from_ron_str(&text.replace(line, "reference: None,")).expect("None");
+    assert_eq!(none.stimulus.reference, None);
+    assert_eq!(none.stimulus.reference_cell(), None);
+    let cell = text.replace(
+        line,
+        "reference: Some((at: Cell(4, 0), detail: AsCondition)),",
+    );
+    let d = Design::from_ron_str(&cell).expect("a cell");
+    assert_eq!(d.stimulus.reference_cell(), Some((4, 0)));
+}
+
+/// An even grid has no centre: `Centre` (written or the default) is
+/// refused naming the field and telling what to give instead; a `Cell`
+/// outside the grid and a one-cell grid are refused too.
+#[test]
+fn a_reference_that_does_not_fit_the_grid_names_the_field() {
+    let text = murphy_text();
+    let line = text
+        .lines()
+        .find(|l| l.trim_start().starts_with("reference:"))
+        .expect("the field");
+    let even = text.replace("grid: (5, 5)", "grid: (5, 6)");
+    let err = Design::from_ron_str(&even).unwrap_err();
+    assert_eq!(err.field(), Some("stimulus.reference.at"), "{err}");
+    assert!(
+        err.to_string().contains("no centre cell")
+            && err.to_string().contains("Cell(row, column)")
+            && err.to_string().contains("None"),
+        "{err}"
+    );
+    // The default is the seed's Centre: the same error without the field.
+    let err = Design::from_ron_str(&even.replace(line, "")).unwrap_err();
+    assert_eq!(err.field(), Some("stimulus.reference.at"), "{err}");
+    // An even grid with a cell, or none, is fine.
+    let cell = even.replace(line, "reference: Some((at: Cell(2, 3), detail: Full)),");
+    assert_eq!(
+        Design::from_ron_str(&cell)
+            .expect("valid")
+            .stimulus
+            .reference_cell(),
+        Some((2, 3))
+    );
+    Design::from_ron_str(&even.replace(line, "reference: None,")).expect("valid");
+    let outside = text.replace(line, "reference: Some((at: Cell(5, 0), detail: Full)),");
+    let err = Design::from_ron_str(&outside).unwrap_err();
+    assert_eq!(err.field(), Some("stimulus.reference.at"), "{err}");
+    assert!(err.to_string().contains("outside the 5x5 grid"), "{err}");
+    let one = text
+        .replace("grid: (5, 5)", "grid: (1, 1)")
+        .replace(line, "reference: Some((at: Cell(0, 0), detail: Full)),");
+    let err = Design::from_ron_str(&one).unwrap_err();
+    assert_eq!(err.field(), Some("stimulus.reference"), "{err}");
+    assert!(err.to_string().contains("at least 2 cells"), "{err}");
+}
+
+/// A condition's contrast overrides the design's for the CSF methods only,
+/// in (0, 1]; a triangle budget is for simplify only, 1 to 10⁹.
+#[test]
+fn condition_contrast_and_budget_name_the_field() {
+    let text = murphy_text();
+    let with = |from: &str, to: &str| text.replacen(from, to, 1);
+    let ok = with(
+        r#"silhouette_edges: false, levels: {"inset_deg": "2""#,
+        r#"silhouette_edges: false, contrast: Some(0.5), levels: {"inset_deg": "2""#,
+    );
+    let d = Design::from_ron_str(&ok).expect("valid");
+    assert_eq!(d.conditions[1].contrast, Some(0.5));
+    assert_eq!(d.conditions[1].contrast_or(d.contrast), 0.5);
+    assert_eq!(d.conditions[2].contrast_or(d.contrast), 0.25);
+    for bad in ["0.0", "1.5", "-0.2"] {
+        let t = ok.replace("contrast: Some(0.5)", &format!("contrast: Some({bad})"));
+        let err = Design::from_ron_str(&t).unwrap_err();
+        assert_eq!(err.field(), Some("conditions[1].contrast"), "{bad}: {err}");
+    }
+    let full = with(
+        r#"(name: "control", method: "full")"#,
+        r#"(name: "control", method: "full", contrast: Some(0.5))"#,
+    );
+    assert_eq!(field_of(&full), "conditions[0].contrast");
+    let budget = with(
+        r#"(name: "control", method: "full")"#,
+        r#"(name: "control", method: "full", triangle_budget: Some(1000))"#,
+    );
+    assert_eq!(field_of(&budget), "conditions[0].triangle_budget");
+    let simplify = with(
+        r#"(name: "control", method: "full")"#,
+        r#"(name: "control", method: "simplify", triangle_budget: Some(1000))"#,
+    );
+    assert_eq!(
+        Design::from_ron_str(&simplify).expect("valid").conditions[0].triangle_budget,
+        Some(1000)
+    );
+    let zero = simplify.replace("Some(1000)", "Some(0)");
+    assert_eq!(field_of(&zero), "conditions[0].triangle_budget");
+    let lod = with(
+        r#"(name: "control", method: "full")"#,
+        r#"(name: "control", method: "lod", contrast: Some(0.5))"#,
+    );
+    assert_eq!(field_of(&lod), "conditions[0].contrast");
+}
+
+/// `config/experiments/families-comparison.ron` (Murphy 2007 §8.1's
+/// comparison): it loads, plans, names only known methods, has the
+/// control, and gives each CSF family an imperceptible (C = 1) and an
+/// aggressive (C < 1) condition and simplify its two modes.
+#[test]
+fn the_families_comparison_loads_and_plans() {
+    let d = Design::load(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../../config/experiments/families-comparison.ron"
+    ))
+    .expect("valid design");
+    // (That the renderer knows every method is checked by `experiment
+    // plan` on this file, crates/viewer/tests/experiment_cli.rs.)
+    let families = ["full", "hybrid", "image", "layers", "simplify", "lod"];
+    for c in &d.conditions {
+        assert!(
+            families.contains(&c.method.as_str()),
+            "{}: {}",
+            c.name,
+            c.method
+        );
+    }
+    let of = |m: &str| -> Vec<&experiment::design::Condition> {
+        d.conditions.iter().filter(|c| c.method == m).collect()
+    };
+    assert_eq!(of("full").len(), 1);
+    for m in ["hybrid", "image", "layers"] {
+        let mut k: Vec<f64> = of(m).iter().map(|c| c.contrast_or(d.contrast)).collect();
+        k.sort_by(f64::total_cmp);
+        assert_eq!(k, [0.25, 1.0], "{m}");
+    }
+    let budgets: Vec<Option<u64>> = of("simplify").iter().map(|c| c.triangle_budget).collect();
+    assert_eq!(budgets.len(), 2);
+    assert!(budgets.contains(&None) && budgets.iter().any(|b| b.is_some()));
+    assert_eq!(of("lod").len(), 1);
+    // Ten conditions: a Williams design of 10 rows; every participant's
+    // plan has every condition once a run and the reference at the centre.
+    assert_eq!(d.counterbalancing, Counterbalancing::Williams);
+    assert_eq!(experiment::plan::orders(&d).len(), 10);
+    for p in 0..10 {
+        let trials = experiment::plan(&d, p).expect("plan");
+        assert_eq!(trials.len(), d.total_trials());
+        for run in trials.chunks(d.conditions.len()) {
+            let mut c: Vec<usize> = run.iter().map(|t| t.condition).collect();
+            c.sort();
+            assert_eq!(c, (0..d.conditions.len()).collect::<Vec<_>>());
+        }
+        assert!(trials
+            .iter()
+            .all(|t| t.reference_cell == Some((2, 2)) && t.target_cell != (2, 2)));
+    }
+}

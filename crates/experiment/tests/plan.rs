@@ -93,17 +93,80 @@ fn seeds_are_deterministic_and_distinct() {
     assert_ne!(trial_seed(2007, 0, 1), trial_seed(2007, 1, 0));
 }
 
+/// With the seed's reference at the centre the target's cell is drawn
+/// uniformly among the 24 other cells, never the centre.
 #[test]
-fn target_cells_cover_the_grid() {
+fn target_cells_cover_the_grid_but_the_reference() {
     let d = murphy();
     let mut count = [0usize; 25];
     for p in 0..100 {
         for t in plan(&d, p).unwrap() {
+            assert_eq!(t.reference_cell, Some((2, 2)));
             count[(t.target_cell.0 * 5 + t.target_cell.1) as usize] += 1;
         }
     }
-    // 4400 draws, 176 expected per cell; a fair draw stays well within ±40%.
-    assert!(count.iter().all(|&c| (106..=246).contains(&c)), "{count:?}");
+    assert_eq!(count[12], 0, "the centre is never the target's cell");
+    // 4400 draws, 183 expected per other cell; a fair draw stays well
+    // within ±40%.
+    assert!(
+        count
+            .iter()
+            .enumerate()
+            .all(|(k, &c)| k == 12 || (110..=257).contains(&c)),
+        "{count:?}"
+    );
+}
+
+/// Without a reference (`reference: None`) every cell, the centre
+/// included, may be the target's, as before the field existed.
+#[test]
+fn without_a_reference_the_centre_may_be_the_target() {
+    let mut d = murphy();
+    d.stimulus.reference = None;
+    let mut centre = 0;
+    for p in 0..100 {
+        for t in plan(&d, p).unwrap() {
+            assert_eq!(t.reference_cell, None);
+            centre += usize::from(t.target_cell == (2, 2));
+            // The target mesh at the target's cell only.
+            let at = (t.target_cell.0 * 5 + t.target_cell.1) as usize;
+            for (c, &m) in t.cells.iter().enumerate() {
+                assert_eq!(m == t.target_mesh, c == at);
+            }
+        }
+    }
+    assert!((106..=246).contains(&centre), "{centre}");
+}
+
+/// A reference at another cell (`Cell(r, c)`) holds the target mesh and is
+/// never the target's cell.
+#[test]
+fn a_reference_cell_holds_the_target_mesh_and_is_never_the_target() {
+    use experiment::design::{Reference, ReferenceCell, ReferenceDetail};
+    let mut d = murphy();
+    d.stimulus.reference = Some(Reference {
+        at: ReferenceCell::Cell(0, 3),
+        detail: ReferenceDetail::AsCondition,
+    });
+    for p in 0..50 {
+        for t in plan(&d, p).unwrap() {
+            assert_eq!(t.reference_cell, Some((0, 3)));
+            assert_ne!(t.target_cell, (0, 3));
+            assert_eq!(t.cells[3], t.target_mesh);
+        }
+    }
+}
+
+/// A plan written before `reference_cell` existed still loads (no
+/// reference).
+#[test]
+fn an_old_plan_without_the_reference_loads() {
+    let t = &plan(&murphy(), 0).unwrap()[0];
+    let mut v = serde_json::to_value(t).unwrap();
+    v.as_object_mut().unwrap().remove("reference_cell");
+    let old: experiment::Trial = serde_json::from_value(v).expect("an old plan loads");
+    assert_eq!(old.reference_cell, None);
+    assert_eq!(old.target_cell, t.target_cell);
 }
 
 #[test]
@@ -147,7 +210,9 @@ proptest::proptest! {
 }
 
 /// Murphy 2007 §7.1.4: each mesh is the target the same number of times;
-/// the target mesh sits at the target cell and nowhere else.
+/// the target mesh sits at the target cell and at the reference (the
+/// centre) and nowhere else: exactly two cells, the others drawn from the
+/// non-targets.
 #[test]
 fn each_mesh_is_the_target_equally_often_and_only_once_per_display() {
     let d = murphy();
@@ -158,10 +223,17 @@ fn each_mesh_is_the_target_equally_often_and_only_once_per_display() {
             counts[t.target_mesh as usize] += 1;
             assert_eq!(t.cells.len(), 25);
             let at = (t.target_cell.0 * 5 + t.target_cell.1) as usize;
+            assert_ne!(at, 12, "trial {}: the centre is the reference", t.index);
             for (c, &m) in t.cells.iter().enumerate() {
                 assert!(m < 4);
-                assert_eq!(m == t.target_mesh, c == at, "trial {} cell {c}", t.index);
+                assert_eq!(
+                    m == t.target_mesh,
+                    c == at || c == 12,
+                    "trial {} cell {c}",
+                    t.index
+                );
             }
+            assert_eq!(t.cells.iter().filter(|&&m| m == t.target_mesh).count(), 2);
         }
         assert_eq!(counts, [11, 11, 11, 11], "participant {participant}");
     }

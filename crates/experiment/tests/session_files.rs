@@ -37,6 +37,33 @@ fn trial(i: usize) -> TrialRow {
         mean_rays: 123456.5,
         synthetic: true,
         plan: Some("foveated on cpu; passes: POR box (cpu)".into()),
+        reference_row: Some(2),
+        reference_col: Some(2),
+        mean_triangles: None,
+        mean_render_ms: Some(41.25),
+        p95_render_ms: Some(55.5),
+    }
+}
+
+/// The trials.tsv columns added after `plan`: the reference's cell and
+/// the search frames' costs.
+const AFTER_PLAN: [&str; 5] = [
+    "reference_row",
+    "reference_col",
+    "mean_triangles",
+    "mean_render_ms",
+    "p95_render_ms",
+];
+
+/// `row` as read from a file written before the columns after `plan`.
+fn without_costs(row: TrialRow) -> TrialRow {
+    TrialRow {
+        reference_row: None,
+        reference_col: None,
+        mean_triangles: None,
+        mean_render_ms: None,
+        p95_render_ms: None,
+        ..row
     }
 }
 
@@ -63,7 +90,7 @@ fn header_lines_are_the_documented_ones() {
     type Writer = Box<dyn Fn(&Path)>;
     let cases: [(&str, Writer); 5] = [
         (
-            "participant\tsitting\trun\ttrial\ttrial_in_run\tcondition\tmethod\tinset_deg\tsilhouette_edges\ttarget_mesh\ttarget_row\ttarget_col\tsearch_onset_us\tresponse_us\trt_s\tclicked_row\tclicked_col\tcorrect\tframes\tframes_late\tmean_rays\tsynthetic\tplan",
+            "participant\tsitting\trun\ttrial\ttrial_in_run\tcondition\tmethod\tinset_deg\tsilhouette_edges\ttarget_mesh\ttarget_row\ttarget_col\tsearch_onset_us\tresponse_us\trt_s\tclicked_row\tclicked_col\tcorrect\tframes\tframes_late\tmean_rays\tsynthetic\tplan\treference_row\treference_col\tmean_triangles\tmean_render_ms\tp95_render_ms",
             Box::new(|p| write_rows(p, &[trial(0)])),
         ),
         (
@@ -181,7 +208,7 @@ fn missing_values_are_written_n_a() {
     write_rows(&p, &[trial(0)]);
     let text = std::fs::read_to_string(&p).unwrap();
     let row: Vec<&str> = text.lines().nth(1).unwrap().split('\t').collect();
-    assert_eq!(row.len(), 23);
+    assert_eq!(row.len(), 28);
     assert_eq!(row[0], "P 01", "spaces kept, no quoting");
     assert_eq!(row[1], "1", "sitting");
     assert_eq!(row[7], "2.0");
@@ -190,6 +217,11 @@ fn missing_values_are_written_n_a() {
     assert_eq!(row[17], "n/a", "correct None");
     assert_eq!(row[21], "true");
     assert_eq!(row[22], "foveated on cpu; passes: POR box (cpu)");
+    assert_eq!(
+        row[23..],
+        ["2", "2", "n/a", "41.25", "55.5"],
+        "reference, costs"
+    );
     // An empty field reads as None too (hand-edited files).
     let edited = text.replace("\tn/a\t4\tn/a\t", "\t\t4\t\t");
     std::fs::write(&p, edited).unwrap();
@@ -276,6 +308,13 @@ fn trial_row() -> impl Strategy<Value = TrialRow> {
             proptest::option::of(any::<bool>()),
         ),
         (any::<u64>(), any::<u64>(), any_f64(), any::<bool>(), plan()),
+        (
+            proptest::option::of(any::<u32>()),
+            proptest::option::of(any::<u32>()),
+            proptest::option::of(any_f64()),
+            proptest::option::of(any_f64()),
+            proptest::option::of(any_f64()),
+        ),
     )
         .prop_map(
             |(
@@ -284,6 +323,7 @@ fn trial_row() -> impl Strategy<Value = TrialRow> {
                 (search_onset_us, response_us, rt_s),
                 (clicked_row, clicked_col, correct),
                 (frames, frames_late, mean_rays, synthetic, plan),
+                (reference_row, reference_col, mean_triangles, mean_render_ms, p95_render_ms),
             )| TrialRow {
                 participant,
                 sitting: (run % 7) as u32 + 1,
@@ -308,6 +348,11 @@ fn trial_row() -> impl Strategy<Value = TrialRow> {
                 mean_rays,
                 synthetic,
                 plan,
+                reference_row,
+                reference_col,
+                mean_triangles,
+                mean_render_ms,
+                p95_render_ms,
             },
         )
 }
@@ -316,15 +361,24 @@ fn trial_same(a: &TrialRow, b: &TrialRow) -> bool {
     same_opt(a.inset_deg, b.inset_deg)
         && same_f64(a.rt_s, b.rt_s)
         && same_f64(a.mean_rays, b.mean_rays)
+        && same_opt(a.mean_triangles, b.mean_triangles)
+        && same_opt(a.mean_render_ms, b.mean_render_ms)
+        && same_opt(a.p95_render_ms, b.p95_render_ms)
         && TrialRow {
             inset_deg: None,
             rt_s: 0.0,
             mean_rays: 0.0,
+            mean_triangles: None,
+            mean_render_ms: None,
+            p95_render_ms: None,
             ..a.clone()
         } == TrialRow {
             inset_deg: None,
             rt_s: 0.0,
             mean_rays: 0.0,
+            mean_triangles: None,
+            mean_render_ms: None,
+            p95_render_ms: None,
             ..b.clone()
         }
 }
@@ -684,9 +738,54 @@ fn a_half_header_is_a_warning_and_is_rewritten() {
 /// `text` as a file written before the `plan` column: the last field of
 /// every line left off.
 fn without_last_column(text: &str) -> String {
+    without_last_columns(text, 1)
+}
+
+/// `text` with the last `n` fields of every line left off.
+fn without_last_columns(text: &str, n: usize) -> String {
     text.lines()
-        .map(|l| l.rsplit_once('\t').expect("a tab").0.to_string() + "\n")
+        .map(|l| {
+            let mut l = l;
+            for _ in 0..n {
+                l = l.rsplit_once('\t').expect("a tab").0;
+            }
+            l.to_string() + "\n"
+        })
         .collect()
+}
+
+/// Trial tables written before the reference and cost columns (header
+/// ending in `plan`) read with those `None`, and a resume adds them
+/// (`n/a`) before appending.
+#[test]
+fn trial_files_without_the_reference_and_costs_read_and_resume() {
+    let dir = tempfile::tempdir().unwrap();
+    let t = dir.path().join("trials.tsv");
+    write_rows(&t, &[trial(0), trial(1)]);
+    let old = without_last_columns(&std::fs::read_to_string(&t).unwrap(), AFTER_PLAN.len());
+    assert!(old.lines().next().unwrap().ends_with("\tplan"));
+    std::fs::write(&t, &old).unwrap();
+    let back = read_tsv::<TrialRow>(&t).unwrap();
+    assert_eq!(
+        back.rows,
+        vec![without_costs(trial(0)), without_costs(trial(1))]
+    );
+    assert!(back.warnings.is_empty());
+    let mut log = TsvLog::<TrialRow>::append_to(&t).unwrap();
+    assert_eq!(log.added_columns(), &AFTER_PLAN);
+    log.write(&trial(2)).unwrap();
+    drop(log);
+    let text = std::fs::read_to_string(&t).unwrap();
+    assert!(text
+        .lines()
+        .nth(1)
+        .unwrap()
+        .ends_with("\tn/a\tn/a\tn/a\tn/a\tn/a"));
+    let back = read_tsv::<TrialRow>(&t).unwrap().rows;
+    assert_eq!(
+        back,
+        vec![without_costs(trial(0)), without_costs(trial(1)), trial(2)]
+    );
 }
 
 fn frame(k: u64, plan: Option<&str>) -> FrameRow {
@@ -711,14 +810,14 @@ fn files_without_the_plan_column_read_with_no_plan() {
     let dir = tempfile::tempdir().unwrap();
     let t = dir.path().join("trials.tsv");
     write_rows(&t, &[trial(0), trial(1)]);
-    let old = without_last_column(&std::fs::read_to_string(&t).unwrap());
+    let old = without_last_columns(&std::fs::read_to_string(&t).unwrap(), 1 + AFTER_PLAN.len());
     assert!(!old.contains("plan") && old.lines().next().unwrap().ends_with("\tsynthetic"));
     std::fs::write(&t, &old).unwrap();
     let back = read_tsv::<TrialRow>(&t).unwrap();
     let want: Vec<TrialRow> = (0..2)
         .map(|i| TrialRow {
             plan: None,
-            ..trial(i)
+            ..without_costs(trial(i))
         })
         .collect();
     assert_eq!(back.rows, want);
@@ -811,11 +910,13 @@ fn resuming_an_old_file_adds_the_plan_column() {
     write_rows(&t, &[trial(0)]);
     std::fs::write(
         &t,
-        without_last_column(&std::fs::read_to_string(&t).unwrap()),
+        without_last_columns(&std::fs::read_to_string(&t).unwrap(), 1 + AFTER_PLAN.len()),
     )
     .unwrap();
     let mut log = TsvLog::<TrialRow>::append_to(&t).unwrap();
-    assert_eq!(log.added_columns(), &["plan"]);
+    let mut added = vec!["plan"];
+    added.extend(AFTER_PLAN);
+    assert_eq!(log.added_columns(), added.as_slice());
     log.write(&trial(1)).unwrap();
     drop(log);
     let back = read_tsv::<TrialRow>(&t).unwrap().rows;
@@ -824,7 +925,7 @@ fn resuming_an_old_file_adds_the_plan_column() {
         vec![
             TrialRow {
                 plan: None,
-                ..trial(0)
+                ..without_costs(trial(0))
             },
             trial(1)
         ]

@@ -278,13 +278,19 @@ pub fn run(args: &ExperimentArgs, out: &mut dyn Write) -> Result<(), String> {
             let trials = checked.trials;
             let w =
                 |out: &mut dyn Write, s: String| writeln!(out, "{s}").map_err(|e| e.to_string());
-            w(out, "trial\trun\ttrial_in_run\tcondition\tseed\ttarget_mesh\ttarget_row\ttarget_col\tbefore".into())?;
+            w(out, "trial\trun\ttrial_in_run\tcondition\tseed\ttarget_mesh\ttarget_row\ttarget_col\treference_row\treference_col\tbefore".into())?;
             for t in &trials {
                 let before: Vec<String> = t.before.iter().map(|s| format!("{s:?}")).collect();
+                // The reference cell (holding the target mesh too), n/a
+                // without one.
+                let (reference_row, reference_col) = match t.reference_cell {
+                    Some((r, c)) => (r.to_string(), c.to_string()),
+                    None => ("n/a".to_string(), "n/a".to_string()),
+                };
                 w(
                     out,
                     format!(
-                        "{}\t{}\t{}\t{}\t{}\t{}\t{}\t{}\t{}",
+                        "{}\t{}\t{}\t{}\t{}\t{}\t{}\t{}\t{}\t{}\t{}",
                         t.index,
                         t.run,
                         t.trial_in_run,
@@ -293,6 +299,8 @@ pub fn run(args: &ExperimentArgs, out: &mut dyn Write) -> Result<(), String> {
                         t.target_mesh,
                         t.target_cell.0,
                         t.target_cell.1,
+                        reference_row,
+                        reference_col,
                         if before.is_empty() {
                             "n/a".into()
                         } else {

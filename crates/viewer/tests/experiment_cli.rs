@@ -429,6 +429,44 @@ fn plan_lists_the_trials_and_a_bad_design_names_file_line_and_field() {
     );
 }
 
+/// `plan` on the shipped designs: every method of §8.1's comparison is one
+/// the renderer knows (the check `run` makes), and each trial lists the
+/// reference at the centre cell, which is never the target's.
+#[test]
+fn plan_accepts_the_families_comparison_and_lists_the_reference() {
+    for (design, trials) in [
+        ("config/experiments/families-comparison.ron", 40),
+        ("config/experiments/murphy2007-search.ron", 44),
+    ] {
+        let out = common::gazecast()
+            .args(["experiment", "plan", design])
+            .succeed();
+        let text = String::from_utf8_lossy(&out.stdout);
+        let mut lines = text.lines();
+        let header: Vec<&str> = lines.next().expect("a header").split('\t').collect();
+        let at = |name: &str| {
+            header
+                .iter()
+                .position(|h| *h == name)
+                .unwrap_or_else(|| panic!("{design}: no column {name}"))
+        };
+        let rows: Vec<Vec<&str>> = lines.map(|l| l.split('\t').collect()).collect();
+        assert_eq!(rows.len(), trials, "{design}");
+        for r in &rows {
+            assert_eq!(
+                (r[at("reference_row")], r[at("reference_col")]),
+                ("2", "2"),
+                "{design}"
+            );
+            assert_ne!(
+                (r[at("target_row")], r[at("target_col")]),
+                ("2", "2"),
+                "{design}"
+            );
+        }
+    }
+}
+
 /// A session killed with SIGKILL in the middle keeps every trial it had
 /// finished, and `--resume` completes it without a gap or a repeat.
 #[test]
@@ -526,7 +564,9 @@ fn a_design_that_does_not_fit_its_display_is_refused_before_the_session_folder()
         ),
         (
             "big",
-            good.replace("grid: (5, 5)", "grid: (32, 32)")
+            // 31×33 (odd, so the seed's reference has a centre): 1023
+            // cells of 20 480 triangles.
+            good.replace("grid: (5, 5)", "grid: (31, 33)")
                 .replace("object_deg: 3.5", "object_deg: 0.5"),
             "`stimulus`",
             "20000000 triangles",
@@ -903,11 +943,18 @@ fn an_image_condition_renders_image_based_and_its_frames_say_so() {
     }
     assert!(phases.iter().any(|p| p == "search"));
 
-    // As a gazecast before the plan column wrote them.
-    for f in [&trials, &frames] {
+    // As a gazecast before the plan column wrote them (in trials.tsv the
+    // reference and cost columns came after it).
+    for (f, n) in [(&trials, 6), (&frames, 1)] {
         let cut: String = lines(f)
             .iter()
-            .map(|l| l.rsplit_once('\t').expect("a tab").0.to_string() + "\n")
+            .map(|l| {
+                let mut l = l.as_str();
+                for _ in 0..n {
+                    l = l.rsplit_once('\t').expect("a tab").0;
+                }
+                l.to_string() + "\n"
+            })
             .collect();
         assert!(!cut.contains("plan") && !cut.contains("on cpu"));
         std::fs::write(f, cut).expect("write");
@@ -916,8 +963,10 @@ fn an_image_condition_renders_image_based_and_its_frames_say_so() {
     // Sitting 2: the rest, on the old files.
     let log = run("6", &["--resume"]);
     assert!(
-        log.contains("trials.tsv: written before its column plan existed")
-            && log.contains("frames.tsv: written before its column plan existed"),
+        log.contains(
+            "trials.tsv: written before its columns plan, reference_row, reference_col, \
+             mean_triangles, mean_render_ms, p95_render_ms existed"
+        ) && log.contains("frames.tsv: written before its column plan existed"),
         "{log}"
     );
     assert_eq!(
@@ -1159,5 +1208,133 @@ fn a_headless_session_runs_on_a_virtual_clock_and_repeats_exactly() {
     assert_ne!(
         column(&dm.join("trials.tsv"), "rt_s"),
         column(&da.join("trials.tsv"), "rt_s")[..3].to_vec()
+    );
+}
+
+/// An RGB PNG's size and bytes.
+fn read_rgb(path: &Path) -> ((u32, u32), Vec<u8>) {
+    let file = std::fs::File::open(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    let mut reader = png::Decoder::new(std::io::BufReader::new(file))
+        .read_info()
+        .expect("a PNG");
+    let mut buf = vec![0; reader.output_buffer_size()];
+    let info = reader.next_frame(&mut buf).expect("a frame");
+    assert_eq!(info.color_type, png::ColorType::Rgb, "{}", path.display());
+    buf.truncate(info.buffer_size());
+    ((info.width, info.height), buf)
+}
+
+/// The reference with `detail: Full` is drawn at full resolution whatever
+/// the method: a reference at the corner cell (0, 0), 12° from the gaze at
+/// the centre, in an NE2 search frame equals the full-resolution stimulus
+/// picture pixel for pixel over the face, while the face in the other top
+/// corner (0, 4), as far out, is the hybrid method's degraded one.
+#[test]
+fn a_full_reference_is_drawn_at_full_resolution_under_the_hybrid_method() {
+    let tmp = tempfile::tempdir().expect("tempdir");
+    let design = tmp.path().join("reference.ron");
+    let small = small_design();
+    let start = small.find("    conditions: [").expect("conditions");
+    let end = start + small[start..].find("    ],\n").expect("end") + "    ],\n".len();
+    let text = format!(
+        "{}{}{}",
+        &small[..start],
+        r#"    conditions: [
+        (name: "NE2", method: "hybrid", inset_deg: Some(2.0), silhouette_edges: false, levels: {"inset_deg": "2", "silhouette_edges": "discarded"}),
+        (name: "control", method: "full"),
+    ],
+"#,
+        &small[end..]
+    )
+    .replace("break_after_trials: Some(6)", "break_after_trials: None")
+    .replace(
+        "grid_deg: 20.0)",
+        "grid_deg: 20.0, reference: Some((at: Cell(0, 0), detail: Full)))",
+    );
+    std::fs::write(&design, &text).expect("write");
+    let shots = tmp.path().join("shots");
+    std::fs::create_dir(&shots).expect("mkdir");
+    let x = Xvfb::start();
+    let out = tmp.path().join("data");
+    let o = windowed(&x)
+        .args(["experiment", "run"])
+        .arg(&design)
+        .args([
+            "--participant",
+            "P01",
+            "--tracker",
+            "tests/data/mouse-participant.ron",
+            "--display",
+            "tests/data/experiment/display-small.ron",
+            "--backend",
+            "cpu",
+            "--simulate-participant",
+            "4",
+            "--max-trials",
+            "1",
+            "--screenshots",
+        ])
+        .arg(&shots)
+        .arg("--out")
+        .arg(&out)
+        .output()
+        .expect("runs");
+    assert!(
+        o.status.success(),
+        "{}\n{}",
+        String::from_utf8_lossy(&o.stdout),
+        String::from_utf8_lossy(&o.stderr)
+    );
+    let dir = out.join("small-search/sub-P01");
+    assert_eq!(column(&dir.join("trials.tsv"), "condition"), ["NE2"]);
+    assert_eq!(column(&dir.join("trials.tsv"), "reference_row"), ["0"]);
+    assert_eq!(column(&dir.join("trials.tsv"), "reference_col"), ["0"]);
+    let (size, search) = read_rgb(&shots.join("search.png"));
+    let (full_size, full) = read_rgb(&dir.join("stimuli/trial-000.png"));
+    assert_eq!(size, full_size);
+    let d = experiment::Design::from_ron_str(&text).expect("design");
+    let geometry = foveation::Display {
+        name: "small".into(),
+        resolution_px: (640, 512),
+        size_mm: (168.95, 135.15),
+        eye_distance_mm: 270.0,
+        eye_point_px: None,
+    }
+    .geometry()
+    .expect("geometry");
+    let layout = experiment::run::layout::Layout::new(&d, &geometry);
+    let background = &full[0..3];
+    // (face pixels, of them differing) within a cell's face.
+    let compare = |cell: (u32, u32)| {
+        let c = layout.centre_px(cell);
+        let r = layout.radius_px * 1.2;
+        let (mut face, mut differ) = (0, 0);
+        for y in 0..size.1 {
+            for x in 0..size.0 {
+                let (fx, fy) = (f64::from(x) + 0.5, f64::from(y) + 0.5);
+                if (fx - c[0]).hypot(fy - c[1]) > r {
+                    continue;
+                }
+                let i = 3 * (y * size.0 + x) as usize;
+                if &full[i..i + 3] == background {
+                    continue;
+                }
+                face += 1;
+                differ += usize::from(search[i..i + 3] != full[i..i + 3]);
+            }
+        }
+        (face, differ)
+    };
+    let (face, differ) = compare((0, 0));
+    assert!(face > 500, "the reference face: {face} px");
+    assert_eq!(
+        differ, 0,
+        "the reference differs from full resolution at {differ} px"
+    );
+    let (face, differ) = compare((0, 4));
+    assert!(face > 500, "the corner face: {face} px");
+    assert!(
+        differ > face / 20,
+        "the non-reference corner face should be degraded by NE2: {differ} of {face} px differ"
     );
 }

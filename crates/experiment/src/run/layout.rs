@@ -116,6 +116,18 @@ impl Layout {
         }
     }
 
+    /// The centres (px) of the cells a search can stop at, row-major: every
+    /// cell but the reference's (it holds the target mesh but is not the
+    /// target to find).
+    pub fn search_centres(&self, reference: Option<(u32, u32)>) -> Vec<[f64; 2]> {
+        self.centres_px
+            .iter()
+            .enumerate()
+            .filter(|&(k, _)| reference.is_none_or(|(r, c)| (r * self.cols + c) as usize != k))
+            .map(|(_, p)| *p)
+            .collect()
+    }
+
     /// The centre (px) of cell (row, col).
     pub fn centre_px(&self, (r, c): (u32, u32)) -> [f64; 2] {
         self.centres_px

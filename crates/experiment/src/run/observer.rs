@@ -36,7 +36,7 @@
 //! was there). After each fixation's dwell (`fixation_ms`, uniform) the
 //! cells are examined; if the target was identified the eye goes to it
 //! (a main-sequence saccade), dwells `target_dwell_ms`, checks it against
-//! the reference at the centre `verify_looks` times (there and back) and
+//! the reference (when the design has one) `verify_looks` times (there and back) and
 //! Space is pressed; otherwise the eye goes to the nearest of three random cells
 //! not yet ruled out. After `max_fixations` without the target the
 //! observer gives up and presses Space where it looks (an incorrect
@@ -189,8 +189,8 @@ impl ObserverModel {
 /// ([`ObserverSearch::step`]).
 #[derive(Debug, Clone)]
 pub struct ObserverSearch {
-    /// Where the search started (the reference, px).
-    reference: [f64; 2],
+    /// The reference the target found is checked against (px), if any.
+    reference: Option<[f64; 2]>,
     /// Where the eye is (px).
     fixation: [f64; 2],
     /// When the current fixation's cells are examined (ms after onset).
@@ -211,15 +211,17 @@ pub struct SearchStep {
 
 impl ObserverSearch {
     /// A search over `objects` objects starting with a fixation at `start`
-    /// (the centre, where the preview and the reference are).
+    /// (the centre, where the preview was), with the reference at
+    /// `reference` (px) when the design has one.
     pub fn start<R: rand::Rng>(
         model: &ObserverModel,
         start: [f64; 2],
+        reference: Option<[f64; 2]>,
         objects: usize,
         rng: &mut R,
     ) -> Self {
         Self {
-            reference: start,
+            reference,
             fixation: start,
             eval_at_ms: uniform(model.fixation_ms, rng),
             ruled_out: vec![false; objects],
@@ -307,19 +309,19 @@ impl ObserverSearch {
             let mut space = arrive + uniform(model.target_dwell_ms, rng);
             // Checks against the reference: there and back, dated ahead.
             for _ in 0..model.verify_looks {
-                if t == self.reference {
+                let Some(reference) = self.reference.filter(|r| *r != t) else {
                     break;
-                }
-                out.looks.push((space, self.reference));
+                };
+                out.looks.push((space, reference));
                 let there = space
                     + tracker_hal::sim::main_sequence_duration_ms(
-                        geometry.eccentricity_deg(t, self.reference),
+                        geometry.eccentricity_deg(t, reference),
                     )
                     + uniform(model.target_dwell_ms, rng);
                 out.looks.push((there, t));
                 space = there
                     + tracker_hal::sim::main_sequence_duration_ms(
-                        geometry.eccentricity_deg(self.reference, t),
+                        geometry.eccentricity_deg(reference, t),
                     )
                     + uniform(model.target_dwell_ms, rng);
             }
@@ -568,7 +570,7 @@ mod tests {
         for seed in 0..n {
             let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
             let target = (seed as usize * 7 + 3) % objects.len();
-            let mut s = ObserverSearch::start(m, g.centre_px(), objects.len(), &mut rng);
+            let mut s = ObserverSearch::start(m, g.centre_px(), None, objects.len(), &mut rng);
             let mut t = 0.0;
             while s.space_at_ms.is_none() {
                 t += 1000.0 / 60.0;

@@ -56,6 +56,9 @@ pub struct Seen {
     /// Search display: every object's centre and the target's.
     pub objects: Vec<[f64; 2]>,
     pub target_object: Option<[f64; 2]>,
+    /// Search display: the reference's centre (the target mesh shown for
+    /// comparison), when the design has one.
+    pub reference: Option<[f64; 2]>,
     /// For an observer model ([`Behaviour::with_observer`]): the newest
     /// search frame's gaze (px) and each object's visible fidelity in it
     /// (`observer::cell_fidelity`, in the order of `objects`).
@@ -180,6 +183,7 @@ impl Behaviour {
                         self.observer_search = Some(ObserverSearch::start(
                             m,
                             centre,
+                            s.reference,
                             s.objects.len(),
                             &mut self.rng,
                         ));

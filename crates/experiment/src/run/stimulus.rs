@@ -1,7 +1,10 @@
 //! The search display of one trial as a scene file: the design's grid of
 //! face meshes (`raycast`'s procedural `Face`, four expressions with one
-//! topology and one silhouette) placed on the [`Layout`], and the target
-//! preview (the target alone at the centre).
+//! topology and one silhouette) placed on the [`Layout`], the target
+//! preview (the target alone at the centre), and the full-resolution
+//! reference (the target alone at the reference cell, which the runner
+//! draws over every search frame when the design's reference is
+//! `ReferenceDetail::Full`).
 
 use std::collections::BTreeMap;
 
@@ -9,7 +12,7 @@ use raycast::scene::{Effect, Light, Material, MeshSource, Object};
 use raycast::SceneFile;
 
 use super::layout::{cell_mm, Layout, DEPTH_MM};
-use crate::design::{Condition, Design};
+use crate::design::{Condition, Design, ReferenceDetail};
 use crate::Trial;
 
 /// Icosphere subdivisions of each face mesh (20·4⁵ = 20 480 triangles).
@@ -17,12 +20,15 @@ pub const FACE_SUBDIVISIONS: u32 = 5;
 
 /// The effects a condition's scene lists: the full-resolution control
 /// none (the pipeline then renders every pixel), the hybrid method the
-/// CSF mask, with silhouette refinement when edges are kept, and the
-/// image method the CSF mask too (it blurs each pixel to the mask's level
-/// there; without it the pipeline renders the full-resolution frame, and
-/// an image condition was rendered as the control).
+/// CSF mask, with silhouette refinement when edges are kept, and every
+/// other method the CSF mask too: the pipeline renders a scene without it
+/// at full resolution whatever the method that follows the gaze (image,
+/// layers, simplify, lod: `pipeline::Method::for_scene`), so without it
+/// such a condition would be rendered as the control. (`ulod` follows
+/// attention and runs whatever the scene lists.)
 pub fn effects_for(condition: &Condition) -> Vec<Effect> {
     match condition.method.as_str() {
+        "full" => Vec::new(),
         "hybrid" => {
             let mut e = vec![Effect::FoveatedSampling];
             if condition.silhouette_edges {
@@ -30,8 +36,7 @@ pub fn effects_for(condition: &Condition) -> Vec<Effect> {
             }
             e
         }
-        "image" => vec![Effect::FoveatedSampling],
-        _ => Vec::new(),
+        _ => vec![Effect::FoveatedSampling],
     }
 }
 
@@ -127,6 +132,31 @@ pub fn preview_scene(design: &Design, trial: &Trial, layout: &Layout) -> SceneFi
     f
 }
 
+/// The full-resolution reference of the trial, when the design's
+/// reference is [`ReferenceDetail::Full`]: the target mesh alone at the
+/// reference cell's place, without effects (rendered at full resolution,
+/// then drawn over each search frame where it hit the mesh). For a
+/// reference at the centre cell of the grid its objects are the preview's
+/// (same mesh, same place), so its frame is the preview's. `None` without
+/// a reference or with [`ReferenceDetail::AsCondition`] (the reference is
+/// then one more object of the search display, rendered by the method).
+pub fn reference_scene(design: &Design, trial: &Trial, layout: &Layout) -> Option<SceneFile> {
+    let reference = design.stimulus.reference?;
+    if reference.detail != ReferenceDetail::Full {
+        return None;
+    }
+    let (r, c) = trial.reference_cell?;
+    let mut f = base_scene(
+        format!("{} trial {} reference", design.name, trial.index + 1),
+        design,
+        Vec::new(),
+    );
+    let at = cell_mm(r, c, layout.rows, layout.cols, layout.spacing_mm);
+    f.objects
+        .push(object(trial.target_mesh, at, layout.scale_mm));
+    Some(f)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -146,10 +176,7 @@ mod tests {
             let c = &d.conditions[t.condition];
             let e = effects_for(c);
             assert_eq!(s.effects.as_ref(), Some(&e));
-            assert_eq!(
-                e.contains(&Effect::FoveatedSampling),
-                c.method == "hybrid" || c.method == "image"
-            );
+            assert_eq!(e.contains(&Effect::FoveatedSampling), c.method != "full");
             assert_eq!(
                 e.contains(&Effect::SilhouetteRefinement),
                 c.silhouette_edges
@@ -158,6 +185,48 @@ mod tests {
             assert_eq!(p.objects.len(), 1);
             assert!(p.effects.as_ref().is_some_and(|e| e.is_empty()));
             assert_eq!(p.objects[0].mesh, mesh_name(t.target_mesh));
+            // The reference at the centre: the target mesh there in the
+            // search display, and its full-resolution scene is the
+            // preview's objects (so the runner reuses the preview frame).
+            assert_eq!(t.reference_cell, Some((2, 2)));
+            assert_eq!(s.objects[12].mesh, mesh_name(t.target_mesh));
+            let r = reference_scene(&d, t, &l).expect("a Full reference");
+            assert_eq!(r.objects, p.objects);
+            assert!(r.effects.as_ref().is_some_and(|e| e.is_empty()));
         }
+    }
+
+    /// A reference at another cell stands at that cell's place; with
+    /// `AsCondition` or without a reference there is no separate scene.
+    #[test]
+    fn the_reference_scene_follows_the_design() {
+        use crate::design::{Reference, ReferenceCell};
+        let mut d = murphy();
+        d.stimulus.reference = Some(Reference {
+            at: ReferenceCell::Cell(0, 4),
+            detail: ReferenceDetail::Full,
+        });
+        let l = Layout::new(&d, &seed_display());
+        let t = &crate::plan(&d, 0).expect("plan")[0];
+        assert_eq!(t.reference_cell, Some((0, 4)));
+        let r = reference_scene(&d, t, &l).expect("a Full reference");
+        let s = search_scene(&d, t, &l);
+        assert_eq!(r.objects.len(), 1);
+        assert_eq!(
+            r.objects[0], s.objects[4],
+            "the search display's cell (0, 4)"
+        );
+        assert_ne!(r.objects, preview_scene(&d, t, &l).objects);
+        d.stimulus.reference = Some(Reference {
+            at: ReferenceCell::Centre,
+            detail: ReferenceDetail::AsCondition,
+        });
+        let t = &crate::plan(&d, 0).expect("plan")[0];
+        assert_eq!(t.reference_cell, Some((2, 2)));
+        assert!(reference_scene(&d, t, &l).is_none());
+        d.stimulus.reference = None;
+        let t = &crate::plan(&d, 0).expect("plan")[0];
+        assert_eq!(t.reference_cell, None);
+        assert!(reference_scene(&d, t, &l).is_none());
     }
 }

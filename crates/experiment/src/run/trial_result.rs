@@ -104,6 +104,13 @@ pub struct Measured {
     pub frames_late: u64,
     /// Rays cast over the search frames.
     pub rays: u64,
+    /// Triangles drawn over the search frames, for a method that draws
+    /// triangles (the model-based `simplify` and `lod`, and `ulod`);
+    /// `None` for the ray-cast methods.
+    pub triangles: Option<u64>,
+    /// Each search frame's render time (ms): the method and its passes,
+    /// plus the full-resolution reference drawn over them.
+    pub render_ms: Vec<f64>,
     /// The plan of the search frames (`Renderer::provenance`).
     pub plan: Option<String>,
 }
@@ -145,6 +152,13 @@ pub fn trial_row(
         mean_rays: m.rays as f64 / (m.frames.max(1)) as f64,
         synthetic,
         plan: m.plan.clone(),
+        reference_row: trial.reference_cell.map(|c| c.0),
+        reference_col: trial.reference_cell.map(|c| c.1),
+        mean_triangles: m.triangles.map(|t| t as f64 / (m.frames.max(1)) as f64),
+        mean_render_ms: (!m.render_ms.is_empty())
+            .then(|| m.render_ms.iter().sum::<f64>() / m.render_ms.len() as f64),
+        p95_render_ms: (!m.render_ms.is_empty())
+            .then(|| crate::stats::nearest_rank::percentile(&m.render_ms, 95.0)),
     }
 }
 

@@ -68,6 +68,27 @@ pub struct TrialRow {
     /// ` | `. `n/a` in a file written before the column existed.
     #[serde(default, with = "na")]
     pub plan: Option<String>,
+    /// The reference's cell row (`plan::Trial::reference_cell`: the cell
+    /// that also holds the target mesh, the seed's centre); `n/a` without
+    /// a reference and in a file written before the column existed.
+    #[serde(default, with = "na")]
+    pub reference_row: Option<u32>,
+    /// The reference's cell column.
+    #[serde(default, with = "na")]
+    pub reference_col: Option<u32>,
+    /// Mean triangles drawn per search frame, for the methods that draw
+    /// triangles (`simplify`, `lod`, `ulod`); `n/a` for the ray-cast
+    /// methods (their cost is `mean_rays`) and in older files.
+    #[serde(default, with = "na")]
+    pub mean_triangles: Option<f64>,
+    /// Mean render time per search frame (ms): the method, its passes and
+    /// the full-resolution reference; `n/a` in older files.
+    #[serde(default, with = "na")]
+    pub mean_render_ms: Option<f64>,
+    /// 95th percentile (nearest rank) of the search frames' render times
+    /// (ms); `n/a` in older files.
+    #[serde(default, with = "na")]
+    pub p95_render_ms: Option<f64>,
 }
 
 /// One gaze sample (`samples.tsv`).
@@ -353,8 +374,13 @@ impl TsvRow for TrialRow {
         "mean_rays",
         "synthetic",
         "plan",
+        "reference_row",
+        "reference_col",
+        "mean_triangles",
+        "mean_render_ms",
+        "p95_render_ms",
     ];
-    const LATER_COLUMNS: usize = 1;
+    const LATER_COLUMNS: usize = 6;
 }
 
 impl TsvRow for SampleRow {

@@ -1,6 +1,7 @@
 //! The design's check as `experiment run` and `experiment plan` make it:
 //! `experiment::run::design_check` with the renderer's own part, the
-//! sampling model of the design's contrast and of each condition's inset.
+//! sampling model of the design's contrast and of each condition's
+//! contrast and inset.
 
 use experiment::design::Design;
 use experiment::run::design_check::{self, Checked};
@@ -13,8 +14,12 @@ pub fn sampling_models(design: &Design, geometry: &ScreenGeometry) -> Result<(),
     pipeline::sampling_model(*geometry, design.contrast)
         .map_err(|e| ("contrast".to_string(), e.to_string()))?;
     for (i, c) in design.conditions.iter().enumerate() {
+        if let Some(k) = c.contrast {
+            pipeline::sampling_model(*geometry, k)
+                .map_err(|e| (format!("conditions[{i}].contrast"), e.to_string()))?;
+        }
         if let Some(d) = c.inset_deg {
-            pipeline::sampling_model(*geometry, design.contrast)
+            pipeline::sampling_model(*geometry, c.contrast_or(design.contrast))
                 .and_then(|m| m.with_inset_deg(d))
                 .map_err(|e| (format!("conditions[{i}].inset_deg"), e.to_string()))?;
         }
@@ -172,10 +177,11 @@ mod tests {
             refusal(&with(|d| d.stimulus.object_deg = 0.1), &g).0,
             "stimulus.object_deg"
         );
-        // More than the scene's triangle limit: 32×32 faces.
+        // More than the scene's triangle limit: 31×33 faces (odd, so the
+        // seed's reference has a centre).
         let (field, msg) = refusal(
             &with(|d| {
-                d.stimulus.grid = (32, 32);
+                d.stimulus.grid = (31, 33);
                 d.stimulus.object_deg = 0.5;
             }),
             &g,
@@ -210,6 +216,11 @@ mod tests {
             let g = display(res, (f64::from(res.0) * 0.26, f64::from(res.1) * 0.26), eye_mm);
             let mut d = murphy();
             d.stimulus.grid = (rows, cols);
+            // The seed's reference needs a centre cell (odd sides) and a
+            // second cell; other grids are checked without one.
+            if rows % 2 == 0 || cols % 2 == 0 || rows * cols < 2 {
+                d.stimulus.reference = None;
+            }
             d.stimulus.object_deg = object_deg;
             d.stimulus.grid_deg = (object_deg + grid_extra).min(169.0);
             proptest::prop_assume!(d.validate().is_ok());

@@ -152,16 +152,17 @@ impl Runner<'_> {
                         detail: "first frame of the search display presented".into(),
                     });
                     if let Some(p) = &self.participant {
-                        let target = self
-                            .flow
-                            .trial()
-                            .map(|t| self.setup.layout.centre_px(t.target_cell));
-                        p.show(
-                            Phase::Search,
-                            present_us,
-                            &self.setup.layout.centres_px,
-                            target,
-                        );
+                        let trial = self.flow.trial();
+                        let target = trial.map(|t| self.setup.layout.centre_px(t.target_cell));
+                        // The reference is never a stop of the search.
+                        let objects = self
+                            .setup
+                            .layout
+                            .search_centres(trial.and_then(|t| t.reference_cell));
+                        let reference = trial
+                            .and_then(|t| t.reference_cell)
+                            .map(|c| self.setup.layout.centre_px(c));
+                        p.show(Phase::Search, present_us, &objects, target, reference);
                     }
                 }
             }

@@ -161,13 +161,14 @@ impl Participant {
     }
 
     /// A new screen is shown (since `since_us`, host µs): for a search,
-    /// `objects` (centres, px) and the target's centre.
+    /// `objects` (centres, px), the target's centre and the reference's.
     pub fn show(
         &self,
         phase: Phase,
         since_us: u64,
         objects: &[[f64; 2]],
         target: Option<[f64; 2]>,
+        reference: Option<[f64; 2]>,
     ) {
         if let Ok(mut s) = self.seen.lock() {
             s.epoch += 1;
@@ -176,6 +177,7 @@ impl Participant {
             s.target_px = None;
             s.objects = objects.to_vec();
             s.target_object = target;
+            s.reference = reference;
             s.fidelity = None;
         }
     }

@@ -235,7 +235,8 @@ impl SessionDir {
         .filter(|(_, added)| !added.is_empty())
         .map(|(file, added)| {
             format!(
-                "{file}: written before its column {} existed; added, n/a in the rows of the earlier sittings",
+                "{file}: written before its column{} {} existed; added, n/a in the rows of the earlier sittings",
+                if added.len() == 1 { "" } else { "s" },
                 added.join(", ")
             )
         })

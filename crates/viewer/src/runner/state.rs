@@ -258,14 +258,21 @@ impl Runner<'_> {
         }
         if let Some(p) = &self.participant {
             let (objects, target) = match (&self.trial, self.flow.trial()) {
+                // The reference cell holds the target mesh but is not
+                // the target to find: never a stop of the search.
                 (Some(_), Some(t)) => (
-                    self.setup.layout.centres_px.clone(),
+                    self.setup.layout.search_centres(t.reference_cell),
                     Some(self.setup.layout.centre_px(t.target_cell)),
                 ),
                 _ => (Vec::new(), None),
             };
             // The screen's set-up (the trial's scenes) took time: it starts now.
-            p.show(phase, self.now(), &objects, target);
+            let reference = self
+                .flow
+                .trial()
+                .and_then(|t| t.reference_cell)
+                .map(|c| self.setup.layout.centre_px(c));
+            p.show(phase, self.now(), &objects, target, reference);
         }
     }
 

@@ -1,6 +1,7 @@
 //! One trial on the screen: its scenes (search display and target
 //! preview), the search display's renderer with the condition's method,
-//! the response times, and what is written when it ends; and the plain
+//! the full-resolution reference drawn over its frames, the response
+//! times and costs, and what is written when it ends; and the plain
 //! screens (text, calibration targets).
 
 use std::path::Path;
@@ -58,7 +59,7 @@ pub struct TrialState {
     last: Option<Frame>,
     /// The gaze the last search frame was rendered for, its rays and
     /// render time (shown again within `tolerance`).
-    last_render: Option<([f64; 2], u64, f64)>,
+    last_render: Option<([f64; 2], u64, f64, Option<u64>)>,
     /// `Setup::gaze_tolerance_deg` with the display, to measure it.
     tolerance: Option<(f64, foveation::ScreenGeometry)>,
     /// Search frames shown again (gaze within the tolerance).
@@ -72,6 +73,17 @@ pub struct TrialState {
     frames: u64,
     late: u64,
     rays: u64,
+    /// The design's full-resolution reference (`ReferenceDetail::Full`),
+    /// drawn over every search frame; `None` without one.
+    reference: Option<ReferencePixels>,
+    /// The last search frame's render time (ms) and triangles drawn,
+    /// until it is presented.
+    pending: Option<(f64, Option<u64>)>,
+    /// Render time (ms) of each presented search frame.
+    render_ms: Vec<f64>,
+    /// Triangles drawn over the presented search frames (methods that
+    /// draw triangles).
+    triangles: Option<u64>,
     /// The gaze samples (times, px or invalid) from the preview on.
     samples: Vec<TimedGaze>,
 }
@@ -98,6 +110,72 @@ fn full_resolution(scene: &Scene, setup: &Setup) -> Result<(Frame, String), Stri
     Ok((frame, full.provenance()))
 }
 
+/// The full-resolution reference's pixels: where its frame hit the mesh,
+/// with their colours.
+struct ReferencePixels {
+    width_px: u32,
+    height_px: u32,
+    /// Pixel indices (row-major) where the reference frame hit its mesh.
+    pixels: Vec<usize>,
+    /// Their colours (sRGB bytes).
+    rgb: Vec<[u8; 3]>,
+}
+
+impl ReferencePixels {
+    /// The pixels of `frame` (the reference mesh alone, at full
+    /// resolution) that hit the mesh: its object-id buffer where the frame
+    /// has one, its hit buffer otherwise (the scene has one object).
+    fn of(frame: &Frame) -> Self {
+        let n = frame.width_px as usize * frame.height_px as usize;
+        let on = |i: usize| match frame.object.get(i) {
+            Some(&o) => o == 0,
+            None => frame.hit.get(i).copied().unwrap_or(false),
+        };
+        let pixels: Vec<usize> = (0..n).filter(|&i| on(i)).collect();
+        let rgb = pixels
+            .iter()
+            .map(|&i| {
+                let c = frame.rgb.get(3 * i..3 * i + 3).unwrap_or(&[0, 0, 0]);
+                [c[0], c[1], c[2]]
+            })
+            .collect();
+        Self {
+            width_px: frame.width_px,
+            height_px: frame.height_px,
+            pixels,
+            rgb,
+        }
+    }
+
+    /// Draws the reference over `frame` (the condition's, after its
+    /// passes).
+    fn draw(&self, frame: &mut Frame) -> Result<(), String> {
+        if (frame.width_px, frame.height_px) != (self.width_px, self.height_px)
+            || frame.rgb.len() < 3 * self.width_px as usize * self.height_px as usize
+        {
+            return Err(format!(
+                "the search frame is {}×{} px, the reference's {}×{}",
+                frame.width_px, frame.height_px, self.width_px, self.height_px
+            ));
+        }
+        for (&i, c) in self.pixels.iter().zip(&self.rgb) {
+            frame.rgb[3 * i..3 * i + 3].copy_from_slice(c);
+        }
+        Ok(())
+    }
+}
+
+/// Triangles the renderer's method drew in its last frame: the
+/// model-based methods' and ULOD's; `None` for the ray-cast methods.
+fn triangles_drawn(r: &Renderer<'_>) -> Option<u64> {
+    r.model_based()
+        .map(|m| m.last().triangles_drawn as u64)
+        .or_else(|| {
+            r.ulod()
+                .map(|u| (u.last().triangles_opaque + u.last().triangles_blended) as u64)
+        })
+}
+
 fn build(file: &raycast::SceneFile) -> Result<Scene, String> {
     Scene::build(file, Path::new(".")).map_err(|e| format!("stimulus scene {}: {e}", file.name))
 }
@@ -108,12 +186,28 @@ impl TrialState {
         let design = &setup.design;
         let condition = &design.conditions[trial.condition];
         let camera = Camera::new(&setup.geometry);
-        let preview = build(&stimulus::preview_scene(design, trial, &setup.layout))?;
+        let preview_file = stimulus::preview_scene(design, trial, &setup.layout);
+        let preview = build(&preview_file)?;
         let (frame, preview_plan) = full_resolution(&preview, setup)?;
-        let search_model = pipeline::sampling_model(setup.geometry, design.contrast)
-            .map_err(|e| format!("contrast: {e}"))?
-            .with_inset_deg(condition.inset_deg.unwrap_or(0.0))
-            .map_err(|e| format!("conditions[{}].inset_deg: {e}", trial.condition))?;
+        // The full-resolution reference: at the centre it is the preview
+        // (same mesh, same place), whose frame is reused.
+        let reference = match stimulus::reference_scene(design, trial, &setup.layout) {
+            None => None,
+            Some(file) if file.objects == preview_file.objects => Some(ReferencePixels::of(&frame)),
+            Some(file) => {
+                let (f, _) = full_resolution(&build(&file)?, setup)?;
+                Some(ReferencePixels::of(&f))
+            }
+        };
+        // The condition's contrast, or the design's.
+        let search_model =
+            pipeline::sampling_model(setup.geometry, condition.contrast_or(design.contrast))
+                .map_err(|e| match condition.contrast {
+                    Some(_) => format!("conditions[{}].contrast: {e}", trial.condition),
+                    None => format!("contrast: {e}"),
+                })?
+                .with_inset_deg(condition.inset_deg.unwrap_or(0.0))
+                .map_err(|e| format!("conditions[{}].inset_deg: {e}", trial.condition))?;
         let scene = build(&stimulus::search_scene(design, trial, &setup.layout))?;
         let options = Options {
             method: condition_method(&condition.method)
@@ -121,6 +215,14 @@ impl TrialState {
             backend: setup.backend,
             // Fixations re-cast only what the cache lacks (same frames).
             reuse: true,
+            // Luebke & Hallen's best-effort mode (simplify), when the
+            // condition gives a budget.
+            model_based: pipeline::model_based::ModelBasedOptions {
+                budget: condition
+                    .triangle_budget
+                    .map(|b| usize::try_from(b).unwrap_or(usize::MAX)),
+                ..Default::default()
+            },
             ..Options::default()
         };
         let search = SearchScene::try_new(scene, |s| {
@@ -133,7 +235,9 @@ impl TrialState {
                 full_rgb: full_resolution(search.borrow_owner(), setup)?.0.rgb,
                 block_px: m.block_px(setup.geometry.local_ppd(setup.geometry.centre_px())),
                 radius_px: setup.layout.radius_px,
-                centres_px: setup.layout.centres_px.clone(),
+                // Aligned with the participant's objects: the reference
+                // is not one.
+                centres_px: setup.layout.search_centres(trial.reference_cell),
                 size: (setup.geometry.width_px, setup.geometry.height_px),
                 fresh: None,
             }),
@@ -156,12 +260,17 @@ impl TrialState {
             frames: 0,
             late: 0,
             rays: 0,
+            reference,
+            pending: None,
+            render_ms: Vec::new(),
+            triangles: None,
             samples: Vec::new(),
         })
     }
 
-    /// The search frame shown's gaze and each cell's visible fidelity in
-    /// it (row-major), for an observer model.
+    /// The search frame shown's gaze and each search cell's visible
+    /// fidelity in it (row-major, the reference left out), for an
+    /// observer model.
     pub fn fidelity(&self) -> Option<([f64; 2], Vec<f64>)> {
         self.observer.as_ref().and_then(|o| o.fresh.clone())
     }
@@ -195,35 +304,44 @@ impl TrialState {
         })
     }
 
-    /// Renders the search display for `gaze`: (rays, render ms). Within
-    /// the gaze tolerance of the last rendered frame's gaze, that frame is
-    /// shown again with its rays and render time (the cost of the picture
-    /// shown).
+    /// Renders the search display for `gaze`, with the full-resolution
+    /// reference drawn over the condition's frame: (rays, render ms).
+    /// Within the gaze tolerance of the last rendered frame's gaze, that
+    /// frame is shown again with its rays, render time and triangles (the
+    /// cost of the picture shown).
     pub fn render_search(&mut self, gaze: [f64; 2]) -> Result<(u64, f64), String> {
-        if let (Some((g, rays, ms)), Some((tol, geometry)), Some(_)) =
+        if let (Some((g, rays, ms, triangles)), Some((tol, geometry)), Some(_)) =
             (self.last_render, self.tolerance, &self.last)
         {
             if geometry.eccentricity_deg(g, gaze) <= tol {
                 self.kept_frames += 1;
+                self.pending = Some((ms, triangles));
                 return Ok((rays, ms));
             }
         }
         let old = self.last.take();
-        let (frame, stats, plan) = self
+        let (mut frame, stats, plan, triangles) = self
             .search
             .with_dependent_mut(|_, r| {
                 if let Some(f) = old {
                     r.recycle(f);
                 }
-                r.render(gaze).map(|(f, s)| (f, s, r.provenance()))
+                r.render(gaze)
+                    .map(|(f, s)| (f, s, r.provenance(), triangles_drawn(r)))
             })
             .map_err(|e| e.to_string())?;
+        let started = std::time::Instant::now();
+        if let Some(reference) = &self.reference {
+            reference.draw(&mut frame)?;
+        }
+        let ms = stats.time_ms + started.elapsed().as_secs_f64() * 1e3;
+        self.pending = Some((ms, triangles));
         self.last = Some(frame);
         if !self.search_plans.contains(&plan) {
             self.search_plans.push(plan.clone());
         }
         self.last_plan = Some(plan);
-        self.last_render = Some((gaze, stats.rays_total, stats.time_ms));
+        self.last_render = Some((gaze, stats.rays_total, ms, triangles));
         if let (Some(o), Some(f)) = (&mut self.observer, &self.last) {
             let q = cell_fidelity(
                 &f.rgb,
@@ -235,7 +353,7 @@ impl TrialState {
             );
             o.fresh = Some((gaze, q));
         }
-        Ok((stats.rays_total, stats.time_ms))
+        Ok((stats.rays_total, ms))
     }
 
     /// What drew the picture of `phase` ([`TrialState::rgb`]): the search
@@ -297,6 +415,12 @@ impl TrialState {
         self.frames += 1;
         self.late += u64::from(late);
         self.rays += rays;
+        if let Some((ms, triangles)) = self.pending.take() {
+            self.render_ms.push(ms);
+            if let Some(t) = triangles {
+                *self.triangles.get_or_insert(0) += t;
+            }
+        }
         if self.onset_us.is_none() {
             self.onset_us = Some(present_us);
             return true;
@@ -356,6 +480,8 @@ impl TrialState {
             frames: self.frames,
             frames_late: self.late,
             rays: self.rays,
+            triangles: self.triangles,
+            render_ms: self.render_ms.clone(),
             plan: self.search_plan(),
         };
         let row = trial_row(

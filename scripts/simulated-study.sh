@@ -21,7 +21,7 @@ if [ $# -lt 2 ]; then
 fi
 out=$1
 n=$2
-design=${3:-config/experiments/murphy2007-search.ron}
+design=${3:-config/experiments/inset-study.ron}
 display=${4:-config/displays/tobii-et1750-17in.ron}
 model=${5:-config/participants/search-observer.ron}
 case $n in '' | *[!0-9]*) echo "N must be a whole number, not $n" >&2; exit 2 ;; esac

@@ -333,6 +333,11 @@ fn binocular_session(tmp: &Path) -> Made {
                             mean_rays: 1.0e5,
                             synthetic: false,
                             plan: Some("hybrid on cpu; passes: none".into()),
+                            reference_row: Some(2),
+                            reference_col: Some(2),
+                            mean_triangles: None,
+                            mean_render_ms: Some(12.5),
+                            p95_render_ms: Some(21.0),
                         })
                         .unwrap();
                 }

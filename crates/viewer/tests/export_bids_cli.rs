@@ -108,6 +108,11 @@ fn session(root: &Path, design: &str) -> PathBuf {
             mean_rays: 1.0,
             synthetic: false,
             plan: None,
+            reference_row: None,
+            reference_col: None,
+            mean_triangles: None,
+            mean_render_ms: None,
+            p95_render_ms: None,
         })
         .expect("trial");
     dir

@@ -212,7 +212,11 @@ impl Screen {
         config.format = format;
         config.usage = wgpu::TextureUsages::COPY_DST;
         config.present_mode = wgpu::PresentMode::Fifo;
+        let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
         surface.configure(&device, &config);
+        if let Some(e) = pollster::block_on(scope.pop()) {
+            return Err(format!("the window surface cannot be configured: {e}"));
+        }
         Ok(Self {
             window,
             surface,
@@ -233,7 +237,14 @@ impl Screen {
             wgpu::CurrentSurfaceTexture::Success(t)
             | wgpu::CurrentSurfaceTexture::Suboptimal(t) => Some(t),
             wgpu::CurrentSurfaceTexture::Outdated | wgpu::CurrentSurfaceTexture::Lost => {
+                // A surface whose window system went away cannot be
+                // configured again: wgpu reports that as a validation
+                // error, which would panic outside a scope. The frame is
+                // skipped; a lost X server ends the process through its
+                // own handler, which closes the recordings first.
+                let scope = self.device.push_error_scope(wgpu::ErrorFilter::Validation);
                 self.surface.configure(&self.device, &self.config);
+                let _ = pollster::block_on(scope.pop());
                 None
             }
             _ => None,

@@ -58,11 +58,6 @@ impl VirtualMouse {
         self.emulator.cursor(event);
     }
 
-    /// The time of the next tick (virtual µs).
-    pub fn next_tick_us(&self) -> u64 {
-        self.next_tick_us
-    }
-
     /// Runs every tick at or before `now_us`, appending each sample to
     /// `out` (raw = the screen point, the mouse's tracker units; `gaze_px`
     /// the same when it is finite).
@@ -103,11 +98,6 @@ impl VirtualMouse {
                 });
             }
         }
-    }
-
-    /// The decoder's counts (records, resynchronisations).
-    pub fn stats(&self) -> crate::DecodeStats {
-        self.decoder.stats()
     }
 
     /// The counts a supervised device's session log shows: samples,
@@ -205,7 +195,7 @@ mod tests {
                 TimeOrder::Increasing
             ]
         );
-        assert_eq!(m.stats().records, 3);
+        assert_eq!(m.faults().decode.records, 3);
         assert_eq!(m.faults().samples, 3);
     }
 }

@@ -1157,26 +1157,16 @@ fn a_headless_session_runs_on_a_virtual_clock_and_repeats_exactly() {
         ],
     );
     assert!(!o.status.success(), "a missing model path is refused");
-    let mut c = common::gazecast();
-    c.args([
-        "experiment",
-        "run",
-        "tests/data/experiment/design-small.ron",
-        "--participant",
-        "P01",
-        "--tracker",
-        "tests/data/mouse-participant.ron",
-        "--display",
-        "tests/data/experiment/display-small.ron",
-        "--headless",
-        "--simulate-participant",
-        "4",
-        "--participant-model",
-    ])
-    .arg(&bad)
-    .arg("--out")
-    .arg(tmp.path().join("bad"));
-    let o = c.output().expect("runs");
+    let o = run(
+        &tmp.path().join("bad"),
+        &[
+            "--headless",
+            "--simulate-participant",
+            "4",
+            "--participant-model",
+            bad.to_str().expect("a UTF-8 temporary path"),
+        ],
+    );
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(
         !o.status.success() && err.contains("lapse") && err.contains("bad-observer.ron:"),

@@ -145,12 +145,6 @@ impl Behaviour {
         self
     }
 
-    /// Whether the behaviour looks at the rendering (the runner then
-    /// computes each search frame's fidelity for it).
-    pub fn sees_rendering(&self) -> bool {
-        self.observer.is_some()
-    }
-
     /// Looks at `p` from `t_us` on, unless it already does.
     fn look(&mut self, p: [f64; 2], t_us: u64, out: &mut Response) {
         if self.looking != Some(p) {

@@ -994,13 +994,13 @@ pub fn export_bids_with(
             }
             // Trials → events.tsv.
             let mut ev = String::from(
-                "onset\tduration\ttrial_type\ttrial\trun\tmethod\tinset_deg\tsilhouette_edges\ttarget_row\ttarget_col\tresponse_time\tcorrect\tplan\n",
+                "onset\tduration\ttrial_type\ttrial\trun\tmethod\tinset_deg\tsilhouette_edges\ttarget_row\ttarget_col\tresponse_time\tcorrect\tplan\tpractice\n",
             );
             for t in &run_trials {
                 let onset = (t.search_onset_us as f64 - t0 as f64) / 1e6;
                 let duration = t.response_us.saturating_sub(t.search_onset_us) as f64 / 1e6;
                 ev.push_str(&format!(
-                    "{onset:.6}\t{duration:.6}\t{}\t{}\t{}\t{}\t{}\t{}\t{}\t{}\t{}\t{}\t{}\n",
+                    "{onset:.6}\t{duration:.6}\t{}\t{}\t{}\t{}\t{}\t{}\t{}\t{}\t{}\t{}\t{}\t{}\n",
                     field(&t.condition),
                     t.trial,
                     t.run,
@@ -1020,6 +1020,7 @@ pub fn export_bids_with(
                         None => "n/a",
                     },
                     t.plan.as_deref().map_or("n/a".into(), field),
+                    if t.practice { 1 } else { 0 },
                 ));
             }
             let events_path = beh.join(format!("{stem}_events.tsv"));
@@ -1056,6 +1057,7 @@ pub fn export_bids_with(
                 "response_time": {"Description": "Search time as recorded by the runner.", "Units": "s"},
                 "correct": {"Description": "Whether the clicked cell was the target.", "Levels": {"1": "correct", "0": "incorrect", "n/a": "no click recorded"}},
                 "plan": {"Description": "What rendered the search display: gazecast's provenance line of the trial's renderer (trials.tsv plan): the method that ran, the backend, and the passes in order with where each ran, e.g. \"image on gpu; passes: image-based foveation (gpu)\" or \"hybrid on cpu; passes: none\" (sessions recorded before gazecast gave each method one name say \"image-based\" and \"foveated\" for image and hybrid). Plans that changed during the search are joined by \" | \". n/a for a session recorded before gazecast wrote it."},
+                "practice": {"Description": "Whether the trial was a practice trial (the design's practice block before the first run: shown like any trial, never analysed).", "Levels": {"1": "practice trial", "0": "experimental trial"}},
             });
             if let Some(obj) = events_json.as_object_mut() {
                 task_fields(obj, task, info, dataset);

@@ -73,6 +73,11 @@ pub struct Design {
     /// Optional single-point drift checks between trials.
     #[serde(default)]
     pub drift_check: Option<DriftCheck>,
+    /// Optional practice trials before the first run (Murphy 2007 §7.1.5's
+    /// demonstration program): shown like any trial, recorded in every file
+    /// marked as practice, and never analysed.
+    #[serde(default)]
+    pub practice: Option<Practice>,
     /// Optional dataset metadata for the BIDS export (authors, licence,
     /// instructions, institution); `experiment export-bids` flags
     /// override it field by field.
@@ -491,6 +496,33 @@ pub struct DriftCheck {
     pub threshold_deg: f64,
 }
 
+/// Practice trials (Murphy 2007 §7.1.5: a demonstration program that
+/// "functioned in exactly the same manner as the experimental program,
+/// with only the control group being displayed", where "time was not a
+/// factor"). They come before the first run, after the session's first
+/// calibration; a screen then says that practice is over (the seed's
+/// pause for questions) before the first experimental trial.
+///
+/// A practice trial is planned like an experimental one (a target, a
+/// reference, distractors) from a seed of its own, so adding or removing
+/// practice leaves every experimental trial's stimulus unchanged. Its rows
+/// are marked in every file (`trials.tsv` and `events.tsv`: `practice`;
+/// samples, frames and markers: the phases `practice-preview`,
+/// `practice-search`, `practice-confirm`; the BIDS events: `practice`)
+/// and the analysis leaves them out.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Practice {
+    /// How many practice trials: 1 to [`MAX_PRACTICE_TRIALS`].
+    pub trials: u32,
+    /// The condition every practice trial shows, by name (the seed showed
+    /// only its control, the full-resolution scene).
+    pub condition: String,
+}
+
+/// Most practice trials a design may ask for.
+pub const MAX_PRACTICE_TRIALS: u32 = 1000;
+
 /// Why a design file was rejected.
 #[derive(Debug, thiserror::Error)]
 pub enum DesignError {
@@ -579,7 +611,19 @@ impl Design {
         self.conditions.len()
     }
 
-    /// Trials per participant.
+    /// Practice trials before the first run (0 without `practice`).
+    pub fn practice_trials(&self) -> usize {
+        self.practice.as_ref().map_or(0, |p| p.trials as usize)
+    }
+
+    /// Index into `conditions` of the practice trials' condition (`None`
+    /// without practice or when the name is not a condition's).
+    pub fn practice_condition(&self) -> Option<usize> {
+        let p = self.practice.as_ref()?;
+        self.conditions.iter().position(|c| c.name == p.condition)
+    }
+
+    /// Trials per participant, practice not included.
     pub fn total_trials(&self) -> usize {
         self.conditions.len().saturating_mul(self.runs as usize)
     }
@@ -712,6 +756,31 @@ impl Design {
                 ));
             }
             positive_finite(d.threshold_deg, "drift_check.threshold_deg")?;
+        }
+        if let Some(p) = &self.practice {
+            if p.trials == 0 || p.trials > MAX_PRACTICE_TRIALS {
+                return Err(DesignError::invalid(
+                    "practice.trials",
+                    format!(
+                        "must be between 1 and {MAX_PRACTICE_TRIALS} (leave `practice` out for none), got {}",
+                        p.trials
+                    ),
+                ));
+            }
+            if self.practice_condition().is_none() {
+                return Err(DesignError::invalid(
+                    "practice.condition",
+                    format!(
+                        "{:?} is not a condition of this design ({})",
+                        p.condition,
+                        self.conditions
+                            .iter()
+                            .map(|c| c.name.as_str())
+                            .collect::<Vec<_>>()
+                            .join(", ")
+                    ),
+                ));
+            }
         }
         if let Some(b) = &self.bids {
             b.validate().map_err(|(field, message)| {

@@ -9,8 +9,11 @@
 //! With a reference (`stimulus.reference`, the seed's: the target mesh at
 //! the centre, Murphy 2007 §7.1.4), the reference cell holds the target
 //! mesh too and the target's cell is drawn among the other cells, never
-//! the reference's. The same inputs always give the same plan, on every
-//! platform.
+//! the reference's. Practice trials (`Design::practice`) come first, with
+//! indices `0..practice`; the experimental trials follow and draw their
+//! stimuli from their place among the experimental trials, so practice
+//! changes none of them. The same inputs always give the same plan, on
+//! every platform.
 
 use crate::counterbalance::{latin_square, williams};
 use crate::design::{Counterbalancing, Design, DesignError, RunOrder};
@@ -33,6 +36,10 @@ pub enum Step {
     /// Single-point drift check; above `drift_check.threshold_deg` the
     /// runner recalibrates.
     DriftCheck,
+    /// The practice trials are over: a screen says so (the seed's pause
+    /// for questions, Murphy 2007 §7.1.5) before the first experimental
+    /// trial.
+    PracticeOver,
 }
 
 /// One trial of a participant's session.
@@ -48,7 +55,10 @@ pub struct Trial {
     pub condition: usize,
     /// `Design::conditions[condition].name`, for logs.
     pub condition_name: String,
-    /// Stimulus seed: [`trial_seed`]`(stimulus.seed, participant, index)`.
+    /// Stimulus seed: [`trial_seed`]`(stimulus.seed, participant, i)` with
+    /// `i` the trial's place among the experimental trials (`index` minus
+    /// the practice trials); a practice trial's comes from a stream of its
+    /// own (see [`plan`]).
     pub seed: u64,
     /// Target cell (row, column) in the search grid, drawn from `seed`
     /// uniformly among the cells other than the reference's (among all
@@ -70,6 +80,11 @@ pub struct Trial {
     pub cells: Vec<u32>,
     /// Steps to run before this trial, in order.
     pub before: Vec<Step>,
+    /// A practice trial (`Design::practice`): before the first run, marked
+    /// in every file, never analysed. Its `run` is 0 and its
+    /// `trial_in_run` its place among the practice trials.
+    #[serde(default)]
+    pub practice: bool,
 }
 
 /// The counterbalancing rows the design uses.
@@ -87,58 +102,44 @@ pub fn plan(design: &Design, participant: usize) -> Result<Vec<Trial>, DesignErr
     let rows = orders(design);
     let per_run = design.trials_per_run();
     let total = design.total_trials();
-    let (grid_rows, grid_cols) = design.stimulus.grid;
-    let cells = u64::from(grid_rows) * u64::from(grid_cols);
+    let practice = design.practice_trials();
     let midpoint = total / 2;
-    let meshes = design.stimulus.meshes;
-    let pool = target_pool(design.stimulus.seed, participant as u64, meshes, total);
-    let reference_cell = design.stimulus.reference_cell();
-    let reference = reference_cell.map(|(r, c)| u64::from(r) * u64::from(grid_cols) + u64::from(c));
-    let mut trials = Vec::with_capacity(total);
+    let base = design.stimulus.seed;
+    let who = participant as u64;
+    let pool = target_pool(base, who, design.stimulus.meshes, total);
+    let mut trials = Vec::with_capacity(practice + total);
+    if let Some(condition) = design.practice_condition() {
+        let pool = pool_from(
+            trial_seed(base, who, PRACTICE_POOL),
+            design.stimulus.meshes,
+            practice,
+        );
+        for (k, &mesh) in pool.iter().enumerate() {
+            let seed = trial_seed(base, who, PRACTICE_POOL - 1 - k as u64);
+            let mut before = Vec::new();
+            if k == 0 && design.calibration.at_start {
+                before.extend([Step::Calibration, Step::Validation]);
+            }
+            trials.push(draw_trial(
+                design, seed, mesh, condition, before, k, 0, k, true,
+            ));
+        }
+    }
     for run in 0..design.runs as usize {
         let row = match design.run_order {
             RunOrder::Repeat => participant % rows.len(),
             RunOrder::Rotate => (participant % rows.len() + run) % rows.len(),
         };
         for (trial_in_run, &condition) in rows[row].iter().enumerate() {
-            let index = run * per_run + trial_in_run;
-            let seed = trial_seed(design.stimulus.seed, participant as u64, index as u64);
-            let mut rng = SplitMix64(seed);
-            // Uniform over the cells other than the reference's (validation
-            // keeps at least one), or over every cell without one.
-            let cell = match reference {
-                Some(k) => {
-                    let x = rng.below(cells - 1);
-                    if x >= k {
-                        x + 1
-                    } else {
-                        x
-                    }
-                }
-                None => rng.below(cells),
-            };
-            let target_cell = (
-                (cell / u64::from(grid_cols)) as u32,
-                (cell % u64::from(grid_cols)) as u32,
-            );
-            let target_mesh = pool[index];
-            let layout: Vec<u32> = (0..cells)
-                .map(|c| {
-                    if c == cell || Some(c) == reference {
-                        target_mesh
-                    } else {
-                        // One of the meshes - 1 others, uniformly.
-                        let k = rng.below(u64::from(meshes - 1)) as u32;
-                        if k >= target_mesh {
-                            k + 1
-                        } else {
-                            k
-                        }
-                    }
-                })
-                .collect();
+            // The place among the experimental trials: what the stimulus
+            // and the schedule follow, practice or not.
+            let i = run * per_run + trial_in_run;
+            let seed = trial_seed(base, who, i as u64);
             let mut before = Vec::new();
-            if index > 0 && trial_in_run == 0 && design.breaks.between_runs {
+            if i == 0 && practice > 0 {
+                before.push(Step::PracticeOver);
+            }
+            if i > 0 && trial_in_run == 0 && design.breaks.between_runs {
                 before.push(Step::RunBreak);
             }
             if let Some(k) = design.breaks.break_after_trials {
@@ -146,37 +147,109 @@ pub fn plan(design: &Design, participant: usize) -> Result<Vec<Trial>, DesignErr
                     before.push(Step::Break);
                 }
             }
-            if index == 0 && design.calibration.at_start {
+            if i == 0 && practice == 0 && design.calibration.at_start {
                 before.push(Step::Calibration);
                 before.push(Step::Validation);
             }
-            if index == midpoint && index > 0 && design.calibration.validate_at_midpoint {
+            if i == midpoint && i > 0 && design.calibration.validate_at_midpoint {
                 before.push(Step::MidpointValidation);
             }
             if let Some(d) = &design.drift_check {
                 let validating = before
                     .iter()
                     .any(|s| matches!(s, Step::Validation | Step::MidpointValidation));
-                if index > 0 && index.is_multiple_of(d.every_trials as usize) && !validating {
+                if i > 0 && i.is_multiple_of(d.every_trials as usize) && !validating {
                     before.push(Step::DriftCheck);
                 }
             }
-            trials.push(Trial {
-                index,
+            trials.push(draw_trial(
+                design,
+                seed,
+                pool[i],
+                condition,
+                before,
+                practice + i,
                 run,
                 trial_in_run,
-                condition,
-                condition_name: design.conditions[condition].name.clone(),
-                seed,
-                target_cell,
-                reference_cell,
-                target_mesh,
-                cells: layout,
-                before,
-            });
+                false,
+            ));
         }
     }
     Ok(trials)
+}
+
+/// The `trial` argument of [`trial_seed`] that seeds the practice trials'
+/// target pool; practice trial k's stimulus seed uses `PRACTICE_POOL − 1 − k`
+/// (far above any experimental trial's index, and below the experimental
+/// pool's `u64::MAX`).
+const PRACTICE_POOL: u64 = u64::MAX - 1;
+
+/// One trial's stimulus drawn from its `seed`: the target's cell (uniform
+/// over the cells other than the reference's, or over every cell without
+/// one) and every other cell's distractor mesh.
+#[allow(clippy::too_many_arguments)]
+fn draw_trial(
+    design: &Design,
+    seed: u64,
+    target_mesh: u32,
+    condition: usize,
+    before: Vec<Step>,
+    index: usize,
+    run: usize,
+    trial_in_run: usize,
+    practice: bool,
+) -> Trial {
+    let (grid_rows, grid_cols) = design.stimulus.grid;
+    let cells = u64::from(grid_rows) * u64::from(grid_cols);
+    let meshes = design.stimulus.meshes;
+    let reference_cell = design.stimulus.reference_cell();
+    let reference = reference_cell.map(|(r, c)| u64::from(r) * u64::from(grid_cols) + u64::from(c));
+    let mut rng = SplitMix64(seed);
+    // Validation keeps at least one cell besides the reference's.
+    let cell = match reference {
+        Some(k) => {
+            let x = rng.below(cells - 1);
+            if x >= k {
+                x + 1
+            } else {
+                x
+            }
+        }
+        None => rng.below(cells),
+    };
+    let target_cell = (
+        (cell / u64::from(grid_cols)) as u32,
+        (cell % u64::from(grid_cols)) as u32,
+    );
+    let layout: Vec<u32> = (0..cells)
+        .map(|c| {
+            if c == cell || Some(c) == reference {
+                target_mesh
+            } else {
+                // One of the meshes - 1 others, uniformly.
+                let k = rng.below(u64::from(meshes - 1)) as u32;
+                if k >= target_mesh {
+                    k + 1
+                } else {
+                    k
+                }
+            }
+        })
+        .collect();
+    Trial {
+        index,
+        run,
+        trial_in_run,
+        condition,
+        condition_name: design.conditions[condition].name.clone(),
+        seed,
+        target_cell,
+        reference_cell,
+        target_mesh,
+        cells: layout,
+        before,
+        practice,
+    }
 }
 
 /// The participant's target pool: `total` entries in which each of the
@@ -185,9 +258,14 @@ pub fn plan(design: &Design, participant: usize) -> Result<Vec<Trial>, DesignErr
 /// seeded from the design seed and the participant alone, so the pool
 /// does not depend on the order of conditions.
 pub fn target_pool(base: u64, participant: u64, meshes: u32, total: usize) -> Vec<u32> {
+    pool_from(trial_seed(base, participant, u64::MAX), meshes, total)
+}
+
+/// A balanced pool of `total` target meshes shuffled from `seed`.
+fn pool_from(seed: u64, meshes: u32, total: usize) -> Vec<u32> {
     let meshes = meshes.max(1);
     let mut pool: Vec<u32> = (0..total).map(|i| (i % meshes as usize) as u32).collect();
-    let mut rng = SplitMix64(trial_seed(base, participant, u64::MAX));
+    let mut rng = SplitMix64(seed);
     for i in (1..pool.len()).rev() {
         let j = rng.below(i as u64 + 1) as usize;
         pool.swap(i, j);

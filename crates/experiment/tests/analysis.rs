@@ -149,6 +149,7 @@ fn make_session(dir: &Path, g: &Gen) -> Vec<TrialRow> {
             mean_triangles: None,
             mean_render_ms: None,
             p95_render_ms: None,
+            practice: false,
         };
         trials.write(&row).unwrap();
         if g.stimuli.contains(&t.index) {
@@ -179,6 +180,7 @@ fn make_session(dir: &Path, g: &Gen) -> Vec<TrialRow> {
                         y_px: y,
                         end_x_px: x,
                         end_y_px: y,
+                        practice: false,
                     })
                     .unwrap();
                 events
@@ -194,6 +196,7 @@ fn make_session(dir: &Path, g: &Gen) -> Vec<TrialRow> {
                         y_px: y,
                         end_x_px: x + 1.0,
                         end_y_px: y + 1.0,
+                        practice: false,
                     })
                     .unwrap();
                 at += dur + 40_000;
@@ -212,6 +215,7 @@ fn make_session(dir: &Path, g: &Gen) -> Vec<TrialRow> {
                     y_px: 10.0,
                     end_x_px: 10.0,
                     end_y_px: 10.0,
+                    practice: false,
                 })
                 .unwrap();
         }
@@ -799,6 +803,7 @@ fn a_design_without_the_factors_gets_the_per_condition_table_only() {
                 mean_triangles: None,
                 mean_render_ms: None,
                 p95_render_ms: None,
+                practice: false,
             })
             .unwrap();
         }
@@ -1290,4 +1295,41 @@ fn a_second_analyze_leaves_no_stale_outputs_and_keeps_other_files() {
     analyze(&dirs[..2], &out, &opts).unwrap();
     assert!(!sp.join("P01-trial-000.png").exists());
     assert!(sp.join("my-sketch.png").is_file());
+}
+
+/// Practice trials (`practice` true in trials.tsv) are read, counted and
+/// left out: every statistic equals the analysis of the same sessions
+/// without them, however slow the practice searches were.
+#[test]
+fn practice_trials_are_counted_and_never_analysed() {
+    let tmp = tempfile::tempdir().unwrap();
+    let (dirs, rows) = three_sessions(tmp.path());
+    let before = analyze(&dirs, &tmp.path().join("o1"), &AnalyzeOptions::default()).unwrap();
+    for (d, r) in dirs.iter().zip(&rows) {
+        let mut log = TsvLog::<TrialRow>::append_to(d.join(TRIALS_TSV)).unwrap();
+        for k in 0..3 {
+            log.write(&TrialRow {
+                trial: 1000 + k,
+                rt_s: 250.0 + k as f64,
+                practice: true,
+                ..r[0].clone()
+            })
+            .unwrap();
+        }
+    }
+    let after = analyze(&dirs, &tmp.path().join("o2"), &AnalyzeOptions::default()).unwrap();
+    assert_eq!(after.n_practice, 9);
+    assert_eq!(before.n_practice, 0);
+    assert_eq!(after.n_trials, before.n_trials);
+    assert_eq!(after.n_trials_read, before.n_trials_read);
+    assert_eq!(
+        serde_json::to_value(&after.conditions).unwrap(),
+        serde_json::to_value(&before.conditions).unwrap()
+    );
+    assert_eq!(
+        serde_json::to_value(&after.rm_anova).unwrap(),
+        serde_json::to_value(&before.rm_anova).unwrap()
+    );
+    let md = std::fs::read_to_string(tmp.path().join("o2/report.md")).unwrap();
+    assert!(md.contains("9 practice trials left out"), "{md}");
 }

@@ -121,6 +121,7 @@ fn make(root: &Path, participant: &str, synthetic: bool, n_samples: usize) -> Ma
             mean_triangles: None,
             mean_render_ms: None,
             p95_render_ms: None,
+            practice: false,
         })
         .collect();
     for t in &trials {

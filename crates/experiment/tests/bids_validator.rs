@@ -240,6 +240,7 @@ fn binocular_session(tmp: &Path) -> Made {
                         y_px: xy[1],
                         end_x_px: xy[2],
                         end_y_px: xy[3],
+                        practice: false,
                     };
                     events
                         .write(&row(
@@ -274,6 +275,7 @@ fn binocular_session(tmp: &Path) -> Made {
                             y_px: f64::NAN,
                             end_x_px: f64::NAN,
                             end_y_px: f64::NAN,
+                            practice: false,
                         })
                         .unwrap();
                 }
@@ -338,6 +340,7 @@ fn binocular_session(tmp: &Path) -> Made {
                             mean_triangles: None,
                             mean_render_ms: Some(12.5),
                             p95_render_ms: Some(21.0),
+                            practice: false,
                         })
                         .unwrap();
                 }

@@ -474,7 +474,13 @@ fn the_families_comparison_loads_and_plans() {
     assert_eq!(experiment::plan::orders(&d).len(), 10);
     for p in 0..10 {
         let trials = experiment::plan(&d, p).expect("plan");
-        assert_eq!(trials.len(), d.total_trials());
+        // Two practice trials on the control, then the runs.
+        assert_eq!(d.practice_trials(), 2);
+        assert_eq!(trials.len(), 2 + d.total_trials());
+        assert!(trials[..2]
+            .iter()
+            .all(|t| t.practice && t.condition_name == "control"));
+        let trials = &trials[2..];
         for run in trials.chunks(d.conditions.len()) {
             let mut c: Vec<usize> = run.iter().map(|t| t.condition).collect();
             c.sort();
@@ -484,4 +490,29 @@ fn the_families_comparison_loads_and_plans() {
             .iter()
             .all(|t| t.reference_cell == Some((2, 2)) && t.target_cell != (2, 2)));
     }
+}
+
+/// `practice` names its field when it asks for no trials, too many, or a
+/// condition the design does not have.
+#[test]
+fn bad_practice_names_the_field() {
+    let with = |practice: &str| {
+        murphy_text().replace("practice: None,", &format!("practice: Some({practice}),"))
+    };
+    let ok = Design::from_ron_str(&with("(trials: 4, condition: \"control\")")).expect("valid");
+    assert_eq!(ok.practice_trials(), 4);
+    assert_eq!(ok.practice_condition(), Some(0));
+    assert_eq!(ok.total_trials(), 44, "practice is not counted");
+    assert_eq!(
+        field_of(&with("(trials: 0, condition: \"control\")")),
+        "practice.trials"
+    );
+    assert_eq!(
+        field_of(&with("(trials: 1001, condition: \"control\")")),
+        "practice.trials"
+    );
+    assert_eq!(
+        field_of(&with("(trials: 2, condition: \"E99\")")),
+        "practice.condition"
+    );
 }

@@ -269,3 +269,72 @@ proptest::proptest! {
         proptest::prop_assert!(hi - lo <= 1, "{:?}", counts);
     }
 }
+
+/// Practice trials (Murphy 2007 §7.1.5's demonstration, `practice`): they
+/// come first, show the practice condition, carry the session's first
+/// calibration, and are marked; the experimental trials that follow keep
+/// exactly the stimuli, conditions and schedule they have without
+/// practice, shifted by the practice count, with the "practice over"
+/// screen before the first.
+#[test]
+fn practice_trials_come_first_and_leave_the_experiment_unchanged() {
+    let d = murphy();
+    let mut p = d.clone();
+    p.practice = Some(experiment::design::Practice {
+        trials: 5,
+        condition: "control".into(),
+    });
+    for participant in [0, 3, 17] {
+        let without = plan(&d, participant).expect("plan");
+        let with = plan(&p, participant).expect("plan with practice");
+        assert_eq!(with.len(), without.len() + 5);
+        for (k, t) in with[..5].iter().enumerate() {
+            assert!(t.practice);
+            assert_eq!((t.index, t.run, t.trial_in_run), (k, 0, k));
+            assert_eq!(t.condition_name, "control");
+            assert_eq!(t.reference_cell, Some((2, 2)));
+            assert_ne!(t.target_cell, (2, 2));
+            let calibration = if k == 0 {
+                vec![Step::Calibration, Step::Validation]
+            } else {
+                vec![]
+            };
+            assert_eq!(t.before, calibration, "practice trial {k}");
+            // Its seed is none of the experimental trials'.
+            assert!(without.iter().all(|e| e.seed != t.seed));
+        }
+        // Four meshes over five practice trials: every mesh is shown.
+        let shown: HashSet<u32> = with[..5].iter().map(|t| t.target_mesh).collect();
+        assert_eq!(shown.len(), 4);
+        for (a, b) in without.iter().zip(&with[5..]) {
+            assert!(!b.practice);
+            assert_eq!(b.index, a.index + 5);
+            let expected_before: Vec<Step> = if a.index == 0 {
+                vec![Step::PracticeOver]
+            } else {
+                a.before.clone()
+            };
+            assert_eq!(b.before, expected_before, "trial {}", a.index);
+            assert_eq!(
+                (
+                    a.run,
+                    a.trial_in_run,
+                    a.condition,
+                    a.seed,
+                    a.target_cell,
+                    a.target_mesh,
+                    &a.cells
+                ),
+                (
+                    b.run,
+                    b.trial_in_run,
+                    b.condition,
+                    b.seed,
+                    b.target_cell,
+                    b.target_mesh,
+                    &b.cells
+                )
+            );
+        }
+    }
+}

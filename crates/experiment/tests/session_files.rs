@@ -42,17 +42,19 @@ fn trial(i: usize) -> TrialRow {
         mean_triangles: None,
         mean_render_ms: Some(41.25),
         p95_render_ms: Some(55.5),
+        practice: false,
     }
 }
 
 /// The trials.tsv columns added after `plan`: the reference's cell and
 /// the search frames' costs.
-const AFTER_PLAN: [&str; 5] = [
+const AFTER_PLAN: [&str; 6] = [
     "reference_row",
     "reference_col",
     "mean_triangles",
     "mean_render_ms",
     "p95_render_ms",
+    "practice",
 ];
 
 /// `row` as read from a file written before the columns after `plan`.
@@ -63,6 +65,7 @@ fn without_costs(row: TrialRow) -> TrialRow {
         mean_triangles: None,
         mean_render_ms: None,
         p95_render_ms: None,
+        practice: false,
         ..row
     }
 }
@@ -90,7 +93,7 @@ fn header_lines_are_the_documented_ones() {
     type Writer = Box<dyn Fn(&Path)>;
     let cases: [(&str, Writer); 5] = [
         (
-            "participant\tsitting\trun\ttrial\ttrial_in_run\tcondition\tmethod\tinset_deg\tsilhouette_edges\ttarget_mesh\ttarget_row\ttarget_col\tsearch_onset_us\tresponse_us\trt_s\tclicked_row\tclicked_col\tcorrect\tframes\tframes_late\tmean_rays\tsynthetic\tplan\treference_row\treference_col\tmean_triangles\tmean_render_ms\tp95_render_ms",
+            "participant\tsitting\trun\ttrial\ttrial_in_run\tcondition\tmethod\tinset_deg\tsilhouette_edges\ttarget_mesh\ttarget_row\ttarget_col\tsearch_onset_us\tresponse_us\trt_s\tclicked_row\tclicked_col\tcorrect\tframes\tframes_late\tmean_rays\tsynthetic\tplan\treference_row\treference_col\tmean_triangles\tmean_render_ms\tp95_render_ms\tpractice",
             Box::new(|p| write_rows(p, &[trial(0)])),
         ),
         (
@@ -98,7 +101,7 @@ fn header_lines_are_the_documented_ones() {
             Box::new(|p| write_rows::<SampleRow>(p, &[])),
         ),
         (
-            "sitting\ttrial\tkind\tonset_us\tend_us\tonset_device_us\tend_device_us\tx_px\ty_px\tend_x_px\tend_y_px",
+            "sitting\ttrial\tkind\tonset_us\tend_us\tonset_device_us\tend_device_us\tx_px\ty_px\tend_x_px\tend_y_px\tpractice",
             Box::new(|p| write_rows::<EventRow>(p, &[])),
         ),
         (
@@ -177,6 +180,7 @@ fn columns_are_the_serde_field_names() {
         y_px: 0.0,
         end_x_px: 0.0,
         end_y_px: 0.0,
+        practice: false,
     };
     assert_eq!(serde_header(&e), cols::<EventRow>());
     let m = MarkerRow {
@@ -208,7 +212,7 @@ fn missing_values_are_written_n_a() {
     write_rows(&p, &[trial(0)]);
     let text = std::fs::read_to_string(&p).unwrap();
     let row: Vec<&str> = text.lines().nth(1).unwrap().split('\t').collect();
-    assert_eq!(row.len(), 28);
+    assert_eq!(row.len(), 29);
     assert_eq!(row[0], "P 01", "spaces kept, no quoting");
     assert_eq!(row[1], "1", "sitting");
     assert_eq!(row[7], "2.0");
@@ -219,8 +223,8 @@ fn missing_values_are_written_n_a() {
     assert_eq!(row[22], "foveated on cpu; passes: POR box (cpu)");
     assert_eq!(
         row[23..],
-        ["2", "2", "n/a", "41.25", "55.5"],
-        "reference, costs"
+        ["2", "2", "n/a", "41.25", "55.5", "false"],
+        "reference, costs, practice"
     );
     // An empty field reads as None too (hand-edited files).
     let edited = text.replace("\tn/a\t4\tn/a\t", "\t\t4\t\t");
@@ -315,6 +319,7 @@ fn trial_row() -> impl Strategy<Value = TrialRow> {
             proptest::option::of(any_f64()),
             proptest::option::of(any_f64()),
         ),
+        any::<bool>(),
     )
         .prop_map(
             |(
@@ -324,6 +329,7 @@ fn trial_row() -> impl Strategy<Value = TrialRow> {
                 (clicked_row, clicked_col, correct),
                 (frames, frames_late, mean_rays, synthetic, plan),
                 (reference_row, reference_col, mean_triangles, mean_render_ms, p95_render_ms),
+                practice,
             )| TrialRow {
                 participant,
                 sitting: (run % 7) as u32 + 1,
@@ -353,6 +359,7 @@ fn trial_row() -> impl Strategy<Value = TrialRow> {
                 mean_triangles,
                 mean_render_ms,
                 p95_render_ms,
+                practice,
             },
         )
 }
@@ -469,6 +476,7 @@ fn event_row() -> impl Strategy<Value = EventRow> {
         any_f64(),
         any_f64(),
         any_f64(),
+        any::<bool>(),
     )
         .prop_map(
             |(
@@ -479,6 +487,7 @@ fn event_row() -> impl Strategy<Value = EventRow> {
                 y_px,
                 end_x_px,
                 end_y_px,
+                practice,
             )| EventRow {
                 sitting: 1,
                 trial,
@@ -491,6 +500,7 @@ fn event_row() -> impl Strategy<Value = EventRow> {
                 y_px,
                 end_x_px,
                 end_y_px,
+                practice,
             },
         )
 }
@@ -505,6 +515,7 @@ fn event_same(a: &EventRow, b: &EventRow) -> bool {
         && same_f64(a.y_px, b.y_px)
         && same_f64(a.end_x_px, b.end_x_px)
         && same_f64(a.end_y_px, b.end_y_px)
+        && a.practice == b.practice
 }
 
 fn marker_row() -> impl Strategy<Value = MarkerRow> {
@@ -780,7 +791,7 @@ fn trial_files_without_the_reference_and_costs_read_and_resume() {
         .lines()
         .nth(1)
         .unwrap()
-        .ends_with("\tn/a\tn/a\tn/a\tn/a\tn/a"));
+        .ends_with("\tn/a\tn/a\tn/a\tn/a\tn/a\tn/a"));
     let back = read_tsv::<TrialRow>(&t).unwrap().rows;
     assert_eq!(
         back,

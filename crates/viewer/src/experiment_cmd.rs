@@ -278,7 +278,7 @@ pub fn run(args: &ExperimentArgs, out: &mut dyn Write) -> Result<(), String> {
             let trials = checked.trials;
             let w =
                 |out: &mut dyn Write, s: String| writeln!(out, "{s}").map_err(|e| e.to_string());
-            w(out, "trial\trun\ttrial_in_run\tcondition\tseed\ttarget_mesh\ttarget_row\ttarget_col\treference_row\treference_col\tbefore".into())?;
+            w(out, "trial\trun\ttrial_in_run\tcondition\tseed\ttarget_mesh\ttarget_row\ttarget_col\treference_row\treference_col\tbefore\tpractice".into())?;
             for t in &trials {
                 let before: Vec<String> = t.before.iter().map(|s| format!("{s:?}")).collect();
                 // The reference cell (holding the target mesh too), n/a
@@ -290,7 +290,7 @@ pub fn run(args: &ExperimentArgs, out: &mut dyn Write) -> Result<(), String> {
                 w(
                     out,
                     format!(
-                        "{}\t{}\t{}\t{}\t{}\t{}\t{}\t{}\t{}\t{}\t{}",
+                        "{}\t{}\t{}\t{}\t{}\t{}\t{}\t{}\t{}\t{}\t{}\t{}",
                         t.index,
                         t.run,
                         t.trial_in_run,
@@ -305,7 +305,8 @@ pub fn run(args: &ExperimentArgs, out: &mut dyn Write) -> Result<(), String> {
                             "n/a".into()
                         } else {
                             before.join(",")
-                        }
+                        },
+                        t.practice
                     ),
                 )?;
             }
@@ -326,7 +327,7 @@ pub fn run(args: &ExperimentArgs, out: &mut dyn Write) -> Result<(), String> {
             };
             writeln!(
                 out,
-                "{}{} trials of {} participants ({}): {anova}; wrote {}",
+                "{}{} trials of {} participants ({}{}): {anova}; wrote {}",
                 if report.synthetic {
                     "SYNTHETIC DATA (simulated participant): "
                 } else {
@@ -334,6 +335,11 @@ pub fn run(args: &ExperimentArgs, out: &mut dyn Write) -> Result<(), String> {
                 },
                 report.n_trials,
                 report.sessions.len(),
+                if report.n_practice > 0 {
+                    format!("{} practice trials left out; ", report.n_practice)
+                } else {
+                    String::new()
+                },
                 report.design_name,
                 a.out.join("report.md").display()
             )

@@ -434,9 +434,9 @@ fn plan_lists_the_trials_and_a_bad_design_names_file_line_and_field() {
 /// reference at the centre cell, which is never the target's.
 #[test]
 fn plan_accepts_the_families_comparison_and_lists_the_reference() {
-    for (design, trials) in [
-        ("config/experiments/families-comparison.ron", 40),
-        ("config/experiments/murphy2007-search.ron", 44),
+    for (design, trials, practice) in [
+        ("config/experiments/families-comparison.ron", 42, 2),
+        ("config/experiments/murphy2007-search.ron", 44, 0),
     ] {
         let out = common::gazecast()
             .args(["experiment", "plan", design])
@@ -452,7 +452,8 @@ fn plan_accepts_the_families_comparison_and_lists_the_reference() {
         };
         let rows: Vec<Vec<&str>> = lines.map(|l| l.split('\t').collect()).collect();
         assert_eq!(rows.len(), trials, "{design}");
-        for r in &rows {
+        for (k, r) in rows.iter().enumerate() {
+            assert_eq!(r[at("practice")], (k < practice).to_string(), "{design}");
             assert_eq!(
                 (r[at("reference_row")], r[at("reference_col")]),
                 ("2", "2"),
@@ -1327,4 +1328,127 @@ fn a_full_reference_is_drawn_at_full_resolution_under_the_hybrid_method() {
         differ > face / 20,
         "the non-reference corner face should be degraded by NE2: {differ} of {face} px differ"
     );
+}
+
+/// A design with practice (Murphy 2007 §7.1.5), run headless: the practice
+/// trials come first on the practice condition and every file marks them
+/// (trials and events: `practice`; samples, frames and markers: the
+/// `practice-` phases; the BIDS events: `practice`); the screen that ends
+/// practice comes before the first experimental trial; the analysis
+/// counts them and leaves them out.
+#[test]
+fn practice_trials_run_first_and_are_marked_in_every_file() {
+    let tmp = tempfile::tempdir().expect("tempdir");
+    let design = tmp.path().join("practice.ron");
+    let text =
+        std::fs::read_to_string("../../tests/data/experiment/design-small.ron").expect("design");
+    let text = text.replace(
+        "drift_check: None,",
+        "drift_check: None,\n    practice: Some((trials: 2, condition: \"E20\")),",
+    );
+    assert!(text.contains("practice: Some"));
+    std::fs::write(&design, text).expect("write design");
+    let out = tmp.path().join("data");
+    let mut c = common::gazecast();
+    c.env_remove("DISPLAY").env_remove("WAYLAND_DISPLAY");
+    c.args(["experiment", "run"])
+        .arg(&design)
+        .args([
+            "--participant",
+            "P01",
+            "--tracker",
+            "tests/data/mouse-participant.ron",
+            "--display",
+            "tests/data/experiment/display-small.ron",
+            "--backend",
+            "cpu",
+            "--no-stimulus-pictures",
+            "--headless",
+            "--simulate-participant",
+            "5",
+            "--max-trials",
+            "5",
+            "--out",
+        ])
+        .arg(&out);
+    let o = c.output().expect("the binary runs");
+    let log = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        o.status.success(),
+        "{log}\n{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    assert!(log.contains("practice trial 1 E20"), "{log}");
+    let dir = out.join("small-search").join("sub-P01");
+    let trials = dir.join("trials.tsv");
+    assert_eq!(column(&trials, "trial"), ["0", "1", "2", "3", "4"]);
+    assert_eq!(
+        column(&trials, "practice"),
+        ["true", "true", "false", "false", "false"]
+    );
+    let conditions = column(&trials, "condition");
+    assert_eq!(conditions[..2], ["E20", "E20"]);
+    // The experimental trials are the plan's without practice: row 0 of
+    // the Latin square starts with the control.
+    assert_eq!(conditions[2], "control");
+    // Events: the practice trials' marked, the others not.
+    let ev_trial = column(&dir.join("events.tsv"), "trial");
+    let ev_practice = column(&dir.join("events.tsv"), "practice");
+    assert!(!ev_trial.is_empty());
+    for (t, p) in ev_trial.iter().zip(&ev_practice) {
+        let want = if t == "0" || t == "1" {
+            "true"
+        } else {
+            "false"
+        };
+        assert_eq!(p, want, "event of trial {t}");
+    }
+    // Samples and frames: the practice trials' phases say practice.
+    for file in ["samples.tsv", "frames.tsv"] {
+        let path = dir.join(file);
+        let phases = column(&path, "phase");
+        let trial = column(&path, "trial");
+        assert!(phases.iter().any(|p| p == "practice-search"), "{file}");
+        assert!(phases.iter().any(|p| p == "search"), "{file}");
+        for (p, t) in phases.iter().zip(&trial) {
+            if p.ends_with("search") || p.ends_with("preview") || p.ends_with("confirm") {
+                assert_eq!(
+                    p.starts_with("practice-"),
+                    t == "0" || t == "1",
+                    "{file}: {p} in trial {t}"
+                );
+            }
+        }
+    }
+    let markers = std::fs::read_to_string(dir.join("markers.tsv")).expect("markers");
+    let at = |what: &str| {
+        markers
+            .find(what)
+            .unwrap_or_else(|| panic!("no {what} in markers.tsv"))
+    };
+    assert!(at("start:practice-search") < at("start:practice-over"));
+    assert!(at("start:practice-over") < at("start:search"));
+    // The analysis counts the practice trials and leaves them out.
+    let report = tmp.path().join("report");
+    let o = common::gazecast()
+        .args(["experiment", "analyze"])
+        .arg(&dir)
+        .arg("--out")
+        .arg(&report)
+        .succeed();
+    let said = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        said.contains("3 trials of 1 participants (2 practice trials left out"),
+        "{said}"
+    );
+    // The BIDS export marks them.
+    let bids = tmp.path().join("bids");
+    common::gazecast()
+        .args(["experiment", "export-bids"])
+        .arg(&dir)
+        .arg("--out")
+        .arg(&bids)
+        .succeed();
+    let events = bids.join("sub-P01/beh/sub-P01_task-search_run-1_events.tsv");
+    assert_eq!(column(&events, "practice"), ["1", "1", "0", "0", "0"]);
 }

@@ -113,6 +113,7 @@ fn session(root: &Path, design: &str) -> PathBuf {
             mean_triangles: None,
             mean_render_ms: None,
             p95_render_ms: None,
+            practice: false,
         })
         .expect("trial");
     dir

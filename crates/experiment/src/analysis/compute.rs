@@ -102,6 +102,7 @@ pub(crate) fn compute(
             })
             .collect(),
         n_trials_read: times.n_read,
+        n_practice: sessions.iter().map(|s| s.practice).sum(),
         n_trials: times.n_read - times.n_excluded,
         n_excluded: times.n_excluded,
         exclude_incorrect: opts.exclude_incorrect,

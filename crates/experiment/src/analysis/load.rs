@@ -16,7 +16,10 @@ pub(crate) struct Loaded {
     pub(crate) dir: PathBuf,
     pub(crate) info: SessionInfo,
     pub(crate) design: Design,
+    /// The experimental trials (practice rows left out).
     pub(crate) trials: Vec<TrialRow>,
+    /// Practice rows read and left out (never analysed).
+    pub(crate) practice: usize,
     /// `events.tsv`, read when a trial has a stimulus picture (scanpaths).
     pub(crate) events: Vec<EventRow>,
     pub(crate) synthetic: bool,
@@ -116,11 +119,14 @@ pub(crate) fn load_session(
         warnings.extend(e.warnings.iter().map(|w| w.to_string()));
         events = e.rows;
     }
+    let (practice, trials): (Vec<TrialRow>, Vec<TrialRow>) =
+        read.rows.into_iter().partition(|t| t.practice);
     Ok(Loaded {
         dir: dir.to_path_buf(),
         info,
         design,
-        trials: read.rows,
+        trials,
+        practice: practice.len(),
         events,
         synthetic,
     })

@@ -196,8 +196,10 @@ pub struct Report {
     pub design_name: String,
     /// The inputs, in the order given.
     pub sessions: Vec<SessionSummary>,
-    /// Trials read.
+    /// Trials read (practice trials not counted).
     pub n_trials_read: usize,
+    /// Practice trials read and left out: never analysed.
+    pub n_practice: usize,
     /// Trials analysed (after exclusion).
     pub n_trials: usize,
     /// Incorrect trials excluded (0 unless `exclude_incorrect`).

@@ -27,6 +27,9 @@ pub enum Phase {
     Validation { midpoint: bool },
     /// Single-target drift check.
     DriftCheck,
+    /// The practice trials are over (Murphy 2007 §7.1.5: questions, a
+    /// stretch); Space starts the experiment.
+    PracticeOver,
     /// The trial's target alone at the centre, as long as wanted; Space
     /// starts the search.
     Preview,
@@ -51,6 +54,7 @@ impl Phase {
             Phase::Validation { midpoint: false } => "validation",
             Phase::Validation { midpoint: true } => "midpoint-validation",
             Phase::DriftCheck => "drift-check",
+            Phase::PracticeOver => "practice-over",
             Phase::Preview => "preview",
             Phase::Search => "search",
             Phase::Confirm => "confirm",
@@ -61,6 +65,18 @@ impl Phase {
     /// Whether the phase belongs to a trial (its samples carry the trial).
     pub fn in_trial(self) -> bool {
         matches!(self, Phase::Preview | Phase::Search | Phase::Confirm)
+    }
+
+    /// The data files' name of the phase in a practice trial
+    /// (`practice-search`, …) or an experimental one ([`Phase::name`]):
+    /// what marks practice rows in the samples, frames and markers.
+    pub fn name_in(self, practice: bool) -> &'static str {
+        match self {
+            Phase::Preview if practice => "practice-preview",
+            Phase::Search if practice => "practice-search",
+            Phase::Confirm if practice => "practice-confirm",
+            p => p.name(),
+        }
     }
 }
 
@@ -85,6 +101,7 @@ fn step_phase(s: Step) -> Phase {
         Step::Validation => Phase::Validation { midpoint: false },
         Step::MidpointValidation => Phase::Validation { midpoint: true },
         Step::DriftCheck => Phase::DriftCheck,
+        Step::PracticeOver => Phase::PracticeOver,
     }
 }
 
@@ -144,6 +161,13 @@ impl Flow {
     /// The screen to show now.
     pub fn phase(&self) -> Phase {
         self.phase
+    }
+
+    /// The current screen's name in the data files: [`Phase::name_in`]
+    /// with whether its trial is a practice trial.
+    pub fn phase_name(&self) -> &'static str {
+        let practice = self.phase.in_trial() && self.trial().is_some_and(|t| t.practice);
+        self.phase.name_in(practice)
     }
 
     /// The trial the current screen belongs to or leads to (`None` once
@@ -303,5 +327,44 @@ mod tests {
         // Past the end: done at once.
         let end = walk(Flow::new(murphy(), 44, false, true), 0);
         assert_eq!(end.last().map(|s| s.0), Some(Phase::Done));
+    }
+
+    /// With practice, the data files name the practice trials' screens
+    /// `practice-preview`, `practice-search` (and confirm), and the screen
+    /// that ends practice comes before the first experimental trial.
+    #[test]
+    fn practice_screens_are_named_as_practice() {
+        let mut d = Design::load(concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/../../config/experiments/murphy2007-search.ron"
+        ))
+        .expect("design");
+        d.practice = Some(crate::design::Practice {
+            trials: 2,
+            condition: "control".into(),
+        });
+        let mut f = Flow::new(crate::plan(&d, 0).expect("plan"), 0, true, false);
+        let mut names = Vec::new();
+        while f.phase() != Phase::Done && names.len() < 40 {
+            names.push((f.phase_name(), f.trial().map(|t| t.index)));
+            f.advance();
+        }
+        assert_eq!(
+            names[..12],
+            [
+                ("instructions", Some(0)),
+                ("calibration", Some(0)),
+                ("validation", Some(0)),
+                ("practice-preview", Some(0)),
+                ("practice-search", Some(0)),
+                ("practice-confirm", Some(0)),
+                ("practice-preview", Some(1)),
+                ("practice-search", Some(1)),
+                ("practice-confirm", Some(1)),
+                ("practice-over", Some(2)),
+                ("preview", Some(2)),
+                ("search", Some(2)),
+            ]
+        );
     }
 }

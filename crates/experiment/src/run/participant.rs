@@ -220,7 +220,7 @@ impl Behaviour {
             }
         }
         match phase {
-            Phase::Instructions | Phase::Rest { .. } => {
+            Phase::Instructions | Phase::Rest { .. } | Phase::PracticeOver => {
                 if !self.acted && elapsed_ms >= self.wait_ms {
                     self.acted = true;
                     out.action = Some(Action::Space {

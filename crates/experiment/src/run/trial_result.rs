@@ -21,14 +21,15 @@ pub const CONGRUENT_DEG: f64 = 1.0;
 pub const CONGRUENT_GAP_US: u64 = 250_000;
 
 /// Trial `trial`'s eye-movement events (rows of `events.tsv` for
-/// `sitting`): those of its samples captured up to `response_us` (on the
-/// mapped clock), classified by I-VT and merged where congruent.
+/// `sitting`, marked practice for a practice trial): those of its samples
+/// captured up to `response_us` (on the mapped clock), classified by I-VT
+/// and merged where congruent.
 pub fn trial_events(
     samples: &[TimedGaze],
     response_us: u64,
     geometry: &ScreenGeometry,
     sitting: u32,
-    trial: usize,
+    trial: &Trial,
 ) -> Vec<EventRow> {
     let n = samples
         .iter()
@@ -61,7 +62,7 @@ pub fn trial_events(
             };
             EventRow {
                 sitting,
-                trial: Some(trial),
+                trial: Some(trial.index),
                 kind: kind.into(),
                 onset_us: e.start_us,
                 end_us: e.end_us,
@@ -71,6 +72,7 @@ pub fn trial_events(
                 y_px: y,
                 end_x_px: ex,
                 end_y_px: ey,
+                practice: trial.practice,
             }
         })
         .collect()
@@ -159,13 +161,15 @@ pub fn trial_row(
             .then(|| m.render_ms.iter().sum::<f64>() / m.render_ms.len() as f64),
         p95_render_ms: (!m.render_ms.is_empty())
             .then(|| crate::stats::nearest_rank::percentile(&m.render_ms, 95.0)),
+        practice: trial.practice,
     }
 }
 
 /// The log's line for a written trial `row`.
 pub fn trial_line(row: &TrialRow) -> String {
     format!(
-        "trial {} {}: {:.2} s, target {} at ({}, {}){}, {} frames ({} late), mean {:.0} rays",
+        "{}trial {} {}: {:.2} s, target {} at ({}, {}){}, {} frames ({} late), mean {:.0} rays",
+        if row.practice { "practice " } else { "" },
         row.trial + 1,
         row.condition,
         row.rt_s,

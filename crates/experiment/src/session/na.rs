@@ -77,3 +77,27 @@ pub fn deserialize<'de, T: NaValue, D: Deserializer<'de>>(d: D) -> Result<Option
             .map_err(serde::de::Error::custom)
     }
 }
+
+/// A flag column added after a file's first version: written `true` or
+/// `false`; `n/a` (what an upgraded file holds in its earlier rows) or an
+/// empty field reads as `false`, the flag's meaning before the column
+/// existed.
+pub mod flag {
+    use super::NaValue;
+    use serde::{Deserialize, Deserializer, Serializer};
+
+    /// `true` / `false`.
+    pub fn serialize<S: Serializer>(v: &bool, s: S) -> Result<S::Ok, S::Error> {
+        s.serialize_str(&v.to_field())
+    }
+
+    /// `true` / `false`; `n/a` or empty → `false`.
+    pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<bool, D::Error> {
+        let s = String::deserialize(d)?;
+        if s == super::super::NA || s.is_empty() {
+            Ok(false)
+        } else {
+            bool::from_field(&s).map_err(serde::de::Error::custom)
+        }
+    }
+}

@@ -89,6 +89,11 @@ pub struct TrialRow {
     /// (ms); `n/a` in older files.
     #[serde(default, with = "na")]
     pub p95_render_ms: Option<f64>,
+    /// A practice trial (`Design::practice`: before the first run, never
+    /// analysed); `false` in a file written before the column existed
+    /// (`n/a` in the rows a resume upgraded).
+    #[serde(default, with = "na::flag")]
+    pub practice: bool,
 }
 
 /// One gaze sample (`samples.tsv`).
@@ -199,6 +204,11 @@ pub struct EventRow {
     pub end_x_px: f64,
     /// Fixation: equal to `y_px`; saccade: end y.
     pub end_y_px: f64,
+    /// The event belongs to a practice trial (`Design::practice`); `false`
+    /// in a file written before the column existed (`n/a` in the rows a
+    /// resume upgraded).
+    #[serde(default, with = "na::flag")]
+    pub practice: bool,
 }
 
 /// One runner marker (`markers.tsv`): phase starts, keys, clicks,
@@ -379,8 +389,9 @@ impl TsvRow for TrialRow {
         "mean_triangles",
         "mean_render_ms",
         "p95_render_ms",
+        "practice",
     ];
-    const LATER_COLUMNS: usize = 6;
+    const LATER_COLUMNS: usize = 7;
 }
 
 impl TsvRow for SampleRow {
@@ -422,7 +433,9 @@ impl TsvRow for EventRow {
         "y_px",
         "end_x_px",
         "end_y_px",
+        "practice",
     ];
+    const LATER_COLUMNS: usize = 1;
 }
 
 impl TsvRow for ClockRow {

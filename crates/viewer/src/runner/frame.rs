@@ -48,8 +48,24 @@ impl Runner<'_> {
                 if design.response.confirm_click {
                     lines.push("Then click on the face you found.".into());
                 }
+                if let Some(p) = &design.practice {
+                    lines.push(format!(
+                        "The first {} trials are practice: take your time.",
+                        p.trials
+                    ));
+                }
                 lines.push(String::new());
                 lines.push("Press Space to begin.".into());
+                self.text(&lines);
+            }
+            Phase::PracticeOver => {
+                let lines = vec![
+                    "The practice trials are over.".into(),
+                    "From now on each search is timed: press Space as soon as you find the face."
+                        .into(),
+                    "If you have a question, ask it now.".into(),
+                    "Press Space to begin the experiment.".into(),
+                ];
                 self.text(&lines);
             }
             Phase::Rest { between_runs } => {
@@ -123,8 +139,9 @@ impl Runner<'_> {
         };
         let size = self.size();
         if let Some(dir) = &self.setup.screenshots {
-            if self.shot.insert(phase.name()) {
-                let path = dir.join(format!("{}.png", phase.name()));
+            let name = self.flow.phase_name();
+            if self.shot.insert(name) {
+                let path = dir.join(format!("{name}.png"));
                 if let Err(e) = crate::picture::save_png(&path, size, rgb) {
                     return Err(format!("{}: {e}", path.display()));
                 }
@@ -182,7 +199,7 @@ impl Runner<'_> {
                 .trial()
                 .map(|t| t.index)
                 .filter(|_| phase.in_trial()),
-            phase: phase.name().into(),
+            phase: self.flow.phase_name().into(),
             rays,
             render_ms,
             interval_ms,

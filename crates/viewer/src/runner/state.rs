@@ -101,6 +101,7 @@ impl Runner<'_> {
     /// the trial; the newest valid one is the gaze.
     pub(super) fn drain(&mut self) {
         let phase = self.flow.phase();
+        let phase_name = self.flow.phase_name();
         let trial = self
             .flow
             .trial()
@@ -143,7 +144,7 @@ impl Runner<'_> {
                         time_order: time_order.name().into(),
                         segment,
                         trial,
-                        phase: phase.name().into(),
+                        phase: phase_name.into(),
                         raw_x: raw.map(|r| r[0]),
                         raw_y: raw.map(|r| r[1]),
                         x_px: mapped.map(|g| g[0]),
@@ -204,7 +205,7 @@ impl Runner<'_> {
             .trial()
             .map(|t| format!("trial {} ({})", t.index + 1, t.condition_name))
             .unwrap_or_default();
-        self.marker(&format!("start:{}", phase.name()), detail);
+        self.marker(&format!("start:{}", self.flow.phase_name()), detail);
         if !matches!(phase, Phase::Validation { midpoint: false }) {
             self.just_calibrated = false;
         }
@@ -288,7 +289,10 @@ impl Runner<'_> {
             Action::Space { host_us } => {
                 self.marker("key", format!("space {host_us}"));
                 match phase {
-                    Phase::Instructions | Phase::Rest { .. } | Phase::Preview => self.advance(),
+                    Phase::Instructions
+                    | Phase::Rest { .. }
+                    | Phase::PracticeOver
+                    | Phase::Preview => self.advance(),
                     Phase::Search => {
                         let responded = self.trial.as_mut().is_some_and(|t| t.respond(host_us));
                         if responded {

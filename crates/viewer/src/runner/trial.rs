@@ -464,13 +464,7 @@ impl TrialState {
             return Err(format!("trial {}: ended without a search", trial.index + 1));
         };
         let sitting = dir.sitting();
-        for row in trial_events(
-            &self.samples,
-            response,
-            &setup.geometry,
-            sitting,
-            trial.index,
-        ) {
+        for row in trial_events(&self.samples, response, &setup.geometry, sitting, trial) {
             dir.event(&row);
         }
         let measured = Measured {

@@ -393,9 +393,9 @@ fn temporal_reuse_keeps_the_frames_and_saves_casts_during_a_fixation() {
 /// Issue 35's traffic through the one frame entry, counted at the `wgpu`
 /// calls: the GPU backend reports each frame's bytes and calls, the CPU
 /// backend none. A new mask uploads the uniforms (128 B: `Params`,
-/// `FovParams`, the counters' reset), the mask's vertices and cells and
-/// its pixel owners (4 B a pixel, built on the CPU: issue 35 wants that
-/// gone); a mask kept within the gaze tolerance only the uniforms. Every
+/// `FovParams`, the counters' reset) and the mask itself (vertices, cells,
+/// fovea spans, the ownership pass's uniforms; the GPU builds the pixel
+/// owners); a mask kept within the gaze tolerance only the uniforms. Every
 /// frame reads its colour words back (4 B a pixel with no pass that needs
 /// the surface buffers), the four counters (16 B) and the timestamps.
 #[test]
@@ -423,17 +423,29 @@ fn the_gpu_backend_reports_each_frames_traffic() {
     gpu.render_at(gaze, 0.0).expect("renders");
     let t = gpu.gpu_traffic().expect("the GPU backend counts");
     let mask = foveation::mask::build(&model, foveation::Layout::Nyquist, gaze).expect("mask");
-    let mask_bytes =
-        (std::mem::size_of_val(&mask.vertices[..]) + std::mem::size_of_val(&mask.cells[..])) as u64;
+    // The mask itself goes up (vertices, cells, fovea spans and the
+    // ownership pass's uniforms); the GPU builds the pixel owners.
+    let own = |n: usize| raycast::gpu::ownership::SPAN_BYTES * n as u64;
+    let mask_bytes = (std::mem::size_of_val(&mask.vertices[..])
+        + std::mem::size_of_val(&mask.cells[..])) as u64
+        + own(mask.fovea.len())
+        + raycast::gpu::ownership::UNIFORM_BYTES;
     let pixels = u64::from(w) * u64::from(h);
-    assert_eq!(t.uploaded_bytes, 128 + mask_bytes + 4 * pixels, "{t:?}");
+    assert_eq!(t.uploaded_bytes, 128 + mask_bytes, "{t:?}");
+    assert!(mask_bytes < 4 * pixels);
     let stages = raycast::gpu::foveated_stages(&raycast::render::Triggers::from_scene(&s)).len();
     let timestamps = 16 * gpu.stage_ms().len() as u64;
     assert_eq!(t.read_back_bytes, 4 * pixels + 16 + timestamps, "{t:?}");
-    assert_eq!((t.dispatches, t.submits), (stages as u64, 1), "{t:?}");
-    // Within the tolerance: the mask is kept, only the uniforms go up.
+    assert_eq!(
+        (t.dispatches, t.submits),
+        (stages as u64 + raycast::gpu::ownership::DISPATCHES, 1),
+        "{t:?}"
+    );
+    // Within the tolerance: the mask is kept, only the uniforms go up (and
+    // the ownership pass does not run).
     gpu.render_at([152.0, 121.0], 0.1).expect("renders");
     let t = gpu.gpu_traffic().expect("the GPU backend counts");
     assert_eq!(t.uploaded_bytes, 128, "{t:?}");
+    let timestamps = 16 * gpu.stage_ms().len() as u64;
     assert_eq!(t.read_back_bytes, 4 * pixels + 16 + timestamps, "{t:?}");
 }

@@ -334,8 +334,11 @@ fn gpu_foveated_frames_match_the_cpu_reference() {
             let stages = g.stage_ms();
             let want = raycast::gpu::foveated_stages(&Triggers::from_scene(&scene));
             if g.has_timestamps() {
+                // A new mask: its ownership is built first, on the GPU.
                 let ran: Vec<&str> = stages.iter().map(|(s, _)| *s).collect();
-                let want: Vec<&str> = want.iter().map(|s| s.name()).collect();
+                let want: Vec<&str> = std::iter::once("build pixel ownership")
+                    .chain(want.iter().map(|s| s.name()))
+                    .collect();
                 assert_eq!(ran, want, "{name}: timed stages");
             } else {
                 assert!(stages.is_empty(), "{name}: times without timestamps");
@@ -481,6 +484,7 @@ fn passes_follow_the_scene_effects() {
     assert_eq!(
         all,
         [
+            "build pixel ownership",
             "cast vertices",
             "classify cells",
             "silhouette margin",
@@ -493,7 +497,8 @@ fn passes_follow_the_scene_effects() {
     // Every refinement effect: every stage.
     let mut every = sphere_scene(120.0);
     every.sampling = Sampling::default();
-    assert_eq!(names(&every), all);
+    // (The ownership pass runs only in a frame whose mask is new.)
+    assert_eq!(names(&every), all[1..]);
     // No refinement effects: no classification, no margin.
     let mut plain = sphere_scene(120.0);
     plain.sampling = Sampling::Foveated { refine: vec![] };
@@ -528,7 +533,9 @@ fn passes_follow_the_scene_effects() {
     let ran: Vec<&str> = g.stage_ms().iter().map(|(s, _)| *s).collect();
     eprintln!("{}: timestamps {}", g.adapter(), g.has_timestamps());
     if g.has_timestamps() {
-        assert_eq!(ran, names(&plain));
+        let mut want = vec!["build pixel ownership"];
+        want.extend(names(&plain));
+        assert_eq!(ran, want);
     } else {
         assert!(ran.is_empty(), "{ran:?}");
     }
@@ -548,7 +555,7 @@ fn passes_follow_the_scene_effects() {
 }
 
 /// A mask the GPU already holds (the same generation, kept within the gaze
-/// tolerance) is neither rasterised into owners again nor uploaded, and
+/// tolerance) is neither built into owners again nor uploaded, and
 /// its frame is the one the upload gave; a new generation uploads again.
 #[test]
 fn a_kept_mask_is_not_uploaded_again_and_renders_the_same_frame() {
@@ -573,8 +580,9 @@ fn a_kept_mask_is_not_uploaded_again_and_renders_the_same_frame() {
             .expect("gpu renders");
         (frame, kept, g.mask_upload_bytes())
     };
+    // A new mask uploads itself, not its pixel owners (built on the GPU).
     let (first, kept, bytes) = frame_at(&mut g, [150.0, 120.0]);
-    assert!(!kept && bytes >= 4 * 320 * 256, "{bytes} bytes");
+    assert!(!kept && bytes > 0 && bytes < 4 * 320 * 256, "{bytes} bytes");
     // Half a degree away: within the tolerance.
     let (second, kept, bytes) = frame_at(&mut g, [155.0, 122.0]);
     assert!(kept, "within 1°");
@@ -612,9 +620,10 @@ fn timestamp_bytes(g: &GpuRenderer, passes: u64) -> u64 {
 
 /// Issue 35's traffic, counted at the `wgpu` calls: what a fresh foveated
 /// frame, a frame of a kept mask and a full frame upload, read back,
-/// dispatch and submit, exactly. Today a new mask uploads its pixel
-/// owners (4 B a pixel) besides its vertices and cells, a kept mask only
-/// the uniforms, and every frame reads the frame back (there is no frame
+/// dispatch and submit, exactly. A new mask uploads itself (vertices,
+/// cells, fovea spans) and the GPU builds its pixel owners (3 more
+/// dispatches in one more pass), never 4 B a pixel; a kept mask uploads
+/// only the uniforms; every frame reads the frame back (there is no frame
 /// without a read-back yet).
 #[test]
 fn every_frame_counts_its_uploads_read_backs_dispatches_and_submits() {
@@ -642,29 +651,36 @@ fn every_frame_counts_its_uploads_read_backs_dispatches_and_submits() {
             .expect("mask");
         let mask = scratch.mask().expect("a mask");
         let mask_bytes = (std::mem::size_of_val(&mask.vertices[..])
-            + std::mem::size_of_val(&mask.cells[..])) as u64;
+            + std::mem::size_of_val(&mask.cells[..])) as u64
+            + raycast::gpu::ownership::SPAN_BYTES * mask.fovea.len() as u64
+            + raycast::gpu::ownership::UNIFORM_BYTES;
         g.render_foveated_kept(&cam, mask, Some(generation), &triggers, None)
             .expect("gpu renders");
         (kept, mask_bytes, g.frame_traffic())
     };
-    // A new mask: the uniforms, the mask's vertices and cells, and its
-    // pixel owners, 4 B a pixel.
+    // A new mask: the uniforms, the mask's vertices, cells and fovea
+    // spans with the ownership pass's uniforms; no pixel owners.
     let (kept, mask_bytes, t) = frame_at(&mut g, [150.0, 120.0]);
     assert!(!kept);
-    assert!(mask_bytes > 0);
+    assert!(mask_bytes > 0 && mask_bytes < 4 * w * h);
     assert_eq!(
         t.uploaded_bytes,
-        FOVEATED_UNIFORM_BYTES + mask_bytes + 4 * w * h,
+        FOVEATED_UNIFORM_BYTES + mask_bytes,
         "{t:?}"
     );
-    assert_eq!(g.mask_upload_bytes(), mask_bytes + 4 * w * h);
-    // The whole G-buffer, the four counters, the timestamps.
+    assert_eq!(g.mask_upload_bytes(), mask_bytes);
+    // The whole G-buffer, the four counters, the timestamps (one more
+    // pass: the ownership).
     assert_eq!(
         t.read_back_bytes,
-        READ_BACK_PER_PIXEL * w * h + 16 + timestamp_bytes(&g, stages),
+        READ_BACK_PER_PIXEL * w * h + 16 + timestamp_bytes(&g, stages + 1),
         "{t:?}"
     );
-    assert_eq!((t.dispatches, t.draws, t.submits), (stages, 0, 1), "{t:?}");
+    assert_eq!(
+        (t.dispatches, t.draws, t.submits),
+        (stages + raycast::gpu::ownership::DISPATCHES, 0, 1),
+        "{t:?}"
+    );
     // A kept mask (within the 1° tolerance): the uniforms alone, ≤ 1 KiB.
     let (kept, _, t) = frame_at(&mut g, [155.0, 122.0]);
     assert!(kept);
@@ -694,4 +710,73 @@ fn every_frame_counts_its_uploads_read_backs_dispatches_and_submits() {
     // The totals are the sum of the frames and the scene's upload.
     let total = g.traffic_total().since(at_start);
     assert_eq!(total.submits, 4);
+}
+
+/// Issue 35: the pixel ownership a new mask's frame builds on the GPU
+/// (`ownership.wgsl`, exact integer edge functions) equals the CPU's
+/// `render::ownership` pixel for pixel: gazes at the centre, at corners,
+/// on an edge, off the screen and far off it, at fractional positions, on
+/// several frame sizes (1×1 and odd sizes included), at two contrasts.
+#[test]
+fn gpu_pixel_ownership_equals_the_cpu_bit_for_bit() {
+    let scene = load("search-task");
+    let mut g = gpu(&scene);
+    let triggers = Triggers::from_scene(&scene);
+    let mut compared = 0usize;
+    for (w, h) in [(1, 1), (7, 5), (97, 61), (320, 256), (640, 480)] {
+        let d = display(w, h);
+        let geo = d.geometry().expect("geometry");
+        let (wf, hf) = (f64::from(w), f64::from(h));
+        for contrast in [1.0, 0.25] {
+            let model =
+                SamplingModel::new(geo, GeislerPerry::default(), contrast, 17.0).expect("model");
+            for gaze in [
+                [wf / 2.0, hf / 2.0],
+                [0.0, 0.0],
+                [wf - 0.5, hf - 0.5],
+                [wf / 3.0 + 0.371, 0.0],
+                [-25.25, hf / 2.0],
+                [wf + 4000.0, -3000.0],
+                [wf * 0.77 + 0.123_456, hf * 0.31 + 0.987],
+            ] {
+                let mask = foveation::mask::build(&model, Layout::Nyquist, gaze).expect("mask");
+                assert!(raycast::gpu::ownership::fits(&mask, w, h));
+                g.render_foveated(&Camera::new(&geo), &mask, &triggers)
+                    .expect("gpu renders");
+                let gpu_owners = g.pixel_owners(w, h).expect("owners read back");
+                let cpu_owners = raycast::render::ownership(&mask, w as usize, h as usize);
+                let differ = gpu_owners
+                    .iter()
+                    .zip(&cpu_owners)
+                    .filter(|(a, b)| a != b)
+                    .count();
+                assert_eq!(
+                    (gpu_owners.len(), differ),
+                    (cpu_owners.len(), 0),
+                    "{w}x{h} C {contrast} gaze {gaze:?}: {} cells",
+                    mask.cells.len()
+                );
+                compared += cpu_owners.len();
+            }
+        }
+    }
+    eprintln!("{compared} pixel owners compared");
+    // A frame 8192 px or more wide is beyond the shader's exact range: the
+    // CPU builds the owners and uploads them (4 B a pixel), and the frame
+    // is the CPU's still.
+    let d = display(8200, 6);
+    let geo = d.geometry().expect("geometry");
+    let model = SamplingModel::new(geo, GeislerPerry::default(), 1.0, 17.0).expect("model");
+    let mask = foveation::mask::build(&model, Layout::Nyquist, [4100.0, 3.0]).expect("mask");
+    assert!(!raycast::gpu::ownership::fits(&mask, 8200, 6));
+    let (frame, _) = g
+        .render_foveated(&Camera::new(&geo), &mask, &triggers)
+        .expect("gpu renders");
+    assert!(g.mask_upload_bytes() >= 4 * 8200 * 6);
+    assert_eq!(
+        g.pixel_owners(8200, 6).expect("owners"),
+        raycast::render::ownership(&mask, 8200, 6)
+    );
+    let (cpu, _) = cpu_foveated(&scene, &d, [4100.0, 3.0]);
+    assert!(compare(&cpu, &frame).0 <= 4);
 }

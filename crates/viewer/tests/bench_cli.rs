@@ -262,10 +262,10 @@ fn the_gpu_script_runs_its_quick_mode_and_fails_clearly_without_an_adapter() {
                 .map(|t| t[field]["p50"].as_u64().expect("a count"))
                 .unwrap_or_else(|| panic!("no {frame} frame: {r}"))
         };
-        assert!(
-            of("foveated, new mask", "uploaded_bytes") >= 4 * pixels,
-            "{r}"
-        );
+        // A new mask uploads itself (the GPU builds its pixel owners; the
+        // exact bytes are checked in crates/raycast/tests/gpu.rs): more
+        // than the kept mask's uniforms.
+        assert!(of("foveated, new mask", "uploaded_bytes") > 128, "{r}");
         assert!(of("full", "read_back_bytes") >= 4 * pixels, "{r}");
         if r["scene"] == "search-task" {
             // No GPU pass: the kept mask's frame uploads its uniforms only.

@@ -325,7 +325,7 @@ impl FoveatedTarget {
         let buffer = |what, size, extra| storage(device, what, size, extra, max_binding);
         let mask_vertices = buffer("the mask vertices", 8 * nv, U::COPY_DST)?;
         let mask_cells = buffer("the mask cells", 16 * nc, U::COPY_DST)?;
-        let owner = buffer("the pixel ownership", 4 * np, U::COPY_DST)?;
+        let owner = buffer("the pixel ownership", 4 * np, U::COPY_DST | U::COPY_SRC)?;
         let vertex_hits = buffer("the vertex hits", SAMPLE_BYTES * nv, U::empty())?;
         let refined = buffer("the refined flags", 4 * nc, U::COPY_DST)?;
         let touched = buffer("the touched vertices", 4 * nv, U::COPY_DST)?;

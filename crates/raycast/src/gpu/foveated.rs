@@ -1,12 +1,15 @@
 //! The foveated frame (`foveated.wgsl`): the CPU's `render::foveated`,
 //! stage for stage, one compute pass per [`Stage`]. The CPU builds the ray
-//! mask and the pixel ownership for the gaze and uploads them.
+//! mask for the gaze and uploads it (vertices, cells, fovea spans); the
+//! pixel ownership is built from it on the GPU (`ownership.wgsl`), or on
+//! the CPU and uploaded for a mask beyond the shader's exact range.
 
 use std::time::Instant;
 
 use foveation::mask::{RayMask, NO_VERTEX};
 
 use super::buffers::{FovParams, FoveatedTarget};
+use super::ownership::OwnershipPass;
 use super::readback::{copy_out, read_back, read_frame};
 use super::timer::begin_pass;
 use super::{GpuError, GpuPost, GpuRenderer};
@@ -17,6 +20,9 @@ use crate::render::{Stats, Triggers};
 /// A stage of the foveated frame: one compute pass each, in this order.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum Stage {
+    /// Build the pixel ownership of a newly uploaded mask (clear, fovea
+    /// spans, cells): only in a frame whose mask is new.
+    BuildOwnership,
     /// Cast a ray through every mask vertex.
     CastVertices,
     /// Mark the cells that are not homogeneous under the triggers.
@@ -36,7 +42,8 @@ pub enum Stage {
 
 impl Stage {
     /// Every stage, in pass order.
-    pub const ALL: [Stage; 7] = [
+    pub const ALL: [Stage; 8] = [
+        Stage::BuildOwnership,
         Stage::CastVertices,
         Stage::ClassifyCells,
         Stage::SilhouetteMargin,
@@ -49,6 +56,7 @@ impl Stage {
     /// The stage in words (the names [`GpuRenderer::stage_ms`] reports).
     pub fn name(self) -> &'static str {
         match self {
+            Stage::BuildOwnership => "build pixel ownership",
             Stage::CastVertices => "cast vertices",
             Stage::ClassifyCells => "classify cells",
             Stage::SilhouetteMargin => "silhouette margin",
@@ -62,6 +70,7 @@ impl Stage {
     /// Its entry point in `foveated.wgsl`.
     pub(super) fn entry_point(self) -> &'static str {
         match self {
+            Stage::BuildOwnership => "own_cells",
             Stage::CastVertices => "cast_vertices",
             Stage::ClassifyCells => "classify",
             Stage::SilhouetteMargin => "widen",
@@ -79,9 +88,10 @@ impl std::fmt::Display for Stage {
     }
 }
 
-/// The stages a foveated frame runs with these triggers, in order: a
-/// scene's effects decide, and a pass for an effect the scene does not list
-/// is not dispatched. Without any refinement trigger no cell is classified
+/// The stages a foveated frame runs with these triggers, in order, for a
+/// mask the GPU already holds (a new mask runs
+/// [`Stage::BuildOwnership`] first): a scene's effects decide, and a pass
+/// for an effect the scene does not list is not dispatched. Without any refinement trigger no cell is classified
 /// (none can be refined); without the silhouette margin the widening pass
 /// does not run.
 pub fn foveated_stages(t: &Triggers) -> Vec<Stage> {
@@ -104,7 +114,7 @@ pub fn foveated_stages(t: &Triggers) -> Vec<Stage> {
 
 /// Workgroups (x, y) for `n` threads in groups of 64, at most 65535 in x
 /// (the shaders index `x + y · 65535 · 64`).
-fn groups(n: u64) -> (u32, u32) {
+pub(super) fn groups(n: u64) -> (u32, u32) {
     let g = n.div_ceil(64).max(1);
     (g.min(65_535) as u32, g.div_ceil(65_535) as u32)
 }
@@ -185,17 +195,21 @@ impl GpuRenderer {
         self.foveated_target(nv, nc, u64::from(pixels))?;
         let key = generation.map(|g| (g, (w, h)));
         let upload = key.is_none() || key != self.uploaded_mask;
-        let owner = if upload {
+        // A new mask's ownership is built on the GPU from the mask itself;
+        // only a mask beyond the shader's exact range is rasterised here and
+        // uploaded, 4 bytes a pixel.
+        let on_gpu = upload && super::ownership::fits(mask, w, h);
+        let owner = if upload && !on_gpu {
             crate::render::ownership(mask, w as usize, h as usize)
         } else {
             Vec::new()
         };
-        self.mask_upload_bytes = if upload {
-            (std::mem::size_of_val(&mask.vertices[..])
-                + std::mem::size_of_val(&mask.cells[..])
-                + std::mem::size_of_val(&owner[..])) as u64
-        } else {
-            0
+        let device = self.device.clone();
+        let queue = self.queue.clone();
+        let timer = self.timer.clone();
+        self.frame_target(pixels)?;
+        let (Some(target), Some(ft)) = (self.target.as_ref(), self.fov_target.as_ref()) else {
+            return Err(GpuError::Readback("no frame or foveated buffers".into()));
         };
         let fov = FovParams {
             n_vertices,
@@ -206,18 +220,12 @@ impl GpuRenderer {
             depth_jump: triggers.depth_jump.unwrap_or(-1.0),
             pad: [0; 2],
         };
-        traffic.write_buffer(&self.queue, &self.fov_params, 0, bytemuck::bytes_of(&fov));
+        traffic.write_buffer(&queue, &self.fov_params, 0, bytemuck::bytes_of(&fov));
         // Triangles carry NO_VERTEX (u32::MAX) as their fourth corner, as
         // `foveated.wgsl` expects.
         const _: () = assert!(NO_VERTEX == u32::MAX);
-        let device = self.device.clone();
-        let queue = self.queue.clone();
-        let timer = self.timer.clone();
-        self.frame_target(pixels)?;
-        let (Some(target), Some(ft)) = (self.target.as_ref(), self.fov_target.as_ref()) else {
-            return Err(GpuError::Readback("no frame or foveated buffers".into()));
-        };
         let pipelines = &self.pipelines;
+        let mask_before = traffic.total();
         if upload && nv > 0 {
             traffic.write_buffer(
                 &queue,
@@ -232,6 +240,23 @@ impl GpuRenderer {
         if !owner.is_empty() {
             traffic.write_buffer(&queue, &ft.owner, 0, bytemuck::cast_slice(&owner));
         }
+        let ownership = if on_gpu {
+            let pass = self
+                .ownership
+                .get_or_insert_with(|| OwnershipPass::new(&device));
+            Some(pass.prepare(
+                &device,
+                &queue,
+                &traffic,
+                self.max_binding,
+                mask,
+                (&ft.mask_vertices, &ft.mask_cells, &ft.owner),
+                (w, h),
+            )?)
+        } else {
+            None
+        };
+        self.mask_upload_bytes = traffic.total().since(mask_before).uploaded_bytes;
         // Only now does the GPU hold this mask (an error above uploaded
         // nothing, and the next frame must upload it).
         self.uploaded_mask = key;
@@ -239,7 +264,10 @@ impl GpuRenderer {
         let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
             label: Some("foveated frame"),
         });
-        let stages = foveated_stages(triggers);
+        let mut stages = foveated_stages(triggers);
+        if ownership.is_some() {
+            stages.insert(0, Stage::BuildOwnership);
+        }
         if triggers.margin {
             encoder.clear_buffer(&ft.touched, 0, None);
         }
@@ -250,9 +278,17 @@ impl GpuRenderer {
         // One pass per stage, so that each can be timed.
         for (slot, &stage) in stages.iter().enumerate() {
             let mut pass = begin_pass(&mut encoder, timer.as_ref(), slot as u32, stage.name());
+            if stage == Stage::BuildOwnership {
+                if let (Some(own), Some(prepared)) = (self.ownership.as_ref(), ownership.as_ref()) {
+                    own.encode(&mut pass, &traffic, prepared);
+                }
+                continue;
+            }
             pass.set_bind_group(0, &target.bind_group, &[]);
             pass.set_bind_group(1, &ft.bind_group, &[]);
-            pass.set_pipeline(pipelines.stage(stage));
+            if let Some(p) = pipelines.stage(stage) {
+                pass.set_pipeline(p);
+            }
             match stage {
                 Stage::CastVertices => {
                     let (x, y) = groups(nv);
@@ -270,6 +306,8 @@ impl GpuRenderer {
                     traffic.dispatch(&mut pass, 1, 1, 1);
                 }
                 Stage::CastListed => traffic.dispatch_indirect(&mut pass, &ft.dispatch, 0),
+                // Encoded above, with its own pipelines and bind group.
+                Stage::BuildOwnership => {}
             }
         }
         encoder = self.encode_post(target, post, (w, h), encoder)?;
@@ -303,5 +341,35 @@ impl GpuRenderer {
         };
         self.frame_traffic = traffic.total().since(before);
         Ok((frame, stats))
+    }
+
+    /// The pixel owners the GPU holds for the last foveated frame of `w` ×
+    /// `h` pixels (a cell index, `render::OWNER_FOVEA` or
+    /// `render::OWNER_NONE` per pixel, row-major), read back: what the
+    /// ownership pass built, for tests and checks (a frame never reads
+    /// them back).
+    pub fn pixel_owners(&self, w: u32, h: u32) -> Result<Vec<u32>, GpuError> {
+        let Some(ft) = self.fov_target.as_ref() else {
+            return Err(GpuError::Readback("no foveated frame yet".into()));
+        };
+        let n = u64::from(w) * u64::from(h);
+        if n > ft.pixels {
+            return Err(GpuError::Readback(format!(
+                "{w}x{h} is larger than the last foveated frame"
+            )));
+        }
+        let encoder = self
+            .device
+            .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                label: Some("pixel owners"),
+            });
+        let (mut words, _) = super::post::read_words(
+            &self.device,
+            &self.queue,
+            &self.traffic,
+            encoder,
+            &[(&ft.owner, 0, n)],
+        )?;
+        Ok(words.pop().unwrap_or_default())
     }
 }

@@ -51,6 +51,7 @@ mod device;
 mod foveated;
 mod full;
 mod hidden;
+pub mod ownership;
 mod pipelines;
 mod post;
 mod raster;
@@ -119,6 +120,8 @@ pub struct GpuRenderer {
     uploaded_mask: Option<((u64, u64), (u32, u32))>,
     /// Bytes of mask and pixel owners the last foveated frame uploaded.
     mask_upload_bytes: u64,
+    /// The pixel-ownership pipelines, made by the first new mask.
+    ownership: Option<ownership::OwnershipPass>,
     adapter: String,
     max_binding: u64,
     /// The adapter reports `TIMESTAMP_QUERY`.
@@ -188,6 +191,7 @@ impl GpuRenderer {
             fov_target: None,
             uploaded_mask: None,
             mask_upload_bytes: 0,
+            ownership: None,
             adapter: opened.name,
             max_binding,
             timestamps: opened.timestamps,
@@ -208,9 +212,12 @@ impl GpuRenderer {
         self.fov_target.is_some()
     }
 
-    /// Bytes of ray mask (vertices, cells) and pixel owners the last
-    /// foveated frame uploaded: 0 when it rendered a mask already on the
-    /// GPU ([`GpuRenderer::render_foveated_kept`]).
+    /// Bytes of ray mask the last foveated frame uploaded: its vertices,
+    /// cells and fovea spans with the ownership pass's uniforms (the GPU
+    /// builds the pixel owners), or its vertices, cells and pixel owners (4
+    /// bytes a pixel) for a mask beyond the ownership shader's exact range
+    /// (a vertex 8192 px or more off the origin); 0 when it rendered a mask
+    /// already on the GPU ([`GpuRenderer::render_foveated_kept`]).
     pub fn mask_upload_bytes(&self) -> u64 {
         self.mask_upload_bytes
     }

@@ -74,9 +74,11 @@ impl Pipelines {
         }
     }
 
-    /// The pipeline of a foveated stage.
-    pub fn stage(&self, s: Stage) -> &wgpu::ComputePipeline {
-        match s {
+    /// The pipeline of a foveated stage (`None` for the pixel ownership,
+    /// whose three pipelines are `ownership::OwnershipPass`'s).
+    pub fn stage(&self, s: Stage) -> Option<&wgpu::ComputePipeline> {
+        Some(match s {
+            Stage::BuildOwnership => return None,
             Stage::CastVertices => &self.cast_vertices,
             Stage::ClassifyCells => &self.classify,
             Stage::SilhouetteMargin => &self.widen,
@@ -84,6 +86,6 @@ impl Pipelines {
             Stage::InterpolateOrList => &self.pixels_foveated,
             Stage::PrepareDispatch => &self.prepare_cast,
             Stage::CastListed => &self.cast_listed,
-        }
+        })
     }
 }

@@ -51,7 +51,7 @@ impl FrameMethod for Hybrid {
         let stages: Vec<&str> = match on.side {
             Side::Gpu => {
                 out.push(
-                    "per new mask (CPU): ray mask and pixel ownership, uploaded to the GPU core"
+                    "per new mask: ray mask (CPU), uploaded; build pixel ownership (GPU)"
                         .to_string(),
                 );
                 gpu::foveated_stages(t).iter().map(|s| s.name()).collect()

@@ -210,8 +210,8 @@ impl OwnershipPass {
         let (x, y) = super::foveated::groups(u64::from(p.n_spans));
         traffic.dispatch(pass, x, y, 1);
         pass.set_pipeline(&self.cells);
-        // One workgroup per cell, at most 65535 a row.
-        let n = u64::from(p.n_cells).max(1);
-        traffic.dispatch(pass, n.min(65_535) as u32, n.div_ceil(65_535) as u32, 1);
+        // One thread per cell.
+        let (x, y) = super::foveated::groups(u64::from(p.n_cells));
+        traffic.dispatch(pass, x, y, 1);
     }
 }

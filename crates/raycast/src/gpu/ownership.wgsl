@@ -113,13 +113,11 @@ fn snap(v: f32) -> i32 {
 fn ceil_sub(n: i32) -> i32 { return -((-n) >> 16u); }
 fn floor_sub(n: i32) -> i32 { return n >> 16u; }
 
-// One workgroup per cell: its threads walk the cell's bounding box.
+// One thread per cell (most cells cover a few pixels): it walks its
+// bounding box row by row.
 @compute @workgroup_size(64)
-fn own_cells(
-    @builtin(workgroup_id) wid: vec3<u32>,
-    @builtin(local_invocation_index) lid: u32,
-) {
-    let ci = wid.x + wid.y * 65535u;
+fn own_cells(@builtin(global_invocation_id) id: vec3<u32>) {
+    let ci = id.x + id.y * 65535u * 64u;
     if (ci >= own.n_cells) { return; }
     let c = cells[ci];
     var n = 4u;
@@ -168,30 +166,41 @@ fn own_cells(
         dir[k] = d;
         on[k] = d.y > 0 || (d.y == 0 && d.x < 0);
     }
-    let bw = u32(px1 - px0 + 1);
-    let count = bw * u32(py1 - py0 + 1);
-    for (var i = lid; i < count; i += 64u) {
-        let px = px0 + i32(i % bw);
-        let py = py0 + i32(i / bw);
-        let cx = px * SUB + HALF;
+    // Each edge function exactly at a row's first centre, then stepped by
+    // the exact −dy · SUB per pixel (as the CPU does), so a pixel costs
+    // 64-bit additions, not multiplications.
+    var step: array<vec2<u32>, 4>;
+    for (var k = 0u; k < n; k++) {
+        step[k] = mul_wide(-dir[k].y, SUB);
+    }
+    let cx0 = px0 * SUB + HALF;
+    let rows = u32(py1 - py0 + 1);
+    for (var r = 0u; r < rows; r++) {
+        let py = py0 + i32(r);
         let cy = py * SUB + HALF;
-        var inside = true;
+        var e: array<vec2<u32>, 4>;
         for (var k = 0u; k < n; k++) {
-            // e = dx · (cy − ay) − dy · (cx − ax), exactly.
-            let e = sub64(
+            // e = dx · (cy − ay) − dy · (cx0 − ax), exactly.
+            e[k] = sub64(
                 mul_wide(dir[k].x, cy - start[k].y),
-                mul_wide(dir[k].y, cx - start[k].x),
+                mul_wide(dir[k].y, cx0 - start[k].x),
             );
-            let sg = sign64(e);
-            if (!(sg > 0 || (sg == 0 && on[k]))) {
-                inside = false;
-                break;
-            }
         }
-        if (inside) {
-            let at = u32(py) * own.width + u32(px);
-            if (owner[at] == UNOWNED) {
-                owner[at] = ci;
+        let row = u32(py) * own.width;
+        for (var px = px0; px <= px1; px++) {
+            var inside = true;
+            for (var k = 0u; k < n; k++) {
+                let sg = sign64(e[k]);
+                if (!(sg > 0 || (sg == 0 && on[k]))) {
+                    inside = false;
+                }
+                e[k] = add64(e[k], step[k]);
+            }
+            if (inside) {
+                let at = row + u32(px);
+                if (owner[at] == UNOWNED) {
+                    owner[at] = ci;
+                }
             }
         }
     }

@@ -109,7 +109,7 @@ fn header_lines_are_the_documented_ones() {
             Box::new(|p| write_rows::<MarkerRow>(p, &[])),
         ),
         (
-            "sitting\thost_us\ttrial\tphase\trays\trender_ms\tinterval_ms\tlate\tplan",
+            "sitting\thost_us\ttrial\tphase\trays\trender_ms\tinterval_ms\tlate\tplan\tgpu_uploaded_bytes\tgpu_read_back_bytes\tgpu_dispatches\tgpu_draws\tgpu_submits",
             Box::new(|p| write_rows::<FrameRow>(p, &[])),
         ),
     ];
@@ -201,6 +201,11 @@ fn columns_are_the_serde_field_names() {
         interval_ms: None,
         late: false,
         plan: None,
+        gpu_uploaded_bytes: None,
+        gpu_read_back_bytes: None,
+        gpu_dispatches: None,
+        gpu_draws: None,
+        gpu_submits: None,
     };
     assert_eq!(serde_header(&f), cols::<FrameRow>());
 }
@@ -544,9 +549,10 @@ fn frame_row() -> impl Strategy<Value = FrameRow> {
         proptest::option::of(any_f64()),
         any::<bool>(),
         plan(),
+        proptest::array::uniform5(proptest::option::of(any::<u64>())),
     )
         .prop_map(
-            |(host_us, trial, phase, rays, render_ms, interval_ms, late, plan)| FrameRow {
+            |(host_us, trial, phase, rays, render_ms, interval_ms, late, plan, gpu)| FrameRow {
                 sitting: 2,
                 host_us,
                 trial,
@@ -556,6 +562,11 @@ fn frame_row() -> impl Strategy<Value = FrameRow> {
                 interval_ms,
                 late,
                 plan,
+                gpu_uploaded_bytes: gpu[0],
+                gpu_read_back_bytes: gpu[1],
+                gpu_dispatches: gpu[2],
+                gpu_draws: gpu[3],
+                gpu_submits: gpu[4],
             },
         )
 }
@@ -569,6 +580,19 @@ fn frame_same(a: &FrameRow, b: &FrameRow) -> bool {
         && same_opt(a.interval_ms, b.interval_ms)
         && a.late == b.late
         && a.plan == b.plan
+        && (
+            a.gpu_uploaded_bytes,
+            a.gpu_read_back_bytes,
+            a.gpu_dispatches,
+            a.gpu_draws,
+            a.gpu_submits,
+        ) == (
+            b.gpu_uploaded_bytes,
+            b.gpu_read_back_bytes,
+            b.gpu_dispatches,
+            b.gpu_draws,
+            b.gpu_submits,
+        )
 }
 
 /// Writes `rows` in two sessions of the log (reopened in between, as a
@@ -676,6 +700,11 @@ fn nan_and_infinities_round_trip() {
             interval_ms: Some(v),
             late: false,
             plan: None,
+            gpu_uploaded_bytes: None,
+            gpu_read_back_bytes: None,
+            gpu_dispatches: None,
+            gpu_draws: None,
+            gpu_submits: None,
         })
         .collect();
     write_rows(&p, &rows);
@@ -810,8 +839,22 @@ fn frame(k: u64, plan: Option<&str>) -> FrameRow {
         interval_ms: (k > 0).then_some(16.5),
         late: false,
         plan: plan.map(String::from),
+        gpu_uploaded_bytes: None,
+        gpu_read_back_bytes: None,
+        gpu_dispatches: None,
+        gpu_draws: None,
+        gpu_submits: None,
     }
 }
+
+/// The frames.tsv columns added after `plan`: the GPU traffic.
+const FRAME_GPU: [&str; 5] = [
+    "gpu_uploaded_bytes",
+    "gpu_read_back_bytes",
+    "gpu_dispatches",
+    "gpu_draws",
+    "gpu_submits",
+];
 
 /// Session folders written before the `plan` column (its header one column
 /// short) still read: every row with `plan` `None`, everything else as
@@ -844,7 +887,7 @@ fn files_without_the_plan_column_read_with_no_plan() {
     );
     std::fs::write(
         &f,
-        without_last_column(&std::fs::read_to_string(&f).unwrap()),
+        without_last_columns(&std::fs::read_to_string(&f).unwrap(), 1 + FRAME_GPU.len()),
     )
     .unwrap();
     let back = read_tsv::<FrameRow>(&f).unwrap();
@@ -877,18 +920,27 @@ fn resuming_an_old_file_adds_the_plan_column() {
     let dir = tempfile::tempdir().unwrap();
     let p = dir.path().join("frames.tsv");
     write_rows(&p, &[frame(0, None), frame(1, None), frame(2, None)]);
-    let old = without_last_column(&std::fs::read_to_string(&p).unwrap());
+    let old = without_last_columns(&std::fs::read_to_string(&p).unwrap(), 1 + FRAME_GPU.len());
     let half = "1\t5000\t3\tsea";
     std::fs::write(&p, format!("{old}{half}")).unwrap();
 
     let mut log = TsvLog::<FrameRow>::append_to(&p).unwrap();
-    assert_eq!(log.added_columns(), &["plan"]);
+    let mut added = vec!["plan"];
+    added.extend(FRAME_GPU);
+    assert_eq!(log.added_columns(), added.as_slice());
     assert_eq!(log.dropped_partial_line(), Some(half));
     assert_eq!(log.rows(), 3);
-    let new = frame(
-        3,
-        Some("image-based on gpu; passes: image-based foveation (gpu)"),
-    );
+    let new = FrameRow {
+        gpu_uploaded_bytes: Some(128),
+        gpu_read_back_bytes: Some(4096),
+        gpu_dispatches: Some(7),
+        gpu_draws: Some(0),
+        gpu_submits: Some(1),
+        ..frame(
+            3,
+            Some("image-based on gpu; passes: image-based foveation (gpu)"),
+        )
+    };
     log.write(&new).unwrap();
     drop(log);
 
@@ -896,9 +948,11 @@ fn resuming_an_old_file_adds_the_plan_column() {
     let lines: Vec<&str> = text.lines().collect();
     assert_eq!(lines[0], FrameRow::header_line());
     for (k, l) in old.lines().skip(1).enumerate() {
-        assert_eq!(lines[1 + k], format!("{l}\tn/a"));
+        assert_eq!(lines[1 + k], format!("{l}{}", "\tn/a".repeat(6)));
     }
-    assert!(lines[4].ends_with("\timage-based on gpu; passes: image-based foveation (gpu)"));
+    assert!(lines[4].ends_with(
+        "\timage-based on gpu; passes: image-based foveation (gpu)\t128\t4096\t7\t0\t1"
+    ));
     let back = read_tsv::<FrameRow>(&p).unwrap();
     assert_eq!(
         back.rows,
@@ -950,7 +1004,7 @@ fn an_old_file_with_a_bad_row_is_left_untouched() {
     let dir = tempfile::tempdir().unwrap();
     let p = dir.path().join("frames.tsv");
     write_rows(&p, &[frame(0, None), frame(1, None)]);
-    let mut old = without_last_column(&std::fs::read_to_string(&p).unwrap());
+    let mut old = without_last_columns(&std::fs::read_to_string(&p).unwrap(), 1 + FRAME_GPU.len());
     old.push_str("1\t2\tn/a\n");
     std::fs::write(&p, &old).unwrap();
     let err = match TsvLog::<FrameRow>::append_to(&p) {

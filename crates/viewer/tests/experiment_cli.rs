@@ -1452,3 +1452,88 @@ fn practice_trials_run_first_and_are_marked_in_every_file() {
     let events = bids.join("sub-P01/beh/sub-P01_task-search_run-1_events.tsv");
     assert_eq!(column(&events, "practice"), ["1", "1", "0", "0", "0"]);
 }
+
+/// Issue 35: `frames.tsv` carries each frame's GPU traffic (counted at the
+/// `wgpu` calls): a search frame the GPU rendered states its bytes
+/// uploaded and read back, dispatches and submissions; a search frame
+/// shown again within the gaze tolerance moved nothing (0); every screen
+/// no GPU renderer drew says `n/a`, and so does every frame on the CPU.
+#[test]
+fn frames_state_their_gpu_traffic() {
+    let tmp = tempfile::tempdir().expect("tempdir");
+    let run = |backend: &str| {
+        let out = tmp.path().join(backend);
+        let mut c = common::gazecast();
+        c.env_remove("DISPLAY").env_remove("WAYLAND_DISPLAY");
+        c.args([
+            "experiment",
+            "run",
+            "tests/data/experiment/design-small.ron",
+            "--participant",
+            "P01",
+            "--tracker",
+            "tests/data/mouse-participant.ron",
+            "--display",
+            "tests/data/experiment/display-small.ron",
+            "--backend",
+            backend,
+            "--no-stimulus-pictures",
+            "--headless",
+            "--simulate-participant",
+            "3",
+            "--max-trials",
+            "2",
+            "--out",
+        ])
+        .arg(&out);
+        let o = c.output().expect("the binary runs");
+        assert!(
+            o.status.success(),
+            "{}\n{}",
+            String::from_utf8_lossy(&o.stdout),
+            String::from_utf8_lossy(&o.stderr)
+        );
+        out.join("small-search/sub-P01/frames.tsv")
+    };
+    let gpu = run("gpu");
+    let phase = column(&gpu, "phase");
+    let rays = column(&gpu, "rays");
+    let cols: Vec<Vec<String>> = [
+        "gpu_uploaded_bytes",
+        "gpu_read_back_bytes",
+        "gpu_dispatches",
+        "gpu_submits",
+    ]
+    .iter()
+    .map(|c| column(&gpu, c))
+    .collect();
+    let (mut rendered, mut kept) = (0, 0);
+    for k in 0..phase.len() {
+        let row: Vec<&str> = cols.iter().map(|c| c[k].as_str()).collect();
+        if phase[k] != "search" {
+            assert_eq!(row, ["n/a"; 4], "row {k}: {}", phase[k]);
+            continue;
+        }
+        let n: Vec<u64> = row
+            .iter()
+            .map(|v| v.parse().expect("a count on a search frame"))
+            .collect();
+        if n == [0, 0, 0, 0] {
+            kept += 1;
+        } else {
+            rendered += 1;
+            // Uniforms at least; the frame read back (4 B a pixel of
+            // 640×512 at least); one submission or more.
+            assert!(n[0] >= 80 && n[1] >= 4 * 640 * 512 && n[2] >= 1 && n[3] >= 1);
+        }
+        assert!(rays[k].parse::<u64>().expect("rays") > 0);
+    }
+    assert!(
+        rendered >= 2 && kept >= 1,
+        "{rendered} rendered, {kept} kept"
+    );
+    let cpu = run("cpu");
+    assert!(column(&cpu, "gpu_uploaded_bytes")
+        .iter()
+        .all(|v| v == "n/a"));
+}

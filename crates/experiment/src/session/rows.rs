@@ -295,6 +295,28 @@ pub struct FrameRow {
     /// column existed.
     #[serde(default, with = "na")]
     pub plan: Option<String>,
+    /// Bytes the frame's renderer uploaded to the GPU (`write_buffer`,
+    /// `write_texture`, buffers made with contents; counted at the `wgpu`
+    /// calls, `raycast::gpu::TrafficCounter`); 0 for a search frame shown
+    /// again within the gaze tolerance; `n/a` for a frame no GPU renderer
+    /// drew (the CPU backend, text and target screens, the preview's copy)
+    /// and in a file written before the column existed.
+    #[serde(default, with = "na")]
+    pub gpu_uploaded_bytes: Option<u64>,
+    /// Bytes the frame's renderer read back from the GPU (ranges mapped
+    /// for reading); `n/a` as for `gpu_uploaded_bytes`.
+    #[serde(default, with = "na")]
+    pub gpu_read_back_bytes: Option<u64>,
+    /// Compute dispatches the frame's renderer made; `n/a` as above.
+    #[serde(default, with = "na")]
+    pub gpu_dispatches: Option<u64>,
+    /// Draw calls the frame's renderer made (the raster methods); `n/a`
+    /// as above.
+    #[serde(default, with = "na")]
+    pub gpu_draws: Option<u64>,
+    /// Queue submissions the frame's renderer made; `n/a` as above.
+    #[serde(default, with = "na")]
+    pub gpu_submits: Option<u64>,
 }
 
 /// One update of the tracker's clock model (`clock.tsv`): how the
@@ -473,6 +495,11 @@ impl TsvRow for FrameRow {
         "interval_ms",
         "late",
         "plan",
+        "gpu_uploaded_bytes",
+        "gpu_read_back_bytes",
+        "gpu_dispatches",
+        "gpu_draws",
+        "gpu_submits",
     ];
-    const LATER_COLUMNS: usize = 1;
+    const LATER_COLUMNS: usize = 6;
 }

@@ -34,6 +34,7 @@ impl Runner<'_> {
         let design = &self.setup.design;
         let mut rays = 0;
         let mut render_ms = 0.0;
+        let mut traffic = None;
         match phase {
             Phase::Instructions => {
                 let mut lines = vec![
@@ -104,9 +105,10 @@ impl Runner<'_> {
                     return Err("no trial state for the trial's screen".into());
                 };
                 if phase == Phase::Search {
-                    let (r, ms) = t.render_search(self.gaze)?;
+                    let (r, ms, moved) = t.render_search(self.gaze)?;
                     rays = r;
                     render_ms = ms;
+                    traffic = moved;
                 } else if phase == Phase::Confirm {
                     t.confirm_overlay();
                 }
@@ -205,6 +207,11 @@ impl Runner<'_> {
             interval_ms,
             late,
             plan,
+            gpu_uploaded_bytes: traffic.map(|t| t.uploaded_bytes),
+            gpu_read_back_bytes: traffic.map(|t| t.read_back_bytes),
+            gpu_dispatches: traffic.map(|t| t.dispatches),
+            gpu_draws: traffic.map(|t| t.draws),
+            gpu_submits: traffic.map(|t| t.submits),
         });
         Ok(())
     }

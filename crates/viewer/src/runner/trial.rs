@@ -60,6 +60,8 @@ pub struct TrialState {
     /// The gaze the last search frame was rendered for, its rays and
     /// render time (shown again within `tolerance`).
     last_render: Option<([f64; 2], u64, f64, Option<u64>)>,
+    /// The last rendered search frame's GPU traffic (`None` on the CPU).
+    last_traffic: Option<raycast::gpu::Traffic>,
     /// `Setup::gaze_tolerance_deg` with the display, to measure it.
     tolerance: Option<(f64, foveation::ScreenGeometry)>,
     /// Search frames shown again (gaze within the tolerance).
@@ -252,6 +254,7 @@ impl TrialState {
             confirm_rgb: None,
             last: None,
             last_render: None,
+            last_traffic: None,
             tolerance: setup.gaze_tolerance_deg.map(|t| (t, setup.geometry)),
             kept_frames: 0,
             observer,
@@ -305,31 +308,37 @@ impl TrialState {
     }
 
     /// Renders the search display for `gaze`, with the full-resolution
-    /// reference drawn over the condition's frame: (rays, render ms).
-    /// Within the gaze tolerance of the last rendered frame's gaze, that
-    /// frame is shown again with its rays, render time and triangles (the
-    /// cost of the picture shown).
-    pub fn render_search(&mut self, gaze: [f64; 2]) -> Result<(u64, f64), String> {
+    /// reference drawn over the condition's frame: (rays, render ms, GPU
+    /// traffic — `None` on the CPU backend). Within the gaze tolerance of
+    /// the last rendered frame's gaze, that frame is shown again with its
+    /// rays, render time and triangles (the cost of the picture shown); no
+    /// renderer runs, so it moves nothing to or from the GPU.
+    pub fn render_search(
+        &mut self,
+        gaze: [f64; 2],
+    ) -> Result<(u64, f64, Option<raycast::gpu::Traffic>), String> {
         if let (Some((g, rays, ms, triangles)), Some((tol, geometry)), Some(_)) =
             (self.last_render, self.tolerance, &self.last)
         {
             if geometry.eccentricity_deg(g, gaze) <= tol {
                 self.kept_frames += 1;
                 self.pending = Some((ms, triangles));
-                return Ok((rays, ms));
+                let nothing = self.last_traffic.map(|_| raycast::gpu::Traffic::default());
+                return Ok((rays, ms, nothing));
             }
         }
         let old = self.last.take();
-        let (mut frame, stats, plan, triangles) = self
+        let (mut frame, stats, plan, triangles, traffic) = self
             .search
             .with_dependent_mut(|_, r| {
                 if let Some(f) = old {
                     r.recycle(f);
                 }
                 r.render(gaze)
-                    .map(|(f, s)| (f, s, r.provenance(), triangles_drawn(r)))
+                    .map(|(f, s)| (f, s, r.provenance(), triangles_drawn(r), r.gpu_traffic()))
             })
             .map_err(|e| e.to_string())?;
+        self.last_traffic = traffic;
         let started = std::time::Instant::now();
         if let Some(reference) = &self.reference {
             reference.draw(&mut frame)?;
@@ -353,7 +362,7 @@ impl TrialState {
             );
             o.fresh = Some((gaze, q));
         }
-        Ok((stats.rays_total, ms))
+        Ok((stats.rays_total, ms, traffic))
     }
 
     /// What drew the picture of `phase` ([`TrialState::rgb`]): the search

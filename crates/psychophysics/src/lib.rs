@@ -1,0 +1,11 @@
+//! # psychophysics — measuring a participant's contrast thresholds
+//!
+//! **No person has yet run this procedure.** Everything here was built and
+//! checked against a simulated observer only; its figures are synthetic.
+//!
+//! - [`luminance`]: 8-bit levels ↔ linear light, by photometer table or gamma.
+//! - [`stimulus`]: Gabor patches with unbiased spatial dithering.
+pub mod luminance;
+pub mod stimulus;
+
+pub use foveation::ParamError;

@@ -5,7 +5,11 @@
 //!
 //! - [`luminance`]: 8-bit levels ↔ linear light, by photometer table or gamma.
 //! - [`stimulus`]: Gabor patches with unbiased spatial dithering.
+//! - [`quest`]: QUEST (Watson & Pelli 1983).
+//! - [`staircase`]: transformed up-down staircases.
 pub mod luminance;
+pub mod quest;
+pub mod staircase;
 pub mod stimulus;
 
 pub use foveation::ParamError;

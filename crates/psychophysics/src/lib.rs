@@ -7,8 +7,12 @@
 //! - [`stimulus`]: Gabor patches with unbiased spatial dithering.
 //! - [`quest`]: QUEST (Watson & Pelli 1983).
 //! - [`staircase`]: transformed up-down staircases.
+//! - [`session`]: interleaved staircases over a frequency × eccentricity grid.
+//! - [`observer`]: a simulated Geisler–Perry observer (synthetic answers).
 pub mod luminance;
+pub mod observer;
 pub mod quest;
+pub mod session;
 pub mod staircase;
 pub mod stimulus;
 

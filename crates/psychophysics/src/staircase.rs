@@ -148,6 +148,11 @@ impl Staircase {
         })
     }
 
+    /// The rules it was made with.
+    pub fn params(&self) -> &StaircaseParams {
+        &self.params
+    }
+
     /// The intensity of the next trial.
     pub fn next_intensity(&self) -> f64 {
         self.intensity

@@ -9,6 +9,8 @@
 //! - [`staircase`]: transformed up-down staircases.
 //! - [`session`]: interleaved staircases over a frequency × eccentricity grid.
 //! - [`observer`]: a simulated Geisler–Perry observer (synthetic answers).
+//! - [`fit`]: the Geisler–Perry fit, bootstrap intervals, the threshold table.
+pub mod fit;
 pub mod luminance;
 pub mod observer;
 pub mod quest;

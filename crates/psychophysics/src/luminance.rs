@@ -269,6 +269,19 @@ impl Transfer {
         Some((lo as u8, if frac >= 1.0 { 0.0 } else { frac }))
     }
 
+    /// The highest Michelson contrast a pattern with mean luminance
+    /// L(`background_level`) can have on this display:
+    /// `min(L(255) − L̄, L̄ − L(0)) / L̄`, less one part in 10⁹ so that a
+    /// render at exactly this contrast never rounds past the display's range.
+    pub fn max_contrast(&self, background_level: u8) -> f64 {
+        let l = self.luminance(background_level);
+        if l <= 0.0 {
+            return 0.0;
+        }
+        let c = (self.luminance[LEVELS - 1] - l).min(l - self.luminance[0]) / l;
+        (c * (1.0 - 1e-9)).clamp(0.0, 1.0)
+    }
+
     /// The luminance step between `level` and the next level up (the step
     /// below 255 for level 255).
     pub fn step_above(&self, level: u8) -> f64 {
@@ -323,6 +336,10 @@ mod tests {
         let tr = Transfer::gamma(GammaCurve::default()).unwrap();
         assert_eq!(tr.kind(), TransferKind::Gamma(2.2));
         assert_eq!(tr.luminance(0), 0.5);
+        // Around level 128 (22.34 cd/m²) the dark side limits it.
+        let c = tr.max_contrast(128);
+        assert!((c - (22.342_211_948_449_354 - 0.5) / 22.342_211_948_449_354).abs() < 1e-8);
+        assert_eq!(tr.max_contrast(0), 0.0);
         assert!((tr.luminance(255) - 100.0).abs() < 1e-12);
         let bad = GammaCurve {
             gamma: f64::INFINITY,

@@ -185,6 +185,39 @@ impl SessionSpec {
     }
 }
 
+impl SessionSpec {
+    /// The design with its highest intensity lowered to log10 of
+    /// `max_contrast` (the display's limit, e.g.
+    /// [`crate::luminance::Transfer::max_contrast`]) when that is lower.
+    /// `max_contrast` must be finite and in (0, 1].
+    pub fn limited_to_contrast(mut self, max_contrast: f64) -> Result<Self, ParamError> {
+        if !(max_contrast.is_finite() && max_contrast > 0.0 && max_contrast <= 1.0) {
+            return Err(ParamError::new(
+                "max_contrast",
+                max_contrast,
+                "must be a Michelson contrast in (0, 1]",
+            ));
+        }
+        let top = max_contrast.log10();
+        let (max, min) = match &mut self.procedure {
+            Procedure::Quest(q) => (&mut q.max_intensity, q.min_intensity),
+            Procedure::Staircase(s) => {
+                s.start = s.start.min(top);
+                (&mut s.max_intensity, s.min_intensity)
+            }
+        };
+        if top <= min {
+            return Err(ParamError::new(
+                "max_contrast",
+                max_contrast,
+                format!("is at or below the design's lowest intensity (log10 {min})"),
+            ));
+        }
+        *max = max.min(top);
+        Ok(self)
+    }
+}
+
 /// One condition's staircase.
 #[derive(Debug, Clone, PartialEq)]
 pub enum Track {
@@ -578,6 +611,24 @@ mod tests {
             ..SessionSpec::default()
         };
         assert_eq!(Session::new(bad).unwrap_err().field, "frequencies_cpd");
+    }
+
+    #[test]
+    fn the_display_limit_caps_every_trial() {
+        let spec = SessionSpec {
+            trials_per_condition: 10,
+            ..SessionSpec::default()
+        }
+        .limited_to_contrast(0.5)
+        .unwrap();
+        let s = run(spec, &mut observer(0.3));
+        assert!(s.records().iter().all(|r| r.trial.contrast <= 0.5 + 1e-12));
+        // High-frequency peripheral conditions sit at the cap: censored.
+        assert!(s.results().iter().any(|r| r.censored));
+        let e = SessionSpec::default()
+            .limited_to_contrast(f64::NAN)
+            .unwrap_err();
+        assert_eq!(e.field, "max_contrast");
     }
 
     #[test]

@@ -316,7 +316,7 @@ impl GaborPatch {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::luminance::GammaCurve;
+    use crate::luminance::{GammaCurve, LuminanceTable};
     use proptest::prelude::*;
     use screen_geometry::Display;
 
@@ -443,6 +443,32 @@ mod tests {
         )
         .unwrap_err();
         assert!(e.reason.contains("at most"), "{e}");
+    }
+
+    #[test]
+    fn a_photometer_table_is_used_and_reported() {
+        let (g, _) = setup();
+        // A display measured at five levels (cd/m²).
+        let table = LuminanceTable::new(
+            vec![0, 64, 128, 192, 255],
+            vec![0.4, 6.0, 24.0, 58.0, 110.0],
+        )
+        .unwrap();
+        let t = Transfer::measured(&table);
+        let p = GaborPatch::render(&spec(), &g, &t, 5).unwrap();
+        assert_eq!(p.transfer, TransferKind::Measured);
+        assert_eq!(p.mean_luminance_cd_m2, 24.0);
+        assert!((p.measured_contrast() - 0.1).abs() <= 6.0 * p.dither_contrast_sd);
+        // The highest contrast the transfer allows renders.
+        for bg in [40u8, 128, 250] {
+            let c = t.max_contrast(bg);
+            let s = GaborSpec {
+                contrast: c,
+                background_level: bg,
+                ..spec()
+            };
+            GaborPatch::render(&s, &g, &t, 1).unwrap();
+        }
     }
 
     proptest! {

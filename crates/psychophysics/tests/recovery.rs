@@ -7,7 +7,8 @@ use foveation::perceptibility::{ThresholdTable, ThresholdTableData};
 use foveation::GeislerPerry;
 use psychophysics::fit::{fit_session, threshold_table, FitOptions, GeislerPerryFit};
 use psychophysics::observer::{ObserverSpec, SimulatedObserver};
-use psychophysics::session::{Session, SessionSpec};
+use psychophysics::session::{Procedure, Session, SessionSpec};
+use psychophysics::staircase::StaircaseParams;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
@@ -34,20 +35,40 @@ fn hidden_observers(n: u64) -> Vec<ObserverSpec> {
 }
 
 fn measure(spec: ObserverSpec, trials_per_condition: u32, seed: u64) -> (Session, GeislerPerryFit) {
+    measure_with(spec, trials_per_condition, seed, None, true)
+}
+
+fn measure_with(
+    spec: ObserverSpec,
+    trials_per_condition: u32,
+    seed: u64,
+    staircase: Option<StaircaseParams>,
+    weighted: bool,
+) -> (Session, GeislerPerryFit) {
     let mut obs = SimulatedObserver::new(spec).unwrap();
-    let mut s = Session::new(SessionSpec {
+    let mut design = SessionSpec {
         seed,
         trials_per_condition,
         ..SessionSpec::default()
-    })
-    .unwrap();
+    };
+    if let Some(p) = staircase {
+        design.procedure = Procedure::Staircase(p);
+    }
+    let mut s = Session::new(design).unwrap();
     while let Some(t) = s.next_trial() {
         let r = obs
             .respond(t.frequency_cpd, t.eccentricity_deg, t.contrast)
             .unwrap();
         s.record_synthetic(&t, r).unwrap();
     }
-    let fit = fit_session(&s, &FitOptions::default()).unwrap();
+    let fit = fit_session(
+        &s,
+        &FitOptions {
+            weighted,
+            ..FitOptions::default()
+        },
+    )
+    .unwrap();
     (s, fit)
 }
 
@@ -128,7 +149,9 @@ fn the_table_round_trips_through_ron_into_foveation() {
 }
 
 /// The survey behind the crate docs' figures: `N_OBS` observers (default
-/// 30) at `TPC` trials per condition (default 40).
+/// 30) at `TPC` trials per condition (default 40); `STAIRCASE=1` runs
+/// 3-down-1-up staircases (at most `TPC` trials each) instead of QUEST,
+/// `UNWEIGHTED=1` fits without weights.
 /// `N_OBS=30 TPC=80 cargo test -p psychophysics --test recovery -- --ignored --nocapture`
 #[test]
 #[ignore]
@@ -140,10 +163,16 @@ fn recovery_survey() {
             .unwrap_or(d)
     };
     let (n, tpc) = (env("N_OBS", 30), env("TPC", 40) as u32);
+    let weighted = env("UNWEIGHTED", 0) != 1;
+    let staircase = (env("STAIRCASE", 0) == 1).then(|| StaircaseParams {
+        max_reversals: 100,
+        max_trials: tpc,
+        ..StaircaseParams::default()
+    });
     let mut errs = [Vec::new(), Vec::new(), Vec::new()];
     let mut covered = [0; 3];
     for (k, spec) in hidden_observers(n).into_iter().enumerate() {
-        let (_, fit) = measure(spec, tpc, k as u64);
+        let (_, fit) = measure_with(spec, tpc, k as u64, staircase, weighted);
         let t = spec.csf;
         for (i, (e, truth)) in [
             (fit.ct0, t.ct0),

@@ -26,7 +26,10 @@ use crate::ParamError;
 /// How the next intensity (and the reported estimate) is chosen.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 pub enum QuestMethod {
-    /// Posterior median (the toolbox's default `quantile` at 0.5).
+    /// Posterior median (quantile 0.5). The toolbox's `QuestQuantile`
+    /// defaults instead to a quantile order computed from the
+    /// psychometric function (`q.quantileOrder`, after King-Smith et al.
+    /// 1994); that order is not implemented here.
     Quantile,
     /// Posterior mean (King-Smith et al. 1994 recommend it).
     Mean,
@@ -371,9 +374,15 @@ mod tests {
     }
 
     /// Figures from an independent re-typing of the toolbox's
-    /// `QuestCreate`/`QuestUpdate`/`QuestMean`/`QuestSd` formulas in plain
-    /// Python (tGuess −1, tGuessSd 0.5, defaults otherwise; responses at
-    /// grid intensities so the table lookup is exact).
+    /// `QuestCreate`/`QuestRecompute`/`QuestUpdate`/`QuestMean`/`QuestSd`/
+    /// `QuestMode` in plain Python (tGuess −1, tGuessSd 0.5, defaults
+    /// otherwise; responses at grid intensities so the table lookup is
+    /// exact). The re-typing follows the toolbox code as its ports show it:
+    /// `p2` evaluated at `x2 + xThreshold`, `xThreshold` by `interp1` over
+    /// the strictly monotonic part of `p2`, the likelihood row read at
+    /// `len(pdf) + i − round((intensity − tGuess)/grain)` of the flipped
+    /// table. (The toolbox's help text writes `x − xThreshold`; its code
+    /// adds.)
     #[test]
     fn posterior_matches_the_toolbox_formulas() {
         let params = QuestParams {

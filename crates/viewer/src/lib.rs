@@ -27,6 +27,7 @@ pub mod plots;
 pub mod render_cmd;
 pub mod runner;
 pub mod screen;
+pub mod thresholds_cmd;
 pub mod tracker_cmd;
 pub mod view_cmd;
 
@@ -73,6 +74,10 @@ pub enum Command {
     /// participant's trials (`plan`), analyse session folders (`analyze`),
     /// export them to BIDS (`export-bids`).
     Experiment(experiment_cmd::ExperimentArgs),
+    /// Contrast thresholds: measure them over frequency × eccentricity with
+    /// interleaved QUEST staircases and fit the Geisler–Perry CSF
+    /// (`measure`; headless with a simulated observer only, for now).
+    Thresholds(thresholds_cmd::ThresholdsArgs),
 }
 
 /// Runs a parsed command line, writing normal output to `out`.
@@ -89,5 +94,6 @@ pub fn run(cli: Cli, out: &mut dyn std::io::Write) -> Result<(), String> {
         Command::View(args) => view_cmd::run(&args, out),
         Command::Calibrate(args) => calibrate_cmd::run(&args, out),
         Command::Experiment(args) => experiment_cmd::run(&args, out),
+        Command::Thresholds(args) => thresholds_cmd::run(&args, out),
     }
 }

@@ -478,6 +478,7 @@ impl ApplicationHandler for Calibrator<'_> {
                 self.size,
                 self.args.fullscreen,
                 self.args.monitor,
+                crate::screen::PresentChoice::Fifo,
             ) {
                 Ok(s) => self.screen = Some(s),
                 Err(e) => {

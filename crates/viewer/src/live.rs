@@ -80,6 +80,8 @@ pub struct LiveOptions {
     pub fullscreen: bool,
     /// Fullscreen on this monitor (0-based).
     pub monitor: Option<usize>,
+    /// How the window presents (`--present-mode`).
+    pub present_mode: crate::screen::PresentChoice,
     /// Publish LSL streams (`--lsl`; [`crate::lsl_out`]).
     pub lsl: Option<crate::lsl_out::LslOptions>,
 }
@@ -536,8 +538,19 @@ impl ApplicationHandler for Viewer<'_> {
             let title = format!("gazecast — {}", self.renderer.scene().name);
             let cam = self.renderer.camera();
             let size = (cam.width_px, cam.height_px);
-            match Screen::open(el, &title, size, self.opts.fullscreen, self.opts.monitor) {
-                Ok(s) => self.screen = Some(s),
+            match Screen::open(
+                el,
+                &title,
+                size,
+                self.opts.fullscreen,
+                self.opts.monitor,
+                self.opts.present_mode,
+            ) {
+                Ok(s) => {
+                    let line = s.present_mode.clone();
+                    self.screen = Some(s);
+                    self.say(&line);
+                }
                 Err(e) => self.fail(el, e),
             }
         }

@@ -108,6 +108,60 @@ pub fn plain_error(e: &dyn std::fmt::Display) -> String {
     out
 }
 
+/// How the window presents its frames (`view --present-mode`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, clap::ValueEnum)]
+pub enum PresentChoice {
+    /// The lowest latency without tearing: Mailbox (the newest frame
+    /// replaces a waiting one at the next refresh) where the adapter
+    /// offers it, FIFO (vsync) otherwise. Immediate is never picked
+    /// automatically: it tears, which a stimulus display must not.
+    #[default]
+    Auto,
+    /// FIFO: every frame waits for its refresh (vsync); what the
+    /// experiment uses, whose onsets are tied to the refresh.
+    Fifo,
+    /// Mailbox, or an error naming what the adapter offers.
+    Mailbox,
+    /// Immediate (no wait, tears), or an error naming what the adapter
+    /// offers.
+    Immediate,
+}
+
+/// Picks the present mode for `choice` among the adapter's `offered`
+/// ones: the mode and why, or an error naming what is offered.
+pub fn pick_present_mode(
+    choice: PresentChoice,
+    offered: &[wgpu::PresentMode],
+) -> Result<(wgpu::PresentMode, String), String> {
+    use wgpu::PresentMode as M;
+    let list = offered
+        .iter()
+        .map(|m| format!("{m:?}"))
+        .collect::<Vec<_>>()
+        .join(", ");
+    let has = |m: M| offered.contains(&m);
+    let (mode, why) = match choice {
+        PresentChoice::Auto if has(M::Mailbox) => {
+            (M::Mailbox, "auto: the lowest latency without tearing")
+        }
+        // Every adapter offers FIFO (WebGPU requires it).
+        PresentChoice::Auto => (M::Fifo, "auto: no Mailbox offered, so vsync"),
+        PresentChoice::Fifo => (M::Fifo, "asked"),
+        PresentChoice::Mailbox if has(M::Mailbox) => (M::Mailbox, "asked"),
+        PresentChoice::Immediate if has(M::Immediate) => (M::Immediate, "asked; it may tear"),
+        PresentChoice::Mailbox | PresentChoice::Immediate => {
+            return Err(format!(
+                "--present-mode {}: the window's adapter offers {list}",
+                format!("{choice:?}").to_lowercase()
+            ))
+        }
+    };
+    Ok((
+        mode,
+        format!("present mode {mode:?} ({why}; the adapter offers {list})"),
+    ))
+}
+
 pub struct Screen {
     pub window: Arc<Window>,
     surface: wgpu::Surface<'static>,
@@ -121,18 +175,21 @@ pub struct Screen {
     /// (the CPU frame into the surface texture; issue 35 wants it gone on
     /// the GPU backend).
     pub presented_bytes: u64,
+    /// The present mode in use and why ([`pick_present_mode`]).
+    pub present_mode: String,
 }
 
 impl Screen {
     /// Opens a `w × h` window — fullscreen on monitor `monitor` (0-based,
     /// in the platform's order) or on the current one when asked — and
-    /// configures its surface for copies, with FIFO (vsync) presents.
+    /// configures its surface for copies, presenting as `present` asks.
     pub fn open(
         el: &ActiveEventLoop,
         title: &str,
         (w, h): (u32, u32),
         fullscreen: bool,
         monitor: Option<usize>,
+        present: PresentChoice,
     ) -> Result<Self, String> {
         let mut attrs = Window::default_attributes()
             .with_title(title)
@@ -211,7 +268,8 @@ impl Screen {
         .ok_or("the window surface has no plain 8-bit RGBA/BGRA format")?;
         config.format = format;
         config.usage = wgpu::TextureUsages::COPY_DST;
-        config.present_mode = wgpu::PresentMode::Fifo;
+        let (mode, present_mode) = pick_present_mode(present, &caps.present_modes)?;
+        config.present_mode = mode;
         let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
         surface.configure(&device, &config);
         if let Some(e) = pollster::block_on(scope.pop()) {
@@ -226,6 +284,7 @@ impl Screen {
             bgra: format == wgpu::TextureFormat::Bgra8Unorm,
             staging: Vec::new(),
             presented_bytes: 0,
+            present_mode,
         })
     }
 
@@ -298,7 +357,31 @@ impl Screen {
 
 #[cfg(test)]
 mod tests {
-    use super::plain_error;
+    use super::{pick_present_mode, plain_error, PresentChoice};
+    use wgpu::PresentMode as M;
+
+    /// Auto takes Mailbox where offered and FIFO otherwise, never
+    /// Immediate; an explicit mode the adapter lacks is an error naming
+    /// what it offers.
+    #[test]
+    fn the_present_mode_is_the_lowest_latency_without_tearing() {
+        let all = [M::Fifo, M::Immediate, M::Mailbox];
+        let pick = |c, o: &[M]| pick_present_mode(c, o).map(|p| p.0);
+        assert_eq!(pick(PresentChoice::Auto, &all), Ok(M::Mailbox));
+        assert_eq!(
+            pick(PresentChoice::Auto, &[M::Fifo, M::Immediate]),
+            Ok(M::Fifo)
+        );
+        assert_eq!(pick(PresentChoice::Fifo, &all), Ok(M::Fifo));
+        assert_eq!(pick(PresentChoice::Immediate, &all), Ok(M::Immediate));
+        let err = pick(PresentChoice::Mailbox, &[M::Fifo]).unwrap_err();
+        assert!(
+            err.contains("--present-mode mailbox") && err.contains("Fifo"),
+            "{err}"
+        );
+        let (_, said) = pick_present_mode(PresentChoice::Auto, &all).expect("picks");
+        assert!(said.starts_with("present mode Mailbox (auto"), "{said}");
+    }
 
     /// winit's "os error at …/x11/mod.rs:123: …" named the library's
     /// source file in the viewer's "cannot open a window" message.

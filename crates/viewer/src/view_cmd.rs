@@ -67,6 +67,12 @@ pub struct ViewArgs {
     /// Fullscreen on this monitor (0-based; an out-of-range index lists them).
     #[arg(long, value_name = "INDEX")]
     pub monitor: Option<usize>,
+    /// How the window presents: `auto` (the lowest latency without
+    /// tearing: Mailbox where the adapter offers it, else FIFO), `fifo`
+    /// (vsync), `mailbox`, `immediate` (no wait; it tears). The log says
+    /// which was used and what the adapter offers.
+    #[arg(long, value_enum, default_value = "auto")]
+    pub present_mode: crate::screen::PresentChoice,
     /// Print the passes the scene's effects make the pipeline run, and exit.
     #[arg(long)]
     pub explain: bool,
@@ -94,6 +100,7 @@ impl ViewArgs {
             eye_distance: self.eye_distance,
             fullscreen: self.fullscreen,
             monitor: self.monitor,
+            present_mode: self.present_mode,
             lsl: self.lsl.options("view", String::new(), false),
         }
     }

@@ -738,7 +738,7 @@ fn a_lost_x_server_still_closes_the_recording() {
 /// the renderer's traffic per frame (p50 and max over every frame, counted
 /// at the wgpu calls), on either backend the bytes the window's
 /// presentation handed to `write_texture` (4 B a pixel, every frame: the
-/// CPU frame copied into the surface).
+/// CPU frame copied into the surface); the window names its present mode.
 #[test]
 fn the_summary_counts_the_gpu_traffic_and_the_presentation_upload() {
     let x = Xvfb::start();
@@ -770,6 +770,21 @@ fn the_summary_counts_the_gpu_traffic_and_the_presentation_upload() {
     let cpu = run("cpu");
     assert!(!cpu.contains("GPU traffic"), "{cpu}");
     assert!(cpu.contains(&presented), "{cpu}");
+    // The window says how it presents: auto takes Mailbox where offered,
+    // FIFO otherwise, and names what the adapter offers.
+    let mode = cpu
+        .lines()
+        .find(|l| l.starts_with("present mode "))
+        .unwrap_or_else(|| panic!("no present mode line: {cpu}"));
+    assert!(
+        mode.contains("(auto") && mode.contains("the adapter offers"),
+        "{mode}"
+    );
+    assert_eq!(
+        mode.starts_with("present mode Mailbox"),
+        mode.contains("Mailbox,") || mode.ends_with("Mailbox)"),
+        "{mode}"
+    );
     let gpu = run("gpu");
     assert!(gpu.contains(&presented), "{gpu}");
     let line = gpu

@@ -19,7 +19,15 @@ impl ApplicationHandler for Runner<'_> {
         if self.screen.is_none() {
             let size = self.size();
             let title = format!("gazecast experiment — {}", self.setup.design.name);
-            match Screen::open(el, &title, size, self.setup.fullscreen, self.setup.monitor) {
+            match Screen::open(
+                el,
+                &title,
+                size,
+                self.setup.fullscreen,
+                self.setup.monitor,
+                // Onsets are tied to the refresh: every frame waits for it.
+                crate::screen::PresentChoice::Fifo,
+            ) {
                 Ok(s) => {
                     if let Some(hz) = s
                         .window

@@ -946,7 +946,7 @@ fn an_image_condition_renders_image_based_and_its_frames_say_so() {
 
     // As a gazecast before the plan column wrote them (in trials.tsv the
     // reference and cost columns came after it).
-    for (f, n) in [(&trials, 6), (&frames, 1)] {
+    for (f, n) in [(&trials, 7), (&frames, 6)] {
         let cut: String = lines(f)
             .iter()
             .map(|l| {
@@ -966,8 +966,11 @@ fn an_image_condition_renders_image_based_and_its_frames_say_so() {
     assert!(
         log.contains(
             "trials.tsv: written before its columns plan, reference_row, reference_col, \
-             mean_triangles, mean_render_ms, p95_render_ms existed"
-        ) && log.contains("frames.tsv: written before its column plan existed"),
+             mean_triangles, mean_render_ms, p95_render_ms, practice existed"
+        ) && log.contains(
+            "frames.tsv: written before its columns plan, gpu_uploaded_bytes, \
+             gpu_read_back_bytes, gpu_dispatches, gpu_draws, gpu_submits existed"
+        ),
         "{log}"
     );
     assert_eq!(

@@ -166,6 +166,189 @@ impl Bvh4 {
     }
 }
 
+/// Rays a packet holds ([`Bvh4::traverse_packet`]): eight neighbouring
+/// pixels of a row.
+pub const PACKET: usize = 8;
+
+/// The lanes set in `mask`, lowest first.
+#[inline]
+fn lanes(mut mask: u32) -> impl Iterator<Item = usize> {
+    std::iter::from_fn(move || {
+        (mask != 0).then(|| {
+            let i = mask.trailing_zeros() as usize;
+            mask &= mask - 1;
+            i
+        })
+    })
+}
+
+impl Bvh4 {
+    /// Traverses the tree once for a packet of up to [`PACKET`] rays (the
+    /// lanes set in `active`; lane `i` is `rays[i]`): each node is fetched
+    /// once and its four boxes tested against every lane that can still
+    /// reach it, with exactly the arithmetic of [`Bvh4::traverse`] (so a
+    /// lane enters a box here exactly when it would there, given the same
+    /// `t_max`). Children are visited near to far by the nearest lane's
+    /// entry. `visit(first, count, lanes, t_max)` tests a leaf's triangles
+    /// for the lanes set in `lanes` and lowers their `t_max`. A lane is
+    /// dropped from a box only when its own entry distance exceeds its
+    /// `t_max`. Every active ray must have no zero direction component.
+    #[inline]
+    pub fn traverse_packet(
+        &self,
+        rays: &[Ray],
+        active: u32,
+        t_max: &mut [f32; PACKET],
+        mut visit: impl FnMut(u32, u32, u32, &mut [f32; PACKET]),
+    ) {
+        let Some(b) = self.bounds else { return };
+        let n = rays.len().min(PACKET);
+        let mut live = 0u32;
+        let zero = Vec4::ZERO;
+        let mut setup = [[zero; 6]; PACKET];
+        for i in lanes(active & ((1u32 << n) - 1)) {
+            let ray = &rays[i];
+            if b.hit(ray, t_max[i]).is_none() {
+                continue;
+            }
+            live |= 1 << i;
+            let o: Vec3A = ray.origin.into();
+            let inv = ray.inv_dir;
+            setup[i] = [
+                Vec4::splat(o.x),
+                Vec4::splat(o.y),
+                Vec4::splat(o.z),
+                Vec4::splat(inv.x),
+                Vec4::splat(inv.y),
+                Vec4::splat(inv.z),
+            ];
+        }
+        if live == 0 {
+            return;
+        }
+        let grow = 1.0 + 2.0 * f32::EPSILON;
+        let mut stack = PacketStack::new(live);
+        while let Some((r, count, mask, t_entry)) = stack.pop() {
+            // The lanes that may still meet something in this box: the
+            // entry is the nearest lane's, so no lane's own entry is less.
+            let mut mask_live = 0u32;
+            for i in lanes(mask) {
+                if t_entry <= t_max[i] {
+                    mask_live |= 1 << i;
+                }
+            }
+            if mask_live == 0 {
+                continue;
+            }
+            if count > 0 {
+                visit(r, count, mask_live, t_max);
+                continue;
+            }
+            let n = &self.nodes[r as usize];
+            let (minx, miny, minz) = (
+                Vec4::from(n.min[0]),
+                Vec4::from(n.min[1]),
+                Vec4::from(n.min[2]),
+            );
+            let (maxx, maxy, maxz) = (
+                Vec4::from(n.max[0]),
+                Vec4::from(n.max[1]),
+                Vec4::from(n.max[2]),
+            );
+            let mut child_lanes = [0u32; 4];
+            let mut child_near = [f32::INFINITY; 4];
+            for i in lanes(mask_live) {
+                let [ox, oy, oz, ix, iy, iz] = setup[i];
+                let t1x = (minx - ox) * ix;
+                let t2x = (maxx - ox) * ix;
+                let t1y = (miny - oy) * iy;
+                let t2y = (maxy - oy) * iy;
+                let t1z = (minz - oz) * iz;
+                let t2z = (maxz - oz) * iz;
+                let near = t1x
+                    .min(t2x)
+                    .max(t1y.min(t2y))
+                    .max(t1z.min(t2z))
+                    .max(Vec4::ZERO);
+                let far = (t1x.max(t2x).min(t1y.max(t2y)).min(t1z.max(t2z)) * grow)
+                    .min(Vec4::splat(t_max[i]));
+                let hit = near.cmple(far).bitmask();
+                if hit == 0 {
+                    continue;
+                }
+                let near = near.to_array();
+                for slot in lanes(hit) {
+                    child_lanes[slot] |= 1 << i;
+                    child_near[slot] = child_near[slot].min(near[slot]);
+                }
+            }
+            let mut order = [(0f32, 0usize); 4];
+            let mut k = 0;
+            for slot in 0..4 {
+                if child_lanes[slot] != 0 && n.child[slot] != EMPTY {
+                    order[k] = (child_near[slot], slot);
+                    k += 1;
+                }
+            }
+            let order = &mut order[..k];
+            for i in 1..order.len() {
+                let mut j = i;
+                while j > 0 && order[j - 1].0.total_cmp(&order[j].0).is_lt() {
+                    order.swap(j - 1, j);
+                    j -= 1;
+                }
+            }
+            for &(t, slot) in order.iter() {
+                stack.push((n.child[slot], n.count[slot], child_lanes[slot], t));
+            }
+        }
+    }
+}
+
+/// A packet traversal's stack: (reference, triangle count or 0 for a
+/// node, lanes, nearest lane's entry distance), inline up to
+/// [`STACK_INLINE`] entries, then spilling to the heap.
+struct PacketStack {
+    inline: [(u32, u32, u32, f32); STACK_INLINE],
+    len: usize,
+    spill: Vec<(u32, u32, u32, f32)>,
+}
+
+impl PacketStack {
+    #[inline]
+    fn new(lanes: u32) -> Self {
+        let mut s = Self {
+            inline: [(0, 0, 0, 0.0); STACK_INLINE],
+            len: 1,
+            spill: Vec::new(),
+        };
+        s.inline[0] = (0, 0, lanes, 0.0); // the root
+        s
+    }
+
+    #[inline]
+    fn push(&mut self, e: (u32, u32, u32, f32)) {
+        if self.len < STACK_INLINE {
+            self.inline[self.len] = e;
+            self.len += 1;
+        } else {
+            self.spill.push(e);
+        }
+    }
+
+    #[inline]
+    fn pop(&mut self) -> Option<(u32, u32, u32, f32)> {
+        if let Some(e) = self.spill.pop() {
+            return Some(e);
+        }
+        if self.len == 0 {
+            return None;
+        }
+        self.len -= 1;
+        Some(self.inline[self.len])
+    }
+}
+
 /// Entries the traversal stack holds in place; a deeper stack spills to the
 /// heap. Each level of a 4-wide node pushes at most three entries more than
 /// it pops, so 64 cover a tree 21 levels deep; the builder's depth cap

@@ -4,13 +4,15 @@
 //! triangles included) with coherent and incoherent rays, directions with
 //! zero, negative-zero, tiny and huge components, rays aimed exactly at
 //! shared vertices and edges of closed meshes (where two triangles tie),
-//! an empty scene and the shipped scenes' camera rays.
+//! an empty scene, the shipped scenes' camera rays, and a full frame
+//! rendered with packets against per-pixel single casts.
 
 mod common;
 
 use glam::Vec3;
 use proptest::prelude::*;
 use raycast::ray::{Ray, TriangleTest};
+use raycast::render::{render, Mode, Settings, Triggers};
 use raycast::scene::{Hit, MeshSource, Object};
 use raycast::{Camera, Scene, SceneFile};
 
@@ -255,6 +257,38 @@ fn shipped_scenes_camera_rays_match() {
                 let single = scene.intersect(r, 0.0, TriangleTest::Watertight);
                 assert_eq!(bits(*p), bits(single), "{name}: pixel ({x}, {y})");
             }
+        }
+    }
+}
+
+/// A full frame (cast in packets) holds, at every pixel, what a single
+/// ray through the pixel centre hits: object, distance and normal.
+#[test]
+fn a_full_frame_is_the_single_rays_frame() {
+    let scene = common::load("room");
+    let g = common::display(320, 256).geometry().expect("geometry");
+    let cam = Camera::new(&g);
+    let model = foveation::SamplingModel::new(g, foveation::GeislerPerry::default(), 1.0, 17.0)
+        .expect("model");
+    let settings = Settings {
+        mode: Mode::Full,
+        layout: foveation::Layout::Nyquist,
+        triggers: Triggers::from_scene(&scene),
+        test: TriangleTest::Watertight,
+        check_coverage: false,
+    };
+    let (frame, _) = render(&scene, &cam, &model, &settings, [160.0, 128.0]).expect("frame");
+    for y in 0..g.height_px {
+        for x in 0..g.width_px {
+            let p = [x as f32 + 0.5, y as f32 + 0.5];
+            let i = (y * g.width_px + x) as usize;
+            let hit = scene
+                .intersect(&cam.ray(p), 0.0, TriangleTest::Watertight)
+                .expect("the room fills the screen");
+            let depth = hit.t * (cam.screen_point(p) - cam.eye).length();
+            assert_eq!(frame.object[i], hit.object, "({x}, {y})");
+            assert_eq!(frame.depth_mm[i].to_bits(), depth.to_bits(), "({x}, {y})");
+            assert_eq!(frame.normal[i], hit.normal.to_array(), "({x}, {y})");
         }
     }
 }

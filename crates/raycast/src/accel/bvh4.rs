@@ -185,8 +185,10 @@ fn lanes(mut mask: u32) -> impl Iterator<Item = usize> {
 impl Bvh4 {
     /// Traverses the tree once for a packet of up to [`PACKET`] rays (the
     /// lanes set in `active`; lane `i` is `rays[i]`): each node is fetched
-    /// once and its four boxes tested against every lane that can still
-    /// reach it, with exactly the arithmetic of [`Bvh4::traverse`] (so a
+    /// once and its four boxes tested against all eight lanes together
+    /// (`test_node`: eight lanes an instruction where the processor has
+    /// AVX2; the lanes that cannot reach the node are masked off), with
+    /// exactly the arithmetic of [`Bvh4::traverse`] per lane (so a
     /// lane enters a box here exactly when it would there, given the same
     /// `t_max`). Children are visited near to far by the nearest lane's
     /// entry. `visit(first, count, lanes, t_max)` tests a leaf's triangles
@@ -204,29 +206,24 @@ impl Bvh4 {
         let Some(b) = self.bounds else { return };
         let n = rays.len().min(PACKET);
         let mut live = 0u32;
-        let zero = Vec4::ZERO;
-        let mut setup = [[zero; 6]; PACKET];
+        let mut setup = Lanes8 {
+            o: [[0.0; PACKET]; 3],
+            inv: [[0.0; PACKET]; 3],
+        };
         for i in lanes(active & ((1u32 << n) - 1)) {
             let ray = &rays[i];
             if b.hit(ray, t_max[i]).is_none() {
                 continue;
             }
             live |= 1 << i;
-            let o: Vec3A = ray.origin.into();
-            let inv = ray.inv_dir;
-            setup[i] = [
-                Vec4::splat(o.x),
-                Vec4::splat(o.y),
-                Vec4::splat(o.z),
-                Vec4::splat(inv.x),
-                Vec4::splat(inv.y),
-                Vec4::splat(inv.z),
-            ];
+            for a in 0..3 {
+                setup.o[a][i] = ray.origin[a];
+                setup.inv[a][i] = ray.inv_dir[a];
+            }
         }
         if live == 0 {
             return;
         }
-        let grow = 1.0 + 2.0 * f32::EPSILON;
         let mut stack = PacketStack::new(live);
         while let Some((r, count, mask, t_entry)) = stack.pop() {
             // The lanes that may still meet something in this box: the
@@ -245,41 +242,14 @@ impl Bvh4 {
                 continue;
             }
             let n = &self.nodes[r as usize];
-            let (minx, miny, minz) = (
-                Vec4::from(n.min[0]),
-                Vec4::from(n.min[1]),
-                Vec4::from(n.min[2]),
-            );
-            let (maxx, maxy, maxz) = (
-                Vec4::from(n.max[0]),
-                Vec4::from(n.max[1]),
-                Vec4::from(n.max[2]),
-            );
+            let mut near = [[0f32; PACKET]; 4];
+            let hits = test_node(n, &setup, t_max, &mut near);
             let mut child_lanes = [0u32; 4];
             let mut child_near = [f32::INFINITY; 4];
-            for i in lanes(mask_live) {
-                let [ox, oy, oz, ix, iy, iz] = setup[i];
-                let t1x = (minx - ox) * ix;
-                let t2x = (maxx - ox) * ix;
-                let t1y = (miny - oy) * iy;
-                let t2y = (maxy - oy) * iy;
-                let t1z = (minz - oz) * iz;
-                let t2z = (maxz - oz) * iz;
-                let near = t1x
-                    .min(t2x)
-                    .max(t1y.min(t2y))
-                    .max(t1z.min(t2z))
-                    .max(Vec4::ZERO);
-                let far = (t1x.max(t2x).min(t1y.max(t2y)).min(t1z.max(t2z)) * grow)
-                    .min(Vec4::splat(t_max[i]));
-                let hit = near.cmple(far).bitmask();
-                if hit == 0 {
-                    continue;
-                }
-                let near = near.to_array();
-                for slot in lanes(hit) {
-                    child_lanes[slot] |= 1 << i;
-                    child_near[slot] = child_near[slot].min(near[slot]);
+            for slot in 0..4 {
+                child_lanes[slot] = hits[slot] & mask_live;
+                for i in lanes(child_lanes[slot]) {
+                    child_near[slot] = child_near[slot].min(near[slot][i]);
                 }
             }
             let mut order = [(0f32, 0usize); 4];
@@ -303,6 +273,107 @@ impl Bvh4 {
             }
         }
     }
+}
+
+/// A packet's rays as structure of arrays: origin and reciprocal
+/// direction, per axis, per lane.
+struct Lanes8 {
+    o: [[f32; PACKET]; 3],
+    inv: [[f32; PACKET]; 3],
+}
+
+/// `_mm_min_ps(a, b)` on one lane (glam's `Vec4::min`): `b` unless `a < b`,
+/// so a NaN gives `b` exactly as the single ray's SIMD test does.
+#[inline(always)]
+fn min_ps(a: f32, b: f32) -> f32 {
+    if a < b {
+        a
+    } else {
+        b
+    }
+}
+
+/// `_mm_max_ps(a, b)` on one lane (glam's `Vec4::max`).
+#[inline(always)]
+fn max_ps(a: f32, b: f32) -> f32 {
+    if a > b {
+        a
+    } else {
+        b
+    }
+}
+
+/// A node's four boxes against all eight lanes: per child, the lanes
+/// that enter it (bit `i` for lane `i`) and each lane's entry distance in
+/// `near`. Per lane, exactly [`Bvh4::traverse`]'s arithmetic and operand
+/// order (so the same bits, NaN cases included); written lane-wise so the
+/// compiler vectorises across the lanes (eight per instruction where
+/// [`test_node`] finds AVX2).
+#[inline(always)]
+fn test_node_lanes(
+    n: &Bvh4Node,
+    l: &Lanes8,
+    t_max: &[f32; PACKET],
+    near: &mut [[f32; PACKET]; 4],
+) -> [u32; 4] {
+    let grow = 1.0 + 2.0 * f32::EPSILON;
+    let mut out = [0u32; 4];
+    for slot in 0..4 {
+        let mut hit = [false; PACKET];
+        for i in 0..PACKET {
+            let t1x = (n.min[0][slot] - l.o[0][i]) * l.inv[0][i];
+            let t2x = (n.max[0][slot] - l.o[0][i]) * l.inv[0][i];
+            let t1y = (n.min[1][slot] - l.o[1][i]) * l.inv[1][i];
+            let t2y = (n.max[1][slot] - l.o[1][i]) * l.inv[1][i];
+            let t1z = (n.min[2][slot] - l.o[2][i]) * l.inv[2][i];
+            let t2z = (n.max[2][slot] - l.o[2][i]) * l.inv[2][i];
+            let nr = max_ps(
+                max_ps(max_ps(min_ps(t1x, t2x), min_ps(t1y, t2y)), min_ps(t1z, t2z)),
+                0.0,
+            );
+            let fr = min_ps(
+                min_ps(min_ps(max_ps(t1x, t2x), max_ps(t1y, t2y)), max_ps(t1z, t2z)) * grow,
+                t_max[i],
+            );
+            near[slot][i] = nr;
+            hit[i] = nr <= fr;
+        }
+        let mut m = 0u32;
+        for (i, h) in hit.iter().enumerate() {
+            m |= u32::from(*h) << i;
+        }
+        out[slot] = m;
+    }
+    out
+}
+
+/// [`test_node_lanes`] compiled with AVX2 enabled.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+fn test_node_avx2(
+    n: &Bvh4Node,
+    l: &Lanes8,
+    t_max: &[f32; PACKET],
+    near: &mut [[f32; PACKET]; 4],
+) -> [u32; 4] {
+    test_node_lanes(n, l, t_max, near)
+}
+
+/// [`test_node_lanes`], with AVX2 where the processor has it.
+#[inline(always)]
+fn test_node(
+    n: &Bvh4Node,
+    l: &Lanes8,
+    t_max: &[f32; PACKET],
+    near: &mut [[f32; PACKET]; 4],
+) -> [u32; 4] {
+    #[cfg(target_arch = "x86_64")]
+    if std::arch::is_x86_feature_detected!("avx2") {
+        // SAFETY: the processor has AVX2 (checked just above), the only
+        // requirement of a `target_feature(enable = "avx2")` function.
+        return unsafe { test_node_avx2(n, l, t_max, near) };
+    }
+    test_node_lanes(n, l, t_max, near)
 }
 
 /// A packet traversal's stack: (reference, triangle count or 0 for a

@@ -116,16 +116,12 @@ impl Scene {
     /// component, is traced again alone. The grid, Möller–Trumbore and a
     /// negative `t_min` take the single-ray path for every ray.
     ///
-    /// **Not used by the renderer** (issue 34): a lane's boxes are tested
-    /// with the single ray's 4-wide SIMD over a node's children, so a
-    /// packet does the single rays' box work and saves only the node
-    /// fetches, stack and ordering, which did not pay. Measured per frame
-    /// (CPU time, one thread, 1280×1024, packets in full frames, fovea,
-    /// refined pixels and vertex rays against single rays): 2–10 % slower
-    /// on the room, the search task and the bunny; `trace_rays` puts
-    /// packets within ±5 % of single rays. Kept, with its exactness tests
-    /// (`tests/packets.rs`), as the ground for a packet that tests eight
-    /// lanes per instruction (AVX2).
+    /// The renderer casts full frames, fovea and refined pixels and the
+    /// mask's vertex rays this way (issue 34). A node's four boxes are
+    /// tested against all eight lanes at once, eight lanes per instruction
+    /// where the processor has AVX2 (`Bvh4::traverse_packet`); with a
+    /// lane-by-lane box test instead, packets were 2–10 % slower than
+    /// single rays.
     ///
     /// [`Bvh4::traverse_packet`]: crate::accel::Bvh4::traverse_packet
     pub fn intersect_packet(

@@ -2,6 +2,9 @@
 # Foveated versus full-resolution frame time on the CPU, side by side in one
 # run: median of 5 frames each, gaze at the screen centre.
 #   bench/foveated_vs_full.sh [path/to/gazecast]
+# SCENES and DISPLAYS (names in config/scenes and config/displays, space
+# separated) choose others, e.g. the screen-filling room at the seed's
+# 1280x1024:  SCENES="room search-task bunny" DISPLAYS=tobii-et1750-17in bench/foveated_vs_full.sh
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bin=${1:-target/release/gazecast}
@@ -10,8 +13,8 @@ trap 'rm -rf "$tmp"' EXIT
 field() { grep -o "\"$1\": [0-9.]*" "$2" | head -1 | awk '{print $2}'; }
 echo "| scene | display | full ms | foveated ms | full / foveated | rays full | rays foveated | cells refined |"
 echo "|---|---|---:|---:|---:|---:|---:|---:|"
-for scene in search-task bunny stress; do
-  for display in desktop-24in-1080p desktop-27in-4k; do
+for scene in ${SCENES:-search-task bunny stress room}; do
+  for display in ${DISPLAYS:-desktop-24in-1080p desktop-27in-4k}; do
     for mode in full foveated; do
       "$bin" render --scene "config/scenes/$scene.ron" --display "config/displays/$display.ron" \
         --mode "$mode" --repeat 5 --out "$tmp/$mode.png" --stats "$tmp/$mode.json" >/dev/null

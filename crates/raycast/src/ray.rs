@@ -249,6 +249,21 @@ pub fn watertight(
     t_min: f32,
     t_max: f32,
 ) -> Option<TriHit> {
+    watertight_det(r, p0, p1, p2, t_min, t_max).map(|(h, _)| h)
+}
+
+/// [`watertight`] (the same arithmetic, bit for bit) that also returns the
+/// hit's determinant `u + v + w`: the packet caster checks it to know that
+/// the range test's products stayed in the normal range of `f32`.
+#[inline(always)]
+pub fn watertight_det(
+    r: &WatertightRay,
+    p0: Vec3,
+    p1: Vec3,
+    p2: Vec3,
+    t_min: f32,
+    t_max: f32,
+) -> Option<(TriHit, f32)> {
     let ([u, v, w], [az, bz, cz]) = sheared_edges(r, p0, p1, p2);
     if (u < 0.0 || v < 0.0 || w < 0.0) && (u > 0.0 || v > 0.0 || w > 0.0) {
         return None;
@@ -268,11 +283,14 @@ pub fn watertight(
         return None;
     }
     let inv = 1.0 / det;
-    Some(TriHit {
-        t: t_scaled * inv,
-        u: v * inv,
-        v: w * inv,
-    })
+    Some((
+        TriHit {
+            t: t_scaled * inv,
+            u: v * inv,
+            v: w * inv,
+        },
+        det,
+    ))
 }
 
 /// Möller–Trumbore (Murphy 2007, Algorithm 4.2; Möller & Trumbore 1997).

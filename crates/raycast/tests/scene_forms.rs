@@ -207,3 +207,49 @@ fn bad_new_form_entries_name_file_line_and_field() {
         assert_eq!(e.line(), line_of(&text, bad), "{bad}: {e}");
     }
 }
+
+/// The room (issue 34) fills the screen: on every shipped display, every
+/// primary ray hits something (every 7th pixel of every 7th row, and the
+/// frame's border in full).
+#[test]
+fn the_room_fills_every_displays_screen() {
+    let file: SceneFile = ron::from_str(&shipped("room")).expect("room.ron parses");
+    let scene = Scene::build(&file, &scenes_dir()).expect("room builds");
+    assert!(
+        scene.triangles.len() > 200_000,
+        "{} triangles",
+        scene.triangles.len()
+    );
+    let displays = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../config/displays");
+    let mut seen = 0;
+    for entry in std::fs::read_dir(&displays).expect("config/displays") {
+        let path = entry.expect("entry").path();
+        if path.extension().is_none_or(|x| x != "ron") {
+            continue;
+        }
+        let text = std::fs::read_to_string(&path).expect("display file");
+        let display: foveation::Display =
+            ron::from_str(&text).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+        let g = display.geometry().expect("geometry");
+        let cam = raycast::Camera::new(&g);
+        let (w, h) = (g.width_px, g.height_px);
+        let border = (0..w)
+            .flat_map(|x| [(x, 0), (x, h - 1)])
+            .chain((0..h).flat_map(|y| [(0, y), (w - 1, y)]));
+        let inside = (0..h)
+            .step_by(7)
+            .flat_map(|y| (0..w).step_by(7).map(move |x| (x, y)));
+        for (x, y) in border.chain(inside) {
+            let ray = cam.pixel_ray(x, y);
+            assert!(
+                scene
+                    .intersect(&ray, 0.0, raycast::ray::TriangleTest::Watertight)
+                    .is_some(),
+                "{}: pixel ({x}, {y}) misses",
+                path.display()
+            );
+        }
+        seen += 1;
+    }
+    assert!(seen >= 5, "{seen} display files");
+}

@@ -166,6 +166,260 @@ impl Bvh4 {
     }
 }
 
+/// Rays a packet holds ([`Bvh4::traverse_packet`]): eight neighbouring
+/// pixels of a row.
+pub const PACKET: usize = 8;
+
+/// The lanes set in `mask`, lowest first.
+#[inline]
+fn lanes(mut mask: u32) -> impl Iterator<Item = usize> {
+    std::iter::from_fn(move || {
+        (mask != 0).then(|| {
+            let i = mask.trailing_zeros() as usize;
+            mask &= mask - 1;
+            i
+        })
+    })
+}
+
+impl Bvh4 {
+    /// Traverses the tree once for a packet of up to [`PACKET`] rays (the
+    /// lanes set in `active`; lane `i` is `rays[i]`): each node is fetched
+    /// once and its four boxes tested against all eight lanes together
+    /// (`test_node`: eight lanes an instruction where the processor has
+    /// AVX2; the lanes that cannot reach the node are masked off), with
+    /// exactly the arithmetic of [`Bvh4::traverse`] per lane (so a
+    /// lane enters a box here exactly when it would there, given the same
+    /// `t_max`). Children are visited near to far by the nearest lane's
+    /// entry. `visit(first, count, lanes, t_max)` tests a leaf's triangles
+    /// for the lanes set in `lanes` and lowers their `t_max`. A lane is
+    /// dropped from a box only when its own entry distance exceeds its
+    /// `t_max`. Every active ray must have no zero direction component.
+    #[inline]
+    pub fn traverse_packet(
+        &self,
+        rays: &[Ray],
+        active: u32,
+        t_max: &mut [f32; PACKET],
+        mut visit: impl FnMut(u32, u32, u32, &mut [f32; PACKET]),
+    ) {
+        let Some(b) = self.bounds else { return };
+        let n = rays.len().min(PACKET);
+        let mut live = 0u32;
+        let mut setup = Lanes8 {
+            o: [[0.0; PACKET]; 3],
+            inv: [[0.0; PACKET]; 3],
+        };
+        for i in lanes(active & ((1u32 << n) - 1)) {
+            let ray = &rays[i];
+            if b.hit(ray, t_max[i]).is_none() {
+                continue;
+            }
+            live |= 1 << i;
+            for a in 0..3 {
+                setup.o[a][i] = ray.origin[a];
+                setup.inv[a][i] = ray.inv_dir[a];
+            }
+        }
+        if live == 0 {
+            return;
+        }
+        let mut stack = PacketStack::new(live);
+        while let Some((r, count, mask, t_entry)) = stack.pop() {
+            // The lanes that may still meet something in this box: the
+            // entry is the nearest lane's, so no lane's own entry is less.
+            let mut mask_live = 0u32;
+            for i in lanes(mask) {
+                if t_entry <= t_max[i] {
+                    mask_live |= 1 << i;
+                }
+            }
+            if mask_live == 0 {
+                continue;
+            }
+            if count > 0 {
+                visit(r, count, mask_live, t_max);
+                continue;
+            }
+            let n = &self.nodes[r as usize];
+            let mut near = [[0f32; PACKET]; 4];
+            let hits = test_node(n, &setup, t_max, &mut near);
+            let mut child_lanes = [0u32; 4];
+            let mut child_near = [f32::INFINITY; 4];
+            for slot in 0..4 {
+                child_lanes[slot] = hits[slot] & mask_live;
+                for i in lanes(child_lanes[slot]) {
+                    child_near[slot] = child_near[slot].min(near[slot][i]);
+                }
+            }
+            let mut order = [(0f32, 0usize); 4];
+            let mut k = 0;
+            for slot in 0..4 {
+                if child_lanes[slot] != 0 && n.child[slot] != EMPTY {
+                    order[k] = (child_near[slot], slot);
+                    k += 1;
+                }
+            }
+            let order = &mut order[..k];
+            for i in 1..order.len() {
+                let mut j = i;
+                while j > 0 && order[j - 1].0.total_cmp(&order[j].0).is_lt() {
+                    order.swap(j - 1, j);
+                    j -= 1;
+                }
+            }
+            for &(t, slot) in order.iter() {
+                stack.push((n.child[slot], n.count[slot], child_lanes[slot], t));
+            }
+        }
+    }
+}
+
+/// A packet's rays as structure of arrays: origin and reciprocal
+/// direction, per axis, per lane.
+struct Lanes8 {
+    o: [[f32; PACKET]; 3],
+    inv: [[f32; PACKET]; 3],
+}
+
+/// `_mm_min_ps(a, b)` on one lane (glam's `Vec4::min`): `b` unless `a < b`,
+/// so a NaN gives `b` exactly as the single ray's SIMD test does.
+#[inline(always)]
+fn min_ps(a: f32, b: f32) -> f32 {
+    if a < b {
+        a
+    } else {
+        b
+    }
+}
+
+/// `_mm_max_ps(a, b)` on one lane (glam's `Vec4::max`).
+#[inline(always)]
+fn max_ps(a: f32, b: f32) -> f32 {
+    if a > b {
+        a
+    } else {
+        b
+    }
+}
+
+/// A node's four boxes against all eight lanes: per child, the lanes
+/// that enter it (bit `i` for lane `i`) and each lane's entry distance in
+/// `near`. Per lane, exactly [`Bvh4::traverse`]'s arithmetic and operand
+/// order (so the same bits, NaN cases included); written lane-wise so the
+/// compiler vectorises across the lanes (eight per instruction where
+/// [`test_node`] finds AVX2).
+#[inline(always)]
+fn test_node_lanes(
+    n: &Bvh4Node,
+    l: &Lanes8,
+    t_max: &[f32; PACKET],
+    near: &mut [[f32; PACKET]; 4],
+) -> [u32; 4] {
+    let grow = 1.0 + 2.0 * f32::EPSILON;
+    let mut out = [0u32; 4];
+    for slot in 0..4 {
+        let mut hit = [false; PACKET];
+        for i in 0..PACKET {
+            let t1x = (n.min[0][slot] - l.o[0][i]) * l.inv[0][i];
+            let t2x = (n.max[0][slot] - l.o[0][i]) * l.inv[0][i];
+            let t1y = (n.min[1][slot] - l.o[1][i]) * l.inv[1][i];
+            let t2y = (n.max[1][slot] - l.o[1][i]) * l.inv[1][i];
+            let t1z = (n.min[2][slot] - l.o[2][i]) * l.inv[2][i];
+            let t2z = (n.max[2][slot] - l.o[2][i]) * l.inv[2][i];
+            let nr = max_ps(
+                max_ps(max_ps(min_ps(t1x, t2x), min_ps(t1y, t2y)), min_ps(t1z, t2z)),
+                0.0,
+            );
+            let fr = min_ps(
+                min_ps(min_ps(max_ps(t1x, t2x), max_ps(t1y, t2y)), max_ps(t1z, t2z)) * grow,
+                t_max[i],
+            );
+            near[slot][i] = nr;
+            hit[i] = nr <= fr;
+        }
+        let mut m = 0u32;
+        for (i, h) in hit.iter().enumerate() {
+            m |= u32::from(*h) << i;
+        }
+        out[slot] = m;
+    }
+    out
+}
+
+/// [`test_node_lanes`] compiled with AVX2 enabled.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+fn test_node_avx2(
+    n: &Bvh4Node,
+    l: &Lanes8,
+    t_max: &[f32; PACKET],
+    near: &mut [[f32; PACKET]; 4],
+) -> [u32; 4] {
+    test_node_lanes(n, l, t_max, near)
+}
+
+/// [`test_node_lanes`], with AVX2 where the processor has it.
+#[inline(always)]
+fn test_node(
+    n: &Bvh4Node,
+    l: &Lanes8,
+    t_max: &[f32; PACKET],
+    near: &mut [[f32; PACKET]; 4],
+) -> [u32; 4] {
+    #[cfg(target_arch = "x86_64")]
+    if std::arch::is_x86_feature_detected!("avx2") {
+        // SAFETY: the processor has AVX2 (checked just above), the only
+        // requirement of a `target_feature(enable = "avx2")` function.
+        return unsafe { test_node_avx2(n, l, t_max, near) };
+    }
+    test_node_lanes(n, l, t_max, near)
+}
+
+/// A packet traversal's stack: (reference, triangle count or 0 for a
+/// node, lanes, nearest lane's entry distance), inline up to
+/// [`STACK_INLINE`] entries, then spilling to the heap.
+struct PacketStack {
+    inline: [(u32, u32, u32, f32); STACK_INLINE],
+    len: usize,
+    spill: Vec<(u32, u32, u32, f32)>,
+}
+
+impl PacketStack {
+    #[inline]
+    fn new(lanes: u32) -> Self {
+        let mut s = Self {
+            inline: [(0, 0, 0, 0.0); STACK_INLINE],
+            len: 1,
+            spill: Vec::new(),
+        };
+        s.inline[0] = (0, 0, lanes, 0.0); // the root
+        s
+    }
+
+    #[inline]
+    fn push(&mut self, e: (u32, u32, u32, f32)) {
+        if self.len < STACK_INLINE {
+            self.inline[self.len] = e;
+            self.len += 1;
+        } else {
+            self.spill.push(e);
+        }
+    }
+
+    #[inline]
+    fn pop(&mut self) -> Option<(u32, u32, u32, f32)> {
+        if let Some(e) = self.spill.pop() {
+            return Some(e);
+        }
+        if self.len == 0 {
+            return None;
+        }
+        self.len -= 1;
+        Some(self.inline[self.len])
+    }
+}
+
 /// Entries the traversal stack holds in place; a deeper stack spills to the
 /// heap. Each level of a 4-wide node pushes at most three entries more than
 /// it pops, so 64 cover a tree 21 levels deep; the builder's depth cap

@@ -64,11 +64,20 @@ fn vertices_and_cells(
     t: &mut Instant,
 ) {
     let test = settings.test;
-    // 2. Mask rays.
-    m.vertices
-        .par_iter()
-        .map(|v| cast(scene, cam, *v, test))
-        .collect_into_vec(vertex_hits);
+    // 2. Mask rays, eight neighbouring vertices of a ring a packet
+    // (bit-identical to casting each alone: `Scene::intersect_packet`).
+    vertex_hits.clear();
+    vertex_hits.resize(m.vertices.len(), None);
+    vertex_hits
+        .par_chunks_mut(PACKET)
+        .zip(m.vertices.par_chunks(PACKET))
+        .for_each(|(hits, vs)| {
+            let mut rays = [cam.ray([0.0, 0.0]); PACKET];
+            for (r, v) in rays.iter_mut().zip(vs) {
+                *r = cam.ray(*v);
+            }
+            scene.intersect_packet(&rays[..vs.len()], 0.0, test, hits);
+        });
     let vertex_hits: &[Option<Hit>] = vertex_hits;
     stages.vertex_rays = lap(t);
     // 3. Classify, then widen by one vertex ring.
@@ -180,6 +189,8 @@ pub(super) fn foveated(
             // The sample of a pixel whose owner sees nothing: the same
             // wherever it is.
             let empty = texel(scene, cam, [0.5, py], None, Layer::Interpolated, surface);
+            // Pixels waiting to be cast as a packet.
+            let mut pending = Pending::default();
             // Runs of pixels with one owner.
             let mut x = 0;
             while x < w {
@@ -207,22 +218,39 @@ pub(super) fn foveated(
                     };
                     let t0 = Instant::now();
                     for x in x..end {
-                        let p = [x as f32 + 0.5, py];
-                        let hit = match kept_row.as_deref_mut() {
-                            None => cast(scene, cam, p, test),
-                            Some(kept) => match kept[x].get(epoch) {
-                                Some(hit) => {
-                                    n.4 += 1;
-                                    hit
-                                }
-                                None => {
-                                    let hit = cast(scene, cam, p, test);
-                                    kept[x].set(epoch, hit);
-                                    hit
-                                }
-                            },
-                        };
-                        row.put(x, texel(scene, cam, p, hit, layer, surface));
+                        if let Some(kept) = kept_row.as_deref_mut() {
+                            if let Some(hit) = kept[x].get(epoch) {
+                                n.4 += 1;
+                                let p = [x as f32 + 0.5, py];
+                                row.put(x, texel(scene, cam, p, hit, layer, surface));
+                                continue;
+                            }
+                        }
+                        // Cast with the row's next pixels to cast, as one
+                        // packet (bit-identical to casting each alone), as
+                        // long as they lie close together.
+                        if !pending.near(x) {
+                            pending.flush(
+                                scene,
+                                cam,
+                                py,
+                                test,
+                                &mut row,
+                                kept_row.as_deref_mut(),
+                                epoch,
+                            );
+                        }
+                        if pending.push(x, layer) {
+                            pending.flush(
+                                scene,
+                                cam,
+                                py,
+                                test,
+                                &mut row,
+                                kept_row.as_deref_mut(),
+                                epoch,
+                            );
+                        }
                     }
                     n.3 += t0.elapsed().as_secs_f64() * 1e3;
                 } else {
@@ -246,6 +274,17 @@ pub(super) fn foveated(
                 }
                 x = end;
             }
+            let t0 = Instant::now();
+            pending.flush(
+                scene,
+                cam,
+                py,
+                test,
+                &mut row,
+                kept_row.as_deref_mut(),
+                epoch,
+            );
+            n.3 += t0.elapsed().as_secs_f64() * 1e3;
             n
         },
         |a, b| (a.0 + b.0, a.1 + b.1, a.2 + b.2, a.3 + b.3, a.4 + b.4),
@@ -263,6 +302,83 @@ pub(super) fn foveated(
     stats.cells_refined = refined.iter().filter(|r| **r).count() as u64;
     stages.pixels = lap(&mut t);
     stages.pixel_casts_cpu = counts.3;
+}
+
+/// The widest run of a row, in pixels, whose pixels to cast share a packet.
+const PACKET_SPAN: usize = 16;
+
+/// Up to [`PACKET`] pixels of one row waiting to be cast together
+/// ([`Scene::intersect_packet`]), with the layer each is drawn in.
+pub(super) struct Pending {
+    x: [usize; PACKET],
+    layer: [Layer; PACKET],
+    len: usize,
+}
+
+impl Default for Pending {
+    fn default() -> Self {
+        Self {
+            x: [0; PACKET],
+            layer: [Layer::Fovea; PACKET],
+            len: 0,
+        }
+    }
+}
+
+impl Pending {
+    /// Whether pixel `x` is close enough to the waiting pixels to share
+    /// their packet (within [`PACKET_SPAN`] pixels of the first): rays
+    /// far apart share little of a traversal.
+    #[inline]
+    pub(super) fn near(&self, x: usize) -> bool {
+        self.len == 0 || x < self.x[0] + PACKET_SPAN
+    }
+
+    /// Adds pixel `x`; true when the packet is full (flush it).
+    #[inline]
+    pub(super) fn push(&mut self, x: usize, layer: Layer) -> bool {
+        self.x[self.len] = x;
+        self.layer[self.len] = layer;
+        self.len += 1;
+        self.len == PACKET
+    }
+
+    /// Casts the waiting pixels (row centre `py`) as one packet, keeps
+    /// their hits in `kept` (the reuse cache's row) when there is one, and
+    /// writes their texels.
+    #[allow(clippy::too_many_arguments)]
+    #[inline]
+    pub(super) fn flush(
+        &mut self,
+        scene: &Scene,
+        cam: &Camera,
+        py: f32,
+        test: TriangleTest,
+        row: &mut RowMut<'_>,
+        mut kept: Option<&mut [Sample]>,
+        epoch: u32,
+    ) {
+        let n = self.len;
+        if n == 0 {
+            return;
+        }
+        self.len = 0;
+        let surface = row.has_surface();
+        let mut rays = [cam.ray([0.5, py]); PACKET];
+        for (r, &x) in rays.iter_mut().zip(&self.x[..n]) {
+            *r = cam.ray([x as f32 + 0.5, py]);
+        }
+        let mut hits = [None; PACKET];
+        scene.intersect_packet(&rays[..n], 0.0, test, &mut hits[..n]);
+        for (k, &hit) in hits[..n].iter().enumerate() {
+            let x = self.x[k];
+            if let Some(kept) = kept.as_deref_mut() {
+                kept[x].set(epoch, hit);
+            }
+            let p = [x as f32 + 0.5, py];
+            row.put(x, texel(scene, cam, p, hit, self.layer[k], surface));
+        }
+    }
 }
 
 /// Writes the one sample `t` to the pixels `xs` of `row`.

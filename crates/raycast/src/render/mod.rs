@@ -20,6 +20,10 @@
 //! Fovea and refined pixels use exactly the rays and shading of the full
 //! mode, so they are identical to it.
 //!
+//! Every stage casts its rays in packets of eight neighbours (a row's
+//! pixels, a ring's vertices; `Scene::intersect_packet`, issue 34), whose
+//! hits are bit for bit those of casting each ray alone.
+//!
 //! [`render_with`] keeps the mask, vertex hits, refined flags and pixel
 //! owners in a [`Scratch`] that the next frame reuses, and times each stage
 //! ([`StageTimes`]; `gazecast bench stages` prints them).
@@ -95,6 +99,7 @@ use glam::Vec3;
 use rayon::iter::Either;
 use rayon::prelude::*;
 
+use crate::accel::bvh4::PACKET;
 use crate::camera::Camera;
 use crate::frame::{Frame, Layer, RowMut, Texel, NO_OBJECT};
 use crate::ray::TriangleTest;
@@ -199,10 +204,6 @@ const UNOWNED: u32 = u32::MAX - 1;
 /// in) distinct from pixel centres a thousandth of a pixel away; products of
 /// coordinates up to 2^31 still fit in i64.
 const SUB: f64 = 65536.0;
-
-fn cast(scene: &Scene, cam: &Camera, p: [f32; 2], test: TriangleTest) -> Option<Hit> {
-    scene.intersect(&cam.ray(p), 0.0, test)
-}
 
 fn colour_of(scene: &Scene, cam: &Camera, p: [f32; 2], hit: Option<Hit>) -> Vec3 {
     match hit {
@@ -395,10 +396,22 @@ fn full(scene: &Scene, cam: &Camera, test: TriangleTest, frame: &mut Frame) {
         None,
         |y, mut row, _| {
             let surface = row.has_surface();
-            for x in 0..row.hit.len() {
-                let p = [x as f32 + 0.5, y as f32 + 0.5];
-                let hit = cast(scene, cam, p, test);
-                row.put(x, texel(scene, cam, p, hit, Layer::Full, surface));
+            let py = y as f32 + 0.5;
+            // Eight neighbouring pixels a packet (bit-identical to casting
+            // each alone: `Scene::intersect_packet`).
+            let mut rays = [cam.ray([0.5, py]); PACKET];
+            let mut hits = [None; PACKET];
+            let w = row.hit.len();
+            for x0 in (0..w).step_by(PACKET) {
+                let n = PACKET.min(w - x0);
+                for (k, r) in rays[..n].iter_mut().enumerate() {
+                    *r = cam.ray([(x0 + k) as f32 + 0.5, py]);
+                }
+                scene.intersect_packet(&rays[..n], 0.0, test, &mut hits[..n]);
+                for (k, &hit) in hits[..n].iter().enumerate() {
+                    let p = [(x0 + k) as f32 + 0.5, py];
+                    row.put(x0 + k, texel(scene, cam, p, hit, Layer::Full, surface));
+                }
             }
         },
         |(), ()| (),

@@ -85,6 +85,7 @@
 pub mod fit;
 pub mod luminance;
 pub mod observer;
+pub mod participant;
 pub mod quest;
 pub mod session;
 pub mod staircase;

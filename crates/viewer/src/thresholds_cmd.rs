@@ -8,8 +8,9 @@
 //!
 //! The folder `OUT/sub-<ID>/` holds `trials.tsv` (every trial: condition,
 //! contrast, the rendered patch's measured contrast, the answer, its
-//! validity and the staircase's state after it), `thresholds-<ID>.ron` (a
-//! `foveation` threshold table), `fit-<ID>.json` (CT0, α, e2 with bootstrap
+//! validity and the staircase's state after it), `thresholds-<ID>.ron`
+//! (`psychophysics::participant::ParticipantThresholds`: the measured
+//! table and the fitted CT0, α, e2; what `--thresholds FILE` reads), `fit-<ID>.json` (CT0, α, e2 with bootstrap
 //! intervals and every condition's result) and `session.json` (what ran,
 //! `synthetic: true`). An existing folder is never overwritten.
 
@@ -255,8 +256,13 @@ fn measure(a: &MeasureArgs, out: &mut dyn Write) -> Result<(), String> {
         std::fs::write(&p, body).map_err(|e| format!("{}: {e}", p.display()))
     };
     write("trials.tsv".into(), tsv)?;
-    let table_data = foveation::perceptibility::ThresholdTableData::from(table);
-    let ron_text = ron::ser::to_string_pretty(&table_data, ron::ser::PrettyConfig::default())
+    let file = psychophysics::participant::ParticipantThresholds::new(
+        &a.participant,
+        session.is_synthetic(),
+        fit.model(),
+        table,
+    );
+    let ron_text = ron::ser::to_string_pretty(&file, ron::ser::PrettyConfig::default())
         .map_err(|e| e.to_string())?;
     write(
         format!("thresholds-{}.ron", a.participant),

@@ -527,7 +527,11 @@ impl<'s> Renderer<'s> {
         source: String,
     ) {
         if let Some(m) = self.state.model_based_mut() {
-            m.set_thresholds(table, source.clone());
+            m.set_thresholds(
+                table,
+                "the participant's table, the fitted model outside its grid (see `thresholds:`)"
+                    .into(),
+            );
         }
         self.thresholds_source = Some(source);
         self.provenance = self.plan().provenance();

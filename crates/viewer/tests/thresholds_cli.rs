@@ -259,3 +259,43 @@ fn a_bad_thresholds_file_names_its_file_line_and_field() {
         assert!(err.contains(field), "{err}");
     }
 }
+
+#[test]
+fn view_explain_says_which_thresholds_are_in_use() {
+    let tmp = tempfile::tempdir().expect("tempdir");
+    let out = tmp.path().join("thresholds");
+    measure(&out, "P02").succeed();
+    let file = out.join("sub-P02/thresholds-P02.ron");
+    let explain = |thresholds: Option<&std::path::Path>| {
+        let mut c = gazecast();
+        c.args([
+            "view",
+            "--explain",
+            "--scene",
+            "config/scenes/bunny.ron",
+            "--display",
+            "config/displays/tobii-et1750-17in.ron",
+            "--method",
+            "simplify",
+        ]);
+        if let Some(t) = thresholds {
+            c.arg("--thresholds").arg(t);
+        }
+        String::from_utf8_lossy(&c.succeed().stdout).into_owned()
+    };
+    let default = explain(None);
+    assert!(
+        default.contains("thresholds: the default Geisler–Perry model"),
+        "{default}"
+    );
+    let text = explain(Some(&file));
+    let line = text
+        .lines()
+        .find(|l| l.starts_with("thresholds: "))
+        .unwrap_or_else(|| panic!("{text}"));
+    assert!(line.contains(&file.display().to_string()), "{line}");
+    assert!(line.contains("participant P02"), "{line}");
+    assert!(line.contains("SYNTHETIC"), "{line}");
+    assert!(line.contains("CT0"), "{line}");
+    assert!(text.contains("the participant's table"), "{text}");
+}

@@ -77,6 +77,11 @@ fn a_simulated_session_writes_its_folder_and_refuses_to_overwrite() {
     assert_eq!(file.eccentricities_deg, [0.0, 2.5, 5.0, 10.0]);
     assert_eq!(file.geisler_perry.ct0, est("ct0"));
 
+    // The plot: a PNG of the thresholds against the fitted curves.
+    let png = std::fs::read(dir.join("thresholds-P01.png")).unwrap();
+    assert!(png.starts_with(b"\x89PNG"), "not a PNG");
+    assert!(png.len() > 10_000, "{} bytes", png.len());
+
     // Again into the same folder: refused, and nothing is touched.
     let again = measure(&out, "P01").output().unwrap();
     assert!(!again.status.success());

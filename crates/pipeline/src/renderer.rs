@@ -534,7 +534,16 @@ impl<'s> Renderer<'s> {
             );
         }
         self.thresholds_source = Some(source);
+        self.rebuild_provenance();
+    }
+
+    /// [`Renderer::provenance`] from the plan; it (a frame's `plan` in an
+    /// experiment) names the thresholds when they are not the default.
+    fn rebuild_provenance(&mut self) {
         self.provenance = self.plan().provenance();
+        if let Some(s) = &self.thresholds_source {
+            self.provenance = format!("{}; thresholds: {s}", self.provenance);
+        }
     }
 
     /// Where the thresholds came from, as `explain` says it.
@@ -683,7 +692,7 @@ impl<'s> Renderer<'s> {
             self.gpu_passes.extend(gpu);
             self.passes.extend(cpu);
         }
-        self.provenance = self.plan().provenance();
+        self.rebuild_provenance();
     }
 
     /// Whether the POR box is drawn.

@@ -304,3 +304,89 @@ fn view_explain_says_which_thresholds_are_in_use() {
     assert!(line.contains("CT0"), "{line}");
     assert!(text.contains("the participant's table"), "{text}");
 }
+
+#[test]
+fn a_design_with_thresholds_renders_every_frame_with_them_and_says_so() {
+    let tmp = tempfile::tempdir().expect("tempdir");
+    let out = tmp.path().join("thresholds");
+    measure(&out, "P03").succeed();
+    std::fs::copy(
+        out.join("sub-P03/thresholds-P03.ron"),
+        tmp.path().join("thr.ron"),
+    )
+    .unwrap();
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
+    let design =
+        std::fs::read_to_string(root.join("tests/data/experiment/design-small.ron")).unwrap();
+    let end = design.rfind(')').unwrap();
+    let write = |name: &str, field: &str| {
+        let p = tmp.path().join(name);
+        std::fs::write(
+            &p,
+            format!("{}    {field}\n{}", &design[..end], &design[end..]),
+        )
+        .unwrap();
+        p
+    };
+    let with = write("with.ron", "thresholds: Some(\"thr.ron\"),");
+    let missing = write("missing.ron", "thresholds: Some(\"nowhere.ron\"),");
+    let run = |design: &std::path::Path, out: &std::path::Path| {
+        let mut c = gazecast();
+        c.env_remove("DISPLAY").env_remove("WAYLAND_DISPLAY");
+        c.args(["experiment", "run"])
+            .arg(design)
+            .args([
+                "--participant",
+                "P01",
+                "--tracker",
+                "tests/data/mouse-participant.ron",
+                "--display",
+                "tests/data/experiment/display-small.ron",
+                "--backend",
+                "cpu",
+                "--no-stimulus-pictures",
+                "--headless",
+                "--simulate-participant",
+                "3",
+                "--max-trials",
+                "2",
+                "--out",
+            ])
+            .arg(out);
+        c.output().unwrap()
+    };
+    let o = run(&with, &tmp.path().join("s"));
+    assert!(
+        o.status.success(),
+        "{}\n{}",
+        String::from_utf8_lossy(&o.stdout),
+        String::from_utf8_lossy(&o.stderr)
+    );
+    let frames =
+        std::fs::read_to_string(tmp.path().join("s/small-search/sub-P01/frames.tsv")).unwrap();
+    let mut lines = frames.lines();
+    let header: Vec<&str> = lines.next().unwrap().split('\t').collect();
+    let (phase, plan) = (
+        header.iter().position(|h| *h == "phase").unwrap(),
+        header.iter().position(|h| *h == "plan").unwrap(),
+    );
+    let search: Vec<Vec<&str>> = lines
+        .map(|l| l.split('\t').collect::<Vec<_>>())
+        .filter(|r| r[phase] == "search")
+        .collect();
+    assert!(!search.is_empty());
+    for r in &search {
+        assert!(r[plan].contains("thresholds: "), "{}", r[plan]);
+        assert!(r[plan].contains("participant P03"), "{}", r[plan]);
+        assert!(r[plan].contains("SYNTHETIC"), "{}", r[plan]);
+    }
+
+    let o = run(&missing, &tmp.path().join("m"));
+    assert!(!o.status.success());
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        err.contains("missing.ron") && err.contains("`thresholds`"),
+        "{err}"
+    );
+    assert!(err.contains("nowhere.ron"), "{err}");
+}

@@ -83,6 +83,15 @@ pub struct Design {
     /// override it field by field.
     #[serde(default)]
     pub bids: Option<BidsMetadata>,
+    /// Optional: a participant's contrast thresholds, the
+    /// `thresholds-<ID>.ron` that `gazecast thresholds measure` writes
+    /// (relative to the design file's folder). Every condition then renders
+    /// with them: `simplify` judges its folds by the participant's table,
+    /// the hybrid, image and layers methods sample by the fitted
+    /// Geisler–Perry CSF. Each frame's `plan` names the file (and says
+    /// SYNTHETIC when it is). Default: the Geisler–Perry model.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub thresholds: Option<std::path::PathBuf>,
 }
 
 /// One independent variable.

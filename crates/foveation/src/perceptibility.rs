@@ -162,6 +162,49 @@ impl ThresholdTable {
             .unwrap_or_else(|e| unreachable!("model table: {e}"))
     }
 
+    /// This table inside its grid, `model` outside it: a table on the
+    /// union of this grid's axes and [`ThresholdTable::from_model`]'s, whose
+    /// entries inside this table's frequency and eccentricity ranges are this
+    /// table's (interpolated as [`ThresholdTable::threshold`] does) and whose
+    /// entries outside are `model`'s predictions.
+    ///
+    /// A measured table covers a few frequencies and eccentricities (by
+    /// default 1–16 cpd × 0–10°); looked up alone it would clamp a 30°
+    /// query to its 10° row and call a far-peripheral change as visible as
+    /// one at 10°. Extended by the participant's fitted model, the
+    /// periphery follows that participant's fitted CSF instead of the
+    /// edge of the grid.
+    pub fn extended_by(&self, model: &GeislerPerry) -> Self {
+        let base = Self::from_model(model);
+        let union = |a: &[f64], b: &[f64]| {
+            let mut v: Vec<f64> = a.iter().chain(b).copied().collect();
+            v.sort_by(f64::total_cmp);
+            v.dedup();
+            v
+        };
+        let frequencies = union(&self.frequencies_cpd, &base.frequencies_cpd);
+        let eccentricities = union(&self.eccentricities_deg, &base.eccentricities_deg);
+        let inside = |v: &[f64], x: f64| v[0] <= x && x <= v[v.len() - 1];
+        let rows = eccentricities
+            .iter()
+            .map(|&e| {
+                frequencies
+                    .iter()
+                    .map(|&f| {
+                        if inside(&self.frequencies_cpd, f) && inside(&self.eccentricities_deg, e) {
+                            self.threshold(f, e)
+                        } else {
+                            model.contrast_threshold(f, e)
+                        }
+                    })
+                    .collect()
+            })
+            .collect();
+        // Both axes are sorted and deduplicated, every entry positive (a
+        // table's thresholds are, and a valid model's are).
+        Self::new(frequencies, eccentricities, rows).unwrap_or_else(|_| self.clone())
+    }
+
     pub fn frequencies_cpd(&self) -> &[f64] {
         &self.frequencies_cpd
     }
@@ -288,6 +331,30 @@ pub fn bracket(axis: &[f64], x: f64) -> (usize, usize, f64) {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn extended_table_keeps_the_measured_grid_and_follows_the_model_outside() {
+        let model = GeislerPerry {
+            ct0: 0.03,
+            alpha: 0.15,
+            e2_deg: 2.0,
+        };
+        let measured = ThresholdTable::new(
+            vec![1.0, 4.0, 16.0],
+            vec![0.0, 10.0],
+            vec![vec![0.02, 0.05, 0.3], vec![0.04, 0.2, 0.9]],
+        )
+        .unwrap();
+        let t = measured.extended_by(&model);
+        for (f, e) in [(1.0, 0.0), (4.0, 10.0), (2.5, 5.0), (16.0, 10.0)] {
+            let (a, b) = (t.threshold(f, e), measured.threshold(f, e));
+            assert!((a / b - 1.0).abs() < 1e-9, "({f}, {e}): {a} vs {b}");
+        }
+        for (f, e) in [(32.0, 0.0), (4.0, 30.0), (0.5, 60.0)] {
+            let (a, b) = (t.threshold(f, e), model.contrast_threshold(f, e));
+            assert!((a / b - 1.0).abs() < 1e-9, "({f}, {e}): {a} vs {b}");
+        }
+    }
 
     #[test]
     fn bracket_clamps_interpolates_and_passes_nan_through() {

@@ -65,4 +65,4 @@ pub use backend::BackendChoice;
 pub use method::Method;
 pub use plan::FramePlan;
 pub use renderer::{Options, RenderError, Renderer, EYE_DISTANCE_RANGE_MM, EYE_DISTANCE_STEP};
-pub use sampling::sampling_model;
+pub use sampling::{sampling_model, sampling_model_with};

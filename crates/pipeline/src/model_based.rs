@@ -216,6 +216,10 @@ pub enum RasterOn<'a> {
     Gpu(&'a mut GpuRenderer),
 }
 
+/// [`ModelBased`]'s threshold source until [`ModelBased::set_thresholds`].
+pub const DEFAULT_THRESHOLDS: &str =
+    "the default Geisler–Perry model (CT0 1/64, α 0.106, e2 2.3°), as a table";
+
 /// The model-based method's state for one scene.
 pub struct ModelBased {
     /// `Method::Simplify` or `Method::Lod`.
@@ -226,6 +230,8 @@ pub struct ModelBased {
     /// The next frame's vergence depth (eye distance, mm), `Method::Lod` only.
     vergence_mm: Option<f64>,
     thresholds: ThresholdTable,
+    /// Where `thresholds` came from, for `explain`.
+    thresholds_source: String,
     scene_contrast: f64,
     /// Triangles of the unsimplified scene (fixed at set-up).
     triangles_full: usize,
@@ -297,6 +303,7 @@ impl ModelBased {
             options,
             vergence_mm: None,
             thresholds: ThresholdTable::from_model(&GeislerPerry::default()),
+            thresholds_source: DEFAULT_THRESHOLDS.to_string(),
             scene_contrast,
             triangles_full,
             triangles: Vec::new(),
@@ -305,6 +312,20 @@ impl ModelBased {
             scratch: RasterScratch::default(),
             last: ModelBasedStats::default(),
         })
+    }
+
+    /// Replaces the threshold table `Method::Simplify` judges folds by (a
+    /// participant's, `psychophysics::participant`); `source` says where
+    /// it came from in `explain`. `Method::Lod`'s Murphy–Duchowski levels
+    /// are fixed angles and do not read it. The next frame selects anew.
+    pub fn set_thresholds(&mut self, table: ThresholdTable, source: String) {
+        self.thresholds = table;
+        self.thresholds_source = source;
+    }
+
+    /// The threshold table in use.
+    pub fn thresholds(&self) -> &ThresholdTable {
+        &self.thresholds
     }
 
     /// The Michelson contrast of the scene's brightest and darkest vertex
@@ -472,12 +493,14 @@ impl FrameMethod for ModelBased {
         let options = self.options;
         let mode = match (self.method, options.budget) {
             (Method::Simplify, Some(b)) => format!(
-                "Luebke–Hallen best-effort mode under a budget of {b} triangles, Geisler–Perry thresholds"
+                "Luebke–Hallen best-effort mode under a budget of {b} triangles, thresholds: {}",
+                self.thresholds_source
             ),
-            (Method::Simplify, None) => {
-                "Luebke–Hallen imperceptible mode, Geisler–Perry thresholds".to_string()
-            }
-            _ => "Murphy–Duchowski Table 1 levels".to_string(),
+            (Method::Simplify, None) => format!(
+                "Luebke–Hallen imperceptible mode, thresholds: {}",
+                self.thresholds_source
+            ),
+            _ => "Murphy–Duchowski Table 1 levels (fixed angles: no threshold table)".to_string(),
         };
         let mode = if options.ignore_gaze {
             format!("{mode}, without the gaze: every node foveal")
@@ -500,6 +523,10 @@ impl FrameMethod for ModelBased {
 
     fn owns(&self, _: Side) -> String {
         "each object's vertex tree and cut".into()
+    }
+
+    fn model_based_mut(&mut self) -> Option<&mut ModelBased> {
+        Some(self)
     }
 
     fn as_any(&self) -> &dyn std::any::Any {

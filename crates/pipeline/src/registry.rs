@@ -79,6 +79,12 @@ pub trait FrameMethod: Send {
     }
     /// The state itself, for callers that inspect a known method.
     fn as_any(&self) -> &dyn std::any::Any;
+    /// The model-based methods' state, to give it a participant's
+    /// thresholds ([`crate::Renderer::set_thresholds`]); `None` for the
+    /// other methods.
+    fn model_based_mut(&mut self) -> Option<&mut crate::model_based::ModelBased> {
+        None
+    }
 }
 
 /// What a method module is made from.

@@ -136,6 +136,9 @@ pub struct Renderer<'s> {
     /// [`Renderer::provenance`]: the plan in one line, rebuilt whenever
     /// the plan changes.
     provenance: String,
+    /// Where the thresholds came from ([`Renderer::set_thresholds`]);
+    /// `None`: the default Geisler–Perry model.
+    thresholds_source: Option<String>,
     /// What the last frame moved between the CPU and the GPU (the GPU
     /// backend; default before the first frame).
     traffic: Traffic,
@@ -261,6 +264,7 @@ impl<'s> Renderer<'s> {
             gpu_passes,
             provenance: String::new(),
             traffic: Traffic::default(),
+            thresholds_source: None,
         };
         renderer.provenance = renderer.plan().provenance();
         Ok(renderer)
@@ -512,6 +516,50 @@ impl<'s> Renderer<'s> {
             .map(|u| &u.ulod)
     }
 
+    /// Gives the renderer a participant's thresholds: `table` is what
+    /// `Method::Simplify` judges its folds by (the other methods do not
+    /// read a table), `source` names them in [`Renderer::explain`]. The
+    /// ray-cast methods' CSF is the sampling model's: build it with the
+    /// participant's fitted parameters ([`crate::sampling_model_with`]).
+    pub fn set_thresholds(
+        &mut self,
+        table: foveation::perceptibility::ThresholdTable,
+        source: String,
+    ) {
+        if let Some(m) = self.state.model_based_mut() {
+            m.set_thresholds(
+                table,
+                "the participant's table, the fitted model outside its grid (see `thresholds:`)"
+                    .into(),
+            );
+        }
+        self.thresholds_source = Some(source);
+        self.rebuild_provenance();
+    }
+
+    /// [`Renderer::provenance`] from the plan; it (a frame's `plan` in an
+    /// experiment) names the thresholds when they are not the default.
+    fn rebuild_provenance(&mut self) {
+        self.provenance = self.plan().provenance();
+        if let Some(s) = &self.thresholds_source {
+            self.provenance = format!("{}; thresholds: {s}", self.provenance);
+        }
+    }
+
+    /// Where the thresholds came from, as `explain` says it.
+    pub fn thresholds_source(&self) -> String {
+        match &self.thresholds_source {
+            Some(s) => s.clone(),
+            None => {
+                let m = self.nominal.csf;
+                format!(
+                    "the default Geisler–Perry model (CT0 {:.4}, α {:.3}, e2 {:.1}°)",
+                    m.ct0, m.alpha, m.e2_deg
+                )
+            }
+        }
+    }
+
     /// The model-based method's state (trees, cuts, last frame's counts),
     /// when a model-based method runs; `None` otherwise.
     pub fn model_based(&self) -> Option<&ModelBased> {
@@ -644,7 +692,7 @@ impl<'s> Renderer<'s> {
             self.gpu_passes.extend(gpu);
             self.passes.extend(cpu);
         }
-        self.provenance = self.plan().provenance();
+        self.rebuild_provenance();
     }
 
     /// Whether the POR box is drawn.
@@ -758,6 +806,7 @@ impl<'s> Renderer<'s> {
                 s.name, s.sampling, s.passes
             ),
             format!("method: {} on {on}", self.method.name()),
+            format!("thresholds: {}", self.thresholds_source()),
         ];
         if let Some(m) = s.motion_summary() {
             out.push(format!(

@@ -15,3 +15,18 @@ pub fn sampling_model(
         foveation::sampling::SEED_MAX_SPACING_PX,
     )
 }
+
+/// [`sampling_model`] with another CSF (a participant's fitted
+/// Geisler–Perry parameters, `--thresholds FILE`).
+pub fn sampling_model_with(
+    geometry: ScreenGeometry,
+    csf: GeislerPerry,
+    contrast: f64,
+) -> Result<SamplingModel, foveation::ParamError> {
+    SamplingModel::new(
+        geometry,
+        csf,
+        contrast,
+        foveation::sampling::SEED_MAX_SPACING_PX,
+    )
+}

@@ -30,6 +30,9 @@
 //!   threshold (linear in ln CT0, α, α/e2), bootstrap percentile
 //!   intervals by resampling each condition's trials, and the
 //!   `ThresholdTable` (serialised as RON through `ThresholdTableData`).
+//! - [`participant`]: the file a renderer reads (`thresholds-<ID>.ron`:
+//!   the measured table, the fitted CT0, α, e2, the participant and
+//!   whether it is synthetic), for `gazecast … --thresholds FILE`.
 //!
 //! ## How it departs from the seeds
 //!
@@ -85,6 +88,7 @@
 pub mod fit;
 pub mod luminance;
 pub mod observer;
+pub mod participant;
 pub mod quest;
 pub mod session;
 pub mod staircase;

@@ -364,3 +364,137 @@ pub fn backend_parser() -> impl clap::builder::TypedValueParser<Value = pipeline
     )
     .try_map(|s| s.parse::<pipeline::BackendChoice>())
 }
+
+/// `--thresholds FILE`: a participant's measured thresholds
+/// (`render`, `view`, `demo`, `bench`).
+#[derive(Debug, Clone, Default, clap::Args)]
+pub struct ThresholdsArg {
+    /// A participant's contrast thresholds: the `thresholds-<ID>.ron` that
+    /// `gazecast thresholds measure` writes (the measured table and the
+    /// fitted Geisler–Perry CT0, α, e2). `simplify` judges its folds by the
+    /// table (the fitted model outside its grid); the hybrid, image and
+    /// layers methods build their ray masks from the fitted parameters.
+    /// Default: the Geisler–Perry model (CT0 1/64, α 0.106, e2 2.3°).
+    #[arg(long, value_name = "FILE.ron")]
+    pub thresholds: Option<std::path::PathBuf>,
+}
+
+impl ThresholdsArg {
+    /// The file, loaded and checked; `None` without the flag.
+    pub fn load(&self) -> Result<Option<Thresholds>, String> {
+        self.thresholds.as_deref().map(Thresholds::load).transpose()
+    }
+}
+
+/// A participant's thresholds as a renderer uses them.
+#[derive(Debug, Clone)]
+pub struct Thresholds {
+    /// The file they came from.
+    pub path: std::path::PathBuf,
+    /// Its contents.
+    pub file: psychophysics::participant::ParticipantThresholds,
+    /// The table `simplify` judges folds by: the measured one inside its
+    /// grid, the fitted model outside it.
+    pub table: foveation::perceptibility::ThresholdTable,
+}
+
+impl Thresholds {
+    /// Reads `path`; a malformed or invalid file is an error naming the
+    /// file, the line and the field.
+    pub fn load(path: &std::path::Path) -> Result<Self, String> {
+        let (file, text): (psychophysics::participant::ParticipantThresholds, String) =
+            crate::config::load(path).map_err(|e| e.to_string())?;
+        let invalid = |e: foveation::ParamError| {
+            crate::config::invalid_field(
+                path,
+                &text,
+                e.field,
+                format!("{} ({})", e.reason, e.value),
+            )
+            .to_string()
+        };
+        file.validate().map_err(invalid)?;
+        let table = file.renderer_table().map_err(invalid)?;
+        Ok(Self {
+            path: path.to_path_buf(),
+            file,
+            table,
+        })
+    }
+
+    /// Where the thresholds came from, as `explain` says it.
+    pub fn source(&self) -> String {
+        format!("{}: {}", self.path.display(), self.file.summary())
+    }
+
+    /// Gives `renderer` the table (its sampling model must already carry
+    /// the fitted CSF: [`sampling_model_for`]).
+    pub fn apply(&self, renderer: &mut pipeline::Renderer<'_>) {
+        renderer.set_thresholds(self.table.clone(), self.source());
+    }
+
+    /// The `--stats` JSON's account of them.
+    pub fn report(&self) -> ThresholdsReport {
+        ThresholdsReport {
+            source: self.path.display().to_string(),
+            participant: Some(self.file.participant.clone()),
+            synthetic: self.file.synthetic,
+            ct0: self.file.geisler_perry.ct0,
+            alpha: self.file.geisler_perry.alpha,
+            e2_deg: self.file.geisler_perry.e2_deg,
+        }
+    }
+}
+
+/// Which thresholds a render used (`render --stats`).
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct ThresholdsReport {
+    /// `default` (the Geisler–Perry model) or the file given.
+    pub source: String,
+    /// The file's participant.
+    pub participant: Option<String>,
+    /// True when the file's answers came from a simulated observer.
+    pub synthetic: bool,
+    /// The Geisler–Perry parameters the sampling model used.
+    pub ct0: f64,
+    pub alpha: f64,
+    pub e2_deg: f64,
+}
+
+impl ThresholdsReport {
+    /// The default model's.
+    pub fn default_model() -> Self {
+        let m = foveation::GeislerPerry::default();
+        Self {
+            source: "default".into(),
+            participant: None,
+            synthetic: false,
+            ct0: m.ct0,
+            alpha: m.alpha,
+            e2_deg: m.e2_deg,
+        }
+    }
+}
+
+/// [`sampling_model`] with a participant's fitted CSF when there is one.
+pub fn sampling_model_for(
+    geometry: foveation::ScreenGeometry,
+    contrast: f64,
+    gaze_tolerance_deg: f64,
+    thresholds: Option<&Thresholds>,
+) -> Result<foveation::SamplingModel, String> {
+    let Some(t) = thresholds else {
+        return sampling_model(geometry, contrast, gaze_tolerance_deg);
+    };
+    let flag = |e: foveation::ParamError| {
+        format!(
+            "--{} with --thresholds {}: {e}",
+            e.field.replace('_', "-"),
+            t.path.display()
+        )
+    };
+    pipeline::sampling_model_with(geometry, t.file.geisler_perry, contrast)
+        .map_err(flag)?
+        .with_gaze_tolerance_deg(gaze_tolerance_deg)
+        .map_err(|e| format!("--gaze-tolerance: {e}"))
+}

@@ -38,6 +38,8 @@ pub struct DemoArgs {
     pub method: pipeline::Method,
     #[command(flatten)]
     pub model_based: crate::args::ModelBasedArgs,
+    #[command(flatten)]
+    pub thresholds: crate::args::ThresholdsArg,
     /// Hybrid method: keep a ray mask while the gaze stays within DEG
     /// degrees of the gaze it was built for (see `view --help`).
     #[arg(long, value_name = "DEG", default_value_t = crate::args::LIVE_GAZE_TOLERANCE_DEG,
@@ -109,6 +111,7 @@ pub fn run(args: &DemoArgs, out: &mut dyn Write) -> Result<(), String> {
             backend: pipeline::BackendChoice::Auto,
             method: args.method,
             model_based: args.model_based.into(),
+            thresholds: args.thresholds.thresholds.clone(),
             gaze_tolerance_deg: args.gaze_tolerance,
             lsl: args.lsl.options("demo", String::new(), false),
             ..LiveOptions::default()
@@ -159,7 +162,8 @@ pub fn run(args: &DemoArgs, out: &mut dyn Write) -> Result<(), String> {
         .ok_or_else(|| format!("{SCENE}: no object with mesh `target`"))?;
     let gazes =
         tracker_hal::sim::search_scanpath(&g, &objects, target, f64::from(args.fps), args.seed);
-    let model = crate::args::sampling_model(g, 1.0, args.gaze_tolerance)?;
+    let thresholds = args.thresholds.load()?;
+    let model = crate::args::sampling_model_for(g, 1.0, args.gaze_tolerance, thresholds.as_ref())?;
     let options = pipeline::Options {
         method: args.method,
         por_overlay: true,
@@ -169,6 +173,10 @@ pub fn run(args: &DemoArgs, out: &mut dyn Write) -> Result<(), String> {
     };
     let mut renderer =
         pipeline::Renderer::new(&scene, cam, model, &options).map_err(|e| e.to_string())?;
+    if let Some(t) = &thresholds {
+        t.apply(&mut renderer);
+        line(out, format!("thresholds: {}", t.source()))?;
+    }
     std::fs::create_dir_all(&args.out)
         .map_err(|e| format!("{}: cannot create: {e}", args.out.display()))?;
     let (w, h) = (g.width_px as usize, g.height_px as usize);

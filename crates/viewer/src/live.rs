@@ -71,6 +71,9 @@ pub struct LiveOptions {
     pub method: pipeline::Method,
     /// The model-based methods' budget and gaze options.
     pub model_based: pipeline::model_based::ModelBasedOptions,
+    /// A participant's thresholds (`--thresholds FILE`); `None`: the
+    /// default Geisler–Perry model.
+    pub thresholds: Option<PathBuf>,
     /// The hybrid method's gaze tolerance, degrees
     /// (`foveation::SamplingModel::gaze_tolerance_deg`).
     pub gaze_tolerance_deg: f64,
@@ -606,6 +609,7 @@ struct Loaded {
     scene: Scene,
     display: Display,
     geometry: ScreenGeometry,
+    thresholds: Option<crate::args::Thresholds>,
 }
 
 impl Loaded {
@@ -613,10 +617,16 @@ impl Loaded {
         let scene = load_scene(&opts.scene)?;
         let display = config::load_display(&opts.display).map_err(|e| e.to_string())?;
         let geometry = display.geometry().map_err(|e| e.to_string())?;
+        let thresholds = opts
+            .thresholds
+            .as_deref()
+            .map(crate::args::Thresholds::load)
+            .transpose()?;
         Ok(Self {
             scene,
             display,
             geometry,
+            thresholds,
         })
     }
 
@@ -624,7 +634,12 @@ impl Loaded {
     /// `surface`: fill the depth and object ids whatever the passes need
     /// (the attention gaze source reads them).
     fn renderer(&self, opts: &LiveOptions, surface: bool) -> Result<Renderer<'_>, String> {
-        let model = crate::args::sampling_model(self.geometry, 1.0, opts.gaze_tolerance_deg)?;
+        let model = crate::args::sampling_model_for(
+            self.geometry,
+            1.0,
+            opts.gaze_tolerance_deg,
+            self.thresholds.as_ref(),
+        )?;
         let options = Options {
             method: opts.method,
             backend: opts.backend,
@@ -635,8 +650,12 @@ impl Loaded {
             reuse: true,
             ..Options::default()
         };
-        Renderer::new(&self.scene, Camera::new(&self.geometry), model, &options)
-            .map_err(|e| e.to_string())
+        let mut renderer = Renderer::new(&self.scene, Camera::new(&self.geometry), model, &options)
+            .map_err(|e| e.to_string())?;
+        if let Some(t) = &self.thresholds {
+            t.apply(&mut renderer);
+        }
+        Ok(renderer)
     }
 }
 

@@ -418,3 +418,144 @@ pub fn draw_log_log(
         Ok(())
     })
 }
+
+/// One measured threshold on the thresholds plot.
+#[derive(Debug, Clone, Copy)]
+pub struct ThresholdPoint {
+    /// Spatial frequency, cycles/degree.
+    pub frequency_cpd: f64,
+    /// Eccentricity, degrees.
+    pub eccentricity_deg: f64,
+    /// Threshold, log10 contrast.
+    pub log10_threshold: f64,
+    /// Its spread (sd), log10; the bar is ±1.96 sd.
+    pub sd_log10: f64,
+    /// Censored (beyond the display's highest contrast): drawn hollow at
+    /// its estimate (at the top edge when above contrast 1.5), not in the
+    /// fit.
+    pub censored: bool,
+}
+
+/// Measured thresholds (with ±1.96 sd bars) against frequency, one colour
+/// per eccentricity, and the fitted Geisler–Perry curve at each
+/// eccentricity; log–log. `synthetic` puts SYNTHETIC in the title.
+pub fn draw_thresholds(
+    path: &Path,
+    participant: &str,
+    synthetic: bool,
+    fit: &foveation::GeislerPerry,
+    fit_note: &str,
+    points: &[ThresholdPoint],
+) -> DrawResult {
+    register_font();
+    let mut ecc: Vec<f64> = points.iter().map(|p| p.eccentricity_deg).collect();
+    ecc.sort_by(f64::total_cmp);
+    ecc.dedup();
+    let f_lo = points
+        .iter()
+        .map(|p| p.frequency_cpd)
+        .fold(f64::INFINITY, f64::min)
+        .max(0.1);
+    let f_hi = points
+        .iter()
+        .map(|p| p.frequency_cpd)
+        .fold(0.0, f64::max)
+        .max(f_lo * 2.0);
+    let (x0, x1) = (f_lo / 1.4, f_hi * 1.4);
+    let bar = |p: &ThresholdPoint, k: f64| 10f64.powf(p.log10_threshold + k * 1.96 * p.sd_log10);
+    let y0 = points
+        .iter()
+        .map(|p| bar(p, -1.0))
+        .chain([fit.ct0])
+        .fold(1.0, f64::min)
+        / 1.5;
+    let y1 = points
+        .iter()
+        .map(|p| bar(p, 1.0))
+        .fold(1.0, f64::max)
+        .min(1.0)
+        * 1.5;
+    let colours = [
+        RGBColor(200, 40, 40),
+        RGBColor(30, 80, 200),
+        RGBColor(30, 140, 60),
+        RGBColor(200, 130, 0),
+        RGBColor(130, 50, 170),
+        RGBColor(20, 20, 20),
+    ];
+    let title = format!(
+        "{}thresholds of {participant}: measured (±1.96 sd) and fitted Geisler–Perry CSF",
+        if synthetic {
+            "SYNTHETIC (simulated observer) — "
+        } else {
+            ""
+        }
+    );
+    draw_png(path, (1000, 640), |root| {
+        let (top, rest) = root.split_vertically(44);
+        for (k, line) in fit_note.lines().enumerate() {
+            top.draw(&Text::new(
+                line.to_string(),
+                (14, 4 + 19 * k as i32),
+                ("sans-serif", 14).into_font().color(&BLACK),
+            ))?;
+        }
+        let mut chart = ChartBuilder::on(&rest)
+            .caption(title, ("sans-serif", 16))
+            .margin(14)
+            .x_label_area_size(44)
+            .y_label_area_size(64)
+            .build_cartesian_2d((x0..x1).log_scale(), (y0..y1).log_scale())?;
+        chart
+            .configure_mesh()
+            .x_desc("spatial frequency (cycles/degree)")
+            .y_desc("threshold contrast (Michelson)")
+            .x_label_formatter(&|v| format!("{v:.1}"))
+            .y_label_formatter(&|v| format!("{v:.3}"))
+            .label_style(("sans-serif", 13))
+            .draw()?;
+        for (k, &e) in ecc.iter().enumerate() {
+            let c = colours[k % colours.len()];
+            let n = 200;
+            chart
+                .draw_series(LineSeries::new(
+                    (0..=n).map(|i| {
+                        let f = x0 * (x1 / x0).powf(f64::from(i) / f64::from(n));
+                        (f, fit.contrast_threshold(f, e).min(y1))
+                    }),
+                    c.stroke_width(2),
+                ))?
+                .label(format!("{e}°: fit (line), measured (dots)"))
+                .legend(move |(x, y)| {
+                    PathElement::new(vec![(x, y), (x + 20, y)], c.stroke_width(2))
+                });
+            let pts: Vec<&ThresholdPoint> =
+                points.iter().filter(|p| p.eccentricity_deg == e).collect();
+            chart.draw_series(pts.iter().map(|p| {
+                PathElement::new(
+                    vec![
+                        (p.frequency_cpd, bar(p, -1.0).max(y0)),
+                        (p.frequency_cpd, bar(p, 1.0).min(y1)),
+                    ],
+                    c.stroke_width(1),
+                )
+            }))?;
+            chart.draw_series(pts.iter().map(|p| {
+                let at = (p.frequency_cpd, 10f64.powf(p.log10_threshold).min(y1));
+                if p.censored {
+                    Circle::new(at, 5, c.stroke_width(2))
+                } else {
+                    Circle::new(at, 4, c.filled())
+                }
+            }))?;
+        }
+        chart
+            .configure_series_labels()
+            .position(SeriesLabelPosition::UpperLeft)
+            .border_style(BLACK)
+            .background_style(WHITE.mix(0.9))
+            .label_font(("sans-serif", 13))
+            .draw()?;
+        Ok(())
+    })
+}

@@ -9,7 +9,9 @@ use raycast::render::Stats;
 use raycast::{layers_rgb, Camera};
 use serde::Serialize;
 
-use crate::args::{parse_point, AccelArg, Intersector, ModelBasedArgs, Overlay};
+use crate::args::{
+    parse_point, AccelArg, Intersector, ModelBasedArgs, Overlay, ThresholdsArg, ThresholdsReport,
+};
 use crate::config::{self, load_scene};
 use crate::picture::{draw_text_lines, save_png};
 use experiment::stats::nearest_rank::median;
@@ -91,6 +93,8 @@ pub struct RenderArgs {
     pub overlay: Option<Overlay>,
     #[command(flatten)]
     pub model_based: ModelBasedArgs,
+    #[command(flatten)]
+    pub thresholds: ThresholdsArg,
 }
 
 /// The `--stats` JSON.
@@ -123,6 +127,9 @@ pub struct RenderReport {
     /// A moving scene's pose: the time on its clock and the velocities
     /// the attention model reads; `None` for a static scene.
     pub pose: Option<PoseReport>,
+    /// The thresholds used: the default Geisler–Perry model or a
+    /// participant's file (`--thresholds`), marked synthetic when it is.
+    pub thresholds: ThresholdsReport,
 }
 
 /// A moving scene's pose (`--stats`).
@@ -225,17 +232,26 @@ pub fn run(args: &RenderArgs, out: &mut dyn Write) -> Result<(), String> {
     outputs.extend(args.coc.as_deref().map(|p| ("--coc", p)));
     outputs.extend(args.dof_level.as_deref().map(|p| ("--dof-level", p)));
     outputs.extend(args.maps.iter().map(|(_, p)| ("--map", p.as_path())));
-    crate::output::Inputs::new()
+    let mut inputs = crate::output::Inputs::new()
         .scene("--scene", &args.scene)
-        .file("--display", &args.display)
-        .refuse(&outputs)?;
+        .file("--display", &args.display);
+    if let Some(p) = &args.thresholds.thresholds {
+        inputs = inputs.file("--thresholds", p);
+    }
+    inputs.refuse(&outputs)?;
+    let thresholds = args.thresholds.load()?;
     let mut scene = load_scene(&args.scene)?;
     if args.accel == AccelArg::Grid {
         scene.build_grid();
     }
     let display = config::load_display(&args.display).map_err(|e| e.to_string())?;
     let geometry = display.geometry().map_err(|e| e.to_string())?;
-    let model = crate::args::sampling_model(geometry, args.contrast, args.gaze_tolerance)?;
+    let model = crate::args::sampling_model_for(
+        geometry,
+        args.contrast,
+        args.gaze_tolerance,
+        thresholds.as_ref(),
+    )?;
     let gaze = args.gaze.unwrap_or_else(|| geometry.centre_px());
     let maps = args.coc.is_some() || args.dof_level.is_some();
     // The maps are the CPU pass's: with them, `auto` renders on the CPU.
@@ -260,6 +276,9 @@ pub fn run(args: &RenderArgs, out: &mut dyn Write) -> Result<(), String> {
     };
     let mut renderer = Renderer::new(&scene, Camera::new(&geometry), model, &options)
         .map_err(|e| e.to_string())?;
+    if let Some(t) = &thresholds {
+        t.apply(&mut renderer);
+    }
     if renderer.depth_of_field().is_none() {
         let why = match scene.pass(&raycast::scene::PostPass::DEPTH_OF_FIELD) {
             Some(_) => "its DepthOfField uses method Splat, which has no mip levels (the maps are the mipmap method's)",
@@ -330,6 +349,9 @@ pub fn run(args: &RenderArgs, out: &mut dyn Write) -> Result<(), String> {
             object_velocity_mm_per_s: p.object_velocity_mm_per_s.clone(),
             camera_velocity_mm_per_s: p.camera_velocity_mm_per_s,
         }),
+        thresholds: thresholds
+            .as_ref()
+            .map_or_else(ThresholdsReport::default_model, |t| t.report()),
     };
     if let Some(path) = &args.stats {
         let json = serde_json::to_string_pretty(&report).map_err(|e| e.to_string())?;
@@ -338,6 +360,14 @@ pub fn run(args: &RenderArgs, out: &mut dyn Write) -> Result<(), String> {
     }
     if let Some(n) = renderer.note() {
         writeln!(out, "{n}").map_err(|e| e.to_string())?;
+    }
+    if let Some(t) = thresholds.as_ref().filter(|t| t.file.synthetic) {
+        writeln!(
+            out,
+            "SYNTHETIC thresholds: {} came from a simulated observer, not a person",
+            t.path.display()
+        )
+        .map_err(|e| e.to_string())?;
     }
     let on = match &report.adapter {
         Some(a) => format!("gpu ({a})"),

@@ -8,9 +8,12 @@
 //!
 //! The folder `OUT/sub-<ID>/` holds `trials.tsv` (every trial: condition,
 //! contrast, the rendered patch's measured contrast, the answer, its
-//! validity and the staircase's state after it), `thresholds-<ID>.ron` (a
-//! `foveation` threshold table), `fit-<ID>.json` (CT0, α, e2 with bootstrap
-//! intervals and every condition's result) and `session.json` (what ran,
+//! validity and the staircase's state after it), `thresholds-<ID>.ron`
+//! (`psychophysics::participant::ParticipantThresholds`: the measured
+//! table and the fitted CT0, α, e2; what `--thresholds FILE` reads), `fit-<ID>.json` (CT0, α, e2 with bootstrap
+//! intervals and every condition's result), `thresholds-<ID>.png` (the
+//! measured thresholds with ±1.96 sd bars against the fitted curves per
+//! eccentricity, titled SYNTHETIC when it is) and `session.json` (what ran,
 //! `synthetic: true`). An existing folder is never overwritten.
 
 use std::io::Write;
@@ -255,8 +258,13 @@ fn measure(a: &MeasureArgs, out: &mut dyn Write) -> Result<(), String> {
         std::fs::write(&p, body).map_err(|e| format!("{}: {e}", p.display()))
     };
     write("trials.tsv".into(), tsv)?;
-    let table_data = foveation::perceptibility::ThresholdTableData::from(table);
-    let ron_text = ron::ser::to_string_pretty(&table_data, ron::ser::PrettyConfig::default())
+    let file = psychophysics::participant::ParticipantThresholds::new(
+        &a.participant,
+        session.is_synthetic(),
+        fit.model(),
+        table,
+    );
+    let ron_text = ron::ser::to_string_pretty(&file, ron::ser::PrettyConfig::default())
         .map_err(|e| e.to_string())?;
     write(
         format!("thresholds-{}.ron", a.participant),
@@ -274,6 +282,42 @@ fn measure(a: &MeasureArgs, out: &mut dyn Write) -> Result<(), String> {
         format!("fit-{}.json", a.participant),
         serde_json::to_string_pretty(&fit_file).map_err(|e| e.to_string())?,
     )?;
+    let png = dir.join(format!("thresholds-{}.png", a.participant));
+    let points: Vec<crate::plots::ThresholdPoint> = session
+        .results()
+        .iter()
+        .filter(|r| !r.abandoned && r.valid_trials > 0)
+        .map(|r| crate::plots::ThresholdPoint {
+            frequency_cpd: r.frequency_cpd,
+            eccentricity_deg: r.eccentricity_deg,
+            log10_threshold: r.log10_threshold,
+            sd_log10: r.sd_log10,
+            censored: r.censored,
+        })
+        .collect();
+    let fit_note = format!(
+        "fit: CT0 {:.4} [{:.4}, {:.4}], α {:.4} [{:.4}, {:.4}], e2 {:.2}° [{:.2}, {:.2}] ({:.0} % bootstrap intervals, {} resamples)\nhollow circles: censored (beyond the display's contrast), left out of the fit; bars: ±1.96 sd of each QUEST estimate",
+        fit.ct0.estimate,
+        fit.ct0.ci_low,
+        fit.ct0.ci_high,
+        fit.alpha.estimate,
+        fit.alpha.ci_low,
+        fit.alpha.ci_high,
+        fit.e2_deg.estimate,
+        fit.e2_deg.ci_low,
+        fit.e2_deg.ci_high,
+        fit.ci_level * 100.0,
+        fit.bootstrap_resamples,
+    );
+    crate::plots::draw_thresholds(
+        &png,
+        &a.participant,
+        session.is_synthetic(),
+        &fit.model(),
+        &fit_note,
+        &points,
+    )
+    .map_err(|e| format!("{}: cannot draw the plot: {e}", png.display()))?;
     let info = SessionInfo {
         synthetic: session.is_synthetic(),
         note: "a simulated observer answered every trial; no person has yet run this procedure",

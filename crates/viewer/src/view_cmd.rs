@@ -48,6 +48,8 @@ pub struct ViewArgs {
     pub method: pipeline::Method,
     #[command(flatten)]
     pub model_based: crate::args::ModelBasedArgs,
+    #[command(flatten)]
+    pub thresholds: crate::args::ThresholdsArg,
     /// Hybrid method: build each ray mask dense enough for any gaze within
     /// DEG degrees of its own, and keep it (and, on the CPU, its frame)
     /// while the gaze stays within DEG: a fixation's jitter then costs no
@@ -96,6 +98,7 @@ impl ViewArgs {
             backend: self.backend,
             method: self.method,
             model_based: self.model_based.into(),
+            thresholds: self.thresholds.thresholds.clone(),
             gaze_tolerance_deg: self.gaze_tolerance,
             eye_distance: self.eye_distance,
             fullscreen: self.fullscreen,

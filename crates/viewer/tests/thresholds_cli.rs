@@ -67,11 +67,20 @@ fn a_simulated_session_writes_its_folder_and_refuses_to_overwrite() {
     assert!((est("alpha") / 0.095 - 1.0).abs() < 0.3, "{fit}");
     assert!((est("e2_deg") / 2.8 - 1.0).abs() < 0.35, "{fit}");
 
-    // The table reads as foveation's threshold table.
+    // The thresholds file: the measured table and the fitted parameters.
     let text = std::fs::read_to_string(dir.join("thresholds-P01.ron")).unwrap();
     assert!(text.starts_with("// SYNTHETIC"));
-    let table: foveation::perceptibility::ThresholdTable = ron::from_str(&text).unwrap();
-    assert_eq!(table.eccentricities_deg(), &[0.0, 2.5, 5.0, 10.0]);
+    let file: psychophysics::participant::ParticipantThresholds = ron::from_str(&text).unwrap();
+    file.validate().unwrap();
+    assert!(file.synthetic);
+    assert_eq!(file.participant, "P01");
+    assert_eq!(file.eccentricities_deg, [0.0, 2.5, 5.0, 10.0]);
+    assert_eq!(file.geisler_perry.ct0, est("ct0"));
+
+    // The plot: a PNG of the thresholds against the fitted curves.
+    let png = std::fs::read(dir.join("thresholds-P01.png")).unwrap();
+    assert!(png.starts_with(b"\x89PNG"), "not a PNG");
+    assert!(png.len() > 10_000, "{} bytes", png.len());
 
     // Again into the same folder: refused, and nothing is touched.
     let again = measure(&out, "P01").output().unwrap();
@@ -113,4 +122,271 @@ fn without_a_simulated_observer_it_says_what_is_missing() {
         std::fs::read_dir(tmp.path()).unwrap().next().is_none(),
         "nothing written"
     );
+}
+
+/// `render --stats` of `method` on the bunny, optionally with `--thresholds`:
+/// (rays cast, triangles drawn, the stats' `thresholds` object).
+fn render_stats(
+    dir: &std::path::Path,
+    method: &str,
+    thresholds: Option<&std::path::Path>,
+) -> (u64, Option<u64>, serde_json::Value) {
+    let display = dir.join("small.ron");
+    std::fs::write(
+        &display,
+        "Display(name: \"small\", resolution_px: (320, 256), size_mm: (337.9, 270.3), eye_distance_mm: 540.0)",
+    )
+    .unwrap();
+    let stats = dir.join("s.json");
+    let mut c = gazecast();
+    c.args([
+        "render",
+        "--scene",
+        "config/scenes/bunny.ron",
+        "--method",
+        method,
+        "--backend",
+        "cpu",
+        "--contrast",
+        "0.3",
+        "--gaze",
+        "160,128",
+        "--display",
+    ])
+    .arg(&display)
+    .arg("--out")
+    .arg(dir.join("f.png"))
+    .arg("--stats")
+    .arg(&stats);
+    if let Some(t) = thresholds {
+        c.arg("--thresholds").arg(t);
+    }
+    let o = c.succeed();
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    assert_eq!(
+        thresholds.is_some(),
+        stdout.contains("SYNTHETIC"),
+        "{stdout}"
+    );
+    let v: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&stats).unwrap()).unwrap();
+    (
+        v["rays_total"].as_u64().unwrap(),
+        v["model"]["triangles_drawn"].as_u64(),
+        v["thresholds"].clone(),
+    )
+}
+
+#[test]
+fn a_participants_thresholds_move_simplify_and_the_hybrid_the_way_they_imply() {
+    let tmp = tempfile::tempdir().expect("tempdir");
+    let out = tmp.path().join("thresholds");
+    // Two simulated observers: one less sensitive than the default
+    // Geisler–Perry model (higher thresholds), one more.
+    let file = |who: &str| {
+        let mut c = gazecast();
+        c.args(["thresholds", "measure", "--headless", "--simulate-observer"])
+            .arg(format!(
+                "config/participants/threshold-observer-{who}-sensitive.ron"
+            ))
+            .args(["--participant", who, "--bootstrap", "20", "--out"])
+            .arg(&out)
+            .succeed();
+        out.join(format!("sub-{who}/thresholds-{who}.ron"))
+    };
+    let (less, more) = (file("less"), file("more"));
+
+    let (_, tri_default, t) = render_stats(tmp.path(), "simplify", None);
+    assert_eq!(t["source"], "default");
+    assert_eq!(t["synthetic"], false);
+    let (_, tri_less, t) = render_stats(tmp.path(), "simplify", Some(&less));
+    assert_eq!(t["participant"], "less");
+    assert_eq!(t["synthetic"], true);
+    let (_, tri_more, _) = render_stats(tmp.path(), "simplify", Some(&more));
+    let (tri_default, tri_less, tri_more) =
+        (tri_default.unwrap(), tri_less.unwrap(), tri_more.unwrap());
+    eprintln!("simplify triangles: default {tri_default}, less {tri_less}, more {tri_more}");
+    assert!(tri_less < tri_default, "{tri_less} !< {tri_default}");
+    assert!(tri_more > tri_default, "{tri_more} !> {tri_default}");
+
+    let (rays_default, _, _) = render_stats(tmp.path(), "hybrid", None);
+    let (rays_less, _, t) = render_stats(tmp.path(), "hybrid", Some(&less));
+    assert!(t["ct0"].as_f64().unwrap() > 1.0 / 64.0, "{t}");
+    let (rays_more, _, _) = render_stats(tmp.path(), "hybrid", Some(&more));
+    eprintln!("hybrid rays: default {rays_default}, less {rays_less}, more {rays_more}");
+    assert!(rays_less < rays_default, "{rays_less} !< {rays_default}");
+    assert!(rays_more > rays_default, "{rays_more} !> {rays_default}");
+}
+
+#[test]
+fn a_bad_thresholds_file_names_its_file_line_and_field() {
+    let tmp = tempfile::tempdir().expect("tempdir");
+    let bad = tmp.path().join("bad.ron");
+    std::fs::write(
+        &bad,
+        "(\n    participant: \"P\",\n    synthetic: false,\n    geisler_perry: (\n        ct0: -0.5,\n        alpha: 0.1,\n        e2_deg: 2.0,\n    ),\n    frequencies_cpd: [1.0, 2.0],\n    eccentricities_deg: [0.0],\n    thresholds: [[0.01, 0.02]],\n)\n",
+    )
+    .unwrap();
+    let ragged = tmp.path().join("ragged.ron");
+    std::fs::write(
+        &ragged,
+        "(\n    participant: \"P\",\n    synthetic: false,\n    geisler_perry: (ct0: 0.01, alpha: 0.1, e2_deg: 2.0),\n    frequencies_cpd: [1.0, 2.0],\n    eccentricities_deg: [0.0],\n    thresholds: [[0.01]],\n)\n",
+    )
+    .unwrap();
+    let unknown = tmp.path().join("unknown.ron");
+    std::fs::write(
+        &unknown,
+        "(\n    participant: \"P\",\n    synthetic: false,\n    colour: 3,\n)\n",
+    )
+    .unwrap();
+    for (file, line, field) in [
+        (&bad, ":5:", "geisler_perry.ct0"),
+        (&ragged, ":7:", "thresholds"),
+        (&unknown, ":4:", "colour"),
+    ] {
+        let o = gazecast()
+            .args([
+                "render",
+                "--scene",
+                "config/scenes/bunny.ron",
+                "--display",
+                "config/displays/tobii-et1750-17in.ron",
+                "--out",
+            ])
+            .arg(tmp.path().join("f.png"))
+            .arg("--thresholds")
+            .arg(file)
+            .output()
+            .unwrap();
+        assert!(!o.status.success());
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(err.contains(&format!("{}{line}", file.display())), "{err}");
+        assert!(err.contains(field), "{err}");
+    }
+}
+
+#[test]
+fn view_explain_says_which_thresholds_are_in_use() {
+    let tmp = tempfile::tempdir().expect("tempdir");
+    let out = tmp.path().join("thresholds");
+    measure(&out, "P02").succeed();
+    let file = out.join("sub-P02/thresholds-P02.ron");
+    let explain = |thresholds: Option<&std::path::Path>| {
+        let mut c = gazecast();
+        c.args([
+            "view",
+            "--explain",
+            "--scene",
+            "config/scenes/bunny.ron",
+            "--display",
+            "config/displays/tobii-et1750-17in.ron",
+            "--method",
+            "simplify",
+        ]);
+        if let Some(t) = thresholds {
+            c.arg("--thresholds").arg(t);
+        }
+        String::from_utf8_lossy(&c.succeed().stdout).into_owned()
+    };
+    let default = explain(None);
+    assert!(
+        default.contains("thresholds: the default Geisler–Perry model"),
+        "{default}"
+    );
+    let text = explain(Some(&file));
+    let line = text
+        .lines()
+        .find(|l| l.starts_with("thresholds: "))
+        .unwrap_or_else(|| panic!("{text}"));
+    assert!(line.contains(&file.display().to_string()), "{line}");
+    assert!(line.contains("participant P02"), "{line}");
+    assert!(line.contains("SYNTHETIC"), "{line}");
+    assert!(line.contains("CT0"), "{line}");
+    assert!(text.contains("the participant's table"), "{text}");
+}
+
+#[test]
+fn a_design_with_thresholds_renders_every_frame_with_them_and_says_so() {
+    let tmp = tempfile::tempdir().expect("tempdir");
+    let out = tmp.path().join("thresholds");
+    measure(&out, "P03").succeed();
+    std::fs::copy(
+        out.join("sub-P03/thresholds-P03.ron"),
+        tmp.path().join("thr.ron"),
+    )
+    .unwrap();
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
+    let design =
+        std::fs::read_to_string(root.join("tests/data/experiment/design-small.ron")).unwrap();
+    let end = design.rfind(')').unwrap();
+    let write = |name: &str, field: &str| {
+        let p = tmp.path().join(name);
+        std::fs::write(
+            &p,
+            format!("{}    {field}\n{}", &design[..end], &design[end..]),
+        )
+        .unwrap();
+        p
+    };
+    let with = write("with.ron", "thresholds: Some(\"thr.ron\"),");
+    let missing = write("missing.ron", "thresholds: Some(\"nowhere.ron\"),");
+    let run = |design: &std::path::Path, out: &std::path::Path| {
+        let mut c = gazecast();
+        c.env_remove("DISPLAY").env_remove("WAYLAND_DISPLAY");
+        c.args(["experiment", "run"])
+            .arg(design)
+            .args([
+                "--participant",
+                "P01",
+                "--tracker",
+                "tests/data/mouse-participant.ron",
+                "--display",
+                "tests/data/experiment/display-small.ron",
+                "--backend",
+                "cpu",
+                "--no-stimulus-pictures",
+                "--headless",
+                "--simulate-participant",
+                "3",
+                "--max-trials",
+                "2",
+                "--out",
+            ])
+            .arg(out);
+        c.output().unwrap()
+    };
+    let o = run(&with, &tmp.path().join("s"));
+    assert!(
+        o.status.success(),
+        "{}\n{}",
+        String::from_utf8_lossy(&o.stdout),
+        String::from_utf8_lossy(&o.stderr)
+    );
+    let frames =
+        std::fs::read_to_string(tmp.path().join("s/small-search/sub-P01/frames.tsv")).unwrap();
+    let mut lines = frames.lines();
+    let header: Vec<&str> = lines.next().unwrap().split('\t').collect();
+    let (phase, plan) = (
+        header.iter().position(|h| *h == "phase").unwrap(),
+        header.iter().position(|h| *h == "plan").unwrap(),
+    );
+    let search: Vec<Vec<&str>> = lines
+        .map(|l| l.split('\t').collect::<Vec<_>>())
+        .filter(|r| r[phase] == "search")
+        .collect();
+    assert!(!search.is_empty());
+    for r in &search {
+        assert!(r[plan].contains("thresholds: "), "{}", r[plan]);
+        assert!(r[plan].contains("participant P03"), "{}", r[plan]);
+        assert!(r[plan].contains("SYNTHETIC"), "{}", r[plan]);
+    }
+
+    let o = run(&missing, &tmp.path().join("m"));
+    assert!(!o.status.success());
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        err.contains("missing.ron") && err.contains("`thresholds`"),
+        "{err}"
+    );
+    assert!(err.contains("nowhere.ron"), "{err}");
 }

@@ -80,7 +80,12 @@ pub fn run(args: &AccuracyArgs, out: &mut dyn Write) -> Result<(), String> {
         scene.build_grid();
     }
     let gazes = gaze_positions(&geometry, n_gazes, args.seed);
-    let csf = GeislerPerry::default();
+    // A participant's fitted CSF drives the masks and weights the error
+    // (`--thresholds`); `simplify` judges its folds by their table.
+    let thresholds = args.thresholds.load()?;
+    let csf = thresholds
+        .as_ref()
+        .map_or_else(GeislerPerry::default, |t| t.file.geisler_perry);
     let bar = progress((gazes.len() * (configs.len() + 1)) as u64, "accuracy sweep");
 
     // The reference of each gaze: full resolution, BVH.
@@ -110,6 +115,9 @@ pub fn run(args: &AccuracyArgs, out: &mut dyn Write) -> Result<(), String> {
             .map_err(|e| format!("{}: {e}", config.name()))?;
         let mut renderer = Renderer::new(&scene, camera, model, &options_for(config, &scene))
             .map_err(|e| e.to_string())?;
+        if let Some(t) = &thresholds {
+            t.apply(&mut renderer);
+        }
         for (k, (&g, (reference, weights))) in gazes.iter().zip(&references).enumerate() {
             let (frame, stats) = timed(&mut renderer, g, repeats)?;
             let quality = quality::compare_with(weights, &image(reference), &image(&frame))

@@ -117,6 +117,8 @@ pub struct AccuracyArgs {
     /// best-effort mode; 1 to 10^9); repeat for several budgets.
     #[arg(long, value_name = "TRIANGLES", value_parser = crate::args::parse_budget)]
     pub budget: Vec<usize>,
+    #[command(flatten)]
+    pub thresholds: crate::args::ThresholdsArg,
 }
 
 #[derive(Debug, Clone, clap::Args)]

@@ -149,6 +149,15 @@ pub fn accuracy_report(
     let _ = writeln!(s, "- Machine: {}", machine());
     let _ = writeln!(
         s,
+        "- Thresholds: {}",
+        // Loaded (and checked) before the sweep ran.
+        match args.thresholds.load().ok().flatten() {
+            Some(t) => format!("{} (`--thresholds`)", t.source()),
+            None => "the default Geisler–Perry model (CT0 1/64, α 0.106, e2 2.3°)".to_string(),
+        }
+    );
+    let _ = writeln!(
+        s,
         "- Resolution {}x{}, {} triangles, {} timed repeats per frame",
         display.resolution_px.0,
         display.resolution_px.1,

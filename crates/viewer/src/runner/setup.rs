@@ -30,4 +30,6 @@ pub(super) struct Setup {
     /// trial then renders its search display at full resolution too, and
     /// each new search frame's fidelity per object goes to it.
     pub(super) observer: Option<experiment::run::observer::ObserverModel>,
+    /// The design's `thresholds` file, loaded; `None`: the default model.
+    pub(super) thresholds: Option<crate::args::Thresholds>,
 }

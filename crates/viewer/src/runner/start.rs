@@ -4,6 +4,7 @@
 //! event loop run, and everything closed in order.
 
 use std::io::Write;
+use std::path::Path;
 
 use experiment::run::design_check::Checked;
 use experiment::run::flow::Flow;
@@ -37,6 +38,17 @@ pub fn run(opts: &RunOptions, out: &mut dyn Write) -> Result<(), String> {
     let (design, checked) =
         crate::config::load_design_checked(&opts.design, |d| check_design(d, index, &geometry))
             .map_err(|e| e.to_string())?;
+    // The design's participant thresholds, relative to its folder.
+    let thresholds = match &design.thresholds {
+        None => None,
+        Some(p) => {
+            let path = opts.design.parent().unwrap_or(Path::new(".")).join(p);
+            Some(
+                crate::args::Thresholds::load(&path)
+                    .map_err(|e| format!("{}: field `thresholds`: {e}", opts.design.display()))?,
+            )
+        }
+    };
     let Checked {
         trials,
         layout,
@@ -144,6 +156,7 @@ pub fn run(opts: &RunOptions, out: &mut dyn Write) -> Result<(), String> {
         model,
         gaze_tolerance_deg: opts.gaze_tolerance_deg,
         observer,
+        thresholds,
     };
     if let Some(d) = &opts.screenshots {
         std::fs::create_dir_all(d).map_err(|e| format!("--screenshots {}: {e}", d.display()))?;

@@ -202,14 +202,21 @@ impl TrialState {
             }
         };
         // The condition's contrast, or the design's.
-        let search_model =
-            pipeline::sampling_model(setup.geometry, condition.contrast_or(design.contrast))
-                .map_err(|e| match condition.contrast {
-                    Some(_) => format!("conditions[{}].contrast: {e}", trial.condition),
-                    None => format!("contrast: {e}"),
-                })?
-                .with_inset_deg(condition.inset_deg.unwrap_or(0.0))
-                .map_err(|e| format!("conditions[{}].inset_deg: {e}", trial.condition))?;
+        let csf = setup
+            .thresholds
+            .as_ref()
+            .map_or_else(foveation::GeislerPerry::default, |t| t.file.geisler_perry);
+        let search_model = pipeline::sampling_model_with(
+            setup.geometry,
+            csf,
+            condition.contrast_or(design.contrast),
+        )
+        .map_err(|e| match condition.contrast {
+            Some(_) => format!("conditions[{}].contrast: {e}", trial.condition),
+            None => format!("contrast: {e}"),
+        })?
+        .with_inset_deg(condition.inset_deg.unwrap_or(0.0))
+        .map_err(|e| format!("conditions[{}].inset_deg: {e}", trial.condition))?;
         let scene = build(&stimulus::search_scene(design, trial, &setup.layout))?;
         let options = Options {
             method: condition_method(&condition.method)
@@ -228,7 +235,12 @@ impl TrialState {
             ..Options::default()
         };
         let search = SearchScene::try_new(scene, |s| {
-            Renderer::new(s, camera, search_model, &options).map_err(|e| e.to_string())
+            let mut r =
+                Renderer::new(s, camera, search_model, &options).map_err(|e| e.to_string())?;
+            if let Some(t) = &setup.thresholds {
+                t.apply(&mut r);
+            }
+            Ok::<_, String>(r)
         })?;
         // Pay per use: the full-resolution search display only for an
         // observer that compares what it sees with it.

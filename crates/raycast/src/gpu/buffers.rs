@@ -40,8 +40,9 @@ pub(super) struct FovParams {
 /// Bytes per vertex hit record in `foveated.wgsl` (`Sample`: 32 bytes).
 const SAMPLE_BYTES: u64 = 32;
 
-/// Binding 0 of groups 0 and 1: a uniform buffer.
-fn uniform_entry() -> wgpu::BindGroupLayoutEntry {
+/// Binding 0 of groups 0 and 1 (and of the ownership pass's group): a
+/// uniform buffer.
+pub(super) fn uniform_entry() -> wgpu::BindGroupLayoutEntry {
     wgpu::BindGroupLayoutEntry {
         binding: 0,
         visibility: wgpu::ShaderStages::COMPUTE,

@@ -14,7 +14,7 @@
 use bytemuck::{Pod, Zeroable};
 use foveation::mask::RayMask;
 
-use super::buffers::{bind, storage, storage_entry};
+use super::buffers::{bind, storage, storage_entry, uniform_entry};
 use super::{GpuError, TrafficCounter};
 
 /// `Own` in ownership.wgsl.
@@ -77,16 +77,7 @@ impl OwnershipPass {
             label: Some("ownership.wgsl"),
             source: wgpu::ShaderSource::Wgsl(include_str!("ownership.wgsl").into()),
         });
-        let mut entries = vec![wgpu::BindGroupLayoutEntry {
-            binding: 0,
-            visibility: wgpu::ShaderStages::COMPUTE,
-            ty: wgpu::BindingType::Buffer {
-                ty: wgpu::BufferBindingType::Uniform,
-                has_dynamic_offset: false,
-                min_binding_size: None,
-            },
-            count: None,
-        }];
+        let mut entries = vec![uniform_entry()];
         entries.extend((1..=3).map(|b| storage_entry(b, true)));
         entries.push(storage_entry(4, false));
         let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {

@@ -83,7 +83,7 @@ if [ $quick = 1 ]; then
   repeats=2
 else
   # moving.ron renders on the CPU only (the GPU keeps the scene it uploaded).
-  jobs=("config/scenes/search-task.ron,config/scenes/bunny.ron,config/scenes/faces.ron,config/scenes/stress.ron,config/scenes/stress-dof.ron|config/displays/desktop-24in-1080p.ron,config/displays/desktop-27in-4k.ron")
+  jobs=("config/scenes/search-task.ron,config/scenes/bunny.ron,config/scenes/faces.ron,config/scenes/stress.ron,config/scenes/stress-dof.ron,config/scenes/room.ron|config/displays/desktop-24in-1080p.ron,config/displays/desktop-27in-4k.ron")
   method_scene=config/scenes/stress-dof.ron
   method_displays="config/displays/desktop-24in-1080p.ron config/displays/desktop-27in-4k.ron"
   # ulod renders on the CPU only (its attention and levels are CPU code).

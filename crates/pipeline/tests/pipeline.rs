@@ -449,3 +449,40 @@ fn the_gpu_backend_reports_each_frames_traffic() {
     let timestamps = 16 * gpu.stage_ms().len() as u64;
     assert_eq!(t.read_back_bytes, 4 * pixels + 16 + timestamps, "{t:?}");
 }
+
+/// Issue 35: depth of field's uniforms (2,304 B a frame) go up only when
+/// they change; a frame of a kept mask whose focus did not move uploads
+/// only the frame's own uniforms (≤ 1 KiB), and a frame whose focus moved
+/// uploads them again.
+#[test]
+fn depth_of_field_uploads_its_uniforms_only_when_they_change() {
+    let path = repo().join("config/scenes/stress-dof.ron");
+    let text = std::fs::read_to_string(&path).expect("stress-dof");
+    let file: SceneFile = ron::from_str(&text).expect("parses");
+    let s = Scene::build(&file, path.parent().expect("dir")).expect("builds");
+    let g = display(W, H).geometry().expect("geometry");
+    let model = pipeline::sampling_model(g, 1.0)
+        .expect("model")
+        .with_gaze_tolerance_deg(0.5)
+        .expect("tolerance");
+    let options = Options {
+        method: Method::Hybrid,
+        backend: BackendChoice::Gpu,
+        ..Options::default()
+    };
+    let mut gpu = Renderer::new(&s, Camera::new(&g), model, &options)
+        .unwrap_or_else(|e| panic!("{e} — install Mesa's software Vulkan"));
+    let gaze = [f64::from(W) / 2.0, f64::from(H) / 2.0];
+    let mut uploads = Vec::new();
+    // Long after the first frame the refocusing has settled: the focus,
+    // and so the uniforms, stay as they are for the same gaze.
+    for t in [0.0, 30.0, 30.1, 30.2] {
+        gpu.render_at(gaze, t).expect("renders");
+        uploads.push(gpu.gpu_traffic().expect("counted").uploaded_bytes);
+    }
+    assert!(uploads[0] > 2304, "{uploads:?}");
+    assert!(
+        uploads[2] <= 1024 && uploads[3] <= 1024,
+        "a settled focus and a kept mask: {uploads:?}"
+    );
+}

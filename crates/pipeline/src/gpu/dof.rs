@@ -33,6 +33,9 @@ struct Buffers {
     group: wgpu::BindGroup,
     /// The colour, depth and σ pyramids (the bind group holds them).
     _pyramid: [wgpu::Buffer; 3],
+    /// The uniform bytes `params` holds: a frame whose uniforms are the
+    /// same (the same size, focus and lens) uploads nothing.
+    written: Vec<u8>,
 }
 
 /// The GPU state of depth of field: the CPU pass (its lens, focus and
@@ -278,9 +281,10 @@ impl DofFrame<'_> {
                 params,
                 group,
                 _pyramid: [px, z, sg],
+                written: Vec::new(),
             });
         }
-        let Some(b) = st.buffers.as_ref() else {
+        let Some(b) = st.buffers.as_mut() else {
             return Ok(encoder);
         };
         let mut all = Vec::with_capacity(SLOT as usize * (MAX_LEVELS + 1));
@@ -314,7 +318,10 @@ impl DofFrame<'_> {
             words.pad_to(SLOT as usize);
             all.extend(words.0);
         }
-        frame.write_buffer(&b.params, 0, &all);
+        if b.written != all {
+            frame.write_buffer(&b.params, 0, &all);
+            b.written = all;
+        }
         let p = &kernels.pipelines;
         dispatch(&mut encoder, frame.traffic(), &p[BASE], &b.group, 0, (w, h));
         for src in 0..top {

@@ -66,7 +66,8 @@
 //! The tests also require the truth inside the 95 % interval for at least
 //! 5 of the 6 observers per parameter. Both recovery tests together take
 //! about 2 s in the test profile. The 30-observer figures come from the
-//! ignored `recovery_survey` test (`N_OBS=30 TPC=40` or `TPC=80`).
+//! `recovery_survey` example (`N_OBS=30 TPC=40 cargo run --release -p
+//! psychophysics --example recovery_survey`, or `TPC=80`).
 //! **Up-down staircases recover less well, and their intervals cannot be
 //! trusted.** The same survey with 3-down-1-up staircases (step 0.2 log10
 //! halving to 0.025, the first 2 reversals discarded, at most 80 trials a

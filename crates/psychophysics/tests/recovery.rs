@@ -4,77 +4,11 @@
 //! crate docs' ("Recovery").
 
 use foveation::perceptibility::{ThresholdTable, ThresholdTableData};
-use foveation::GeislerPerry;
-use psychophysics::fit::{fit_session, threshold_table, FitOptions, GeislerPerryFit};
-use psychophysics::observer::{ObserverSpec, SimulatedObserver};
-use psychophysics::session::{Procedure, Session, SessionSpec};
-use psychophysics::staircase::StaircaseParams;
-use rand::{Rng, SeedableRng};
-use rand_chacha::ChaCha8Rng;
+use psychophysics::fit::threshold_table;
 
-/// Hidden observers: CT0 log-uniform 0.0079–0.032, α 0.07–0.14, e2
-/// 1.5–3.5°, β 3.5, lapses 2 %, 2AFC.
-fn hidden_observers(n: u64) -> Vec<ObserverSpec> {
-    let mut rng = ChaCha8Rng::seed_from_u64(2026);
-    (0..n)
-        .map(|k| ObserverSpec {
-            csf: GeislerPerry {
-                ct0: 10f64.powf(rng.random_range(-2.1..-1.5)),
-                alpha: rng.random_range(0.07..0.14),
-                e2_deg: rng.random_range(1.5..3.5),
-            },
-            beta: 3.5,
-            lapse_rate: 0.02,
-            guess_rate: 0.5,
-            p_threshold: 0.82,
-            rt_median_ms: 550.0,
-            rt_log_sd: 0.3,
-            seed: 100 + k,
-        })
-        .collect()
-}
+mod support;
 
-fn measure(spec: ObserverSpec, trials_per_condition: u32, seed: u64) -> (Session, GeislerPerryFit) {
-    measure_with(spec, trials_per_condition, seed, None, true)
-}
-
-fn measure_with(
-    spec: ObserverSpec,
-    trials_per_condition: u32,
-    seed: u64,
-    staircase: Option<StaircaseParams>,
-    weighted: bool,
-) -> (Session, GeislerPerryFit) {
-    let mut obs = SimulatedObserver::new(spec).unwrap();
-    let mut design = SessionSpec {
-        seed,
-        trials_per_condition,
-        ..SessionSpec::default()
-    };
-    if let Some(p) = staircase {
-        design.procedure = Procedure::Staircase(p);
-    }
-    let mut s = Session::new(design).unwrap();
-    while let Some(t) = s.next_trial() {
-        let r = obs
-            .respond(t.frequency_cpd, t.eccentricity_deg, t.contrast)
-            .unwrap();
-        s.record_synthetic(&t, r).unwrap();
-    }
-    let fit = fit_session(
-        &s,
-        &FitOptions {
-            weighted,
-            ..FitOptions::default()
-        },
-    )
-    .unwrap();
-    (s, fit)
-}
-
-fn rel(est: f64, truth: f64) -> f64 {
-    (est / truth - 1.0).abs()
-}
+use support::{hidden_observers, measure, rel};
 
 /// Runs six hidden observers; returns how many had each parameter's truth
 /// inside its 95 % interval.
@@ -146,55 +80,4 @@ fn the_table_round_trips_through_ron_into_foveation() {
         json.contains("\"synthetic\":true") && json.contains("ci_low"),
         "{json}"
     );
-}
-
-/// The survey behind the crate docs' figures: `N_OBS` observers (default
-/// 30) at `TPC` trials per condition (default 40); `STAIRCASE=1` runs
-/// 3-down-1-up staircases (at most `TPC` trials each) instead of QUEST,
-/// `UNWEIGHTED=1` fits without weights.
-/// `N_OBS=30 TPC=80 cargo test -p psychophysics --test recovery -- --ignored --nocapture`
-#[test]
-#[ignore]
-fn recovery_survey() {
-    let env = |k: &str, d: u64| {
-        std::env::var(k)
-            .ok()
-            .and_then(|v| v.parse().ok())
-            .unwrap_or(d)
-    };
-    let (n, tpc) = (env("N_OBS", 30), env("TPC", 40) as u32);
-    let weighted = env("UNWEIGHTED", 0) != 1;
-    let staircase = (env("STAIRCASE", 0) == 1).then(|| StaircaseParams {
-        max_reversals: 100,
-        max_trials: tpc,
-        ..StaircaseParams::default()
-    });
-    let mut errs = [Vec::new(), Vec::new(), Vec::new()];
-    let mut covered = [0; 3];
-    for (k, spec) in hidden_observers(n).into_iter().enumerate() {
-        let (_, fit) = measure_with(spec, tpc, k as u64, staircase, weighted);
-        let t = spec.csf;
-        for (i, (e, truth)) in [
-            (fit.ct0, t.ct0),
-            (fit.alpha, t.alpha),
-            (fit.e2_deg, t.e2_deg),
-        ]
-        .into_iter()
-        .enumerate()
-        {
-            errs[i].push(rel(e.estimate, truth));
-            covered[i] += usize::from(e.ci_low <= truth && truth <= e.ci_high);
-        }
-    }
-    for (i, name) in ["CT0", "alpha", "e2"].iter().enumerate() {
-        errs[i].sort_by(f64::total_cmp);
-        let v = &errs[i];
-        eprintln!(
-            "{name}: median {:.1} %, 90th {:.1} %, max {:.1} %, truth in 95 % CI {}/{n}",
-            100.0 * v[v.len() / 2],
-            100.0 * v[(v.len() * 9) / 10],
-            100.0 * v[v.len() - 1],
-            covered[i]
-        );
-    }
 }

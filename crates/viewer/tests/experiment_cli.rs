@@ -1043,39 +1043,6 @@ fn an_image_condition_renders_image_based_and_its_frames_say_so() {
     assert!(sidecar.contains("\"plan\""), "{sidecar}");
 }
 
-/// The small test design (or `design`) run for P01 with the simulated
-/// mouse tracker on the small display without a window or a display
-/// (DISPLAY unset), no stimulus pictures, on `backend`, into `out`, with
-/// `extra` arguments (`--headless` and the simulation among them).
-fn small_session(
-    design: &std::ffi::OsStr,
-    backend: &str,
-    out: &Path,
-    extra: &[&str],
-) -> std::process::Output {
-    let mut c = common::gazecast();
-    c.env_remove("DISPLAY").env_remove("WAYLAND_DISPLAY");
-    c.args(["experiment", "run"])
-        .arg(design)
-        .args([
-            "--participant",
-            "P01",
-            "--tracker",
-            "tests/data/mouse-participant.ron",
-            "--display",
-            "tests/data/experiment/display-small.ron",
-            "--backend",
-            backend,
-            "--no-stimulus-pictures",
-            "--out",
-        ])
-        .arg(out)
-        .args(extra);
-    c.output().expect("the binary runs")
-}
-
-const SMALL_DESIGN: &str = "tests/data/experiment/design-small.ron";
-
 /// A headless simulated session (`--headless`): no window and no display
 /// (DISPLAY unset), seven trials of the small design (calibration,
 /// validation, a break, the mid-point validation) on the virtual clock. Its
@@ -1086,7 +1053,9 @@ const SMALL_DESIGN: &str = "tests/data/experiment/design-small.ron";
 #[test]
 fn a_headless_session_runs_on_a_virtual_clock_and_repeats_exactly() {
     let tmp = tempfile::tempdir().expect("tempdir");
-    let run = |out: &Path, extra: &[&str]| small_session(SMALL_DESIGN.as_ref(), "cpu", out, extra);
+    let run = |out: &Path, extra: &[&str]| {
+        common::small_session(common::SMALL_DESIGN.as_ref(), "cpu", out, extra)
+    };
     let refused = run(&tmp.path().join("none"), &["--headless"]);
     assert!(!refused.status.success());
     assert!(!tmp.path().join("none").exists());
@@ -1364,7 +1333,7 @@ fn practice_trials_run_first_and_are_marked_in_every_file() {
     assert!(text.contains("practice: Some"));
     std::fs::write(&design, text).expect("write design");
     let out = tmp.path().join("data");
-    let o = small_session(
+    let o = common::small_session(
         design.as_os_str(),
         "cpu",
         &out,
@@ -1467,8 +1436,8 @@ fn frames_state_their_gpu_traffic() {
     let tmp = tempfile::tempdir().expect("tempdir");
     let run = |backend: &str| {
         let out = tmp.path().join(backend);
-        let o = small_session(
-            SMALL_DESIGN.as_ref(),
+        let o = common::small_session(
+            common::SMALL_DESIGN.as_ref(),
             backend,
             &out,
             &[

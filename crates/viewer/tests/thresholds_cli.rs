@@ -331,29 +331,18 @@ fn a_design_with_thresholds_renders_every_frame_with_them_and_says_so() {
     let with = write("with.ron", "thresholds: Some(\"thr.ron\"),");
     let missing = write("missing.ron", "thresholds: Some(\"nowhere.ron\"),");
     let run = |design: &std::path::Path, out: &std::path::Path| {
-        let mut c = gazecast();
-        c.env_remove("DISPLAY").env_remove("WAYLAND_DISPLAY");
-        c.args(["experiment", "run"])
-            .arg(design)
-            .args([
-                "--participant",
-                "P01",
-                "--tracker",
-                "tests/data/mouse-participant.ron",
-                "--display",
-                "tests/data/experiment/display-small.ron",
-                "--backend",
-                "cpu",
-                "--no-stimulus-pictures",
+        common::small_session(
+            design.as_os_str(),
+            "cpu",
+            out,
+            &[
                 "--headless",
                 "--simulate-participant",
                 "3",
                 "--max-trials",
                 "2",
-                "--out",
-            ])
-            .arg(out);
-        c.output().unwrap()
+            ],
+        )
     };
     let o = run(&with, &tmp.path().join("s"));
     assert!(

@@ -126,3 +126,37 @@ pub fn with_file_limit(cmd: &std::process::Command, kib: u32) -> std::process::C
     }
     c
 }
+
+/// The small test design (or `design`) run for P01 with the simulated
+/// mouse tracker on the small display without a window or a display
+/// (DISPLAY unset), no stimulus pictures, on `backend`, into `out`, with
+/// `extra` arguments (`--headless` and the simulation among them).
+pub fn small_session(
+    design: &std::ffi::OsStr,
+    backend: &str,
+    out: &Path,
+    extra: &[&str],
+) -> Output {
+    let mut c = gazecast();
+    c.env_remove("DISPLAY").env_remove("WAYLAND_DISPLAY");
+    c.args(["experiment", "run"])
+        .arg(design)
+        .args([
+            "--participant",
+            "P01",
+            "--tracker",
+            "tests/data/mouse-participant.ron",
+            "--display",
+            "tests/data/experiment/display-small.ron",
+            "--backend",
+            backend,
+            "--no-stimulus-pictures",
+            "--out",
+        ])
+        .arg(out)
+        .args(extra);
+    c.output().expect("the binary runs")
+}
+
+/// The small test design: the 11 scene types, one run, with the click.
+pub const SMALL_DESIGN: &str = "tests/data/experiment/design-small.ron";

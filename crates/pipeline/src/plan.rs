@@ -140,6 +140,9 @@ pub struct FramePlan {
     /// The backend: `cpu` or `gpu`.
     pub backend: Side,
     pub stages: Vec<Stage>,
+    /// The finished frame stays on the GPU, drawn into the window there
+    /// (`Renderer::set_stay_on_gpu`): no read-back.
+    pub stays_on_gpu: bool,
 }
 
 impl FramePlan {
@@ -154,7 +157,7 @@ impl FramePlan {
     /// hit always (the frame is returned), plus what the CPU stages read.
     /// `None` on the CPU backend.
     pub fn readback(&self) -> Option<(usize, Channels)> {
-        if self.backend == Side::Cpu {
+        if self.backend == Side::Cpu || self.stays_on_gpu {
             return None;
         }
         let at = self
@@ -176,13 +179,18 @@ impl FramePlan {
             .map(|s| format!("{} ({})", s.name, s.side.name()))
             .collect();
         format!(
-            "{} on {}; passes: {}",
+            "{} on {}; passes: {}{}",
             self.method,
             self.backend.name(),
             if passes.is_empty() {
                 "none".to_string()
             } else {
                 passes.join(" → ")
+            },
+            if self.stays_on_gpu {
+                "; no read-back (drawn into the window on the GPU)"
+            } else {
+                ""
             }
         )
     }
@@ -219,6 +227,11 @@ impl FramePlan {
             if at == self.stages.len() {
                 out.push(format!("  read-back of the finished frame ({carries})"));
             }
+        }
+        if self.stays_on_gpu {
+            out.push(
+                "  no read-back: the finished frame is drawn into the window on the GPU".into(),
+            );
         }
         out
     }
@@ -260,6 +273,7 @@ mod tests {
         let plan = FramePlan {
             method: "full",
             backend: Side::Gpu,
+            stays_on_gpu: false,
             stages: vec![
                 stage("cast", Role::Method, Side::Gpu, Channels::NONE),
                 stage("a", Role::Effect, Side::Gpu, Channels::DEPTH),
@@ -281,6 +295,7 @@ mod tests {
         );
         let cpu = FramePlan {
             backend: Side::Cpu,
+            stays_on_gpu: false,
             stages: vec![stage("cast", Role::Method, Side::Cpu, Channels::NONE)],
             ..plan
         };

@@ -423,6 +423,80 @@ impl<'s> Renderer<'s> {
         Ok((frame, stats))
     }
 
+    /// Whether this renderer's frames can stay on the GPU for a window on
+    /// the same device to present ([`Renderer::set_stay_on_gpu`]): `Ok` on
+    /// the GPU backend for a ray-cast method whose passes all run on the
+    /// GPU; otherwise why not (a CPU pass reads the frame, the raster path
+    /// reads back, the CPU backend renders on the CPU).
+    pub fn can_stay_on_gpu(&self) -> Result<(), String> {
+        match &self.backend {
+            Backend::Cpu => Err("the CPU backend renders on the CPU".into()),
+            Backend::Gpu(_) if !self.gpu_hook => Err(format!(
+                "the {} method's GPU frame (the raster path) is read back",
+                self.method.name()
+            )),
+            Backend::Gpu(_) if !self.passes.is_empty() => Err(format!(
+                "the pass(es) {} run on the CPU and read the frame",
+                self.passes
+                    .iter()
+                    .map(|p| p.name())
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            )),
+            Backend::Gpu(_) => Ok(()),
+        }
+    }
+
+    /// Keeps each frame on the GPU (`on`) or reads it back (the default).
+    /// On, [`Renderer::render`] returns a [`Frame::on_device`] (its size, no
+    /// pixels) and [`Renderer::gpu_frame_pixels`] is the frame to present;
+    /// refused with [`Renderer::can_stay_on_gpu`]'s reason where it cannot.
+    pub fn set_stay_on_gpu(&mut self, on: bool) -> Result<(), String> {
+        if on {
+            self.can_stay_on_gpu()?;
+        }
+        if let Backend::Gpu(g) = &mut self.backend {
+            g.set_read_back(!on);
+        }
+        self.provenance = self.plan().provenance();
+        Ok(())
+    }
+
+    /// Whether frames stay on the GPU ([`Renderer::set_stay_on_gpu`]).
+    pub fn stays_on_gpu(&self) -> bool {
+        matches!(&self.backend, Backend::Gpu(g) if !g.reads_back())
+    }
+
+    /// The GPU device the frames are rendered on (the GPU backend), for a
+    /// window that presents them there.
+    pub fn gpu_device(&self) -> Option<raycast::gpu::SharedDevice> {
+        match &self.backend {
+            Backend::Gpu(g) => Some(g.shared()),
+            Backend::Cpu => None,
+        }
+    }
+
+    /// The last frame's pixel words on the GPU and its size (the GPU
+    /// backend, after a frame): what a window on the same device presents.
+    pub fn gpu_frame_pixels(&self) -> Option<(&raycast::gpu::wgpu::Buffer, (u32, u32))> {
+        match &self.backend {
+            Backend::Gpu(g) => g.frame_pixels(),
+            Backend::Cpu => None,
+        }
+    }
+
+    /// Reads the last GPU frame back now (a screenshot of a frame that
+    /// stayed on the GPU); the passes' output included, since they ran on
+    /// the GPU before it.
+    pub fn read_last_gpu_frame(&self) -> Result<Frame, RenderError> {
+        match &self.backend {
+            Backend::Gpu(g) => Ok(g.read_last_frame()?),
+            Backend::Cpu => Err(RenderError::Unsupported(
+                "the CPU backend's frames are on the CPU already".into(),
+            )),
+        }
+    }
+
     /// The method that runs (the one asked for, or `Full` when the scene
     /// does not sample `Foveated`).
     pub fn method(&self) -> Method {
@@ -775,6 +849,7 @@ impl<'s> Renderer<'s> {
             method: self.method.name(),
             backend: side,
             stages,
+            stays_on_gpu: self.stays_on_gpu(),
         }
     }
 

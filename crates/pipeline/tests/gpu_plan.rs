@@ -219,3 +219,86 @@ fn the_plan_is_what_runs_and_pays_per_use() {
         assert!(r.plan().stages.iter().all(|s| s.side == side));
     }
 }
+
+/// A frame kept on the GPU for a window on the same device: nothing of it
+/// is read back (a foveated frame reads its 16 B of ray counters), the
+/// frame returned has its size and no pixels, the plan and its one-line
+/// provenance say so, and the frame read back on demand (a screenshot) is
+/// the frame an ordinary GPU frame returns, passes included. Where a pass
+/// runs on the CPU, or on the CPU backend, it is refused with the reason.
+#[test]
+fn a_frame_kept_on_the_gpu_reads_nothing_back_and_is_the_same_frame() {
+    for (method, effects) in [
+        (Method::Full, ""),
+        (Method::Hybrid, "FoveatedSampling"),
+        (
+            Method::Hybrid,
+            "FoveatedSampling, DepthOfField(pupil_mm: 8.0), PorOverlay(half_px: 20)",
+        ),
+        (Method::Image, "FoveatedSampling, PorOverlay(half_px: 12)"),
+    ] {
+        let s = scene(effects);
+        let mut kept = renderer(&s, method, BackendChoice::Gpu);
+        let mut read = renderer(&s, method, BackendChoice::Gpu);
+        assert_eq!(kept.method(), method, "{effects}");
+        kept.can_stay_on_gpu().expect("every pass on the GPU");
+        kept.set_stay_on_gpu(true).expect("stays");
+        assert!(kept.stays_on_gpu());
+        assert!(kept.plan().readback().is_none());
+        assert!(
+            kept.provenance()
+                .ends_with("; no read-back (drawn into the window on the GPU)"),
+            "{}",
+            kept.provenance()
+        );
+        for (k, gaze) in [GAZE, [100.0, 40.0]].into_iter().enumerate() {
+            let (on_device, ks) = kept.render_at(gaze, k as f64).expect("kept");
+            let (expected, rs) = read.render_at(gaze, k as f64).expect("read back");
+            let what = format!("{method:?} [{effects}] frame {k}");
+            assert!(on_device.is_on_device() && on_device.is_empty(), "{what}");
+            assert_eq!((on_device.width_px, on_device.height_px), (W, H));
+            assert_eq!(ks.rays_total, rs.rays_total, "{what}");
+            let moved = kept.gpu_traffic().expect("gpu");
+            let ordinary = read.gpu_traffic().expect("gpu");
+            assert!(
+                ordinary.read_back_bytes >= u64::from(4 * W * H),
+                "{what}: {ordinary:?}"
+            );
+            // A foveated frame reads its 16 B of ray counters; with
+            // passes, depth of field reads its focus window (a few words)
+            // wherever the frame goes; no pass timestamps are read.
+            let counters = if kept.method() == Method::Hybrid {
+                16
+            } else {
+                0
+            };
+            if !effects.contains("DepthOfField") {
+                assert_eq!(moved.read_back_bytes, counters, "{what}: {moved:?}");
+            } else {
+                assert!(moved.read_back_bytes < 1024, "{what}: {moved:?}");
+            }
+            let shown = kept.read_last_gpu_frame().expect("reads");
+            assert_eq!(shown.rgb, expected.rgb, "{what}");
+            assert_eq!(shown.hit, expected.hit, "{what}");
+            assert_eq!(shown.layer, expected.layer, "{what}");
+        }
+        kept.set_stay_on_gpu(false).expect("back");
+        let (again, _) = kept.render_at(GAZE, 2.0).expect("read back again");
+        assert!(!again.is_on_device() && again.len() == (W * H) as usize);
+    }
+    // A CPU pass reads the frame: refused, naming it.
+    let s = scene("PorOverlay(half_px: 8), DepthOfField(pupil_mm: 8.0, smooth_foreground: true)");
+    let mut r = renderer(&s, Method::Full, BackendChoice::Gpu);
+    let why = r.set_stay_on_gpu(true).expect_err("a CPU pass");
+    assert!(why.contains("run on the CPU"), "{why}");
+    assert!(!r.stays_on_gpu());
+    let plain = scene("");
+    let mut cpu = renderer(&plain, Method::Full, BackendChoice::Cpu);
+    let why = cpu.set_stay_on_gpu(true).expect_err("the CPU backend");
+    assert!(why.contains("CPU backend"), "{why}");
+    // The raster path reads back.
+    let s = scene("FoveatedSampling");
+    let mut lod = renderer(&s, Method::Lod, BackendChoice::Gpu);
+    let why = lod.set_stay_on_gpu(true).expect_err("raster");
+    assert!(why.contains("raster"), "{why}");
+}

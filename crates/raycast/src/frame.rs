@@ -74,6 +74,23 @@ impl Frame {
         }
     }
 
+    /// A frame of `width_px` × `height_px` pixels that stayed on the GPU
+    /// (`GpuRenderer::set_read_back(false)`): its size and no pixels
+    /// ([`Frame::len`] is 0, [`Frame::is_on_device`] is true).
+    pub fn on_device(width_px: u32, height_px: u32) -> Self {
+        Self {
+            width_px,
+            height_px,
+            ..Self::default()
+        }
+    }
+
+    /// Whether the frame's pixels stayed on the GPU ([`Frame::on_device`]):
+    /// a size without pixels.
+    pub fn is_on_device(&self) -> bool {
+        self.rgb.is_empty() && self.width_px as u64 * self.height_px as u64 > 0
+    }
+
     /// Gives the frame `width_px` × `height_px` pixels (with or without the
     /// surface buffers), reusing its allocations: a renderer that writes
     /// every pixel calls this instead of allocating a frame per frame. The

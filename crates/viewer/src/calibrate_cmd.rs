@@ -479,6 +479,7 @@ impl ApplicationHandler for Calibrator<'_> {
                 self.args.fullscreen,
                 self.args.monitor,
                 crate::screen::PresentChoice::Fifo,
+                None,
             ) {
                 Ok(s) => self.screen = Some(s),
                 Err(e) => {

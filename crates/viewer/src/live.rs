@@ -41,7 +41,7 @@ use winit::window::WindowId;
 
 use crate::config::{self, load_scene};
 use crate::gaze_feed::{GazeFeed, GazeSetup, TrackerMsg};
-use crate::picture::{draw_text_lines, save_png};
+use crate::picture::{draw_text_lines, save_png, text_overlay};
 use crate::screen::{Input, Screen};
 use experiment::stats::nearest_rank::p50_95_99;
 
@@ -206,6 +206,13 @@ struct Viewer<'a> {
     status: String,
     layers: bool,
     hud: bool,
+    /// The text lines over the last frame (HUD, status, recording), for a
+    /// screenshot of a frame that stayed on the GPU.
+    shown_lines: Vec<String>,
+    /// The overlay's text on the window's GPU and when it was uploaded:
+    /// frames that stay on the GPU refresh it at most every
+    /// [`OVERLAY_REFRESH`] (and at once when its lines come or go).
+    overlay: Option<(String, Instant)>,
     frames: u64,
     fresh_frames: u64,
     /// Frames drawn with a new ray mask, and frames that were the last
@@ -414,6 +421,16 @@ impl Viewer<'_> {
             );
             self.say(&line);
         }
+        // The frame stays on the GPU where the window draws from the
+        // renderer's device and nothing on the CPU reads it (the layers
+        // view and the attention model do).
+        let stay = self.screen.as_ref().is_some_and(Screen::presents_from_gpu)
+            && !self.layers
+            && self.attention.is_none()
+            && self.renderer.can_stay_on_gpu().is_ok();
+        if stay != self.renderer.stays_on_gpu() {
+            self.renderer.set_stay_on_gpu(stay)?;
+        }
         let (mut frame, stats) = self.renderer.render(gaze).map_err(|e| e.to_string())?;
         self.traffic.extend(self.renderer.gpu_traffic());
         if let Some(a) = &mut self.attention {
@@ -428,6 +445,7 @@ impl Viewer<'_> {
             .feed
             .recording_failure()
             .map(|e| tracker_hal::supervisor::recording_stopped(&e));
+        self.shown_lines.clear();
         if self.hud || !self.status.is_empty() || recording.is_some() {
             let fps = self.frames as f64 / self.started.elapsed().as_secs_f64().max(1e-9);
             // The HUD's percentiles cover the last frames only: sorting the
@@ -448,11 +466,22 @@ impl Viewer<'_> {
             .flatten()
             .filter(|l| !l.is_empty())
             .collect();
-            draw_text_lines(&mut frame.rgb, (frame.width_px, frame.height_px), &lines)
-                .map_err(|e| e.to_string())?;
+            if !frame.is_on_device() {
+                draw_text_lines(&mut frame.rgb, (frame.width_px, frame.height_px), &lines)
+                    .map_err(|e| e.to_string())?;
+            }
+            self.shown_lines = lines.iter().map(|l| l.to_string()).collect();
+        }
+        if frame.is_on_device() {
+            self.refresh_overlay(frame.width_px)?;
         }
         let submit_us = match (&mut self.screen, tex) {
-            (Some(s), Some(t)) => s.present(t, &frame.rgb, (frame.width_px, frame.height_px)),
+            (Some(s), Some(t)) => match self.renderer.gpu_frame_pixels() {
+                Some((pixels, size)) if frame.is_on_device() => {
+                    s.present_gpu(t, pixels, size).unwrap_or_else(monotonic_us)
+                }
+                _ => s.present(t, &frame.rgb, (frame.width_px, frame.height_px)),
+            },
             _ => monotonic_us(),
         };
         let present_us = monotonic_us();
@@ -528,6 +557,61 @@ impl Viewer<'_> {
         self.exit(el);
     }
 
+    /// Uploads the text lines over the frame as the window's overlay when
+    /// they changed: lines that come or go at once, changed text at most
+    /// every [`OVERLAY_REFRESH`] (the HUD's figures change every frame;
+    /// each upload is a picture of the lines).
+    fn refresh_overlay(&mut self, width_px: u32) -> Result<(), String> {
+        let Some(screen) = &mut self.screen else {
+            return Ok(());
+        };
+        let text = self.shown_lines.join("\n");
+        let due = match &self.overlay {
+            None => !text.is_empty(),
+            Some((old, _)) if old == &text => false,
+            Some((old, at)) => {
+                old.lines().count() != text.lines().count() || at.elapsed() >= OVERLAY_REFRESH
+            }
+        };
+        if !due {
+            return Ok(());
+        }
+        if text.is_empty() {
+            screen.set_overlay(None);
+            self.overlay = None;
+            return Ok(());
+        }
+        let lines: Vec<&str> = self.shown_lines.iter().map(String::as_str).collect();
+        let (words, size) = text_overlay(&lines, width_px).map_err(|e| e.to_string())?;
+        screen.set_overlay(Some((&words, size)));
+        self.overlay = Some((text, Instant::now()));
+        Ok(())
+    }
+
+    /// Saves the last frame as the window showed it (read back from the
+    /// GPU when it stayed there, its text lines drawn over it); `false`
+    /// before the first frame.
+    fn save_shown(&self, path: &Path) -> Result<bool, String> {
+        let Some((f, _)) = &self.last else {
+            return Ok(false);
+        };
+        if !f.is_on_device() {
+            save_png(path, (f.width_px, f.height_px), &f.rgb).map_err(|e| e.to_string())?;
+            return Ok(true);
+        }
+        let mut shown = self
+            .renderer
+            .read_last_gpu_frame()
+            .map_err(|e| e.to_string())?;
+        let lines: Vec<&str> = self.shown_lines.iter().map(String::as_str).collect();
+        if !lines.is_empty() {
+            draw_text_lines(&mut shown.rgb, (shown.width_px, shown.height_px), &lines)
+                .map_err(|e| e.to_string())?;
+        }
+        save_png(path, (shown.width_px, shown.height_px), &shown.rgb).map_err(|e| e.to_string())?;
+        Ok(true)
+    }
+
     /// Ends the event loop, noting when it was asked to.
     fn exit(&mut self, el: &ActiveEventLoop) {
         self.stop_us.get_or_insert_with(monotonic_us);
@@ -548,11 +632,14 @@ impl ApplicationHandler for Viewer<'_> {
                 self.opts.fullscreen,
                 self.opts.monitor,
                 self.opts.present_mode,
+                self.renderer.gpu_device().as_ref(),
             ) {
                 Ok(s) => {
-                    let line = s.present_mode.clone();
+                    let lines = [s.present_mode.clone(), s.how.clone()];
                     self.screen = Some(s);
-                    self.say(&line);
+                    for line in lines {
+                        self.say(&line);
+                    }
                 }
                 Err(e) => self.fail(el, e),
             }
@@ -572,14 +659,13 @@ impl ApplicationHandler for Viewer<'_> {
                 Key::Character("l") => self.layers = !self.layers,
                 Key::Character("h") => self.hud = !self.hud,
                 Key::Character("s") => {
-                    if let Some((f, _)) = &self.last {
-                        let p = Path::new("gazecast-screenshot.png");
-                        let line = match save_png(p, (f.width_px, f.height_px), &f.rgb) {
-                            Ok(()) => format!("screenshot: {}", p.display()),
-                            Err(e) => format!("screenshot failed: {e}"),
-                        };
-                        self.say(&line);
-                    }
+                    let p = Path::new("gazecast-screenshot.png");
+                    let line = match self.save_shown(p) {
+                        Ok(true) => format!("screenshot: {}", p.display()),
+                        Ok(false) => "screenshot: no frame yet".to_string(),
+                        Err(e) => format!("screenshot failed: {e}"),
+                    };
+                    self.say(&line);
                 }
                 _ => {}
             },
@@ -735,6 +821,8 @@ pub fn run(opts: &LiveOptions, out: &mut dyn Write) -> Result<(), LiveError> {
         status: String::new(),
         layers: false,
         hud: true,
+        shown_lines: Vec::new(),
+        overlay: None,
         frames: 0,
         fresh_frames: 0,
         new_masks: 0,
@@ -789,10 +877,7 @@ pub fn run(opts: &LiveOptions, out: &mut dyn Write) -> Result<(), LiveError> {
         viewer.say(&line);
     }
     if let Some(s) = &viewer.screen {
-        let line = format!(
-            "presenting: {} B handed to write_texture in {} frames (the CPU frame copied into the window's surface, on either backend)",
-            s.presented_bytes, viewer.frames
-        );
+        let line = presenting_line(s);
         viewer.say(&line);
     }
     if let Some((c, d)) = viewer.clock {
@@ -815,13 +900,37 @@ pub fn run(opts: &LiveOptions, out: &mut dyn Write) -> Result<(), LiveError> {
         return Err(e.into());
     }
     result.map_err(|e| format!("window: {e}"))?;
-    if let (Some(path), Some((f, _))) = (&opts.screenshot, &viewer.last) {
-        save_png(path, (f.width_px, f.height_px), &f.rgb)
-            .map_err(|e| format!("{}: {e}", path.display()))?;
-        let line = format!("wrote {}", path.display());
-        viewer.say(&line);
+    if let Some(path) = &opts.screenshot {
+        if viewer
+            .save_shown(path)
+            .map_err(|e| format!("{}: {e}", path.display()))?
+        {
+            let line = format!("wrote {}", path.display());
+            viewer.say(&line);
+        }
     }
     viewer.log_error.map_or(Ok(()), |e| Err(e.into()))
+}
+
+/// How often, at most, the text over frames that stay on the GPU is
+/// uploaded again when it changes.
+const OVERLAY_REFRESH: std::time::Duration = std::time::Duration::from_millis(250);
+
+/// The session summary's line on how the window presented: frames drawn
+/// from the GPU's buffers (nothing read back or uploaded for them but the
+/// text overlay) and frames copied from the CPU.
+fn presenting_line(s: &Screen) -> String {
+    let copied = format!(
+        "{} B handed to write_texture in {} frames (the CPU frame copied into the window's surface)",
+        s.presented_bytes, s.copied_from_cpu
+    );
+    if s.drawn_from_gpu == 0 {
+        return format!("presenting: {copied}");
+    }
+    format!(
+        "presenting: {} frames drawn from the GPU's buffers into the window (no read-back; {} B uploaded for the text overlay and the draw's sizes); {copied}",
+        s.drawn_from_gpu, s.overlay_bytes
+    )
 }
 
 /// The session summary's line on what the GPU frames moved between the

@@ -102,20 +102,78 @@ pub fn draw_text_lines(rgb: &mut [u8], (w, h): (u32, u32), lines: &[&str]) -> Pi
     register_font();
     let root = BitMapBackend::with_buffer(rgb, (w, h)).into_drawing_area();
     for (k, line) in lines.iter().enumerate() {
-        let y = 4 + 18 * k as i32;
-        let width = 8 * line.chars().count() as i32 + 8;
+        let (y, width) = line_box(k, line);
         root.draw(&Rectangle::new(
             [(0, y - 2), (width, y + 16)],
-            RGBColor(10, 10, 12).mix(0.75).filled(),
+            TEXT_BOX.mix(0.75).filled(),
         ))?;
-        root.draw(&Text::new(
-            line.to_string(),
-            (4, y),
-            ("sans-serif", 14).into_font().color(&WHITE),
-        ))?;
+        root.draw(&line_text(line, y))?;
     }
     root.present()?;
     Ok(())
+}
+
+/// The dark of the boxes behind text lines.
+const TEXT_BOX: RGBColor = RGBColor(10, 10, 12);
+
+/// Line `k`'s text baseline row and its box's right edge (its box spans
+/// rows `y - 2 ..= y + 16` and columns `0 ..= width`).
+fn line_box(k: usize, line: &str) -> (i32, i32) {
+    (4 + 18 * k as i32, 8 * line.chars().count() as i32 + 8)
+}
+
+fn line_text(line: &str, y: i32) -> Text<'_, (i32, i32), String> {
+    Text::new(
+        line.to_string(),
+        (4, y),
+        ("sans-serif", 14).into_font().color(&WHITE),
+    )
+}
+
+/// An overlay's RGBA words (row-major) and its width and height.
+pub type Overlay = (Vec<u32>, (u32, u32));
+
+/// The text lines of [`draw_text_lines`] as an overlay for a frame drawn
+/// elsewhere (on the GPU): RGBA words (red in the low byte) of the
+/// top-left strip that holds the lines' boxes, at most `max_width` wide;
+/// alpha 255 inside a box, 0 outside. The boxes are opaque (the blend
+/// with the frame that [`draw_text_lines`] does would need the frame).
+pub fn text_overlay(lines: &[&str], max_width: u32) -> Result<Overlay, Box<dyn std::error::Error>> {
+    register_font();
+    let boxes: Vec<(i32, i32)> = lines
+        .iter()
+        .enumerate()
+        .map(|(k, l)| line_box(k, l))
+        .collect();
+    let widest = boxes.iter().map(|b| b.1 + 1).max().unwrap_or(0).max(1);
+    let w = (widest as u32).min(max_width.max(1));
+    let h = (boxes.last().map_or(0, |b| b.0 + 17)).max(1) as u32;
+    let mut rgb = [TEXT_BOX.0, TEXT_BOX.1, TEXT_BOX.2].repeat(w as usize * h as usize);
+    {
+        let root = BitMapBackend::with_buffer(&mut rgb, (w, h)).into_drawing_area();
+        for (line, &(y, _)) in lines.iter().zip(&boxes) {
+            root.draw(&line_text(line, y))?;
+        }
+        root.present()?;
+    }
+    let inside = |x: i32, y: i32| {
+        boxes
+            .iter()
+            .any(|&(by, bw)| x <= bw && (by - 2..=by + 16).contains(&y))
+    };
+    let words = rgb
+        .chunks_exact(3)
+        .enumerate()
+        .map(|(i, p)| {
+            let (x, y) = ((i % w as usize) as i32, (i / w as usize) as i32);
+            if inside(x, y) {
+                0xff00_0000 | u32::from(p[2]) << 16 | u32::from(p[1]) << 8 | u32::from(p[0])
+            } else {
+                0
+            }
+        })
+        .collect();
+    Ok((words, (w, h)))
 }
 
 #[cfg(test)]
@@ -131,6 +189,36 @@ mod tests {
         let info = reader.next_frame(&mut buf).expect("a frame");
         buf.truncate(info.buffer_size());
         (info, buf)
+    }
+
+    /// The overlay holds the lines' boxes where `draw_text_lines` draws
+    /// them (opaque, text included) and nothing elsewhere; it is clipped to
+    /// the frame's width.
+    #[test]
+    fn the_text_overlay_is_opaque_in_the_boxes_and_clear_outside() {
+        let lines = ["abc", "a longer line"];
+        let (words, (w, h)) = text_overlay(&lines, 1000).expect("draws");
+        assert_eq!((w, h), (8 * 13 + 8 + 1, 4 + 18 + 17));
+        assert_eq!(words.len(), (w * h) as usize);
+        let at = |x: u32, y: u32| words[(y * w + x) as usize];
+        let alpha = |x, y| at(x, y) >> 24;
+        assert_eq!(alpha(0, 0), 0, "above the first box");
+        assert_eq!(alpha(0, 2), 255, "the first box's top row");
+        assert_eq!(alpha(8 * 3 + 8, 10), 255, "the first box's right edge");
+        assert_eq!(alpha(8 * 3 + 9, 10), 0, "right of the first box");
+        assert_eq!(alpha(8 * 3 + 9, 30), 255, "the second, longer box");
+        // The box's dark and the text's white are both there.
+        let colours: std::collections::HashSet<u32> = words.iter().copied().collect();
+        assert!(
+            colours.contains(&0xff0c_0a0a),
+            "the box colour (10, 10, 12)"
+        );
+        assert!(colours.iter().any(|c| c & 0xff > 200), "white text");
+        let (clipped, (cw, ch)) = text_overlay(&lines, 20).expect("draws");
+        assert_eq!((cw, ch), (20, h));
+        assert_eq!(clipped.len(), (20 * h) as usize);
+        let (none, size) = text_overlay(&[], 100).expect("nothing");
+        assert_eq!((none, size), (vec![0], (1, 1)));
     }
 
     #[test]

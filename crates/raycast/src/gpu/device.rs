@@ -5,16 +5,24 @@ use super::GpuError;
 
 /// The adapter `GpuRenderer::new` would use.
 fn adapter() -> Result<wgpu::Adapter, GpuError> {
+    adapter_of(&instance()).map_err(|e| GpuError::NoAdapter(e.to_string()))
+}
+
+/// The instance every device of the backend is made from.
+fn instance() -> wgpu::Instance {
     let mut desc = wgpu::InstanceDescriptor::new_without_display_handle_from_env();
     // Vulkan, Metal or DX12 unless WGPU_BACKEND says otherwise: probing
     // OpenGL would only print EGL noise on headless machines.
     desc.backends = wgpu::Backends::from_env().unwrap_or(wgpu::Backends::PRIMARY);
-    let instance = wgpu::Instance::new(desc);
+    wgpu::Instance::new(desc)
+}
+
+/// The high-performance adapter of `instance`.
+fn adapter_of(instance: &wgpu::Instance) -> Result<wgpu::Adapter, wgpu::RequestAdapterError> {
     pollster::block_on(instance.request_adapter(&wgpu::RequestAdapterOptions {
         power_preference: wgpu::PowerPreference::HighPerformance,
         ..Default::default()
     }))
-    .map_err(|e| GpuError::NoAdapter(e.to_string()))
 }
 
 /// What adapter there is, without creating a device: `Ok((name, software))`
@@ -27,6 +35,10 @@ pub fn probe() -> Result<(String, bool), GpuError> {
 
 /// A device on the chosen adapter, with what the renderer needs to know of it.
 pub(super) struct Opened {
+    /// The instance and adapter the device was made on: a window that
+    /// presents the frames on this device makes its surface from them.
+    pub instance: wgpu::Instance,
+    pub adapter: wgpu::Adapter,
     pub device: wgpu::Device,
     pub queue: wgpu::Queue,
     /// The adapter in words (name, backend, type, driver).
@@ -41,7 +53,8 @@ pub(super) struct Opened {
 /// Opens a device with the adapter's own limits and, where it has them,
 /// timestamp queries.
 pub(super) fn open() -> Result<Opened, GpuError> {
-    let adapter = adapter()?;
+    let instance = instance();
+    let adapter = adapter_of(&instance).map_err(|e| GpuError::NoAdapter(e.to_string()))?;
     let info = adapter.get_info();
     let name = format!(
         "{} ({:?}, {:?}, driver {} {})",
@@ -61,6 +74,8 @@ pub(super) fn open() -> Result<Opened, GpuError> {
     }))
     .map_err(|e| GpuError::Device(e.to_string()))?;
     Ok(Opened {
+        instance,
+        adapter,
         device,
         queue,
         name,

@@ -311,13 +311,24 @@ impl GpuRenderer {
             }
         }
         encoder = self.encode_post(target, post, (w, h), encoder)?;
-        copy_out(&mut encoder, &target.out, &target.readback, pixels);
+        // Without a read-back the frame stays here for its presenter; only
+        // the ray counters come back.
+        let read = self.read_back;
+        let timer = timer.filter(|_| read);
+        if read {
+            copy_out(&mut encoder, &target.out, &target.readback, pixels);
+        }
         if let Some(t) = &timer {
             t.resolve(&mut encoder, stages.len() as u32);
         }
         encoder.copy_buffer_to_buffer(&ft.counters, 0, &ft.counters_readback, 0, 16);
         traffic.submit(&queue, encoder.finish());
-        let frame = read_frame(&device, &traffic, &target.readback, w, h, self.surface)?;
+        self.last_size = Some((w, h));
+        let frame = if read {
+            read_frame(&device, &traffic, &target.readback, w, h, self.surface)?
+        } else {
+            Frame::on_device(w, h)
+        };
         let counters = read_back(&device, &traffic, &ft.counters_readback, 16)?;
         let [fovea, refine, cells_refined, _listed] =
             [0, 1, 2, 3].map(|k| counters.get(k).copied().map_or(0, u64::from));

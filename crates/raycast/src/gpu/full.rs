@@ -106,12 +106,23 @@ impl GpuRenderer {
             traffic.dispatch(&mut pass, w.div_ceil(8), h.div_ceil(8), 1);
         }
         encoder = self.encode_post(target, post, (w, h), encoder)?;
-        copy_out(&mut encoder, &target.out, &target.readback, pixels);
+        // Without a read-back the frame stays here for its presenter, and
+        // nothing waits for the GPU.
+        let read = self.read_back;
+        let timer = timer.filter(|_| read);
+        if read {
+            copy_out(&mut encoder, &target.out, &target.readback, pixels);
+        }
         if let Some(t) = &timer {
             t.resolve(&mut encoder, 1);
         }
         traffic.submit(&queue, encoder.finish());
-        let frame = read_frame(&device, &traffic, &target.readback, w, h, surface)?;
+        self.last_size = Some((w, h));
+        let frame = if read {
+            read_frame(&device, &traffic, &target.readback, w, h, surface)?
+        } else {
+            Frame::on_device(w, h)
+        };
         self.stage_ms = match &timer {
             Some(t) => t.read(&device, &traffic, &[CAST_AND_SHADE])?,
             None => Vec::new(),

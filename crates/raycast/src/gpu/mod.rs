@@ -97,8 +97,23 @@ pub enum GpuError {
     Readback(String),
 }
 
+/// The instance, adapter, device and queue a [`GpuRenderer`] renders on,
+/// for a window that presents its frames on the same device
+/// ([`GpuRenderer::shared`]); every handle is a cheap clone.
+#[derive(Clone)]
+pub struct SharedDevice {
+    pub instance: wgpu::Instance,
+    pub adapter: wgpu::Adapter,
+    pub device: wgpu::Device,
+    pub queue: wgpu::Queue,
+    /// Bytes and calls moved on the device, shared with the renderer.
+    pub traffic: Arc<TrafficCounter>,
+}
+
 /// A device with a scene on it.
 pub struct GpuRenderer {
+    instance: wgpu::Instance,
+    adapter_handle: wgpu::Adapter,
     device: wgpu::Device,
     queue: wgpu::Queue,
     layouts: Layouts,
@@ -130,6 +145,10 @@ pub struct GpuRenderer {
     stage_ms: Vec<(&'static str, f64)>,
     /// Read the surface buffers (depth, object id, normal) back.
     surface: bool,
+    /// Read each frame back ([`GpuRenderer::set_read_back`]).
+    read_back: bool,
+    /// The size of the last frame rendered into `target`.
+    last_size: Option<(u32, u32)>,
     /// The hidden-image cast's pipeline, made by the first frame that asks.
     hidden: std::sync::OnceLock<hidden::HiddenCast>,
     /// The raster path's pipelines and buffers, made by the first
@@ -144,6 +163,68 @@ pub struct GpuRenderer {
 }
 
 impl GpuRenderer {
+    /// Whether each frame is read back (the default). Off, a ray-cast
+    /// frame (`render_full_with`, `render_foveated_kept`) leaves its
+    /// outputs in the device's buffers for a caller that presents them
+    /// there ([`GpuRenderer::frame_pixels`]): the `Frame` it returns has the
+    /// frame's size and no pixels, and its pass timestamps are not read
+    /// (`stage_ms` is empty). A foveated frame still reads its 16 bytes of
+    /// ray counters (its `Stats`). [`GpuRenderer::read_last_frame`] reads
+    /// such a frame back on demand (a screenshot). The raster path always
+    /// reads back.
+    pub fn set_read_back(&mut self, on: bool) {
+        self.read_back = on;
+    }
+
+    /// Whether each frame is read back ([`GpuRenderer::set_read_back`]).
+    pub fn reads_back(&self) -> bool {
+        self.read_back
+    }
+
+    /// The last frame's pixel words on the device (`pack` in cast.wgsl:
+    /// red, green, blue in the low three bytes, the hit flag and layer
+    /// above), row-major, with its size; `None` before the first frame.
+    pub fn frame_pixels(&self) -> Option<(&wgpu::Buffer, (u32, u32))> {
+        Some((&self.target.as_ref()?.out.pixels, self.last_size?))
+    }
+
+    /// Reads the last frame's buffers back now (with the surface buffers
+    /// when frames read them): what a frame rendered without read-back
+    /// showed, for a screenshot.
+    pub fn read_last_frame(&self) -> Result<crate::frame::Frame, GpuError> {
+        let (Some(target), Some((w, h))) = (self.target.as_ref(), self.last_size) else {
+            return Err(GpuError::Readback("no frame yet".into()));
+        };
+        let mut encoder = self
+            .device
+            .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                label: Some("read the last frame"),
+            });
+        readback::copy_out(&mut encoder, &target.out, &target.readback, w * h);
+        self.traffic.submit(&self.queue, encoder.finish());
+        readback::read_frame(
+            &self.device,
+            &self.traffic,
+            &target.readback,
+            w,
+            h,
+            self.surface,
+        )
+    }
+
+    /// The device this renderer renders on, for a window that presents its
+    /// frames without a read-back (its surface must be made from this
+    /// instance, and the adapter must be able to present to it).
+    pub fn shared(&self) -> SharedDevice {
+        SharedDevice {
+            instance: self.instance.clone(),
+            adapter: self.adapter_handle.clone(),
+            device: self.device.clone(),
+            queue: self.queue.clone(),
+            traffic: self.traffic.clone(),
+        }
+    }
+
     /// Whether frames read the surface buffers (depth, object id, normal)
     /// back (the default); without them a frame has empty surface buffers
     /// and its read-back moves a fifth of the bytes.
@@ -179,6 +260,10 @@ impl GpuRenderer {
         );
         let c = scene.background;
         Ok(Self {
+            instance: opened.instance,
+            adapter_handle: opened.adapter,
+            read_back: true,
+            last_size: None,
             queue: opened.queue,
             layouts,
             pipelines,

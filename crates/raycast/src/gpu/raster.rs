@@ -512,6 +512,7 @@ impl GpuRenderer {
         }
         copy_out(&mut encoder, &target.out, &target.readback, pixels);
         traffic.submit(&queue, encoder.finish());
+        self.last_size = Some((w, h));
         *frame = read_frame(&device, &traffic, &target.readback, w, h, surface)?;
         self.stage_ms.clear();
         stats.pixels_covered = frame.hit.iter().filter(|&&h| h).count() as u64;

@@ -27,6 +27,7 @@ impl ApplicationHandler for Runner<'_> {
                 self.setup.monitor,
                 // Onsets are tied to the refresh: every frame waits for it.
                 crate::screen::PresentChoice::Fifo,
+                None,
             ) {
                 Ok(s) => {
                     if let Some(hz) = s

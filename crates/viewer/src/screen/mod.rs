@@ -1,7 +1,16 @@
-//! A window with a `wgpu` surface that shows frames rendered elsewhere (the
-//! CPU renderer, the GPU core's read-back, the calibration screen): each
-//! frame is copied into the surface texture, which is a plain 8-bit
-//! RGBA/BGRA format because the bytes are already gamma-encoded.
+//! A window with a `wgpu` surface that shows frames rendered elsewhere.
+//!
+//! - A frame on the CPU (the CPU renderer, a GPU frame read back, the
+//!   calibration and experiment screens) is copied into the surface
+//!   texture ([`Screen::present`]), which is a plain 8-bit RGBA/BGRA format
+//!   because the bytes are already gamma-encoded.
+//! - A frame that stayed on the GPU is drawn into the surface texture by a
+//!   render pass on the renderer's own device ([`Screen::present_gpu`],
+//!   `present.rs`): nothing is read back or uploaded but the HUD's overlay
+//!   when its text changes. That needs the surface to be made on the
+//!   renderer's device ([`Screen::open`] with its [`SharedDevice`]).
+
+mod present;
 
 use std::sync::Arc;
 
@@ -9,6 +18,8 @@ use winit::event::{ElementState, KeyEvent, WindowEvent};
 use winit::event_loop::ActiveEventLoop;
 use winit::keyboard::Key;
 use winit::window::Window;
+
+use raycast::gpu::SharedDevice;
 
 /// Makes a lost X server close the open recordings before the process
 /// ends. Xlib ends the process itself when its connection breaks (the
@@ -177,12 +188,29 @@ pub struct Screen {
     pub presented_bytes: u64,
     /// The present mode in use and why ([`pick_present_mode`]).
     pub present_mode: String,
+    /// Draws frames that stayed on the GPU: made when the surface is on
+    /// the renderer's device.
+    gpu: Option<present::GpuPresent>,
+    /// Frames drawn from the GPU ([`Screen::present_gpu`]) and copied from
+    /// the CPU ([`Screen::present`]) so far.
+    pub drawn_from_gpu: u64,
+    pub copied_from_cpu: u64,
+    /// Bytes uploaded for frames drawn from the GPU: the HUD's overlay
+    /// when its text changed, the draw's uniform when the sizes changed.
+    pub overlay_bytes: u64,
+    /// How the window presents, in a line: on the renderer's device or by
+    /// copies, and why.
+    pub how: String,
 }
 
 impl Screen {
     /// Opens a `w × h` window — fullscreen on monitor `monitor` (0-based,
     /// in the platform's order) or on the current one when asked — and
     /// configures its surface for copies, presenting as `present` asks.
+    /// With `shared` (a GPU renderer's device) the surface is made on that
+    /// device where its adapter can present to the window, and frames that
+    /// stay on the GPU can be drawn ([`Screen::presents_from_gpu`]);
+    /// otherwise the window has a device of its own.
     pub fn open(
         el: &ActiveEventLoop,
         title: &str,
@@ -190,6 +218,7 @@ impl Screen {
         fullscreen: bool,
         monitor: Option<usize>,
         present: PresentChoice,
+        shared: Option<&SharedDevice>,
     ) -> Result<Self, String> {
         let mut attrs = Window::default_attributes()
             .with_title(title)
@@ -236,21 +265,42 @@ impl Screen {
             el.create_window(attrs)
                 .map_err(|e| format!("window: {}", plain_error(&e)))?,
         );
-        let mut desc = wgpu::InstanceDescriptor::new_without_display_handle_from_env();
-        desc.backends = wgpu::Backends::from_env().unwrap_or(wgpu::Backends::PRIMARY);
-        let instance = wgpu::Instance::new(desc);
-        let surface = instance
-            .create_surface(window.clone())
-            .map_err(|e| format!("window surface: {e}"))?;
-        let adapter = pollster::block_on(instance.request_adapter(&wgpu::RequestAdapterOptions {
-            power_preference: wgpu::PowerPreference::HighPerformance,
-            compatible_surface: Some(&surface),
-            ..Default::default()
-        }))
-        .map_err(|e| format!("no adapter can present to the window: {e}"))?;
-        let (device, queue) =
-            pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor::default()))
-                .map_err(|e| format!("device: {e}"))?;
+        // The renderer's device where its adapter can present to this
+        // window; else a device of the window's own.
+        let on_shared = shared.and_then(|d| {
+            let surface = d.instance.create_surface(window.clone()).ok()?;
+            d.adapter.is_surface_supported(&surface).then(|| {
+                (
+                    surface,
+                    d.adapter.clone(),
+                    d.device.clone(),
+                    d.queue.clone(),
+                )
+            })
+        });
+        let shared_refused = shared.is_some() && on_shared.is_none();
+        let (surface, adapter, device, queue) = match on_shared {
+            Some(s) => s,
+            None => {
+                let mut desc = wgpu::InstanceDescriptor::new_without_display_handle_from_env();
+                desc.backends = wgpu::Backends::from_env().unwrap_or(wgpu::Backends::PRIMARY);
+                let instance = wgpu::Instance::new(desc);
+                let surface = instance
+                    .create_surface(window.clone())
+                    .map_err(|e| format!("window surface: {e}"))?;
+                let adapter =
+                    pollster::block_on(instance.request_adapter(&wgpu::RequestAdapterOptions {
+                        power_preference: wgpu::PowerPreference::HighPerformance,
+                        compatible_surface: Some(&surface),
+                        ..Default::default()
+                    }))
+                    .map_err(|e| format!("no adapter can present to the window: {e}"))?;
+                let (device, queue) =
+                    pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor::default()))
+                        .map_err(|e| format!("device: {e}"))?;
+                (surface, adapter, device, queue)
+            }
+        };
         let caps = surface.get_capabilities(&adapter);
         if !caps.usages.contains(wgpu::TextureUsages::COPY_DST) {
             return Err("the window surface cannot be copied into (no COPY_DST)".into());
@@ -267,7 +317,15 @@ impl Screen {
         .find(|f| caps.formats.contains(f))
         .ok_or("the window surface has no plain 8-bit RGBA/BGRA format")?;
         config.format = format;
-        config.usage = wgpu::TextureUsages::COPY_DST;
+        // Frames on the GPU are drawn into the surface: a render target.
+        let draws = shared.is_some()
+            && !shared_refused
+            && caps.usages.contains(wgpu::TextureUsages::RENDER_ATTACHMENT);
+        config.usage = if draws {
+            wgpu::TextureUsages::COPY_DST | wgpu::TextureUsages::RENDER_ATTACHMENT
+        } else {
+            wgpu::TextureUsages::COPY_DST
+        };
         let (mode, present_mode) = pick_present_mode(present, &caps.present_modes)?;
         config.present_mode = mode;
         let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
@@ -275,9 +333,16 @@ impl Screen {
         if let Some(e) = pollster::block_on(scope.pop()) {
             return Err(format!("the window surface cannot be configured: {e}"));
         }
+        let how = match (shared.is_some(), shared_refused, draws) {
+            (false, ..) => "presenting by copies: the window has a device of its own".to_string(),
+            (true, true, _) => "presenting by copies: the renderer's GPU cannot present to this window, so the window has a device of its own".to_string(),
+            (true, false, false) => "presenting by copies: the window's surface cannot be a render target".to_string(),
+            (true, false, true) => "presenting on the renderer's GPU: frames that stay there are drawn into the window without a read-back".to_string(),
+        };
         Ok(Self {
             window,
             surface,
+            gpu: draws.then(|| present::GpuPresent::new(&device, format)),
             device,
             queue,
             config,
@@ -285,7 +350,50 @@ impl Screen {
             staging: Vec::new(),
             presented_bytes: 0,
             present_mode,
+            drawn_from_gpu: 0,
+            copied_from_cpu: 0,
+            overlay_bytes: 0,
+            how,
         })
+    }
+
+    /// Whether frames that stayed on the GPU can be drawn
+    /// ([`Screen::present_gpu`]): the surface is on the renderer's device.
+    pub fn presents_from_gpu(&self) -> bool {
+        self.gpu.is_some()
+    }
+
+    /// Replaces the HUD's overlay drawn over frames from the GPU (RGBA
+    /// words, alpha 0 where the frame shows through; `None`: none). Call it
+    /// only when the overlay changes: it uploads.
+    pub fn set_overlay(&mut self, overlay: Option<(&[u32], (u32, u32))>) {
+        if let Some(g) = &mut self.gpu {
+            self.overlay_bytes += g.set_overlay(&self.device, &self.queue, overlay);
+        }
+    }
+
+    /// Draws the `w × h` frame whose pixel words (`pack`) are in `pixels`,
+    /// on this window's device, into `tex`, with the overlay; submits and
+    /// presents; returns the host time (µs) of the submit, or `None` (and
+    /// presents nothing) when the window does not draw from the GPU.
+    pub fn present_gpu(
+        &mut self,
+        tex: wgpu::SurfaceTexture,
+        pixels: &wgpu::Buffer,
+        size: (u32, u32),
+    ) -> Option<u64> {
+        let g = self.gpu.as_mut()?;
+        let view = tex
+            .texture
+            .create_view(&wgpu::TextureViewDescriptor::default());
+        let (commands, uploaded) = g.encode(&self.device, &self.queue, &view, pixels, size);
+        self.overlay_bytes += uploaded;
+        self.queue.submit([commands]);
+        let submitted = tracker_hal::clock::monotonic_us();
+        self.window.pre_present_notify();
+        self.queue.present(tex);
+        self.drawn_from_gpu += 1;
+        Some(submitted)
     }
 
     /// The next surface texture (this is where FIFO waits for the display);
@@ -328,6 +436,7 @@ impl Screen {
             }
         }
         self.presented_bytes += self.staging.len() as u64;
+        self.copied_from_cpu += 1;
         self.queue.write_texture(
             wgpu::TexelCopyTextureInfo {
                 texture: &tex.texture,

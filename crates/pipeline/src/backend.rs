@@ -29,14 +29,22 @@ pub(crate) enum Backend {
 
 impl Backend {
     /// Chooses the backend for `scene` (its acceleration structure) and the
-    /// triangle test; the note says why `auto` chose what it did.
+    /// triangle test, a GPU one on `device` when given; the note says why
+    /// `auto` chose what it did.
     pub(crate) fn choose(
         choice: BackendChoice,
         scene: &Scene,
         test: TriangleTest,
+        device: Option<&gpu::SharedDevice>,
     ) -> Result<(Backend, Option<String>), RenderError> {
         let gpu_able = scene.accel == Accel::Bvh && test == TriangleTest::Watertight;
-        let open = |scene| GpuRenderer::new(scene).map(|g| Backend::Gpu(Box::new(g)));
+        let open = |scene| {
+            match device {
+                Some(d) => GpuRenderer::on_device(d, scene),
+                None => GpuRenderer::new(scene),
+            }
+            .map(|g| Backend::Gpu(Box::new(g)))
+        };
         Ok(match (choice, gpu_able) {
             (BackendChoice::Cpu, _) => (Backend::Cpu, None),
             (BackendChoice::Gpu, false) => {

@@ -176,6 +176,20 @@ impl<'s> Renderer<'s> {
         model: SamplingModel,
         options: &Options,
     ) -> Result<Self, RenderError> {
+        Self::new_on(scene, camera, model, options, None)
+    }
+
+    /// [`Renderer::new`], on the GPU device `gpu` when the backend chosen
+    /// is the GPU (a device shared with a window that presents the frames,
+    /// and with the renderers made before and after this one) instead of a
+    /// device of its own.
+    pub fn new_on(
+        scene: &'s Scene,
+        camera: Camera,
+        model: SamplingModel,
+        options: &Options,
+        gpu: Option<&raycast::gpu::SharedDevice>,
+    ) -> Result<Self, RenderError> {
         options
             .model_based
             .check(options.method)
@@ -220,7 +234,7 @@ impl<'s> Renderer<'s> {
                 BackendChoice::Cpu => (Backend::Cpu, None),
             }
         } else {
-            Backend::choose(options.backend, scene, options.test)?
+            Backend::choose(options.backend, scene, options.test, gpu)?
         };
         let mut state = (module.make)(&MethodSetup {
             scene,

@@ -583,7 +583,11 @@ impl Viewer<'_> {
         }
         let lines: Vec<&str> = self.shown_lines.iter().map(String::as_str).collect();
         let (words, size) = text_overlay(&lines, width_px).map_err(|e| e.to_string())?;
-        screen.set_overlay(Some((&words, size)));
+        screen.set_overlay(Some(crate::screen::Overlay {
+            words: &words,
+            size,
+            origin: (0, 0),
+        }));
         self.overlay = Some((text, Instant::now()));
         Ok(())
     }

@@ -1199,15 +1199,9 @@ fn read_rgb(path: &Path) -> ((u32, u32), Vec<u8>) {
     ((info.width, info.height), buf)
 }
 
-/// The reference with `detail: Full` is drawn at full resolution whatever
-/// the method: a reference at the corner cell (0, 0), 12° from the gaze at
-/// the centre, in an NE2 search frame equals the full-resolution stimulus
-/// picture pixel for pixel over the face, while the face in the other top
-/// corner (0, 4), as far out, is the hybrid method's degraded one.
-#[test]
-fn a_full_reference_is_drawn_at_full_resolution_under_the_hybrid_method() {
-    let tmp = tempfile::tempdir().expect("tempdir");
-    let design = tmp.path().join("reference.ron");
+/// The small design with an NE2 (hybrid) and a control condition, and a
+/// full-resolution reference at the corner cell (0, 0); its text.
+fn reference_design(path: &Path) -> String {
     let small = small_design();
     let start = small.find("    conditions: [").expect("conditions");
     let end = start + small[start..].find("    ],\n").expect("end") + "    ],\n".len();
@@ -1226,7 +1220,61 @@ fn a_full_reference_is_drawn_at_full_resolution_under_the_hybrid_method() {
         "grid_deg: 20.0)",
         "grid_deg: 20.0, reference: Some((at: Cell(0, 0), detail: Full)))",
     );
-    std::fs::write(&design, &text).expect("write");
+    std::fs::write(path, &text).expect("write");
+    text
+}
+
+/// Within a cell's face (the full-resolution picture's pixels that are
+/// not background, within 1.2 radii of the cell's centre) of `full`, how
+/// many pixels there are and how many of `shown` differ.
+fn face_pixels_differing(
+    design_text: &str,
+    (size, full): (&(u32, u32), &[u8]),
+    shown: &[u8],
+    cell: (u32, u32),
+) -> (usize, usize) {
+    let d = experiment::Design::from_ron_str(design_text).expect("design");
+    let geometry = foveation::Display {
+        name: "small".into(),
+        resolution_px: (640, 512),
+        size_mm: (168.95, 135.15),
+        eye_distance_mm: 270.0,
+        eye_point_px: None,
+    }
+    .geometry()
+    .expect("geometry");
+    let layout = experiment::run::layout::Layout::new(&d, &geometry);
+    let background = &full[0..3];
+    let c = layout.centre_px(cell);
+    let r = layout.radius_px * 1.2;
+    let (mut face, mut differ) = (0, 0);
+    for y in 0..size.1 {
+        for x in 0..size.0 {
+            let (fx, fy) = (f64::from(x) + 0.5, f64::from(y) + 0.5);
+            if (fx - c[0]).hypot(fy - c[1]) > r {
+                continue;
+            }
+            let i = 3 * (y * size.0 + x) as usize;
+            if &full[i..i + 3] == background {
+                continue;
+            }
+            face += 1;
+            differ += usize::from(shown[i..i + 3] != full[i..i + 3]);
+        }
+    }
+    (face, differ)
+}
+
+/// The reference with `detail: Full` is drawn at full resolution whatever
+/// the method: a reference at the corner cell (0, 0), 12° from the gaze at
+/// the centre, in an NE2 search frame equals the full-resolution stimulus
+/// picture pixel for pixel over the face, while the face in the other top
+/// corner (0, 4), as far out, is the hybrid method's degraded one.
+#[test]
+fn a_full_reference_is_drawn_at_full_resolution_under_the_hybrid_method() {
+    let tmp = tempfile::tempdir().expect("tempdir");
+    let design = tmp.path().join("reference.ron");
+    let text = reference_design(&design);
     let shots = tmp.path().join("shots");
     std::fs::create_dir(&shots).expect("mkdir");
     let x = Xvfb::start();
@@ -1267,39 +1315,7 @@ fn a_full_reference_is_drawn_at_full_resolution_under_the_hybrid_method() {
     let (size, search) = read_rgb(&shots.join("search.png"));
     let (full_size, full) = read_rgb(&dir.join("stimuli/trial-000.png"));
     assert_eq!(size, full_size);
-    let d = experiment::Design::from_ron_str(&text).expect("design");
-    let geometry = foveation::Display {
-        name: "small".into(),
-        resolution_px: (640, 512),
-        size_mm: (168.95, 135.15),
-        eye_distance_mm: 270.0,
-        eye_point_px: None,
-    }
-    .geometry()
-    .expect("geometry");
-    let layout = experiment::run::layout::Layout::new(&d, &geometry);
-    let background = &full[0..3];
-    // (face pixels, of them differing) within a cell's face.
-    let compare = |cell: (u32, u32)| {
-        let c = layout.centre_px(cell);
-        let r = layout.radius_px * 1.2;
-        let (mut face, mut differ) = (0, 0);
-        for y in 0..size.1 {
-            for x in 0..size.0 {
-                let (fx, fy) = (f64::from(x) + 0.5, f64::from(y) + 0.5);
-                if (fx - c[0]).hypot(fy - c[1]) > r {
-                    continue;
-                }
-                let i = 3 * (y * size.0 + x) as usize;
-                if &full[i..i + 3] == background {
-                    continue;
-                }
-                face += 1;
-                differ += usize::from(search[i..i + 3] != full[i..i + 3]);
-            }
-        }
-        (face, differ)
-    };
+    let compare = |cell| face_pixels_differing(&text, (&size, &full), &search, cell);
     let (face, differ) = compare((0, 0));
     assert!(face > 500, "the reference face: {face} px");
     assert_eq!(
@@ -1311,6 +1327,104 @@ fn a_full_reference_is_drawn_at_full_resolution_under_the_hybrid_method() {
     assert!(
         differ > face / 20,
         "the non-reference corner face should be degraded by NE2: {differ} of {face} px differ"
+    );
+}
+
+/// On the GPU backend the experiment's window and every trial's renderer
+/// share one device, and the search frames are drawn into the window from
+/// the GPU with the trial's reference object as an overlay: frames.tsv
+/// says a rendered search frame read back 16 B at most (a foveated
+/// frame's ray counters) where it read back 4 B a pixel before; what the
+/// window showed (Xvfb's screen, read while the session runs) has the
+/// reference at full resolution pixel for pixel at its corner; and the
+/// search screenshot, read back on demand, is the same picture the CPU
+/// path saves (the reference exact, the other corner degraded).
+#[test]
+fn gpu_search_frames_are_drawn_into_the_experiment_window_without_a_read_back() {
+    let tmp = tempfile::tempdir().expect("tempdir");
+    let design = tmp.path().join("reference.ron");
+    // No confirming click: its screen (the last search frame read back,
+    // the reference drawn on the CPU) must not stand in for the window's
+    // search frames below.
+    let text = reference_design(&design).replace("confirm_click: true", "confirm_click: false");
+    std::fs::write(&design, &text).expect("write");
+    let shots = tmp.path().join("shots");
+    std::fs::create_dir(&shots).expect("mkdir");
+    let x = Xvfb::start_with_screen_file();
+    let out = tmp.path().join("data");
+    let mut child = windowed(&x)
+        .args(["experiment", "run"])
+        .arg(&design)
+        .args([
+            "--participant",
+            "P01",
+            "--tracker",
+            "tests/data/mouse-participant.ron",
+            "--display",
+            "tests/data/experiment/display-small.ron",
+            "--backend",
+            "gpu",
+            "--simulate-participant",
+            "4",
+            "--max-trials",
+            "1",
+            "--screenshots",
+        ])
+        .arg(&shots)
+        .arg("--out")
+        .arg(&out)
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .expect("runs");
+    // What the window shows, every 50 ms until the session ends.
+    let mut screens = Vec::new();
+    let status = loop {
+        if let Some(status) = child.try_wait().expect("waits") {
+            break status;
+        }
+        screens.push(x.screen((640, 512)));
+        std::thread::sleep(std::time::Duration::from_millis(50));
+    };
+    let o = child.wait_with_output().expect("output");
+    let log = String::from_utf8_lossy(&o.stdout).to_string();
+    assert!(
+        status.success(),
+        "{log}\n{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    assert!(log.contains("presenting on the renderer's GPU"), "{log}");
+    let dir = out.join("small-search/sub-P01");
+    assert_eq!(column(&dir.join("trials.tsv"), "condition"), ["NE2"]);
+    let frames = dir.join("frames.tsv");
+    let phase = column(&frames, "phase");
+    let read = column(&frames, "gpu_read_back_bytes");
+    let mut rendered = 0;
+    for (k, (p, r)) in phase.iter().zip(&read).enumerate() {
+        if p == "search" {
+            let bytes: u64 = r.parse().expect("a count on a search frame");
+            assert!(bytes <= 16, "row {k}: {bytes} B read back");
+            rendered += usize::from(bytes > 0);
+        }
+    }
+    assert!(rendered >= 1, "no rendered search frame: {read:?}");
+    let (size, full) = read_rgb(&dir.join("stimuli/trial-000.png"));
+    // The screenshot, read back on demand with the reference drawn over.
+    let (_, search) = read_rgb(&shots.join("search.png"));
+    let compare = |shown: &[u8], cell| face_pixels_differing(&text, (&size, &full), shown, cell);
+    assert_eq!(compare(&search, (0, 0)).1, 0, "the screenshot's reference");
+    let (face, differ) = compare(&search, (0, 4));
+    assert!(differ > face / 20, "{differ} of {face} px");
+    // The window: a search frame was shown (its corner face degraded) with
+    // the reference exact at its corner.
+    let shown = screens.iter().find(|s| {
+        let (face, differ) = compare(s, (0, 4));
+        differ > face / 20 && compare(s, (0, 0)).1 == 0
+    });
+    assert!(
+        shown.is_some(),
+        "no screen of {} showed the search frame with the exact reference",
+        screens.len()
     );
 }
 

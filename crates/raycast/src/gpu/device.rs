@@ -56,10 +56,7 @@ pub(super) fn open() -> Result<Opened, GpuError> {
     let instance = instance();
     let adapter = adapter_of(&instance).map_err(|e| GpuError::NoAdapter(e.to_string()))?;
     let info = adapter.get_info();
-    let name = format!(
-        "{} ({:?}, {:?}, driver {} {})",
-        info.name, info.backend, info.device_type, info.driver, info.driver_info
-    );
+    let name = adapter_name(&info);
     let limits = adapter.limits();
     let timestamps = adapter.features().contains(wgpu::Features::TIMESTAMP_QUERY);
     let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
@@ -81,6 +78,48 @@ pub(super) fn open() -> Result<Opened, GpuError> {
         name,
         timestamps,
         max_binding: limits.max_storage_buffer_binding_size,
+    })
+}
+
+/// The adapter in words (name, backend, type, driver).
+fn adapter_name(info: &wgpu::AdapterInfo) -> String {
+    format!(
+        "{} ({:?}, {:?}, driver {} {})",
+        info.name, info.backend, info.device_type, info.driver, info.driver_info
+    )
+}
+
+impl Opened {
+    /// What the renderer needs to know of a device already open.
+    pub(super) fn of(shared: &super::SharedDevice) -> Self {
+        let info = shared.adapter.get_info();
+        Self {
+            instance: shared.instance.clone(),
+            adapter: shared.adapter.clone(),
+            device: shared.device.clone(),
+            queue: shared.queue.clone(),
+            name: adapter_name(&info),
+            timestamps: shared
+                .device
+                .features()
+                .contains(wgpu::Features::TIMESTAMP_QUERY),
+            max_binding: shared.device.limits().max_storage_buffer_binding_size,
+        }
+    }
+}
+
+/// A device on the adapter `GpuRenderer::new` would choose, opened as it
+/// would open it (the adapter's limits, timestamp queries where it has
+/// them), for renderers made on it in turn ([`super::GpuRenderer::on_device`])
+/// and a window that presents their frames.
+pub fn open_shared() -> Result<super::SharedDevice, GpuError> {
+    let o = open()?;
+    Ok(super::SharedDevice {
+        instance: o.instance,
+        adapter: o.adapter,
+        device: o.device,
+        queue: o.queue,
+        traffic: Default::default(),
     })
 }
 

@@ -60,7 +60,7 @@ mod timer;
 mod traffic;
 mod upload;
 
-pub use device::{open_device, probe, GpuDevice};
+pub use device::{open_device, open_shared, probe, GpuDevice};
 pub use foveated::{foveated_stages, Stage};
 pub use hidden::HIDDEN_HITS;
 pub use post::{read_words, storage_buffer, GpuFrame, GpuPost};
@@ -235,7 +235,19 @@ impl GpuRenderer {
     /// Picks an adapter (a real GPU first, a software one if that is all
     /// there is) and uploads the scene.
     pub fn new(scene: &Scene) -> Result<Self, GpuError> {
-        let opened = device::open()?;
+        Self::from_opened(device::open()?, scene)
+    }
+
+    /// A renderer with `scene` on a device already open (another
+    /// renderer's, [`GpuRenderer::shared`], or [`open_shared`]'s), so that
+    /// a window made on that device presents its frames and several
+    /// renderers in turn (an experiment's trials) share one device. Its
+    /// traffic is counted apart from the other users of the device.
+    pub fn on_device(shared: &SharedDevice, scene: &Scene) -> Result<Self, GpuError> {
+        Self::from_opened(device::Opened::of(shared), scene)
+    }
+
+    fn from_opened(opened: device::Opened, scene: &Scene) -> Result<Self, GpuError> {
         let device = opened.device;
         let max_binding = opened.max_binding;
         let timer = opened

@@ -7,7 +7,7 @@ use experiment::session::{FrameRow, MarkerRow};
 
 use super::state::Runner;
 use super::trial;
-use crate::screen::Screen;
+use crate::screen::{OverlayBuf, Screen};
 
 impl Runner<'_> {
     pub(super) fn text(&mut self, lines: &[String]) {
@@ -144,13 +144,34 @@ impl Runner<'_> {
             let name = self.flow.phase_name();
             if self.shot.insert(name) {
                 let path = dir.join(format!("{name}.png"));
-                if let Err(e) = crate::picture::save_png(&path, size, rgb) {
+                // A search frame on the GPU is read back for its picture.
+                let shown = match (&self.trial, phase) {
+                    (Some(t), Phase::Search) => t.shown_rgb(phase)?,
+                    _ => std::borrow::Cow::Borrowed(rgb),
+                };
+                if let Err(e) = crate::picture::save_png(&path, size, &shown) {
                     return Err(format!("{}: {e}", path.display()));
                 }
             }
         }
-        let submit_us = match (&mut self.screen, tex) {
-            (Some(s), Some(tex)) => s.present(tex, rgb, size),
+        // A search frame that stayed on the GPU is drawn into the window
+        // there, with the trial's reference object as the overlay.
+        let on_gpu = match (&self.trial, phase) {
+            (Some(t), Phase::Search) => t.gpu_frame(),
+            _ => None,
+        };
+        let index = self.flow.trial().map(|t| t.index);
+        let submit_us = match (&mut self.screen, tex, on_gpu) {
+            (Some(s), Some(tex), Some((pixels, frame_size))) => {
+                if self.overlay_trial != index {
+                    let overlay = self.trial.as_ref().and_then(|t| t.reference_overlay());
+                    s.set_overlay(overlay.as_ref().map(OverlayBuf::as_overlay));
+                    self.overlay_trial = index;
+                }
+                s.present_gpu(tex, pixels, frame_size)
+                    .unwrap_or_else(|| self.now())
+            }
+            (Some(s), Some(tex), None) => s.present(tex, rgb, size),
             _ => self.now(),
         };
         let present_us = self.now();

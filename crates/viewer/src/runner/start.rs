@@ -234,6 +234,8 @@ pub fn run(opts: &RunOptions, out: &mut dyn Write) -> Result<(), String> {
         dir,
         feed,
         screen: None,
+        gpu: None,
+        overlay_trial: None,
         flow,
         phase_since_us: start_us,
         calibration: None,

@@ -44,6 +44,12 @@ pub(super) struct Runner<'a> {
     pub(super) dir: SessionDir,
     pub(super) feed: GazeFeed,
     pub(super) screen: Option<Screen>,
+    /// The GPU device the window presents on and every trial's renderer
+    /// renders on (the GPU backend in a window); `None` otherwise, where
+    /// each trial's renderer opens its own.
+    pub(super) gpu: Option<raycast::gpu::SharedDevice>,
+    /// The trial whose reference object the window's overlay holds.
+    pub(super) overlay_trial: Option<usize>,
     pub(super) flow: Flow,
     pub(super) phase_since_us: u64,
     /// Raw tracker units → screen px, once calibrated.
@@ -249,7 +255,14 @@ impl Runner<'_> {
             }
             Phase::Preview => {
                 if let Some(t) = self.flow.trial().cloned() {
-                    match TrialState::new(self.setup, &t) {
+                    // Search frames stay on the GPU where the window
+                    // draws from the renderers' device.
+                    let on_gpu = self
+                        .screen
+                        .as_ref()
+                        .filter(|s| s.presents_from_gpu())
+                        .and(self.gpu.as_ref());
+                    match TrialState::new(self.setup, &t, self.gpu.as_ref(), on_gpu.is_some()) {
                         Ok(s) => self.trial = Some(s),
                         Err(e) => self.error = Some(e),
                     }

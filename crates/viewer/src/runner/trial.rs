@@ -21,6 +21,7 @@ use tracker_hal::events::TimedGaze;
 use super::session_dir::SessionDir;
 use super::setup::Setup;
 use crate::picture::{register_font, save_png};
+use crate::screen::OverlayBuf;
 
 type SearchRenderer<'a> = Renderer<'a>;
 
@@ -149,6 +150,32 @@ impl ReferencePixels {
         }
     }
 
+    /// The reference as an overlay: the RGBA words of its bounding box
+    /// (alpha 255 on its pixels, 0 around them), the box's size and top
+    /// left; `None` when it has no pixel.
+    fn overlay(&self) -> Option<OverlayBuf> {
+        let w = self.width_px as usize;
+        if w == 0 {
+            return None;
+        }
+        let xs = self.pixels.iter().map(|&i| i % w);
+        let ys = self.pixels.iter().map(|&i| i / w);
+        let (x0, x1) = (xs.clone().min()?, xs.max()?);
+        let (y0, y1) = (ys.clone().min()?, ys.max()?);
+        let (bw, bh) = (x1 - x0 + 1, y1 - y0 + 1);
+        let mut words = vec![0u32; bw * bh];
+        for (&i, c) in self.pixels.iter().zip(&self.rgb) {
+            let (x, y) = (i % w - x0, i / w - y0);
+            words[y * bw + x] =
+                0xff00_0000 | u32::from(c[2]) << 16 | u32::from(c[1]) << 8 | u32::from(c[0]);
+        }
+        Some(OverlayBuf {
+            words,
+            size: (u32::try_from(bw).ok()?, u32::try_from(bh).ok()?),
+            origin: (u32::try_from(x0).ok()?, u32::try_from(y0).ok()?),
+        })
+    }
+
     /// Draws the reference over `frame` (the condition's, after its
     /// passes).
     fn draw(&self, frame: &mut Frame) -> Result<(), String> {
@@ -184,7 +211,16 @@ fn build(file: &raycast::SceneFile) -> Result<Scene, String> {
 
 impl TrialState {
     /// Builds the trial's scenes and renders the preview (full resolution).
-    pub fn new(setup: &Setup, trial: &Trial) -> Result<Self, String> {
+    /// On the GPU backend the search renderer renders on `gpu` when given
+    /// (the window's device), and with `stay_on_gpu` its frames stay there
+    /// for the window to draw, where nothing on the CPU reads them (an
+    /// observer model does).
+    pub fn new(
+        setup: &Setup,
+        trial: &Trial,
+        gpu: Option<&raycast::gpu::SharedDevice>,
+        stay_on_gpu: bool,
+    ) -> Result<Self, String> {
         let design = &setup.design;
         let condition = &design.conditions[trial.condition];
         let camera = Camera::new(&setup.geometry);
@@ -235,10 +271,13 @@ impl TrialState {
             ..Options::default()
         };
         let search = SearchScene::try_new(scene, |s| {
-            let mut r =
-                Renderer::new(s, camera, search_model, &options).map_err(|e| e.to_string())?;
+            let mut r = Renderer::new_on(s, camera, search_model, &options, gpu)
+                .map_err(|e| e.to_string())?;
             if let Some(t) = &setup.thresholds {
                 t.apply(&mut r);
+            }
+            if stay_on_gpu && setup.observer.is_none() && r.can_stay_on_gpu().is_ok() {
+                r.set_stay_on_gpu(true)?;
             }
             Ok::<_, String>(r)
         })?;
@@ -352,7 +391,8 @@ impl TrialState {
             .map_err(|e| e.to_string())?;
         self.last_traffic = traffic;
         let started = std::time::Instant::now();
-        if let Some(reference) = &self.reference {
+        // A frame on the GPU gets the reference as the window's overlay.
+        if let (Some(reference), false) = (&self.reference, frame.is_on_device()) {
             reference.draw(&mut frame)?;
         }
         let ms = stats.time_ms + started.elapsed().as_secs_f64() * 1e3;
@@ -411,13 +451,60 @@ impl TrialState {
         }
     }
 
+    /// The last search frame as shown, on the CPU: read back (with the
+    /// reference drawn over it) when it stayed on the GPU; `None` before
+    /// the first.
+    fn last_shown(&self) -> Result<Option<Frame>, String> {
+        let Some(f) = &self.last else {
+            return Ok(None);
+        };
+        if !f.is_on_device() {
+            return Ok(Some(f.clone()));
+        }
+        let mut frame = self
+            .search
+            .with_dependent(|_, r| r.read_last_gpu_frame())
+            .map_err(|e| e.to_string())?;
+        if let Some(reference) = &self.reference {
+            reference.draw(&mut frame)?;
+        }
+        Ok(Some(frame))
+    }
+
+    /// The last search frame on the GPU (its pixel words and size) when it
+    /// stayed there: the window draws it, with [`TrialState::reference_overlay`].
+    pub fn gpu_frame(&self) -> Option<(&raycast::gpu::wgpu::Buffer, (u32, u32))> {
+        self.last
+            .as_ref()
+            .filter(|f| f.is_on_device())
+            .and(self.search.with_dependent(|_, r| r.gpu_frame_pixels()))
+    }
+
+    /// The reference object as the window's overlay over frames on the
+    /// GPU: its bounding box (alpha 0 around the object); `None` without a
+    /// reference.
+    pub fn reference_overlay(&self) -> Option<OverlayBuf> {
+        self.reference.as_ref().and_then(ReferencePixels::overlay)
+    }
+
+    /// The picture of `phase` as shown, on the CPU (a search frame on the
+    /// GPU is read back): what `--screenshots` saves.
+    pub fn shown_rgb(&self, phase: Phase) -> Result<std::borrow::Cow<'_, [u8]>, String> {
+        if phase == Phase::Search && self.gpu_frame().is_some() {
+            if let Some(f) = self.last_shown()? {
+                return Ok(std::borrow::Cow::Owned(f.rgb));
+            }
+        }
+        Ok(std::borrow::Cow::Borrowed(self.rgb(phase)))
+    }
+
     /// The frozen search display with the click instruction (once).
     pub fn confirm_overlay(&mut self) {
         if self.confirm_rgb.is_some() {
             return;
         }
-        if let Some(f) = &self.last {
-            let mut rgb = f.rgb.clone();
+        if let Ok(Some(f)) = self.last_shown() {
+            let mut rgb = f.rgb;
             let _ = crate::picture::draw_text_lines(
                 &mut rgb,
                 (f.width_px, f.height_px),
@@ -593,4 +680,35 @@ pub fn target_screen(
 /// in disguise.
 pub fn condition_method(name: &str) -> Result<Method, String> {
     Method::from_name(name).map_err(|e| e.to_string())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::ReferencePixels;
+
+    /// The reference's overlay is its bounding box: its pixels opaque in
+    /// their colours, the rest clear; a reference without pixels has none.
+    #[test]
+    fn the_reference_overlay_is_its_bounding_box() {
+        // 10 px wide; pixels (3, 2), (5, 2) and (4, 4).
+        let r = ReferencePixels {
+            width_px: 10,
+            height_px: 6,
+            pixels: vec![23, 25, 44],
+            rgb: vec![[1, 2, 3], [4, 5, 6], [7, 8, 9]],
+        };
+        let o = r.overlay().expect("an overlay");
+        assert_eq!((o.size, o.origin), ((3, 3), (3, 2)));
+        assert_eq!(
+            o.words,
+            [0xff03_0201, 0, 0xff06_0504, 0, 0, 0, 0, 0xff09_0807, 0]
+        );
+        let empty = ReferencePixels {
+            width_px: 10,
+            height_px: 6,
+            pixels: Vec::new(),
+            rgb: Vec::new(),
+        };
+        assert!(empty.overlay().is_none());
+    }
 }

@@ -19,6 +19,19 @@ impl ApplicationHandler for Runner<'_> {
         if self.screen.is_none() {
             let size = self.size();
             let title = format!("gazecast experiment — {}", self.setup.design.name);
+            // On the GPU backend one device serves the window and every
+            // trial's renderer: search frames are drawn into the window
+            // without a read-back.
+            if self.setup.backend == pipeline::BackendChoice::Gpu && self.gpu.is_none() {
+                match raycast::gpu::open_shared() {
+                    Ok(d) => self.gpu = Some(d),
+                    Err(e) => {
+                        self.error = Some(e.to_string());
+                        el.exit();
+                        return;
+                    }
+                }
+            }
             match Screen::open(
                 el,
                 &title,
@@ -27,7 +40,7 @@ impl ApplicationHandler for Runner<'_> {
                 self.setup.monitor,
                 // Onsets are tied to the refresh: every frame waits for it.
                 crate::screen::PresentChoice::Fifo,
-                None,
+                self.gpu.as_ref(),
             ) {
                 Ok(s) => {
                     if let Some(hz) = s
@@ -38,7 +51,9 @@ impl ApplicationHandler for Runner<'_> {
                     {
                         self.late_after_ms = 1.5 * 1e6 / f64::from(hz);
                     }
+                    let how = s.how.clone();
                     self.screen = Some(s);
+                    self.say(&how);
                 }
                 Err(e) => {
                     self.error = Some(e);

@@ -12,6 +12,8 @@
 
 mod present;
 
+pub use present::{Overlay, OverlayBuf};
+
 use std::sync::Arc;
 
 use winit::event::{ElementState, KeyEvent, WindowEvent};
@@ -363,10 +365,10 @@ impl Screen {
         self.gpu.is_some()
     }
 
-    /// Replaces the HUD's overlay drawn over frames from the GPU (RGBA
-    /// words, alpha 0 where the frame shows through; `None`: none). Call it
-    /// only when the overlay changes: it uploads.
-    pub fn set_overlay(&mut self, overlay: Option<(&[u32], (u32, u32))>) {
+    /// Replaces the overlay drawn over frames from the GPU (the HUD, the
+    /// experiment's reference object; `None`: none). Call it only when the
+    /// overlay changes: it uploads.
+    pub fn set_overlay(&mut self, overlay: Option<Overlay<'_>>) {
         if let Some(g) = &mut self.gpu {
             self.overlay_bytes += g.set_overlay(&self.device, &self.queue, overlay);
         }

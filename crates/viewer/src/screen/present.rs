@@ -14,6 +14,37 @@ struct Sizes {
     height: u32,
     overlay_width: u32,
     overlay_height: u32,
+    overlay_x: u32,
+    overlay_y: u32,
+    pad: [u32; 2],
+}
+
+/// An [`Overlay`] that owns its words.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct OverlayBuf {
+    pub words: Vec<u32>,
+    pub size: (u32, u32),
+    pub origin: (u32, u32),
+}
+
+impl OverlayBuf {
+    pub fn as_overlay(&self) -> Overlay<'_> {
+        Overlay {
+            words: &self.words,
+            size: self.size,
+            origin: self.origin,
+        }
+    }
+}
+
+/// An overlay drawn over the frame: RGBA words (row-major, red in the low
+/// byte, alpha 0 where the frame shows through), its size and its top
+/// left in the frame.
+#[derive(Clone, Copy)]
+pub struct Overlay<'a> {
+    pub words: &'a [u32],
+    pub size: (u32, u32),
+    pub origin: (u32, u32),
 }
 
 /// The pipeline, its uniform and the overlay's buffer.
@@ -25,6 +56,7 @@ pub(super) struct GpuPresent {
     written: Option<Sizes>,
     overlay: wgpu::Buffer,
     overlay_size: (u32, u32),
+    overlay_origin: (u32, u32),
 }
 
 fn storage_entry(binding: u32) -> wgpu::BindGroupLayoutEntry {
@@ -116,29 +148,31 @@ impl GpuPresent {
             written: None,
             overlay: overlay_buffer(device, 4),
             overlay_size: (0, 0),
+            overlay_origin: (0, 0),
         }
     }
 
-    /// Replaces the overlay (RGBA words, row-major, alpha 0 where the frame
-    /// shows through; `None`: no overlay); returns the bytes uploaded.
+    /// Replaces the overlay (`None`, or one whose words do not match its
+    /// size: no overlay); returns the bytes uploaded.
     pub fn set_overlay(
         &mut self,
         device: &wgpu::Device,
         queue: &wgpu::Queue,
-        overlay: Option<(&[u32], (u32, u32))>,
+        overlay: Option<Overlay<'_>>,
     ) -> u64 {
-        let Some((words, (w, h))) = overlay.filter(|(words, (w, h))| {
-            u64::from(*w) * u64::from(*h) == words.len() as u64 && !words.is_empty()
+        let Some(o) = overlay.filter(|o| {
+            u64::from(o.size.0) * u64::from(o.size.1) == o.words.len() as u64 && !o.words.is_empty()
         }) else {
             self.overlay_size = (0, 0);
             return 0;
         };
-        let bytes: &[u8] = bytemuck::cast_slice(words);
+        let bytes: &[u8] = bytemuck::cast_slice(o.words);
         if self.overlay.size() < bytes.len() as u64 {
             self.overlay = overlay_buffer(device, bytes.len() as u64);
         }
         queue.write_buffer(&self.overlay, 0, bytes);
-        self.overlay_size = (w, h);
+        self.overlay_size = o.size;
+        self.overlay_origin = o.origin;
         bytes.len() as u64
     }
 
@@ -158,6 +192,9 @@ impl GpuPresent {
             height,
             overlay_width: self.overlay_size.0,
             overlay_height: self.overlay_size.1,
+            overlay_x: self.overlay_origin.0,
+            overlay_y: self.overlay_origin.1,
+            pad: [0; 2],
         };
         let mut uploaded = 0;
         if self.written != Some(sizes) {

@@ -5,11 +5,15 @@
 // 8-bit values k/255 convert back to k exactly in an 8-bit target.
 
 struct Sizes {
-    // The frame, and the overlay (0 × 0 without one).
+    // The frame, and the overlay (0 × 0 without one) and its top left.
     width: u32,
     height: u32,
     overlay_width: u32,
     overlay_height: u32,
+    overlay_x: u32,
+    overlay_y: u32,
+    pad0: u32,
+    pad1: u32,
 };
 
 @group(0) @binding(0) var<uniform> sizes: Sizes;
@@ -37,8 +41,11 @@ fn unpack(word: u32) -> vec4<f32> {
 fn fs(@builtin(position) p: vec4<f32>) -> @location(0) vec4<f32> {
     let x = u32(p.x);
     let y = u32(p.y);
-    if (x < sizes.overlay_width && y < sizes.overlay_height) {
-        let o = overlay[y * sizes.overlay_width + x];
+    // Unsigned: a pixel left of or above the overlay wraps past its size.
+    let ox = x - sizes.overlay_x;
+    let oy = y - sizes.overlay_y;
+    if (ox < sizes.overlay_width && oy < sizes.overlay_height) {
+        let o = overlay[oy * sizes.overlay_width + ox];
         if ((o >> 24u) != 0u) {
             return unpack(o);
         }

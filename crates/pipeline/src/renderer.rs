@@ -472,7 +472,7 @@ impl<'s> Renderer<'s> {
         if let Backend::Gpu(g) = &mut self.backend {
             g.set_read_back(!on);
         }
-        self.provenance = self.plan().provenance();
+        self.rebuild_provenance();
         Ok(())
     }
 
@@ -929,5 +929,53 @@ impl<'s> Renderer<'s> {
         ));
         out.extend(plan.lines());
         out
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::split_passes;
+    use crate::effects::por_overlay::PorOverlay;
+    use crate::effects::{GpuPass, Pass, PassInput};
+    use raycast::Frame;
+
+    /// A pass with no GPU implementation (every pass a scene can ask for
+    /// has one today).
+    struct CpuOnly;
+
+    impl Pass for CpuOnly {
+        fn name(&self) -> &'static str {
+            "cpu only"
+        }
+        fn run(&mut self, _: &mut Frame, _: &PassInput<'_>) {}
+        fn as_any(&self) -> &dyn std::any::Any {
+            self
+        }
+        fn into_gpu(self: Box<Self>) -> Result<Box<dyn GpuPass>, Box<dyn Pass>> {
+            Err(self)
+        }
+    }
+
+    fn passes() -> Vec<Box<dyn Pass>> {
+        vec![
+            Box::new(PorOverlay::default()),
+            Box::new(CpuOnly),
+            Box::new(PorOverlay::default()),
+        ]
+    }
+
+    /// The passes before the first without a GPU implementation run on the
+    /// GPU; it and every pass after it (even one with a GPU twin) run on
+    /// the CPU, after the read-back; without a GPU hook all stay.
+    #[test]
+    fn the_first_pass_without_a_gpu_implementation_forces_the_read_back() {
+        let (gpu, cpu) = split_passes(passes(), true);
+        let names = |v: &[Box<dyn Pass>]| v.iter().map(|p| p.name()).collect::<Vec<_>>();
+        assert_eq!(gpu.len(), 1);
+        assert_eq!(gpu[0].reference().name(), "POR box");
+        assert_eq!(names(&cpu), ["cpu only", "POR box"]);
+        let (gpu, cpu) = split_passes(passes(), false);
+        assert!(gpu.is_empty());
+        assert_eq!(names(&cpu), ["POR box", "cpu only", "POR box"]);
     }
 }

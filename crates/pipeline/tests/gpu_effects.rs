@@ -157,7 +157,25 @@ fn depth_of_field_on_the_gpu_is_the_cpu_pass() {
             "DepthOfField(pupil_mm: 8.0)",
             far_gaze,
         ),
+        // Lee §4.3's foreground smoothing (eqs. 4.10–4.11) on the GPU.
+        (
+            "foreground blur smoothed, fixed focus",
+            "DepthOfField(pupil_mm: 8.0, focus: Fixed(depth_mm: 2100.0), smooth_foreground: true)",
+            GAZE,
+        ),
+        (
+            "foreground blur smoothed, gaze focus on the far ball",
+            "DepthOfField(pupil_mm: 8.0, smooth_foreground: true)",
+            far_gaze,
+        ),
+        (
+            "background blur smoothed (nothing in front of the focus)",
+            "DepthOfField(pupil_mm: 8.0, smooth_foreground: true)",
+            GAZE,
+        ),
     ];
+    // The smoothed frames, to show below that smoothing changed them.
+    let mut smoothed = Vec::new();
     for (what, effect, gaze) in cases {
         let s = scene(effect);
         let e = s.pass(&PostPass::DEPTH_OF_FIELD).expect("listed");
@@ -191,6 +209,26 @@ fn depth_of_field_on_the_gpu_is_the_cpu_pass() {
         );
         assert!(blurred > 1000, "{what}: the set-up must blur ({blurred})");
         assert!(worst <= 1, "{what}: {worst}");
+        if effect.contains("smooth_foreground: true") {
+            smoothed.push((
+                what,
+                effect.replace(", smooth_foreground: true", ""),
+                gaze,
+                got,
+            ));
+        }
+    }
+    // Smoothing changed the frames it was on for where something blurred
+    // lies in front of the focus (the CPU's reference agrees, above).
+    for (what, plain_effect, gaze, got) in smoothed {
+        let s = scene(&plain_effect);
+        let mut r = renderer(&s, Method::Full, BackendChoice::Gpu);
+        let (unsmoothed, _) = r.render_at(gaze, 0.0).expect("renders");
+        let n = changed(&unsmoothed, &got);
+        eprintln!("{what}: smoothing changed {n} channels");
+        if what.starts_with("foreground") {
+            assert!(n > 100, "{what}: smoothing changed only {n} channels");
+        }
     }
 }
 
@@ -455,9 +493,9 @@ fn vergence_focus_on_the_gpu_is_the_cpu_pass() {
         "attention focus runs on the GPU"
     );
     assert!(r.depth_of_field().is_none(), "no CPU pass is left");
-    // So does foreground smoothing (no GPU path).
+    // So does foreground smoothing.
     let s = scene("DepthOfField(smooth_foreground: true)");
     let r = renderer(&s, Method::Full, BackendChoice::Gpu);
-    assert!(r.gpu_pass_names().is_empty());
-    assert!(r.depth_of_field().is_some_and(|d| d.smooth_foreground));
+    assert_eq!(r.gpu_pass_names().len(), 1, "smoothing runs on the GPU");
+    assert!(r.depth_of_field().is_none(), "no CPU pass is left");
 }

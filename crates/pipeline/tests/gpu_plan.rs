@@ -1,8 +1,9 @@
 //! The frame plan on both backends: passes with a GPU implementation chain
 //! on the GPU in the scene's order (a second GPU effect after the first —
-//! depth of field, then the POR box — runs there too); the first pass with
-//! only a CPU implementation forces the read-back, and the plan says so;
-//! the GPU POR box equals the CPU's pixel for pixel. Runs on whatever
+//! depth of field, then the POR box — runs there too), and every pass a
+//! scene can ask for has one; the raster path reads back before its passes,
+//! and the plan says so; the GPU POR box equals the CPU's pixel for pixel;
+//! a frame kept on the GPU reads nothing back. Runs on whatever
 //! adapter the machine has (Mesa's lavapipe without a GPU); small frames.
 
 use std::path::Path;
@@ -135,39 +136,36 @@ fn the_gpu_box_is_the_cpu_box_pixel_for_pixel() {
     }
 }
 
+/// Every pass a scene can ask for has a GPU implementation (foreground
+/// smoothing was the last without one): with depth of field smoothing its
+/// foreground and the POR box, the whole plan runs on the GPU and the
+/// read-back carries colour and hit only. The P key turns the box off and
+/// on again: it comes back last, on the GPU. (The rule that the first pass
+/// without a GPU implementation forces the read-back is tested on the
+/// split itself, `renderer::tests`.) The raster path has no pass hook: it
+/// reads back before every pass.
 #[test]
-fn a_pass_without_a_gpu_implementation_forces_the_read_back_it_needs() {
-    // Foreground smoothing has no GPU path: the box before it runs on the
-    // GPU, depth of field (and anything after it) on the CPU.
+fn every_scene_pass_runs_on_the_gpu_and_the_raster_path_reads_back_first() {
     let s = scene("PorOverlay(half_px: 8), DepthOfField(pupil_mm: 8.0, smooth_foreground: true)");
     let mut r = renderer(&s, Method::Full, BackendChoice::Gpu);
-    assert_eq!(r.gpu_pass_names(), ["POR box"]);
+    assert_eq!(r.gpu_pass_names(), ["POR box", DOF]);
     let plan = r.plan();
     let sides: Vec<Side> = plan.stages.iter().map(|s| s.side).collect();
-    assert_eq!(sides, [Side::Gpu, Side::Gpu, Side::Cpu]);
+    assert_eq!(sides, [Side::Gpu, Side::Gpu, Side::Gpu]);
     let (at, carries) = plan.readback().expect("GPU");
-    assert_eq!(at, 2);
-    assert!(
-        carries.contains(Channels::DEPTH),
-        "depth of field reads depth: {carries}"
-    );
+    assert_eq!(at, 3);
+    assert_eq!(carries, Channels::COLOUR | Channels::HIT, "{plan:?}");
     let text = r.explain().join("\n");
     assert!(
-        text.contains("read-back to the CPU (colour, hit, depth"),
+        text.contains("foreground smoothing (eqs. 4.10–4.11"),
         "{text}"
     );
     let (frame, _) = r.render_at(GAZE, 0.0).expect("frame");
-    assert!(
-        frame.has_surface(),
-        "the read-back carries what the CPU pass reads"
-    );
-    // The P key turns the box off; turned on again it goes last, after the
-    // CPU pass, so on the CPU.
+    assert!(!frame.has_surface(), "no CPU pass reads the surface");
     r.set_por_overlay(false);
-    assert!(r.gpu_pass_names().is_empty());
+    assert_eq!(r.gpu_pass_names(), [DOF]);
     r.set_por_overlay(true);
-    assert_eq!(r.pass_names().last(), Some(&"POR box"));
-    assert!(r.gpu_pass_names().is_empty());
+    assert_eq!(r.gpu_pass_names(), [DOF, "POR box"]);
     // The model-based raster has no GPU pass hook: everything on the CPU.
     let s = scene("FoveatedSampling, PorOverlay(half_px: 8)");
     let r = renderer(&s, Method::Lod, BackendChoice::Gpu);
@@ -224,8 +222,8 @@ fn the_plan_is_what_runs_and_pays_per_use() {
 /// is read back (a foveated frame reads its 16 B of ray counters), the
 /// frame returned has its size and no pixels, the plan and its one-line
 /// provenance say so, and the frame read back on demand (a screenshot) is
-/// the frame an ordinary GPU frame returns, passes included. Where a pass
-/// runs on the CPU, or on the CPU backend, it is refused with the reason.
+/// the frame an ordinary GPU frame returns, passes included. On the CPU
+/// backend and the raster path it is refused with the reason.
 #[test]
 fn a_frame_kept_on_the_gpu_reads_nothing_back_and_is_the_same_frame() {
     for (method, effects) in [
@@ -286,12 +284,6 @@ fn a_frame_kept_on_the_gpu_reads_nothing_back_and_is_the_same_frame() {
         let (again, _) = kept.render_at(GAZE, 2.0).expect("read back again");
         assert!(!again.is_on_device() && again.len() == (W * H) as usize);
     }
-    // A CPU pass reads the frame: refused, naming it.
-    let s = scene("PorOverlay(half_px: 8), DepthOfField(pupil_mm: 8.0, smooth_foreground: true)");
-    let mut r = renderer(&s, Method::Full, BackendChoice::Gpu);
-    let why = r.set_stay_on_gpu(true).expect_err("a CPU pass");
-    assert!(why.contains("run on the CPU"), "{why}");
-    assert!(!r.stays_on_gpu());
     let plain = scene("");
     let mut cpu = renderer(&plain, Method::Full, BackendChoice::Cpu);
     let why = cpu.set_stay_on_gpu(true).expect_err("the CPU backend");

@@ -23,6 +23,9 @@ const PARAMS_BYTES: u64 = 112 + 16 * (MAX_LEVELS as u64 + 1);
 const BASE: usize = 0;
 const REDUCE: usize = 1;
 const BLEND: usize = 2;
+/// With foreground smoothing (`dof_foreground.wgsl`).
+const FG_RHO: usize = 3;
+const FG_LEVEL: usize = 4;
 
 /// The buffers for one frame target.
 struct Buffers {
@@ -33,6 +36,9 @@ struct Buffers {
     group: wgpu::BindGroup,
     /// The colour, depth and σ pyramids (the bind group holds them).
     _pyramid: [wgpu::Buffer; 3],
+    /// Foreground smoothing's words (the highest level, ρ, the smoothed
+    /// levels): made only for a pass that smooths.
+    foreground: Option<wgpu::Buffer>,
     /// The uniform bytes `params` holds: a frame whose uniforms are the
     /// same (the same size, focus and lens) uploads nothing.
     written: Vec<u8>,
@@ -83,7 +89,11 @@ impl GpuPass for GpuDof {
     }
 
     fn owns(&self) -> String {
-        "the colour, depth and σ pyramids (GPU)".into()
+        if self.pass.smooth_foreground {
+            "the colour, depth and σ pyramids and foreground smoothing's levels (GPU)".into()
+        } else {
+            "the colour, depth and σ pyramids (GPU)".into()
+        }
     }
 
     fn detail(&self) -> String {
@@ -106,8 +116,13 @@ impl GpuPass for GpuDof {
         };
         format!(
             "{} — focus {focus}; level 0 (colour, depth, σ) → anisotropic Gaussian pyramid → \
-             9-point circular blend of two levels",
-            self.pass.name()
+             {}9-point circular blend of two levels",
+            self.pass.name(),
+            if self.pass.smooth_foreground {
+                "foreground smoothing (eqs. 4.10–4.11: ρ at the highest level, smoothed σ) → "
+            } else {
+                ""
+            }
         )
     }
 
@@ -230,14 +245,46 @@ impl DofFrame<'_> {
 
         let device = frame.device();
         let st = &mut *self.state;
+        // Pay per use: foreground smoothing's shader code, entry points
+        // and buffer only for a pass that smooths.
+        let smooth = st.pass.smooth_foreground;
         let kernels = st.kernels.get_or_insert_with(|| {
+            let (source, entries, extra): (String, &[&str], &[bool]) = if smooth {
+                (
+                    [
+                        include_str!("pyramid.wgsl"),
+                        include_str!("dof.wgsl"),
+                        include_str!("dof_foreground.wgsl"),
+                    ]
+                    .join("\n"),
+                    &[
+                        "dof_base",
+                        "dof_reduce",
+                        "dof_blend",
+                        "dof_fg_rho",
+                        "dof_fg_level",
+                    ],
+                    &[true, false, false, false, false],
+                )
+            } else {
+                (
+                    [
+                        include_str!("pyramid.wgsl"),
+                        include_str!("dof.wgsl"),
+                        include_str!("dof_sharp_foreground.wgsl"),
+                    ]
+                    .join("\n"),
+                    &["dof_base", "dof_reduce", "dof_blend"],
+                    &[true, false, false, false],
+                )
+            };
             Kernels::new(
                 device,
                 frame.traffic(),
                 "dof.wgsl",
-                concat!(include_str!("pyramid.wgsl"), "\n", include_str!("dof.wgsl")),
-                &["dof_base", "dof_reduce", "dof_blend"],
-                &[true, false, false, false],
+                &source,
+                entries,
+                extra,
                 PARAMS_BYTES,
             )
         });
@@ -268,19 +315,30 @@ impl DofFrame<'_> {
                 usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
                 mapped_at_creation: false,
             });
-            let group = kernels.bind(
-                device,
-                &params,
-                PARAMS_BYTES,
-                frame.pixels(),
-                &[frame.depth(), &px, &z, &sg],
-            );
+            // The highest level, ρ at up to level 1's size, a level per
+            // pixel.
+            let foreground = if smooth {
+                let [_, w1, h1] = layout[1];
+                let words = 1 + u64::from(w1) * u64::from(h1) + u64::from(w) * u64::from(h);
+                Some(frame.storage_buffer(
+                    "foreground smoothing's levels",
+                    4 * words,
+                    // Its first word is cleared every frame.
+                    wgpu::BufferUsages::COPY_DST,
+                )?)
+            } else {
+                None
+            };
+            let mut bound = vec![frame.depth(), &px, &z, &sg];
+            bound.extend(foreground.as_ref());
+            let group = kernels.bind(device, &params, PARAMS_BYTES, frame.pixels(), &bound);
             st.buffers = Some(Buffers {
                 size: (w, h),
                 frame: (frame.pixels().clone(), frame.depth().clone()),
                 params,
                 group,
                 _pyramid: [px, z, sg],
+                foreground,
                 written: Vec::new(),
             });
         }
@@ -310,7 +368,7 @@ impl DofFrame<'_> {
                 words.f(t);
             }
             words.f(g).f(norm).f(CIRCLE[4].0).f(ANISO_DELTA_PX);
-            words.f(nearest as f32).f(SIGMA_CAP_PX).u(0).u(0);
+            words.f(nearest as f32).f(SIGMA_CAP_PX).f(focus as f32).u(0);
             for l in 0..=MAX_LEVELS {
                 let [off, lw, lh] = layout.get(l).copied().unwrap_or([0, 1, 1]);
                 words.u(off).u(lw).u(lh).u(0);
@@ -323,6 +381,10 @@ impl DofFrame<'_> {
             b.written = all;
         }
         let p = &kernels.pipelines;
+        if let Some(fg) = &b.foreground {
+            // The highest level starts at 0 (f32 bits of 0.0).
+            encoder.clear_buffer(fg, 0, Some(4));
+        }
         dispatch(&mut encoder, frame.traffic(), &p[BASE], &b.group, 0, (w, h));
         for src in 0..top {
             let [_, tw, th] = layout[src + 1];
@@ -333,6 +395,27 @@ impl DofFrame<'_> {
                 &b.group,
                 src as u32,
                 (tw, th),
+            );
+        }
+        if b.foreground.is_some() {
+            // ρ at the highest level needed (at most level 1's size), then
+            // every pixel's smoothed level.
+            let [_, w1, h1] = layout[1];
+            dispatch(
+                &mut encoder,
+                frame.traffic(),
+                &p[FG_RHO],
+                &b.group,
+                0,
+                (w1, h1),
+            );
+            dispatch(
+                &mut encoder,
+                frame.traffic(),
+                &p[FG_LEVEL],
+                &b.group,
+                0,
+                (w, h),
             );
         }
         dispatch(

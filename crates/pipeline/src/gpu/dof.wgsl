@@ -39,7 +39,9 @@ struct Params {
     delta: f32,
     nearest: f32,
     sigma_cap: f32,
-    pad0: u32,
+    // The focal depth as the CPU's foreground smoothing compares depths
+    // with it (f32, unclamped; +∞ for a focus at infinity).
+    fg_focus: f32,
     pad1: u32,
     levels: array<LevelDesc, 9>,
 }
@@ -82,6 +84,7 @@ fn dof_base(@builtin(global_invocation_id) id: vec3<u32>) {
     let word = pixels[i];
     let hit = ((word >> 24u) & 1u) == 1u;
     px[i] = vec4<f32>(decode(word), 0.0);
+    note_level(i, hit);
     if (hit) {
         zmip[i] = depth[i];
     } else {
@@ -173,11 +176,15 @@ fn dof_blend(@builtin(global_invocation_id) id: vec3<u32>) {
     let i = id.y * p.width + id.x;
     let word = pixels[i];
     let hit = ((word >> 24u) & 1u) == 1u;
-    if (is_sharp(i, hit)) {
-        return;
+    // Foreground smoothing's level, where it gave one (sharp pixels too).
+    var m = override_level(i);
+    if (m < 0.0) {
+        if (is_sharp(i, hit)) {
+            return;
+        }
+        let s = p.k_sigma * (coc(i, hit) * 0.5);
+        m = clamp(1.0 + log2(s), 0.0, p.top);
     }
-    let s = p.k_sigma * (coc(i, hit) * 0.5);
-    let m = clamp(1.0 + log2(s), 0.0, p.top);
     if (!(m > 0.0)) {
         return;
     }

@@ -354,10 +354,6 @@ impl Pass for DepthOfField {
     }
 
     fn into_gpu(self: Box<Self>) -> Result<Box<dyn super::GpuPass>, Box<dyn Pass>> {
-        // Foreground smoothing has no GPU implementation.
-        if self.smooth_foreground {
-            return Err(self);
-        }
         Ok(Box::new(crate::gpu::GpuDof::new(*self)))
     }
 

@@ -25,6 +25,10 @@
 //!   choosing each trial's condition, stopping rules, lapse handling
 //!   (δ in the likelihood; out-of-range response times not used) and
 //!   censoring of thresholds beyond the display's highest contrast.
+//! - [`fixation`]: gaze-contingent fixation control of a two-interval
+//!   trial (a window around the target; an attempt is aborted and shown
+//!   again when the gaze leaves it or a sample is invalid), no window or
+//!   tracker needed.
 //! - [`observer`]: a simulated Geisler–Perry observer read from RON.
 //! - [`fit`]: the Geisler–Perry fit by weighted least squares on log
 //!   threshold (linear in ln CT0, α, α/e2), bootstrap percentile
@@ -87,6 +91,7 @@
 //! fixation breaks are not modelled.
 
 pub mod fit;
+pub mod fixation;
 pub mod luminance;
 pub mod observer;
 pub mod participant;

@@ -34,6 +34,10 @@
 //!   threshold (linear in ln CT0, α, α/e2), bootstrap percentile
 //!   intervals by resampling each condition's trials, and the
 //!   `ThresholdTable` (serialised as RON through `ThresholdTableData`).
+//! - [`validation`]: the design and analysis of Luebke & Hallen §6.2's
+//!   validation (simplified against full rendering as a two-interval
+//!   choice; proportion correct against chance with an exact binomial
+//!   interval). Its windowed trials are not built.
 //! - [`participant`]: the file a renderer reads (`thresholds-<ID>.ron`:
 //!   the measured table, the fitted CT0, α, e2, the participant and
 //!   whether it is synthetic), for `gazecast … --thresholds FILE`.
@@ -99,5 +103,6 @@ pub mod quest;
 pub mod session;
 pub mod staircase;
 pub mod stimulus;
+pub mod validation;
 
 pub use foveation::ParamError;

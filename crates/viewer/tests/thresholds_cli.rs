@@ -210,6 +210,77 @@ fn the_windowed_session_aborts_and_repeats_trials_whose_gaze_left_the_window() {
     }
 }
 
+/// A session ended before its last trial (SIGTERM here; `Esc` takes the
+/// same path: the window stops without finishing) keeps every answer it
+/// had written, says `completed: false` and makes no fit.
+#[test]
+fn a_windowed_session_ended_early_keeps_its_answers_and_makes_no_fit() {
+    let x = Xvfb::start();
+    let tmp = tempfile::tempdir().expect("tempdir");
+    let out = tmp.path().join("thresholds");
+    let mut c = common::windowed(&x);
+    // The default design: 800 trials, far more than run here.
+    c.args([
+        "thresholds",
+        "measure",
+        "--tracker",
+        "config/trackers/mouse.ron",
+        "--simulate-observer",
+        OBSERVER,
+        "--participant",
+        "P02",
+        "--out",
+    ])
+    .arg(&out)
+    .stdout(std::process::Stdio::piped())
+    .stderr(std::process::Stdio::piped());
+    let mut child = c.spawn().expect("starts");
+    let dir = out.join("sub-P02");
+    let trials = dir.join("trials.tsv");
+    let started = std::time::Instant::now();
+    loop {
+        let n = std::fs::read_to_string(&trials)
+            .map(|t| t.lines().count())
+            .unwrap_or(0);
+        if n >= 3 {
+            break;
+        }
+        assert!(
+            started.elapsed().as_secs() < 120,
+            "no trial written in time"
+        );
+        assert!(
+            child.try_wait().expect("wait").is_none(),
+            "ended before it was stopped"
+        );
+        std::thread::sleep(std::time::Duration::from_millis(100));
+    }
+    let stopped = std::process::Command::new("kill")
+        .args(["-TERM", &child.id().to_string()])
+        .status()
+        .expect("kill runs");
+    assert!(stopped.success());
+    let o = child.wait_with_output().expect("waits");
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        o.status.success(),
+        "{stdout}\n{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    assert!(
+        stdout.contains("no fit: the session is incomplete"),
+        "{stdout}"
+    );
+    let tsv = std::fs::read_to_string(&trials).unwrap();
+    let answered = tsv.lines().count() - 1;
+    assert!(answered >= 2, "{tsv}");
+    let session: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("session.json")).unwrap()).unwrap();
+    assert_eq!(session["completed"], false);
+    assert_eq!(session["trials"], answered);
+    assert!(!dir.join("thresholds-P02.ron").exists());
+}
+
 #[test]
 fn the_windowed_session_needs_a_tracker_and_the_mouse_to_simulate() {
     let tmp = tempfile::tempdir().expect("tempdir");

@@ -282,7 +282,7 @@ fn a_windowed_session_ended_early_keeps_its_answers_and_makes_no_fit() {
 }
 
 #[test]
-fn the_windowed_session_needs_a_tracker_and_the_mouse_to_simulate() {
+fn the_windowed_session_refuses_bad_windows_timings_and_simulations_before_writing() {
     let tmp = tempfile::tempdir().expect("tempdir");
     for (args, says) in [
         (
@@ -311,6 +311,19 @@ fn the_windowed_session_needs_a_tracker_and_the_mouse_to_simulate() {
                 "config/trackers/iscan-binary.ron",
             ],
             "mouse tracker",
+        ),
+        (
+            vec![
+                "--interval-ms",
+                "0",
+                "--tracker",
+                "config/trackers/mouse.ron",
+            ],
+            "--interval-ms",
+        ),
+        (
+            vec!["--gap-ms", "NaN", "--tracker", "config/trackers/mouse.ron"],
+            "--gap-ms",
         ),
     ] {
         let o = gazecast()

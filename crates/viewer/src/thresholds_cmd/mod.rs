@@ -77,6 +77,16 @@ pub struct MeasureArgs {
     /// stimulus is shown only while the gaze stays inside.
     #[arg(long, value_name = "DEG", default_value_t = 1.5)]
     pub fixation_window_deg: f64,
+    /// Steady fixation (every sample in the window) needed before the
+    /// stimulus starts, ms.
+    #[arg(long, value_name = "MS", default_value_t = 500.0)]
+    pub fixate_ms: f64,
+    /// Each of the two intervals, ms.
+    #[arg(long, value_name = "MS", default_value_t = 200.0)]
+    pub interval_ms: f64,
+    /// The blank between the intervals, ms.
+    #[arg(long, value_name = "MS", default_value_t = 400.0)]
+    pub gap_ms: f64,
     /// Write the first frame of each screen (instructions, fixation,
     /// stimulus, abort, response, over) as PNG into this folder.
     #[arg(long, value_name = "DIR")]

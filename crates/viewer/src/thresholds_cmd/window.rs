@@ -776,7 +776,21 @@ pub(super) fn run(a: &MeasureArgs, out: &mut dyn Write) -> Result<(), String> {
     let loaded = Loaded::read(a)?;
     let window = FixationWindow::new(loaded.geometry.eye_point_px, a.fixation_window_deg)
         .map_err(|e| format!("--fixation-window-deg: {e}"))?;
-    let timing = AttemptTiming::default();
+    let timing = AttemptTiming {
+        fixate_ms: a.fixate_ms,
+        interval_ms: a.interval_ms,
+        gap_ms: a.gap_ms,
+        ..AttemptTiming::default()
+    };
+    timing.validate().map_err(|e| {
+        let flag = match e.field {
+            "fixate_ms" => "--fixate-ms",
+            "interval_ms" => "--interval-ms",
+            "gap_ms" => "--gap-ms",
+            other => other,
+        };
+        format!("{flag} {}: {}", e.value, e.reason)
+    })?;
     let control = FixationControl::new(window, timing, loaded.geometry)
         .map_err(|e| format!("fixation control: {e}"))?;
     let session = Session::new(loaded.spec.clone()).map_err(|e| format!("session design: {e}"))?;

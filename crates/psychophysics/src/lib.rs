@@ -25,11 +25,19 @@
 //!   choosing each trial's condition, stopping rules, lapse handling
 //!   (δ in the likelihood; out-of-range response times not used) and
 //!   censoring of thresholds beyond the display's highest contrast.
+//! - [`fixation`]: gaze-contingent fixation control of a two-interval
+//!   trial (a window around the target; an attempt is aborted and shown
+//!   again when the gaze leaves it or a sample is invalid), no window or
+//!   tracker needed.
 //! - [`observer`]: a simulated Geisler–Perry observer read from RON.
 //! - [`fit`]: the Geisler–Perry fit by weighted least squares on log
 //!   threshold (linear in ln CT0, α, α/e2), bootstrap percentile
 //!   intervals by resampling each condition's trials, and the
 //!   `ThresholdTable` (serialised as RON through `ThresholdTableData`).
+//! - [`validation`]: the design and analysis of Luebke & Hallen §6.2's
+//!   validation (simplified against full rendering as a two-interval
+//!   choice; proportion correct against chance with an exact binomial
+//!   interval). Its windowed trials are not built.
 //! - [`participant`]: the file a renderer reads (`thresholds-<ID>.ron`:
 //!   the measured table, the fitted CT0, α, e2, the participant and
 //!   whether it is synthetic), for `gazecast … --thresholds FILE`.
@@ -87,6 +95,7 @@
 //! fixation breaks are not modelled.
 
 pub mod fit;
+pub mod fixation;
 pub mod luminance;
 pub mod observer;
 pub mod participant;
@@ -94,5 +103,6 @@ pub mod quest;
 pub mod session;
 pub mod staircase;
 pub mod stimulus;
+pub mod validation;
 
 pub use foveation::ParamError;

@@ -76,7 +76,8 @@ pub enum Command {
     Experiment(experiment_cmd::ExperimentArgs),
     /// Contrast thresholds: measure them over frequency × eccentricity with
     /// interleaved QUEST staircases and fit the Geisler–Perry CSF
-    /// (`measure`; headless with a simulated observer only, for now).
+    /// (`measure`: in a window with a tracker and gaze-contingent fixation
+    /// control, or headless with a simulated observer).
     Thresholds(thresholds_cmd::ThresholdsArgs),
 }
 

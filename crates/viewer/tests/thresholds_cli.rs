@@ -1,10 +1,11 @@
 //! `gazecast thresholds measure --headless`: a simulated observer's
-//! session end to end, its files, the recovered fit, and the refusals.
-//! Everything here is synthetic.
+//! session end to end, its files, the recovered fit, and the refusals; and
+//! the windowed session under Xvfb with the simulated observer answering
+//! and a scripted gaze on the mouse tracker. Everything here is synthetic.
 
 mod common;
 
-use common::{gazecast, Run};
+use common::{gazecast, succeed_windowed, Run, Xvfb};
 
 const OBSERVER: &str = "config/participants/threshold-observer.ron";
 
@@ -90,6 +91,257 @@ fn a_simulated_session_writes_its_folder_and_refuses_to_overwrite() {
     assert_eq!(
         std::fs::read_to_string(dir.join("trials.tsv")).unwrap(),
         tsv
+    );
+}
+
+/// Column `name` of a TSV file's rows.
+fn column(tsv: &str, name: &str) -> Vec<String> {
+    let mut lines = tsv.lines();
+    let header: Vec<&str> = lines.next().unwrap_or("").split('\t').collect();
+    let k = header
+        .iter()
+        .position(|h| *h == name)
+        .unwrap_or_else(|| panic!("no column {name}: {header:?}"));
+    lines
+        .map(|l| l.split('\t').nth(k).unwrap_or("").to_string())
+        .collect()
+}
+
+#[test]
+fn the_windowed_session_aborts_and_repeats_trials_whose_gaze_left_the_window() {
+    let mut x = Xvfb::start();
+    let tmp = tempfile::tempdir().expect("tempdir");
+    let out = tmp.path().join("thresholds");
+    let shots = tmp.path().join("shots");
+    let o = succeed_windowed(
+        &mut x,
+        &[
+            "thresholds",
+            "measure",
+            "--tracker",
+            "config/trackers/mouse.ron",
+            "--simulate-observer",
+            OBSERVER,
+            "--simulate-fixation-breaks",
+            "2",
+            "--design",
+            "tests/data/thresholds/design-short.ron",
+            "--participant",
+            "P01",
+            "--bootstrap",
+            "20",
+            "--out",
+            &out.display().to_string(),
+            "--screenshots",
+            &shots.display().to_string(),
+        ],
+    );
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    assert!(stdout.contains("SIMULATED observer"), "{stdout}");
+    assert!(stdout.contains("2 attempts aborted"), "{stdout}");
+    let dir = out.join("sub-P01");
+
+    // Every trial answered once: 2 × 2 conditions × 2 trials; the two
+    // aborted attempts are counted on the trials they repeated.
+    let tsv = std::fs::read_to_string(dir.join("trials.tsv")).unwrap();
+    assert_eq!(tsv.lines().count(), 9, "{tsv}");
+    let aborted: u32 = column(&tsv, "aborted_attempts")
+        .iter()
+        .map(|v| v.parse::<u32>().unwrap())
+        .sum();
+    assert_eq!(aborted, 2, "{tsv}");
+    for (target, chosen, correct) in column(&tsv, "target_interval")
+        .iter()
+        .zip(column(&tsv, "chosen_interval"))
+        .zip(column(&tsv, "correct"))
+        .map(|((t, c), k)| (t.clone(), c, k))
+    {
+        assert!(["1", "2"].contains(&target.as_str()));
+        assert_eq!(correct == "1", target == chosen, "{tsv}");
+    }
+    // Onsets come before responses, on one clock.
+    for (on, re) in column(&tsv, "onset_host_us")
+        .iter()
+        .zip(column(&tsv, "response_host_us"))
+    {
+        let (on, re): (u64, u64) = (on.parse().unwrap(), re.parse().unwrap());
+        assert!(on > 0 && re > on, "{tsv}");
+    }
+    // The aborts, as they happened: the scripted gaze looked 3° away.
+    let aborts = std::fs::read_to_string(dir.join("aborts.tsv")).unwrap();
+    assert_eq!(column(&aborts, "reason"), ["left-window", "left-window"]);
+    for off in column(&aborts, "offset_deg") {
+        let off: f64 = off.parse().unwrap();
+        assert!(off > 1.5 && off < 3.5, "{aborts}");
+    }
+    // The gaze samples, with the tracker's clock and the host's.
+    let samples = std::fs::read_to_string(dir.join("samples.tsv")).unwrap();
+    assert!(
+        samples.lines().count() > 100,
+        "{} samples",
+        samples.lines().count()
+    );
+    assert!(column(&samples, "screen").iter().any(|s| s == "stimulus"));
+    assert!(dir.join("tracker.gzrec").is_file());
+
+    let session: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("session.json")).unwrap()).unwrap();
+    assert_eq!(session["synthetic"], true);
+    assert_eq!(session["completed"], true);
+    assert_eq!(session["aborted_attempts"], 2);
+    assert_eq!(session["trials"], 8);
+    assert_eq!(session["window"]["fixation_window_deg"], 1.5);
+    // Eight trials are far too few for a fit: the session's files stay and
+    // the output says why there is no thresholds file.
+    assert!(
+        dir.join("thresholds-P01.ron").is_file() || stdout.contains("no thresholds file: the fit"),
+        "{stdout}"
+    );
+    // The first frame of each screen.
+    for s in [
+        "instructions",
+        "fixation",
+        "stimulus",
+        "abort",
+        "response",
+        "over",
+    ] {
+        assert!(shots.join(format!("{s}.png")).is_file(), "no {s}.png");
+    }
+}
+
+/// A session ended before its last trial (SIGTERM here; `Esc` takes the
+/// same path: the window stops without finishing) keeps every answer it
+/// had written, says `completed: false` and makes no fit.
+#[test]
+fn a_windowed_session_ended_early_keeps_its_answers_and_makes_no_fit() {
+    let x = Xvfb::start();
+    let tmp = tempfile::tempdir().expect("tempdir");
+    let out = tmp.path().join("thresholds");
+    let mut c = common::windowed(&x);
+    // The default design: 800 trials, far more than run here.
+    c.args([
+        "thresholds",
+        "measure",
+        "--tracker",
+        "config/trackers/mouse.ron",
+        "--simulate-observer",
+        OBSERVER,
+        "--participant",
+        "P02",
+        "--out",
+    ])
+    .arg(&out)
+    .stdout(std::process::Stdio::piped())
+    .stderr(std::process::Stdio::piped());
+    let mut child = c.spawn().expect("starts");
+    let dir = out.join("sub-P02");
+    let trials = dir.join("trials.tsv");
+    let started = std::time::Instant::now();
+    loop {
+        let n = std::fs::read_to_string(&trials)
+            .map(|t| t.lines().count())
+            .unwrap_or(0);
+        if n >= 3 {
+            break;
+        }
+        assert!(
+            started.elapsed().as_secs() < 120,
+            "no trial written in time"
+        );
+        assert!(
+            child.try_wait().expect("wait").is_none(),
+            "ended before it was stopped"
+        );
+        std::thread::sleep(std::time::Duration::from_millis(100));
+    }
+    let stopped = std::process::Command::new("kill")
+        .args(["-TERM", &child.id().to_string()])
+        .status()
+        .expect("kill runs");
+    assert!(stopped.success());
+    let o = child.wait_with_output().expect("waits");
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        o.status.success(),
+        "{stdout}\n{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    assert!(
+        stdout.contains("no fit: the session is incomplete"),
+        "{stdout}"
+    );
+    let tsv = std::fs::read_to_string(&trials).unwrap();
+    let answered = tsv.lines().count() - 1;
+    assert!(answered >= 2, "{tsv}");
+    let session: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("session.json")).unwrap()).unwrap();
+    assert_eq!(session["completed"], false);
+    assert_eq!(session["trials"], answered);
+    assert!(!dir.join("thresholds-P02.ron").exists());
+}
+
+#[test]
+fn the_windowed_session_refuses_bad_windows_timings_and_simulations_before_writing() {
+    let tmp = tempfile::tempdir().expect("tempdir");
+    for (args, says) in [
+        (
+            vec![
+                "--fixation-window-deg",
+                "0",
+                "--tracker",
+                "config/trackers/mouse.ron",
+            ],
+            "--fixation-window-deg",
+        ),
+        (
+            vec![
+                "--simulate-fixation-breaks",
+                "1",
+                "--tracker",
+                "config/trackers/mouse.ron",
+            ],
+            "--simulate-observer",
+        ),
+        (
+            vec![
+                "--simulate-observer",
+                OBSERVER,
+                "--tracker",
+                "config/trackers/iscan-binary.ron",
+            ],
+            "mouse tracker",
+        ),
+        (
+            vec![
+                "--interval-ms",
+                "0",
+                "--tracker",
+                "config/trackers/mouse.ron",
+            ],
+            "--interval-ms",
+        ),
+        (
+            vec!["--gap-ms", "NaN", "--tracker", "config/trackers/mouse.ron"],
+            "--gap-ms",
+        ),
+    ] {
+        let o = gazecast()
+            .env_remove("DISPLAY")
+            .env_remove("WAYLAND_DISPLAY")
+            .args(["thresholds", "measure", "--participant", "P01"])
+            .args(&args)
+            .arg("--out")
+            .arg(tmp.path())
+            .output()
+            .unwrap();
+        assert!(!o.status.success());
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(err.contains(says), "{args:?}: {err}");
+    }
+    assert!(
+        std::fs::read_dir(tmp.path()).unwrap().next().is_none(),
+        "nothing written"
     );
 }
 

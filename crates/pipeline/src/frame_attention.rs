@@ -236,10 +236,121 @@ impl FrameAttention {
         scene: &Scene,
         time_s: Option<f64>,
     ) -> Option<[f64; 2]> {
-        let result = self.update(frame, scene, time_s)?;
-        let p = result.gaze_px?;
-        let p = [f64::from(p[0]), f64::from(p[1])];
-        (p[0].is_finite() && p[1].is_finite()).then_some(p)
+        gaze_of(&self.update(frame, scene, time_s)?)
+    }
+}
+
+/// The attended object's saliency peak (screen px), when finite.
+fn gaze_of(result: &attention::Attention) -> Option<[f64; 2]> {
+    let p = result.gaze_px?;
+    let p = [f64::from(p[0]), f64::from(p[1])];
+    (p[0].is_finite() && p[1].is_finite()).then_some(p)
+}
+
+/// Lee's attention model as the gaze source, a pass at the end of the
+/// plan: it runs the model on every finished frame, and its saliency peak
+/// ([`AttentionGaze::gaze_px`]) is the point of regard the viewer feeds to
+/// the next frames (`Renderer::set_attention_gaze`). On the GPU backend it
+/// measures the GPU frame before any read-back (one wait for the
+/// per-object statistics: `crate::gpu_attention` states the split and the
+/// tolerance), so the frame itself can stay on the GPU.
+pub struct AttentionGaze {
+    model: FrameAttention,
+    gaze: Option<[f64; 2]>,
+}
+
+impl AttentionGaze {
+    pub fn new(model: FrameAttention) -> Self {
+        Self { model, gaze: None }
+    }
+
+    /// The last frame's attended saliency peak (screen px); `None` when
+    /// nothing was attended (or before the first frame).
+    pub fn gaze_px(&self) -> Option<[f64; 2]> {
+        self.gaze
+    }
+
+    /// The model, for its state (the attended object, its GPU buffers).
+    pub fn model(&self) -> &FrameAttention {
+        &self.model
+    }
+}
+
+impl crate::effects::Pass for AttentionGaze {
+    fn name(&self) -> &'static str {
+        "attention gaze source (Lee ch. 3)"
+    }
+
+    fn run(&mut self, frame: &mut Frame, input: &crate::effects::PassInput<'_>) {
+        self.gaze = self
+            .model
+            .update(frame, input.scene, input.time_s)
+            .as_ref()
+            .and_then(gaze_of);
+    }
+
+    fn as_any(&self) -> &dyn std::any::Any {
+        self
+    }
+
+    fn reads(&self) -> crate::plan::Channels {
+        use crate::plan::Channels;
+        Channels::COLOUR | Channels::DEPTH | Channels::ID
+    }
+
+    fn writes(&self) -> crate::plan::Channels {
+        crate::plan::Channels::NONE
+    }
+
+    fn owns(&self) -> String {
+        let m = self.model.tracker.map_size();
+        format!("the saliency maps ({m}²) and the per-object statistics")
+    }
+
+    fn into_gpu(
+        self: Box<Self>,
+    ) -> Result<Box<dyn crate::effects::GpuPass>, Box<dyn crate::effects::Pass>> {
+        Ok(Box::new(GpuAttentionGaze { pass: *self }))
+    }
+}
+
+/// [`AttentionGaze`] on the GPU frame.
+struct GpuAttentionGaze {
+    pass: AttentionGaze,
+}
+
+impl crate::effects::GpuPass for GpuAttentionGaze {
+    fn reference(&self) -> &dyn crate::effects::Pass {
+        &self.pass
+    }
+
+    fn encode(
+        &mut self,
+        frame: &GpuFrame<'_>,
+        encoder: wgpu::CommandEncoder,
+        input: &crate::effects::PassInput<'_>,
+    ) -> Result<wgpu::CommandEncoder, GpuError> {
+        let (result, next) =
+            self.pass
+                .model
+                .update_on_gpu(frame, encoder, input.scene, input.time_s)?;
+        self.pass.gaze = result.as_ref().and_then(gaze_of);
+        Ok(next)
+    }
+
+    fn has_buffers(&self) -> bool {
+        self.pass.model.has_gpu_buffers()
+    }
+
+    fn has_attention_buffers(&self) -> bool {
+        self.pass.model.has_gpu_buffers()
+    }
+
+    fn detail(&self) -> String {
+        "attention gaze source (Lee ch. 3): the model's per-pixel part on the frame's colour, \
+         depth and ids on the GPU, the per-object statistics read back (one wait), contexts, \
+         Kalman filter and ranking on the CPU; its saliency peak is the next frames' gaze"
+            .into()
     }
 }
 

@@ -11,6 +11,7 @@ use crate::effects::depth_of_field::DepthOfField;
 use crate::effects::dof_splat::DepthOfFieldSplat;
 use crate::effects::por_overlay::PorOverlay;
 use crate::effects::{pass_for, passes_for, GpuPass, Pass, PassInput};
+use crate::frame_attention::AttentionGaze;
 use crate::gpu::Chain;
 use crate::image_foveation::{ImageFoveation, ImagePass};
 use crate::method::Method;
@@ -781,6 +782,32 @@ impl<'s> Renderer<'s> {
             self.passes.extend(cpu);
         }
         self.rebuild_provenance();
+    }
+
+    /// Runs Lee's attention model as the gaze source on every frame
+    /// (`Some`), a pass after every other ([`AttentionGaze`]: on the GPU
+    /// backend on the GPU frame, when every pass before it is there), or
+    /// stops it (`None`). The surface buffers it reads are filled.
+    pub fn set_attention_gaze(&mut self, model: Option<crate::frame_attention::FrameAttention>) {
+        let is_it = |p: &dyn Pass| p.as_any().is::<AttentionGaze>();
+        self.passes.retain(|p| !is_it(p.as_ref()));
+        self.gpu_passes.retain(|p| !is_it(p.reference()));
+        if let Some(model) = model {
+            let pass: Box<dyn Pass> = Box::new(AttentionGaze::new(model));
+            let (gpu, cpu) = split_passes(vec![pass], self.gpu_hook && self.passes.is_empty());
+            self.gpu_passes.extend(gpu);
+            self.passes.extend(cpu);
+        }
+        self.rebuild_provenance();
+    }
+
+    /// The attention gaze source's point of regard from the last frame
+    /// (screen px): `None` without the source, before its first frame, or
+    /// when nothing was attended.
+    pub fn attention_gaze_px(&self) -> Option<[f64; 2]> {
+        self.all_passes()
+            .find_map(|p| p.as_any().downcast_ref::<AttentionGaze>())
+            .and_then(AttentionGaze::gaze_px)
     }
 
     /// Whether the POR box is drawn.

@@ -294,3 +294,53 @@ fn a_frame_kept_on_the_gpu_reads_nothing_back_and_is_the_same_frame() {
     let why = lod.set_stay_on_gpu(true).expect_err("raster");
     assert!(why.contains("raster"), "{why}");
 }
+
+/// Lee's attention model as the gaze source is the plan's last pass: on
+/// the GPU backend it runs on the GPU frame (the frame can then stay
+/// there: it reads back the per-object statistics, not the frame), and
+/// its point of regard is the CPU pass's on the same frames; on the CPU
+/// backend it makes the method fill the depth and ids it reads. Stopped,
+/// it is gone from the plan.
+#[test]
+fn the_attention_gaze_source_runs_on_the_gpu_frame_and_agrees_with_the_cpu() {
+    use pipeline::frame_attention::FrameAttention;
+    let s = scene("FoveatedSampling");
+    let model = || FrameAttention::new(64).expect("model");
+    let mut gpu = renderer(&s, Method::Hybrid, BackendChoice::Gpu);
+    let mut cpu = renderer(&s, Method::Hybrid, BackendChoice::Cpu);
+    assert_eq!(gpu.attention_gaze_px(), None);
+    gpu.set_attention_gaze(Some(model()));
+    cpu.set_attention_gaze(Some(model()));
+    assert_eq!(gpu.gpu_pass_names(), ["attention gaze source (Lee ch. 3)"]);
+    assert!(cpu.plan().stages[0]
+        .writes
+        .contains(Channels::DEPTH | Channels::ID));
+    gpu.can_stay_on_gpu().expect("every pass on the GPU");
+    gpu.set_stay_on_gpu(true).expect("stays");
+    let mut attended = 0;
+    for (k, gaze) in [GAZE, [100.0, 40.0], [20.0, 100.0]].into_iter().enumerate() {
+        let t = 0.1 * k as f64;
+        let (on_device, _) = gpu.render_at(gaze, t).expect("gpu");
+        let (frame, _) = cpu.render_at(gaze, t).expect("cpu");
+        assert!(on_device.is_on_device() && frame.has_surface());
+        let moved = gpu.gpu_traffic().expect("gpu");
+        assert!(moved.read_back_bytes < 64 * 1024, "{moved:?}");
+        let (g, c) = (gpu.attention_gaze_px(), cpu.attention_gaze_px());
+        eprintln!(
+            "frame {k}: GPU {g:?}, CPU {c:?}, read back {} B",
+            moved.read_back_bytes
+        );
+        assert_eq!(g.is_some(), c.is_some(), "frame {k}: {g:?} {c:?}");
+        if let (Some(g), Some(c)) = (g, c) {
+            attended += 1;
+            assert!(
+                (g[0] - c[0]).abs() < 1e-3 && (g[1] - c[1]).abs() < 1e-3,
+                "frame {k}: {g:?} {c:?}"
+            );
+        }
+    }
+    assert!(attended >= 2, "the balls are attended");
+    gpu.set_attention_gaze(None);
+    assert!(gpu.gpu_pass_names().is_empty());
+    assert_eq!(gpu.attention_gaze_px(), None);
+}

@@ -187,9 +187,10 @@ struct Viewer<'a> {
     feed: GazeFeed,
     screen: Option<Screen>,
     gaze: [f64; 2],
-    /// Lee's attention model, when it is the gaze source: run on every
-    /// frame, its point fed to the tracker stream for the next frames.
-    attention: Option<pipeline::frame_attention::FrameAttention>,
+    /// Lee's attention model is the gaze source: the renderer runs it on
+    /// every frame (its last pass, `Renderer::set_attention_gaze`), its
+    /// point fed to the tracker stream for the next frames.
+    attention: bool,
     /// Both eyes' points of the gaze in use, when its sample had both.
     eyes_px: Option<[[f64; 2]; 2]>,
     /// The last measured eye distance (mm), kept through samples without
@@ -423,20 +424,17 @@ impl Viewer<'_> {
         }
         // The frame stays on the GPU where the window draws from the
         // renderer's device and nothing on the CPU reads it (the layers
-        // view and the attention model do).
+        // view does; the attention source is a pass of the plan).
         let stay = self.screen.as_ref().is_some_and(Screen::presents_from_gpu)
             && !self.layers
-            && self.attention.is_none()
             && self.renderer.can_stay_on_gpu().is_ok();
         if stay != self.renderer.stays_on_gpu() {
             self.renderer.set_stay_on_gpu(stay)?;
         }
         let (mut frame, stats) = self.renderer.render(gaze).map_err(|e| e.to_string())?;
         self.traffic.extend(self.renderer.gpu_traffic());
-        if let Some(a) = &mut self.attention {
-            let t = self.started.elapsed().as_secs_f64();
-            self.feed
-                .attention_gaze(a.gaze_px(&frame, self.renderer.scene(), Some(t)));
+        if self.attention {
+            self.feed.attention_gaze(self.renderer.attention_gaze_px());
         }
         if self.layers {
             frame.rgb = layers_rgb(&frame);
@@ -721,9 +719,7 @@ impl Loaded {
     }
 
     /// The frame pipeline of the session: the scene's method and effects.
-    /// `surface`: fill the depth and object ids whatever the passes need
-    /// (the attention gaze source reads them).
-    fn renderer(&self, opts: &LiveOptions, surface: bool) -> Result<Renderer<'_>, String> {
+    fn renderer(&self, opts: &LiveOptions) -> Result<Renderer<'_>, String> {
         let model = crate::args::sampling_model_for(
             self.geometry,
             1.0,
@@ -734,7 +730,6 @@ impl Loaded {
             method: opts.method,
             backend: opts.backend,
             por_overlay: opts.por_overlay,
-            surface,
             model_based: opts.model_based,
             // Fixations re-cast only what the cache lacks (same frames).
             reuse: true,
@@ -753,7 +748,7 @@ impl Loaded {
 /// without opening a window.
 pub fn explain(opts: &LiveOptions, out: &mut dyn Write) -> Result<(), String> {
     let loaded = Loaded::new(opts)?;
-    for l in loaded.renderer(opts, false)?.explain() {
+    for l in loaded.renderer(opts)?.explain() {
         writeln!(out, "{l}").map_err(|e| e.to_string())?;
     }
     Ok(())
@@ -763,14 +758,17 @@ pub fn explain(opts: &LiveOptions, out: &mut dyn Write) -> Result<(), String> {
 pub fn run(opts: &LiveOptions, out: &mut dyn Write) -> Result<(), LiveError> {
     let loaded = Loaded::new(opts)?;
     let setup = GazeSetup::resolve(opts.tracker.as_deref(), opts.replay.as_deref())?;
-    // The attention source reads every frame's depth and object ids.
+    // The attention source: the model runs as the plan's last pass (it
+    // declares the depth and object ids it reads).
+    let mut renderer = loaded.renderer(opts)?;
     let attention = match &setup.tracker.driver {
         tracker_hal::Driver::Attention(a) if !setup.is_replay() => {
-            Some(pipeline::frame_attention::FrameAttention::new(a.map_size)?)
+            let model = pipeline::frame_attention::FrameAttention::new(a.map_size)?;
+            renderer.set_attention_gaze(Some(model));
+            true
         }
-        _ => None,
+        _ => false,
     };
-    let renderer = loaded.renderer(opts, attention.is_some())?;
     let (scene, display, geometry) = (&loaded.scene, &loaded.display, &loaded.geometry);
     let calibration = match &opts.calibration {
         Some(p) => Some(config::load_calibration(p).map_err(|e| e.to_string())?),
@@ -1081,7 +1079,7 @@ mod tests {
             ..LiveOptions::default()
         };
         let loaded = Loaded::new(&opts).expect("scene and display");
-        let mut renderer = loaded.renderer(&opts, false).expect("renderer");
+        let mut renderer = loaded.renderer(&opts).expect("renderer");
         let (mut log, line) = PlanLog::new(renderer.provenance());
         assert_eq!(
             line,

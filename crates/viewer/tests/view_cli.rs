@@ -246,13 +246,18 @@ fn small_display(dir: &std::path::Path) -> std::path::PathBuf {
 
 /// `gazecast view` of the search task on [`small_display`], CPU backend.
 fn small_view(x: &Xvfb, dir: &std::path::Path) -> std::process::Command {
+    small_view_on(x, dir, "cpu")
+}
+
+/// [`small_view`] on `backend`.
+fn small_view_on(x: &Xvfb, dir: &std::path::Path, backend: &str) -> std::process::Command {
     let mut c = windowed(x);
     c.args([
         "view",
         "--scene",
         "config/scenes/search-task.ron",
         "--backend",
-        "cpu",
+        backend,
         "--display",
     ])
     .arg(small_display(dir));
@@ -471,10 +476,19 @@ fn the_demo_opens_the_window_in_mouse_mode_when_there_is_a_display() {
 /// that decodes to valid on-screen points.
 #[test]
 fn the_attention_source_moves_the_gaze_to_an_object_and_records_it() {
+    for backend in ["cpu", "gpu"] {
+        attention_source_on(backend);
+    }
+}
+
+/// [`the_attention_source_moves_the_gaze_to_an_object_and_records_it`] on
+/// `backend`; on the GPU the model runs on the GPU frame, which stays
+/// there and is drawn into the window.
+fn attention_source_on(backend: &str) {
     let x = Xvfb::start();
     let dir = tempfile::tempdir().expect("tempdir");
     let record = dir.path().join("attention.gzrec");
-    let out = small_view(&x, dir.path())
+    let out = small_view_on(&x, dir.path(), backend)
         .args([
             "--tracker",
             "config/trackers/attention.ron",
@@ -528,6 +542,12 @@ fn the_attention_source_moves_the_gaze_to_an_object_and_records_it() {
             .any(|p| (p[0] - last[0]).abs() < 1.0 && (p[1] - last[1]).abs() < 1.0),
         "the shown gaze {last:?} is not among the recorded samples"
     );
+    if backend == "gpu" {
+        assert!(
+            text.contains("presenting: 25 frames drawn from the GPU's buffers"),
+            "{text}"
+        );
+    }
 }
 
 #[test]

@@ -217,24 +217,10 @@ impl<'s> Renderer<'s> {
             let note = (options.backend == BackendChoice::Auto)
                 .then(|| format!("auto: method {} renders on the CPU", method.name()));
             (Backend::Cpu, note)
-        } else if scene.is_moving() {
-            // The GPU core keeps the scene it uploaded; a moving scene is
-            // posed and its BVH rebuilt on the CPU every frame.
-            match options.backend {
-                BackendChoice::Gpu => {
-                    return Err(RenderError::Unsupported(
-                        "backend gpu: this scene moves (a camera path or object motion) and \
-                         renders on the CPU only; choose the CPU backend or auto"
-                            .into(),
-                    ))
-                }
-                BackendChoice::Auto => (
-                    Backend::Cpu,
-                    Some("auto: this scene moves; moving scenes render on the CPU".to_string()),
-                ),
-                BackendChoice::Cpu => (Backend::Cpu, None),
-            }
         } else {
+            // A moving scene is posed and its BVH rebuilt on the CPU every
+            // frame; on the GPU the posed scene is uploaded for the frame
+            // (`GpuRenderer::set_scene`).
             Backend::choose(options.backend, scene, options.test, gpu)?
         };
         let mut state = (module.make)(&MethodSetup {
@@ -372,11 +358,18 @@ impl<'s> Renderer<'s> {
     ) -> Result<(Frame, Stats), RenderError> {
         let surface = self.wants_surface();
         // A moving scene is posed for this frame's time (once per time).
+        let mut posed_now = false;
         if self.scene.is_moving() {
             let posed_at = self.posed.as_ref().and_then(|s| s.pose()).map(|p| p.time_s);
             if posed_at.map(f64::to_bits) != Some(time_s.to_bits()) {
                 self.posed = self.scene.posed(time_s);
+                posed_now = true;
             }
+        }
+        let traffic_before = self.gpu_traffic_total();
+        // On the GPU the pose is uploaded: the frame's traffic counts it.
+        if let (true, Backend::Gpu(g)) = (posed_now, &mut self.backend) {
+            g.set_scene(self.posed.as_ref().unwrap_or(self.scene))?;
         }
         let scene: &Scene = self.posed.as_ref().unwrap_or(self.scene);
         // The vergence depth holds for this frame only.
@@ -395,7 +388,6 @@ impl<'s> Renderer<'s> {
             vergence_mm,
         };
         let mut frame = self.spare.take().unwrap_or_default();
-        let traffic_before = self.gpu_traffic_total();
         let gpu = match &mut self.backend {
             Backend::Cpu => None,
             Backend::Gpu(g) => Some(g.as_mut()),

@@ -103,11 +103,7 @@ fn explain_names_what_moves_and_methods_that_cannot_refuse() {
         text.contains("scene moves: a camera path of 2 keys (Bounce); 2 of 6 objects on paths"),
         "{text}"
     );
-    for args in [
-        &["--method", "lod"][..],
-        &["--method", "ulod"][..],
-        &["--backend", "gpu"][..],
-    ] {
+    for args in [&["--method", "lod"][..], &["--method", "ulod"][..]] {
         let out = gazecast()
             .args(["view", "--explain", "--scene", SCENE, "--display"])
             .arg("config/displays/tobii-et1750-17in.ron")

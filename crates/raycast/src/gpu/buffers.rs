@@ -218,6 +218,34 @@ pub(super) struct FrameTarget {
     pub bind_group: wgpu::BindGroup,
 }
 
+/// Group 0 of the cast over the params, the scene and the frame's
+/// outputs.
+pub(super) fn cast_group(
+    device: &wgpu::Device,
+    layouts: &Layouts,
+    params: &wgpu::Buffer,
+    scene: &SceneBuffers,
+    out: &FrameBuffers,
+) -> wgpu::BindGroup {
+    bind(
+        device,
+        &layouts.cast,
+        "cast",
+        &[
+            (0, params),
+            (1, &scene.bvh),
+            (2, &scene.triangles),
+            (3, &scene.object_materials),
+            (4, &scene.lights),
+            (5, &scene.gamma),
+            (6, &out.pixels),
+            (7, &out.depth),
+            (8, &out.object),
+            (9, &out.normal),
+        ],
+    )
+}
+
 impl FrameTarget {
     pub fn new(
         device: &wgpu::Device,
@@ -239,23 +267,7 @@ impl FrameTarget {
             wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
             max_binding,
         )?;
-        let bind_group = bind(
-            device,
-            &layouts.cast,
-            "cast",
-            &[
-                (0, params),
-                (1, &scene.bvh),
-                (2, &scene.triangles),
-                (3, &scene.object_materials),
-                (4, &scene.lights),
-                (5, &scene.gamma),
-                (6, &out.pixels),
-                (7, &out.depth),
-                (8, &out.object),
-                (9, &out.normal),
-            ],
-        );
+        let bind_group = cast_group(device, layouts, params, scene, &out);
         Ok(Self {
             pixels,
             out,

@@ -303,6 +303,36 @@ impl GpuRenderer {
         })
     }
 
+    /// Replaces the scene on the device with `scene` as posed for the
+    /// next frame (a moving scene, its BVH rebuilt on the CPU for the
+    /// pose): its BVH, triangles, materials and lights are uploaded again
+    /// (the gamma table is kept) and the cast's bind group remade. The
+    /// bytes count in the traffic of whoever measures around it.
+    pub fn set_scene(&mut self, scene: &Scene) -> Result<(), GpuError> {
+        self.scene = SceneBuffers::upload_with(
+            &self.device,
+            &self.traffic,
+            scene,
+            self.max_binding,
+            Some(self.scene.gamma.clone()),
+        )?;
+        let c = scene.background;
+        self.background = [c.x, c.y, c.z];
+        self.background_rgb8 = scene.background_rgb8;
+        if let Some(t) = &mut self.target {
+            t.bind_group = buffers::cast_group(
+                &self.device,
+                &self.layouts,
+                &self.params,
+                &self.scene,
+                &t.out,
+            );
+        }
+        // The raster path's groups hold the old materials and lights.
+        self.raster = None;
+        Ok(())
+    }
+
     /// Whether the foveated stages' buffers exist (they are made by the first
     /// foveated frame; a full-resolution scene never allocates them).
     pub fn has_foveated_buffers(&self) -> bool {

@@ -136,6 +136,18 @@ impl SceneBuffers {
         scene: &Scene,
         max_binding: u64,
     ) -> Result<Self, GpuError> {
+        Self::upload_with(device, traffic, scene, max_binding, None)
+    }
+
+    /// [`SceneBuffers::upload`] with `gamma`, the gamma table already on
+    /// the device (it depends on no scene), when given.
+    pub fn upload_with(
+        device: &wgpu::Device,
+        traffic: &TrafficCounter,
+        scene: &Scene,
+        max_binding: u64,
+        gamma: Option<wgpu::Buffer>,
+    ) -> Result<Self, GpuError> {
         let upload = |what: &'static str, bytes: &[u8]| -> Result<wgpu::Buffer, GpuError> {
             if bytes.len() as u64 > max_binding {
                 return Err(GpuError::TooLarge {
@@ -161,7 +173,10 @@ impl SceneBuffers {
                 bytemuck::cast_slice(&object_materials(scene)),
             )?,
             lights: upload("the lights", bytemuck::cast_slice(&lights(scene)))?,
-            gamma: upload("the gamma table", bytemuck::cast_slice(&gamma_table()))?,
+            gamma: match gamma {
+                Some(g) => g,
+                None => upload("the gamma table", bytemuck::cast_slice(&gamma_table()))?,
+            },
             n_triangles: scene.triangles.len() as u32,
             n_lights: scene.lights.len() as u32,
             n_materials: scene.object_materials.len() as u32,

@@ -9,8 +9,33 @@
 //! schedule ([`ValidationDesign::schedule`], a seeded and balanced order)
 //! and the proportion correct against chance with an exact (Clopper–
 //! Pearson) binomial interval and a one-sided exact binomial test
-//! ([`analyse`]). **The windowed trials (rendering each scene full and
-//! simplified in a gaze-contingent window) are not built.**
+//! ([`analyse`]); and the simulated observer's model of how visible the
+//! difference between the two renderings is ([`difference_visibility`]).
+//! `gazecast thresholds validate --headless` runs it with a simulated
+//! observer; **the windowed trials (a person answering in a
+//! gaze-contingent window) are not built.**
+//!
+//! # The simulated observer's model of detectability
+//!
+//! The two frames (full and simplified, rendered for the same gaze) are
+//! turned into luminance (each channel's level through the display's
+//! transfer, weighted 0.2126 / 0.7152 / 0.0722: the Rec. 709 weights,
+//! applied to each channel as if it were a grey level). At every pixel whose
+//! luminance differs (`a` in one frame, `b` in the other) the difference
+//! is a modulation of Michelson contrast `c = |a − b| / (a + b)`. Its
+//! spatial frequency comes from its extent: the longer of the horizontal
+//! and the vertical run of differing pixels through that pixel, in degrees
+//! at that pixel (`run_px / local ppd`), taken as half a cycle, `f = 1 /
+//! (2 · extent)` (the larger extent is the lower frequency, the more
+//! visible one: conservative, like Luebke & Hallen's bounding-sphere
+//! extent). The observer's threshold there is its Geisler–Perry
+//! `CT(f, e)` at the pixel's eccentricity `e` from the gaze. The
+//! difference's visibility is the largest `log10(c / CT(f, e))` over the
+//! frame (a max rule: no probability summation), and the observer names
+//! the simplified interval correctly with its psychometric function's
+//! probability at that value ([`crate::observer::SimulatedObserver::respond_at`]):
+//! at chance (its guess rate) when nothing differs, `p_threshold` when the
+//! most visible pixel is exactly at threshold.
 
 use rand::seq::SliceRandom;
 use rand::SeedableRng;
@@ -197,9 +222,191 @@ pub fn analyse(trials: u32, correct: u32, ci_level: f64) -> Result<ValidationRes
     })
 }
 
+/// How visible the difference between two renderings of one gaze is to
+/// an observer with a given CSF (module doc).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct DifferenceVisibility {
+    /// Pixels whose luminance differs.
+    pub differing_pixels: usize,
+    /// The largest `log10(c / CT(f, e))`; `None` when nothing differs.
+    pub max_log10_over_threshold: Option<f64>,
+    /// Where that is (pixel x, y), its contrast, frequency (cycles/degree)
+    /// and eccentricity (degrees from the gaze).
+    pub at_px: Option<[u32; 2]>,
+    pub contrast: Option<f64>,
+    pub frequency_cpd: Option<f64>,
+    pub eccentricity_deg: Option<f64>,
+}
+
+impl DifferenceVisibility {
+    /// The value the observer's psychometric function takes: −∞ when
+    /// nothing differs.
+    pub fn log10_over_threshold(&self) -> f64 {
+        self.max_log10_over_threshold.unwrap_or(f64::NEG_INFINITY)
+    }
+}
+
+/// Each pixel's luminance (cd/m²) of an 8-bit RGB frame (module doc).
+pub fn frame_luminance(rgb: &[u8], transfer: &crate::luminance::Transfer) -> Vec<f64> {
+    let lut: Vec<f64> = (0..=255u8).map(|l| transfer.luminance(l)).collect();
+    rgb.chunks_exact(3)
+        .map(|p| {
+            0.2126 * lut[usize::from(p[0])]
+                + 0.7152 * lut[usize::from(p[1])]
+                + 0.0722 * lut[usize::from(p[2])]
+        })
+        .collect()
+}
+
+/// The run of `true` through each index of `mask` along a line of
+/// `len` items `stride` apart from `start`: each gets its run's length.
+fn runs(mask: &[bool], start: usize, len: usize, stride: usize, out: &mut [u32]) {
+    let mut k = 0;
+    while k < len {
+        if !mask[start + k * stride] {
+            k += 1;
+            continue;
+        }
+        let from = k;
+        while k < len && mask[start + k * stride] {
+            k += 1;
+        }
+        for j in from..k {
+            out[start + j * stride] = (k - from) as u32;
+        }
+    }
+}
+
+/// The visibility of the difference between the luminance images `a` and
+/// `b` (row-major, `geometry`'s size) to an observer with `csf` looking at
+/// `gaze_px` (module doc).
+pub fn difference_visibility(
+    a: &[f64],
+    b: &[f64],
+    geometry: &screen_geometry::ScreenGeometry,
+    gaze_px: [f64; 2],
+    csf: &foveation::GeislerPerry,
+) -> Result<DifferenceVisibility, ParamError> {
+    let (w, h) = (geometry.width_px as usize, geometry.height_px as usize);
+    if a.len() != w * h || b.len() != w * h {
+        return Err(ParamError::new(
+            "frames",
+            format!("{} and {} pixels", a.len(), b.len()),
+            format!("must both be {w} × {h}"),
+        ));
+    }
+    let differs: Vec<bool> = a.iter().zip(b).map(|(x, y)| x != y).collect();
+    let mut across = vec![0u32; w * h];
+    let mut down = vec![0u32; w * h];
+    for y in 0..h {
+        runs(&differs, y * w, w, 1, &mut across);
+    }
+    for x in 0..w {
+        runs(&differs, x, h, w, &mut down);
+    }
+    let mut best = DifferenceVisibility {
+        differing_pixels: differs.iter().filter(|&&d| d).count(),
+        max_log10_over_threshold: None,
+        at_px: None,
+        contrast: None,
+        frequency_cpd: None,
+        eccentricity_deg: None,
+    };
+    for i in (0..w * h).filter(|&i| differs[i]) {
+        let sum = a[i] + b[i];
+        if !(sum.is_finite() && sum > 0.0) {
+            continue;
+        }
+        let c = ((a[i] - b[i]).abs() / sum).min(1.0);
+        let p = [(i % w) as f64 + 0.5, (i / w) as f64 + 0.5];
+        let extent_deg = f64::from(across[i].max(down[i])) / geometry.local_ppd(p);
+        let f = 1.0 / (2.0 * extent_deg);
+        let e = geometry.eccentricity_deg(p, gaze_px);
+        let v = c.log10() - csf.contrast_threshold(f, e).log10();
+        if v.is_finite() && best.max_log10_over_threshold.is_none_or(|m| v > m) {
+            best.max_log10_over_threshold = Some(v);
+            best.at_px = Some([(i % w) as u32, (i / w) as u32]);
+            best.contrast = Some(c);
+            best.frequency_cpd = Some(f);
+            best.eccentricity_deg = Some(e);
+        }
+    }
+    Ok(best)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    fn geometry() -> screen_geometry::ScreenGeometry {
+        screen_geometry::Display::seed_17in(64, 48)
+            .geometry()
+            .unwrap()
+    }
+
+    #[test]
+    fn nothing_differs_nothing_to_see() {
+        let g = geometry();
+        let a = vec![10.0; 64 * 48];
+        let v = difference_visibility(&a, &a, &g, g.centre_px(), &Default::default()).unwrap();
+        assert_eq!(v.differing_pixels, 0);
+        assert_eq!(v.log10_over_threshold(), f64::NEG_INFINITY);
+        assert_eq!(
+            difference_visibility(&a, &a[1..], &g, g.centre_px(), &Default::default())
+                .unwrap_err()
+                .field,
+            "frames"
+        );
+    }
+
+    #[test]
+    fn a_difference_is_more_visible_larger_stronger_and_nearer_the_gaze() {
+        let g = geometry();
+        let csf = foveation::GeislerPerry::default();
+        let a = vec![10.0; 64 * 48];
+        let patch = |x0: usize, y0: usize, side: usize, delta: f64| {
+            let mut b = a.clone();
+            for y in y0..y0 + side {
+                for x in x0..x0 + side {
+                    b[y * 64 + x] += delta;
+                }
+            }
+            difference_visibility(&a, &b, &g, [32.0, 24.0], &csf).unwrap()
+        };
+        let small = patch(30, 22, 2, 1.0);
+        assert_eq!(small.differing_pixels, 4);
+        // Contrast 1 / 21 at the pixel's extent of 2 px.
+        assert!((small.contrast.unwrap() - 1.0 / 21.0).abs() < 1e-12);
+        let ppd = g.local_ppd([31.0, 23.0]);
+        assert!((small.frequency_cpd.unwrap() - ppd / 4.0).abs() < 0.05 * ppd);
+        let large = patch(28, 20, 8, 1.0);
+        let strong = patch(30, 22, 2, 5.0);
+        let far = patch(2, 2, 2, 1.0);
+        let (s, l, st, f) = (
+            small.log10_over_threshold(),
+            large.log10_over_threshold(),
+            strong.log10_over_threshold(),
+            far.log10_over_threshold(),
+        );
+        assert!(l > s && st > s && f < s, "{s} {l} {st} {f}");
+        // By hand: log10(c / CT(f, e)) at the best pixel.
+        let e = small.eccentricity_deg.unwrap();
+        let want = (1.0f64 / 21.0).log10()
+            - csf
+                .contrast_threshold(small.frequency_cpd.unwrap(), e)
+                .log10();
+        assert!((s - want).abs() < 1e-12);
+    }
+
+    #[test]
+    fn luminance_of_a_frame_uses_the_transfer() {
+        let t = crate::luminance::Transfer::gamma(Default::default()).unwrap();
+        let l = frame_luminance(&[0, 0, 0, 255, 255, 255, 128, 128, 128], &t);
+        assert_eq!(l.len(), 3);
+        assert!((l[0] - t.luminance(0)).abs() < 1e-9);
+        assert!((l[1] - t.luminance(255)).abs() < 1e-9);
+        assert!((l[2] - t.luminance(128)).abs() < 1e-9);
+    }
 
     #[test]
     fn the_schedule_is_balanced_seeded_and_shuffled() {

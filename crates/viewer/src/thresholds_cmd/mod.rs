@@ -29,6 +29,7 @@
 //! tracker's bytes), and `trials.tsv` a row per answer. An existing folder
 //! is never overwritten.
 
+mod validate;
 mod window;
 
 use std::io::Write;
@@ -52,6 +53,11 @@ pub struct ThresholdsArgs {
 pub enum ThresholdsCommand {
     /// Measure a participant's thresholds and fit the Geisler–Perry CSF.
     Measure(MeasureArgs),
+    /// Luebke & Hallen §6.2's validation: can the participant tell the
+    /// rendering simplified at their thresholds from the full one?
+    /// Two-interval trials, proportion correct against chance. Headless
+    /// with a simulated observer only: the windowed form is not built.
+    Validate(validate::ValidateArgs),
 }
 
 #[derive(Debug, Clone, clap::Args)]
@@ -180,6 +186,7 @@ struct FitFile<'a> {
 pub fn run(args: &ThresholdsArgs, out: &mut dyn Write) -> Result<(), String> {
     match &args.command {
         ThresholdsCommand::Measure(a) => measure(a, out),
+        ThresholdsCommand::Validate(a) => validate::run(a, out),
     }
 }
 
@@ -262,8 +269,13 @@ impl Loaded {
 
 /// Creates `OUT/sub-<ID>`, failing if it exists.
 fn create_folder(a: &MeasureArgs) -> Result<PathBuf, String> {
-    std::fs::create_dir_all(&a.out).map_err(|e| format!("{}: {e}", a.out.display()))?;
-    let dir = a.out.join(format!("sub-{}", a.participant));
+    create_session_folder(&a.out, &a.participant)
+}
+
+/// Creates `out/sub-<participant>`, failing if it exists.
+fn create_session_folder(out: &Path, participant: &str) -> Result<PathBuf, String> {
+    std::fs::create_dir_all(out).map_err(|e| format!("{}: {e}", out.display()))?;
+    let dir = out.join(format!("sub-{participant}"));
     std::fs::create_dir(&dir).map_err(|e| {
         if e.kind() == std::io::ErrorKind::AlreadyExists {
             format!(

@@ -20,22 +20,26 @@
 //! The two frames (full and simplified, rendered for the same gaze) are
 //! turned into luminance (each channel's level through the display's
 //! transfer, weighted 0.2126 / 0.7152 / 0.0722: the Rec. 709 weights,
-//! applied to each channel as if it were a grey level). At every pixel whose
-//! luminance differs (`a` in one frame, `b` in the other) the difference
-//! is a modulation of Michelson contrast `c = |a − b| / (a + b)`. Its
-//! spatial frequency comes from its extent: the longer of the horizontal
-//! and the vertical run of differing pixels through that pixel, in degrees
-//! at that pixel (`run_px / local ppd`), taken as half a cycle, `f = 1 /
-//! (2 · extent)` (the larger extent is the lower frequency, the more
-//! visible one: conservative, like Luebke & Hallen's bounding-sphere
-//! extent). The observer's threshold there is its Geisler–Perry
-//! `CT(f, e)` at the pixel's eccentricity `e` from the gaze. The
-//! difference's visibility is the largest `log10(c / CT(f, e))` over the
-//! frame (a max rule: no probability summation), and the observer names
-//! the simplified interval correctly with its psychometric function's
-//! probability at that value ([`crate::observer::SimulatedObserver::respond_at`]):
-//! at chance (its guess rate) when nothing differs, `p_threshold` when the
-//! most visible pixel is exactly at threshold.
+//! applied to each channel as if it were a grey level). Their difference
+//! `D = A − B` is split into octave bands, Peli's (1990) band-limited
+//! local contrast: band `k` is `G(σ_k) ∗ D − G(2σ_k) ∗ D` (a difference of
+//! Gaussians, σ_k = 0.5, 1, 2, … px while 2σ_k is at most a quarter of the
+//! frame's shorter side, at most 7 bands), divided by the local mean
+//! luminance `G(2σ_k) ∗ (A + B)/2` and by the band's peak gain (0.472:
+//! a grating at the band's peak frequency of contrast `c` gives `c`). The
+//! band's frequency is its peak, `√(ln 4 / 6) / (π σ_k)` cycles per pixel,
+//! in cycles/degree through the local pixels per degree. At every pixel
+//! and band the contrast is set against the observer's Geisler–Perry
+//! threshold `CT(f, e)` at that pixel's eccentricity from the gaze; the
+//! difference's visibility is the largest `log10(c / CT(f, e))` over
+//! pixels and bands (a max rule: no probability summation), and the
+//! observer names the simplified interval correctly with its psychometric
+//! function's probability at that value
+//! ([`crate::observer::SimulatedObserver::respond_at`]): at chance (its
+//! guess rate) when nothing differs, `p_threshold` when the most visible
+//! band is exactly at threshold. A model of a detector, not a person; the
+//! bands are isotropic (no orientation channels) and the frames are taken
+//! as seen for as long as the observer likes.
 
 use rand::seq::SliceRandom;
 use rand::SeedableRng;
@@ -258,24 +262,47 @@ pub fn frame_luminance(rgb: &[u8], transfer: &crate::luminance::Transfer) -> Vec
         .collect()
 }
 
-/// The run of `true` through each index of `mask` along a line of
-/// `len` items `stride` apart from `start`: each gets its run's length.
-fn runs(mask: &[bool], start: usize, len: usize, stride: usize, out: &mut [u32]) {
-    let mut k = 0;
-    while k < len {
-        if !mask[start + k * stride] {
-            k += 1;
-            continue;
-        }
-        let from = k;
-        while k < len && mask[start + k * stride] {
-            k += 1;
-        }
-        for j in from..k {
-            out[start + j * stride] = (k - from) as u32;
+/// `img` (row-major, `w` × `h`) blurred by a Gaussian of `sigma` px, the
+/// edges clamped.
+fn gaussian_blur(img: &[f64], w: usize, h: usize, sigma: f64) -> Vec<f64> {
+    let r = (3.0 * sigma).ceil() as isize;
+    let mut k: Vec<f64> = (-r..=r)
+        .map(|i| (-((i * i) as f64) / (2.0 * sigma * sigma)).exp())
+        .collect();
+    let sum: f64 = k.iter().sum();
+    k.iter_mut().for_each(|v| *v /= sum);
+    let clamp = |v: isize, n: usize| v.clamp(0, n as isize - 1) as usize;
+    let mut across = vec![0.0; w * h];
+    for y in 0..h {
+        let row = &img[y * w..(y + 1) * w];
+        for x in 0..w {
+            across[y * w + x] = k
+                .iter()
+                .enumerate()
+                .map(|(j, kv)| kv * row[clamp(x as isize + j as isize - r, w)])
+                .sum();
         }
     }
+    let mut out = vec![0.0; w * h];
+    for y in 0..h {
+        for x in 0..w {
+            out[y * w + x] = k
+                .iter()
+                .enumerate()
+                .map(|(j, kv)| kv * across[clamp(y as isize + j as isize - r, h) * w + x])
+                .sum();
+        }
+    }
+    out
 }
+
+/// The peak gain of a difference of Gaussians σ and 2σ:
+/// `4^(−1/3) − 4^(−4/3)`.
+const DOG_PEAK_GAIN: f64 = 0.472_470_393_710_577_4;
+
+/// The frequency (cycles per pixel) of that peak for σ = 1 px:
+/// `√(ln 4 / 6) / π`.
+const DOG_PEAK_CYCLES_PER_PX: f64 = 0.153_003_804_715_964_4;
 
 /// The visibility of the difference between the luminance images `a` and
 /// `b` (row-major, `geometry`'s size) to an observer with `csf` looking at
@@ -295,41 +322,51 @@ pub fn difference_visibility(
             format!("must both be {w} × {h}"),
         ));
     }
-    let differs: Vec<bool> = a.iter().zip(b).map(|(x, y)| x != y).collect();
-    let mut across = vec![0u32; w * h];
-    let mut down = vec![0u32; w * h];
-    for y in 0..h {
-        runs(&differs, y * w, w, 1, &mut across);
-    }
-    for x in 0..w {
-        runs(&differs, x, h, w, &mut down);
-    }
     let mut best = DifferenceVisibility {
-        differing_pixels: differs.iter().filter(|&&d| d).count(),
+        differing_pixels: a.iter().zip(b).filter(|(x, y)| x != y).count(),
         max_log10_over_threshold: None,
         at_px: None,
         contrast: None,
         frequency_cpd: None,
         eccentricity_deg: None,
     };
-    for i in (0..w * h).filter(|&i| differs[i]) {
-        let sum = a[i] + b[i];
-        if !(sum.is_finite() && sum > 0.0) {
-            continue;
+    if best.differing_pixels == 0 {
+        return Ok(best);
+    }
+    let d: Vec<f64> = a.iter().zip(b).map(|(x, y)| x - y).collect();
+    let mean: Vec<f64> = a.iter().zip(b).map(|(x, y)| 0.5 * (x + y)).collect();
+    // Each pixel's eccentricity and pixels per degree, once.
+    let at = |i: usize| [(i % w) as f64 + 0.5, (i / w) as f64 + 0.5];
+    let ecc: Vec<f64> = (0..w * h)
+        .map(|i| geometry.eccentricity_deg(at(i), gaze_px))
+        .collect();
+    let ppd: Vec<f64> = (0..w * h).map(|i| geometry.local_ppd(at(i))).collect();
+    let mut sigma = 0.5;
+    let mut fine = gaussian_blur(&d, w, h, sigma);
+    for _ in 0..7 {
+        if 2.0 * sigma > w.min(h) as f64 / 4.0 {
+            break;
         }
-        let c = ((a[i] - b[i]).abs() / sum).min(1.0);
-        let p = [(i % w) as f64 + 0.5, (i / w) as f64 + 0.5];
-        let extent_deg = f64::from(across[i].max(down[i])) / geometry.local_ppd(p);
-        let f = 1.0 / (2.0 * extent_deg);
-        let e = geometry.eccentricity_deg(p, gaze_px);
-        let v = c.log10() - csf.contrast_threshold(f, e).log10();
-        if v.is_finite() && best.max_log10_over_threshold.is_none_or(|m| v > m) {
-            best.max_log10_over_threshold = Some(v);
-            best.at_px = Some([(i % w) as u32, (i / w) as u32]);
-            best.contrast = Some(c);
-            best.frequency_cpd = Some(f);
-            best.eccentricity_deg = Some(e);
+        let coarse = gaussian_blur(&d, w, h, 2.0 * sigma);
+        let local = gaussian_blur(&mean, w, h, 2.0 * sigma);
+        for i in 0..w * h {
+            let band = (fine[i] - coarse[i]).abs();
+            if !(local[i] > 0.0 && band > 0.0) {
+                continue;
+            }
+            let c = (band / (DOG_PEAK_GAIN * local[i])).min(1.0);
+            let f = DOG_PEAK_CYCLES_PER_PX / sigma * ppd[i];
+            let v = c.log10() - csf.contrast_threshold(f, ecc[i]).log10();
+            if v.is_finite() && best.max_log10_over_threshold.is_none_or(|m| v > m) {
+                best.max_log10_over_threshold = Some(v);
+                best.at_px = Some([(i % w) as u32, (i / w) as u32]);
+                best.contrast = Some(c);
+                best.frequency_cpd = Some(f);
+                best.eccentricity_deg = Some(ecc[i]);
+            }
         }
+        fine = coarse;
+        sigma *= 2.0;
     }
     Ok(best)
 }
@@ -375,10 +412,6 @@ mod tests {
         };
         let small = patch(30, 22, 2, 1.0);
         assert_eq!(small.differing_pixels, 4);
-        // Contrast 1 / 21 at the pixel's extent of 2 px.
-        assert!((small.contrast.unwrap() - 1.0 / 21.0).abs() < 1e-12);
-        let ppd = g.local_ppd([31.0, 23.0]);
-        assert!((small.frequency_cpd.unwrap() - ppd / 4.0).abs() < 0.05 * ppd);
         let large = patch(28, 20, 8, 1.0);
         let strong = patch(30, 22, 2, 5.0);
         let far = patch(2, 2, 2, 1.0);
@@ -389,13 +422,49 @@ mod tests {
             far.log10_over_threshold(),
         );
         assert!(l > s && st > s && f < s, "{s} {l} {st} {f}");
-        // By hand: log10(c / CT(f, e)) at the best pixel.
         let e = small.eccentricity_deg.unwrap();
-        let want = (1.0f64 / 21.0).log10()
+        let want = small.contrast.unwrap().log10()
             - csf
                 .contrast_threshold(small.frequency_cpd.unwrap(), e)
                 .log10();
         assert!((s - want).abs() < 1e-12);
+    }
+
+    #[test]
+    fn a_grating_difference_reads_as_its_contrast_at_its_frequency() {
+        // The constants: the peak of exp(−2π²σ²f²) − exp(−8π²σ²f²).
+        let u = 4f64.ln() / 3.0;
+        assert!(((-u).exp() - (-4.0 * u).exp() - DOG_PEAK_GAIN).abs() < 1e-12);
+        let f = (u / (2.0 * std::f64::consts::PI.powi(2))).sqrt();
+        assert!((f - DOG_PEAK_CYCLES_PER_PX).abs() < 1e-12);
+        // A vertical grating of contrast 0.05 at the σ = 4 px band's peak,
+        // added to a uniform field: read there as 0.05 (within 5 %).
+        let g = screen_geometry::Display::seed_17in(256, 128)
+            .geometry()
+            .unwrap();
+        let period = 4.0 / DOG_PEAK_CYCLES_PER_PX;
+        let a = vec![10.0; 256 * 128];
+        let b: Vec<f64> = (0..256 * 128)
+            .map(|i| {
+                let x = (i % 256) as f64 + 0.5;
+                10.0 * (1.0 + 0.05 * (2.0 * std::f64::consts::PI * x / period).sin())
+            })
+            .collect();
+        // A CSF flat in frequency and eccentricity: the largest contrast wins.
+        let flat = foveation::GeislerPerry {
+            ct0: 0.01,
+            alpha: 1e-9,
+            e2_deg: 2.3,
+        };
+        let v = difference_visibility(&a, &b, &g, g.centre_px(), &flat).unwrap();
+        let c = v.contrast.unwrap();
+        assert!((c - 0.05).abs() < 0.0025, "{v:?}");
+        let ppd = g.local_ppd([128.0, 64.0]);
+        let want_f = DOG_PEAK_CYCLES_PER_PX / 4.0 * ppd;
+        assert!(
+            (v.frequency_cpd.unwrap() / want_f - 1.0).abs() < 0.1,
+            "{v:?}"
+        );
     }
 
     #[test]

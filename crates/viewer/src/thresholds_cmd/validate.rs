@@ -122,11 +122,13 @@ struct ValidationFile<'a> {
 
 const NOTE: &str = "SYNTHETIC: a simulated observer answered every trial (headless, the gaze at \
                     the fixation point); no person has run this validation";
-const MODEL: &str = "per pixel, Michelson contrast |a-b|/(a+b) of the two frames' luminance; \
-                     frequency 1/(2 x extent), extent the longer run of differing pixels through \
-                     it in degrees; threshold the observer's Geisler-Perry CT(f, e) at its \
-                     eccentricity from the gaze; the largest log10(c/CT) through the observer's \
-                     Weibull psychometric function (psychophysics::validation)";
+const MODEL: &str = "Peli (1990) band-limited contrast of the two frames' luminance difference: \
+                     octave difference-of-Gaussian bands (sigma 0.5, 1, 2, ... px) over the local \
+                     mean luminance, normalised to a grating's contrast at the band's peak \
+                     frequency; each pixel's and band's log10(c / CT(f, e)) against the observer's \
+                     Geisler-Perry threshold at its eccentricity from the gaze; the largest \
+                     through the observer's Weibull psychometric function (max rule; \
+                     psychophysics::validation)";
 const CLOCKS: &str = "rt_simulated_ms: drawn from the simulated observer's response-time \
                       distribution, on no clock; onset_host_us, response_host_us: this process's \
                       host monotonic clock in the windowed form, n/a headless (no window, no clock)";

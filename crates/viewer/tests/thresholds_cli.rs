@@ -376,6 +376,17 @@ fn without_a_simulated_observer_it_says_what_is_missing() {
     );
 }
 
+/// A 320 × 256 display of the seed 17" screen's size, written into `dir`.
+fn small_display(dir: &std::path::Path) -> std::path::PathBuf {
+    let display = dir.join("small.ron");
+    std::fs::write(
+        &display,
+        "Display(name: \"small\", resolution_px: (320, 256), size_mm: (337.9, 270.3), eye_distance_mm: 540.0)",
+    )
+    .unwrap();
+    display
+}
+
 /// `render --stats` of `method` on the bunny, optionally with `--thresholds`:
 /// (rays cast, triangles drawn, the stats' `thresholds` object).
 fn render_stats(
@@ -383,12 +394,7 @@ fn render_stats(
     method: &str,
     thresholds: Option<&std::path::Path>,
 ) -> (u64, Option<u64>, serde_json::Value) {
-    let display = dir.join("small.ron");
-    std::fs::write(
-        &display,
-        "Display(name: \"small\", resolution_px: (320, 256), size_mm: (337.9, 270.3), eye_distance_mm: 540.0)",
-    )
-    .unwrap();
+    let display = small_display(dir);
     let stats = dir.join("s.json");
     let mut c = gazecast();
     c.args([
@@ -641,12 +647,7 @@ fn validate(
     observer: &str,
     id: &str,
 ) -> (serde_json::Value, std::path::PathBuf, String) {
-    let display = tmp.join("small.ron");
-    std::fs::write(
-        &display,
-        "Display(name: \"small\", resolution_px: (320, 256), size_mm: (337.9, 270.3), eye_distance_mm: 540.0)",
-    )
-    .unwrap();
+    let display = small_display(tmp);
     let out = tmp.join("validation");
     let o = gazecast()
         .args([

@@ -146,6 +146,18 @@ fn read_ron<T: serde::de::DeserializeOwned>(path: &Path, what: &str) -> Result<T
     ron::from_str(&text).map_err(|e| format!("{}: not a {what}: {e}", path.display()))
 }
 
+/// The display's transfer: the photometer table `luminance_table`, or the
+/// documented γ 2.2 curve without one.
+fn read_transfer(luminance_table: Option<&Path>) -> Result<Transfer, String> {
+    match luminance_table {
+        Some(p) => Ok(Transfer::measured(&read_ron::<LuminanceTable>(
+            p,
+            "luminance table",
+        )?)),
+        None => Transfer::gamma(GammaCurve::default()).map_err(|e| e.to_string()),
+    }
+}
+
 /// `session.json`.
 #[derive(Serialize)]
 struct SessionInfo<'a> {
@@ -207,10 +219,7 @@ impl Loaded {
     fn read(a: &MeasureArgs) -> Result<Self, String> {
         let display = crate::config::load_display(&a.display).map_err(|e| e.to_string())?;
         let geometry = display.geometry().map_err(|e| e.to_string())?;
-        let transfer = match &a.luminance_table {
-            Some(p) => Transfer::measured(&read_ron::<LuminanceTable>(p, "luminance table")?),
-            None => Transfer::gamma(GammaCurve::default()).map_err(|e| e.to_string())?,
-        };
+        let transfer = read_transfer(a.luminance_table.as_deref())?;
         // No trial asks for more contrast than the display shows around the
         // background.
         let max_contrast = transfer.max_contrast(a.background_level);

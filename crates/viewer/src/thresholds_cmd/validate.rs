@@ -27,7 +27,7 @@ use std::io::{BufWriter, Write};
 use std::path::PathBuf;
 
 use pipeline::{BackendChoice, Method, Options, Renderer};
-use psychophysics::luminance::{GammaCurve, LuminanceTable, Transfer, TransferKind};
+use psychophysics::luminance::{Transfer, TransferKind};
 use psychophysics::observer::ObserverSpec;
 use psychophysics::validation::{
     analyse, difference_visibility, frame_luminance, DifferenceVisibility, ValidationDesign,
@@ -36,7 +36,7 @@ use psychophysics::validation::{
 use raycast::Camera;
 use serde::Serialize;
 
-use super::{create_session_folder, load_observer, read_ron, software, write_file};
+use super::{create_session_folder, load_observer, read_transfer, software, write_file};
 
 #[derive(Debug, Clone, clap::Args)]
 pub struct ValidateArgs {
@@ -149,10 +149,7 @@ impl Loaded {
     fn read(a: &ValidateArgs) -> Result<Self, String> {
         let display = crate::config::load_display(&a.display).map_err(|e| e.to_string())?;
         let geometry = display.geometry().map_err(|e| e.to_string())?;
-        let transfer = match &a.luminance_table {
-            Some(p) => Transfer::measured(&read_ron::<LuminanceTable>(p, "luminance table")?),
-            None => Transfer::gamma(GammaCurve::default()).map_err(|e| e.to_string())?,
-        };
+        let transfer = read_transfer(a.luminance_table.as_deref())?;
         let thresholds = crate::args::Thresholds::load(&a.thresholds)?;
         let design = ValidationDesign {
             scenes: a.scenes.iter().map(|p| p.display().to_string()).collect(),

@@ -1,6 +1,8 @@
 //! `gazecast thresholds measure`: measure contrast thresholds over a
 //! frequency × eccentricity grid with interleaved QUEST staircases
 //! (`psychophysics`), fit the Geisler–Perry CSF and write a session folder.
+//! (`gazecast thresholds validate`, Luebke & Hallen §6.2's full-against-
+//! simplified validation, is [`validate`].)
 //!
 //! Two forms:
 //!

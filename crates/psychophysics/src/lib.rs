@@ -37,7 +37,11 @@
 //! - [`validation`]: the design and analysis of Luebke & Hallen §6.2's
 //!   validation (simplified against full rendering as a two-interval
 //!   choice; proportion correct against chance with an exact binomial
-//!   interval). Its windowed trials are not built.
+//!   interval), and a simulated observer's model of how visible the
+//!   difference between the two renderings is (Peli's band-limited
+//!   contrast against its Geisler–Perry thresholds), which
+//!   `gazecast thresholds validate --headless` runs. Its windowed trials
+//!   are not built.
 //! - [`participant`]: the file a renderer reads (`thresholds-<ID>.ron`:
 //!   the measured table, the fitted CT0, α, e2, the participant and
 //!   whether it is synthetic), for `gazecast … --thresholds FILE`.

@@ -163,12 +163,44 @@ impl SimulatedObserver {
             .spec
             .csf
             .contrast_threshold(frequency_cpd, eccentricity_deg);
+        self.p_correct_at(contrast.log10() - ct.log10())
+    }
+
+    /// Probability of a correct answer to a stimulus `log10_over_threshold`
+    /// (log10 of its contrast over the observer's threshold for it; 0 at
+    /// threshold gives `p_threshold`, −∞ gives γ).
+    pub fn p_correct_at(&self, log10_over_threshold: f64) -> f64 {
         weibull(
-            contrast.log10() - ct.log10() + self.x_threshold,
+            log10_over_threshold + self.x_threshold,
             self.spec.beta,
             self.spec.lapse_rate,
             self.spec.guess_rate,
         )
+    }
+
+    /// Answers one trial whose stimulus is `log10_over_threshold` (see
+    /// [`SimulatedObserver::p_correct_at`]); NaN is an error, −∞ (nothing
+    /// to see) answers at the guess rate.
+    pub fn respond_at(
+        &mut self,
+        log10_over_threshold: f64,
+    ) -> Result<SyntheticResponse, ParamError> {
+        if log10_over_threshold.is_nan() {
+            return Err(ParamError::new(
+                "log10_over_threshold",
+                log10_over_threshold,
+                "must be a number (−∞: nothing to see)",
+            ));
+        }
+        let p = self.p_correct_at(log10_over_threshold);
+        Ok(self.answer(p))
+    }
+
+    /// A correct answer with probability `p` and a response time.
+    fn answer(&mut self, p: f64) -> SyntheticResponse {
+        let correct = self.rng.random::<f64>() < p;
+        let rt_ms = self.rt.sample(&mut self.rng);
+        SyntheticResponse(Response { correct, rt_ms })
     }
 
     /// Answers one trial. The contrast must be finite and in 0..=1, the
@@ -201,9 +233,7 @@ impl SimulatedObserver {
             ));
         }
         let p = self.p_correct(frequency_cpd, eccentricity_deg, contrast);
-        let correct = self.rng.random::<f64>() < p;
-        let rt_ms = self.rt.sample(&mut self.rng);
-        Ok(SyntheticResponse(Response { correct, rt_ms }))
+        Ok(self.answer(p))
     }
 }
 
@@ -233,6 +263,26 @@ mod tests {
         }
         let rate = hits as f64 / n as f64;
         assert!((rate - 0.82).abs() < 0.025, "{rate}");
+    }
+
+    #[test]
+    fn answers_by_the_contrast_over_its_threshold() {
+        let mut o = SimulatedObserver::from_ron(EXAMPLE).unwrap();
+        assert!((o.p_correct_at(0.0) - 0.82).abs() < 1e-12);
+        assert!((o.p_correct_at(f64::NEG_INFINITY) - 0.5).abs() < 1e-12);
+        assert!(o.p_correct_at(1.0) > 0.98);
+        let ct = o.spec().csf.contrast_threshold(2.0, 5.0);
+        assert!((o.p_correct(2.0, 5.0, 3.0 * ct) - o.p_correct_at(3f64.log10())).abs() < 1e-12);
+        assert_eq!(
+            o.respond_at(f64::NAN).unwrap_err().field,
+            "log10_over_threshold"
+        );
+        let n = 4000;
+        let hits = (0..n)
+            .filter(|_| o.respond_at(f64::NEG_INFINITY).unwrap().0.correct)
+            .count();
+        let rate = hits as f64 / n as f64;
+        assert!((rate - 0.5).abs() < 0.03, "{rate}");
     }
 
     #[test]

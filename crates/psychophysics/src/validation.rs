@@ -9,8 +9,37 @@
 //! schedule ([`ValidationDesign::schedule`], a seeded and balanced order)
 //! and the proportion correct against chance with an exact (Clopper–
 //! Pearson) binomial interval and a one-sided exact binomial test
-//! ([`analyse`]). **The windowed trials (rendering each scene full and
-//! simplified in a gaze-contingent window) are not built.**
+//! ([`analyse`]); and the simulated observer's model of how visible the
+//! difference between the two renderings is ([`difference_visibility`]).
+//! `gazecast thresholds validate --headless` runs it with a simulated
+//! observer; **the windowed trials (a person answering in a
+//! gaze-contingent window) are not built.**
+//!
+//! # The simulated observer's model of detectability
+//!
+//! The two frames (full and simplified, rendered for the same gaze) are
+//! turned into luminance (each channel's level through the display's
+//! transfer, weighted 0.2126 / 0.7152 / 0.0722: the Rec. 709 weights,
+//! applied to each channel as if it were a grey level). Their difference
+//! `D = A − B` is split into octave bands, Peli's (1990) band-limited
+//! local contrast: band `k` is `G(σ_k) ∗ D − G(2σ_k) ∗ D` (a difference of
+//! Gaussians, σ_k = 0.5, 1, 2, … px while 2σ_k is at most a quarter of the
+//! frame's shorter side, at most 7 bands), divided by the local mean
+//! luminance `G(2σ_k) ∗ (A + B)/2` and by the band's peak gain (0.472:
+//! a grating at the band's peak frequency of contrast `c` gives `c`). The
+//! band's frequency is its peak, `√(ln 4 / 6) / (π σ_k)` cycles per pixel,
+//! in cycles/degree through the local pixels per degree. At every pixel
+//! and band the contrast is set against the observer's Geisler–Perry
+//! threshold `CT(f, e)` at that pixel's eccentricity from the gaze; the
+//! difference's visibility is the largest `log10(c / CT(f, e))` over
+//! pixels and bands (a max rule: no probability summation), and the
+//! observer names the simplified interval correctly with its psychometric
+//! function's probability at that value
+//! ([`crate::observer::SimulatedObserver::respond_at`]): at chance (its
+//! guess rate) when nothing differs, `p_threshold` when the most visible
+//! band is exactly at threshold. A model of a detector, not a person; the
+//! bands are isotropic (no orientation channels) and the frames are taken
+//! as seen for as long as the observer likes.
 
 use rand::seq::SliceRandom;
 use rand::SeedableRng;
@@ -197,9 +226,256 @@ pub fn analyse(trials: u32, correct: u32, ci_level: f64) -> Result<ValidationRes
     })
 }
 
+/// How visible the difference between two renderings of one gaze is to
+/// an observer with a given CSF (module doc).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct DifferenceVisibility {
+    /// Pixels whose luminance differs.
+    pub differing_pixels: usize,
+    /// The largest `log10(c / CT(f, e))`; `None` when nothing differs.
+    pub max_log10_over_threshold: Option<f64>,
+    /// Where that is (pixel x, y), its contrast, frequency (cycles/degree)
+    /// and eccentricity (degrees from the gaze).
+    pub at_px: Option<[u32; 2]>,
+    pub contrast: Option<f64>,
+    pub frequency_cpd: Option<f64>,
+    pub eccentricity_deg: Option<f64>,
+}
+
+impl DifferenceVisibility {
+    /// The value the observer's psychometric function takes: −∞ when
+    /// nothing differs.
+    pub fn log10_over_threshold(&self) -> f64 {
+        self.max_log10_over_threshold.unwrap_or(f64::NEG_INFINITY)
+    }
+}
+
+/// Each pixel's luminance (cd/m²) of an 8-bit RGB frame (module doc).
+pub fn frame_luminance(rgb: &[u8], transfer: &crate::luminance::Transfer) -> Vec<f64> {
+    let lut: Vec<f64> = (0..=255u8).map(|l| transfer.luminance(l)).collect();
+    rgb.chunks_exact(3)
+        .map(|p| {
+            0.2126 * lut[usize::from(p[0])]
+                + 0.7152 * lut[usize::from(p[1])]
+                + 0.0722 * lut[usize::from(p[2])]
+        })
+        .collect()
+}
+
+/// `img` (row-major, `w` × `h`) blurred by a Gaussian of `sigma` px, the
+/// edges clamped.
+fn gaussian_blur(img: &[f64], w: usize, h: usize, sigma: f64) -> Vec<f64> {
+    let r = (3.0 * sigma).ceil() as isize;
+    let mut k: Vec<f64> = (-r..=r)
+        .map(|i| (-((i * i) as f64) / (2.0 * sigma * sigma)).exp())
+        .collect();
+    let sum: f64 = k.iter().sum();
+    k.iter_mut().for_each(|v| *v /= sum);
+    let clamp = |v: isize, n: usize| v.clamp(0, n as isize - 1) as usize;
+    let mut across = vec![0.0; w * h];
+    for y in 0..h {
+        let row = &img[y * w..(y + 1) * w];
+        for x in 0..w {
+            across[y * w + x] = k
+                .iter()
+                .enumerate()
+                .map(|(j, kv)| kv * row[clamp(x as isize + j as isize - r, w)])
+                .sum();
+        }
+    }
+    let mut out = vec![0.0; w * h];
+    for y in 0..h {
+        for x in 0..w {
+            out[y * w + x] = k
+                .iter()
+                .enumerate()
+                .map(|(j, kv)| kv * across[clamp(y as isize + j as isize - r, h) * w + x])
+                .sum();
+        }
+    }
+    out
+}
+
+/// The peak gain of a difference of Gaussians σ and 2σ:
+/// `4^(−1/3) − 4^(−4/3)`.
+const DOG_PEAK_GAIN: f64 = 0.472_470_393_710_577_4;
+
+/// The frequency (cycles per pixel) of that peak for σ = 1 px:
+/// `√(ln 4 / 6) / π`.
+const DOG_PEAK_CYCLES_PER_PX: f64 = 0.153_003_804_715_964_4;
+
+/// The visibility of the difference between the luminance images `a` and
+/// `b` (row-major, `geometry`'s size) to an observer with `csf` looking at
+/// `gaze_px` (module doc).
+pub fn difference_visibility(
+    a: &[f64],
+    b: &[f64],
+    geometry: &screen_geometry::ScreenGeometry,
+    gaze_px: [f64; 2],
+    csf: &foveation::GeislerPerry,
+) -> Result<DifferenceVisibility, ParamError> {
+    let (w, h) = (geometry.width_px as usize, geometry.height_px as usize);
+    if a.len() != w * h || b.len() != w * h {
+        return Err(ParamError::new(
+            "frames",
+            format!("{} and {} pixels", a.len(), b.len()),
+            format!("must both be {w} × {h}"),
+        ));
+    }
+    let mut best = DifferenceVisibility {
+        differing_pixels: a.iter().zip(b).filter(|(x, y)| x != y).count(),
+        max_log10_over_threshold: None,
+        at_px: None,
+        contrast: None,
+        frequency_cpd: None,
+        eccentricity_deg: None,
+    };
+    if best.differing_pixels == 0 {
+        return Ok(best);
+    }
+    let d: Vec<f64> = a.iter().zip(b).map(|(x, y)| x - y).collect();
+    let mean: Vec<f64> = a.iter().zip(b).map(|(x, y)| 0.5 * (x + y)).collect();
+    // Each pixel's eccentricity and pixels per degree, once.
+    let at = |i: usize| [(i % w) as f64 + 0.5, (i / w) as f64 + 0.5];
+    let ecc: Vec<f64> = (0..w * h)
+        .map(|i| geometry.eccentricity_deg(at(i), gaze_px))
+        .collect();
+    let ppd: Vec<f64> = (0..w * h).map(|i| geometry.local_ppd(at(i))).collect();
+    let mut sigma = 0.5;
+    let mut fine = gaussian_blur(&d, w, h, sigma);
+    for _ in 0..7 {
+        if 2.0 * sigma > w.min(h) as f64 / 4.0 {
+            break;
+        }
+        let coarse = gaussian_blur(&d, w, h, 2.0 * sigma);
+        let local = gaussian_blur(&mean, w, h, 2.0 * sigma);
+        for i in 0..w * h {
+            let band = (fine[i] - coarse[i]).abs();
+            if !(local[i] > 0.0 && band > 0.0) {
+                continue;
+            }
+            let c = (band / (DOG_PEAK_GAIN * local[i])).min(1.0);
+            let f = DOG_PEAK_CYCLES_PER_PX / sigma * ppd[i];
+            let v = c.log10() - csf.contrast_threshold(f, ecc[i]).log10();
+            if v.is_finite() && best.max_log10_over_threshold.is_none_or(|m| v > m) {
+                best.max_log10_over_threshold = Some(v);
+                best.at_px = Some([(i % w) as u32, (i / w) as u32]);
+                best.contrast = Some(c);
+                best.frequency_cpd = Some(f);
+                best.eccentricity_deg = Some(ecc[i]);
+            }
+        }
+        fine = coarse;
+        sigma *= 2.0;
+    }
+    Ok(best)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    fn geometry() -> screen_geometry::ScreenGeometry {
+        screen_geometry::Display::seed_17in(64, 48)
+            .geometry()
+            .unwrap()
+    }
+
+    #[test]
+    fn nothing_differs_nothing_to_see() {
+        let g = geometry();
+        let a = vec![10.0; 64 * 48];
+        let v = difference_visibility(&a, &a, &g, g.centre_px(), &Default::default()).unwrap();
+        assert_eq!(v.differing_pixels, 0);
+        assert_eq!(v.log10_over_threshold(), f64::NEG_INFINITY);
+        assert_eq!(
+            difference_visibility(&a, &a[1..], &g, g.centre_px(), &Default::default())
+                .unwrap_err()
+                .field,
+            "frames"
+        );
+    }
+
+    #[test]
+    fn a_difference_is_more_visible_larger_stronger_and_nearer_the_gaze() {
+        let g = geometry();
+        let csf = foveation::GeislerPerry::default();
+        let a = vec![10.0; 64 * 48];
+        let patch = |x0: usize, y0: usize, side: usize, delta: f64| {
+            let mut b = a.clone();
+            for y in y0..y0 + side {
+                for x in x0..x0 + side {
+                    b[y * 64 + x] += delta;
+                }
+            }
+            difference_visibility(&a, &b, &g, [32.0, 24.0], &csf).unwrap()
+        };
+        let small = patch(30, 22, 2, 1.0);
+        assert_eq!(small.differing_pixels, 4);
+        let large = patch(28, 20, 8, 1.0);
+        let strong = patch(30, 22, 2, 5.0);
+        let far = patch(2, 2, 2, 1.0);
+        let (s, l, st, f) = (
+            small.log10_over_threshold(),
+            large.log10_over_threshold(),
+            strong.log10_over_threshold(),
+            far.log10_over_threshold(),
+        );
+        assert!(l > s && st > s && f < s, "{s} {l} {st} {f}");
+        let e = small.eccentricity_deg.unwrap();
+        let want = small.contrast.unwrap().log10()
+            - csf
+                .contrast_threshold(small.frequency_cpd.unwrap(), e)
+                .log10();
+        assert!((s - want).abs() < 1e-12);
+    }
+
+    #[test]
+    fn a_grating_difference_reads_as_its_contrast_at_its_frequency() {
+        // The constants: the peak of exp(−2π²σ²f²) − exp(−8π²σ²f²).
+        let u = 4f64.ln() / 3.0;
+        assert!(((-u).exp() - (-4.0 * u).exp() - DOG_PEAK_GAIN).abs() < 1e-12);
+        let f = (u / (2.0 * std::f64::consts::PI.powi(2))).sqrt();
+        assert!((f - DOG_PEAK_CYCLES_PER_PX).abs() < 1e-12);
+        // A vertical grating of contrast 0.05 at the σ = 4 px band's peak,
+        // added to a uniform field: read there as 0.05 (within 5 %).
+        let g = screen_geometry::Display::seed_17in(256, 128)
+            .geometry()
+            .unwrap();
+        let period = 4.0 / DOG_PEAK_CYCLES_PER_PX;
+        let a = vec![10.0; 256 * 128];
+        let b: Vec<f64> = (0..256 * 128)
+            .map(|i| {
+                let x = (i % 256) as f64 + 0.5;
+                10.0 * (1.0 + 0.05 * (2.0 * std::f64::consts::PI * x / period).sin())
+            })
+            .collect();
+        // A CSF flat in frequency and eccentricity: the largest contrast wins.
+        let flat = foveation::GeislerPerry {
+            ct0: 0.01,
+            alpha: 1e-9,
+            e2_deg: 2.3,
+        };
+        let v = difference_visibility(&a, &b, &g, g.centre_px(), &flat).unwrap();
+        let c = v.contrast.unwrap();
+        assert!((c - 0.05).abs() < 0.0025, "{v:?}");
+        let ppd = g.local_ppd([128.0, 64.0]);
+        let want_f = DOG_PEAK_CYCLES_PER_PX / 4.0 * ppd;
+        assert!(
+            (v.frequency_cpd.unwrap() / want_f - 1.0).abs() < 0.1,
+            "{v:?}"
+        );
+    }
+
+    #[test]
+    fn luminance_of_a_frame_uses_the_transfer() {
+        let t = crate::luminance::Transfer::gamma(Default::default()).unwrap();
+        let l = frame_luminance(&[0, 0, 0, 255, 255, 255, 128, 128, 128], &t);
+        assert_eq!(l.len(), 3);
+        assert!((l[0] - t.luminance(0)).abs() < 1e-9);
+        assert!((l[1] - t.luminance(255)).abs() < 1e-9);
+        assert!((l[2] - t.luminance(128)).abs() < 1e-9);
+    }
 
     #[test]
     fn the_schedule_is_balanced_seeded_and_shuffled() {

@@ -1,6 +1,8 @@
 //! `gazecast thresholds measure`: measure contrast thresholds over a
 //! frequency × eccentricity grid with interleaved QUEST staircases
 //! (`psychophysics`), fit the Geisler–Perry CSF and write a session folder.
+//! (`gazecast thresholds validate`, Luebke & Hallen §6.2's full-against-
+//! simplified validation, is [`validate`].)
 //!
 //! Two forms:
 //!
@@ -29,6 +31,7 @@
 //! tracker's bytes), and `trials.tsv` a row per answer. An existing folder
 //! is never overwritten.
 
+mod validate;
 mod window;
 
 use std::io::Write;
@@ -52,6 +55,11 @@ pub struct ThresholdsArgs {
 pub enum ThresholdsCommand {
     /// Measure a participant's thresholds and fit the Geisler–Perry CSF.
     Measure(MeasureArgs),
+    /// Luebke & Hallen §6.2's validation: can the participant tell the
+    /// rendering simplified at their thresholds from the full one?
+    /// Two-interval trials, proportion correct against chance. Headless
+    /// with a simulated observer only: the windowed form is not built.
+    Validate(validate::ValidateArgs),
 }
 
 #[derive(Debug, Clone, clap::Args)]
@@ -140,6 +148,18 @@ fn read_ron<T: serde::de::DeserializeOwned>(path: &Path, what: &str) -> Result<T
     ron::from_str(&text).map_err(|e| format!("{}: not a {what}: {e}", path.display()))
 }
 
+/// The display's transfer: the photometer table `luminance_table`, or the
+/// documented γ 2.2 curve without one.
+fn read_transfer(luminance_table: Option<&Path>) -> Result<Transfer, String> {
+    match luminance_table {
+        Some(p) => Ok(Transfer::measured(&read_ron::<LuminanceTable>(
+            p,
+            "luminance table",
+        )?)),
+        None => Transfer::gamma(GammaCurve::default()).map_err(|e| e.to_string()),
+    }
+}
+
 /// `session.json`.
 #[derive(Serialize)]
 struct SessionInfo<'a> {
@@ -180,6 +200,7 @@ struct FitFile<'a> {
 pub fn run(args: &ThresholdsArgs, out: &mut dyn Write) -> Result<(), String> {
     match &args.command {
         ThresholdsCommand::Measure(a) => measure(a, out),
+        ThresholdsCommand::Validate(a) => validate::run(a, out),
     }
 }
 
@@ -200,10 +221,7 @@ impl Loaded {
     fn read(a: &MeasureArgs) -> Result<Self, String> {
         let display = crate::config::load_display(&a.display).map_err(|e| e.to_string())?;
         let geometry = display.geometry().map_err(|e| e.to_string())?;
-        let transfer = match &a.luminance_table {
-            Some(p) => Transfer::measured(&read_ron::<LuminanceTable>(p, "luminance table")?),
-            None => Transfer::gamma(GammaCurve::default()).map_err(|e| e.to_string())?,
-        };
+        let transfer = read_transfer(a.luminance_table.as_deref())?;
         // No trial asks for more contrast than the display shows around the
         // background.
         let max_contrast = transfer.max_contrast(a.background_level);
@@ -262,8 +280,13 @@ impl Loaded {
 
 /// Creates `OUT/sub-<ID>`, failing if it exists.
 fn create_folder(a: &MeasureArgs) -> Result<PathBuf, String> {
-    std::fs::create_dir_all(&a.out).map_err(|e| format!("{}: {e}", a.out.display()))?;
-    let dir = a.out.join(format!("sub-{}", a.participant));
+    create_session_folder(&a.out, &a.participant)
+}
+
+/// Creates `out/sub-<participant>`, failing if it exists.
+fn create_session_folder(out: &Path, participant: &str) -> Result<PathBuf, String> {
+    std::fs::create_dir_all(out).map_err(|e| format!("{}: {e}", out.display()))?;
+    let dir = out.join(format!("sub-{participant}"));
     std::fs::create_dir(&dir).map_err(|e| {
         if e.kind() == std::io::ErrorKind::AlreadyExists {
             format!(

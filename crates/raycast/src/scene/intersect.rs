@@ -213,7 +213,7 @@ impl Scene {
         // rays of a sparse scene miss the root box). Lanes whose rays
         // share one axis permutation (all of a row's camera rays, nearly
         // always) test a leaf's triangles eight lanes at once
-        // (`leaf_packet`) when more than two of them reach the leaf;
+        // (`leaf_packet`) when more than one of them reaches the leaf;
         // otherwise lane by lane.
         let mut shared: Option<Option<TriLanes>> = None;
         self.bvh4
@@ -226,7 +226,7 @@ impl Scene {
                     TriLanes::new(&wray, active)
                 });
                 match shared {
-                    Some(l) if m.count_ones() > 2 => {
+                    Some(l) if m.count_ones() > 1 => {
                         leaf_packet(tris, first, l, &wray, t_min, m, t_max, &mut st)
                     }
                     _ => {

@@ -149,7 +149,10 @@ impl Scene {
     /// tested against all eight lanes at once, eight lanes per instruction
     /// where the processor has AVX2 (`Bvh4::traverse_packet`); with a
     /// lane-by-lane box test instead, packets were 2–10 % slower than
-    /// single rays.
+    /// single rays. A leaf's triangles are tested against the lanes that
+    /// reach it eight at once too (`tri_lanes`, the same arithmetic per
+    /// lane) when at least two do and all share the watertight test's axis
+    /// permutation: about 1.4× faster on the room than lane by lane.
     ///
     /// [`Bvh4::traverse_packet`]: crate::accel::Bvh4::traverse_packet
     pub fn intersect_packet(

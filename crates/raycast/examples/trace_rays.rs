@@ -1,7 +1,10 @@
 //! Primary-ray throughput: every pixel's ray through a scene's BVH, closest
 //! hit only (no shading), median of 5 passes. Prints one JSON line: the
 //! packets' figures (`rays_per_s`: rows cast eight pixels a packet, as the
-//! renderer does) and the single rays' (`rays_per_s_single`).
+//! renderer does) and the single rays' (`rays_per_s_single`), and the
+//! hierarchy's quality: the interior nodes (`nodes_per_ray`, four boxes
+//! each) and triangles (`triangles_per_ray`) a single ray's walk tests,
+//! per ray (`Scene::traversal_steps`).
 //!
 //! `cargo run --release -p raycast --example trace_rays -- SCENE.ron DISPLAY.ron [--grid] [--dump DIR]`
 //!
@@ -83,6 +86,17 @@ fn main() -> Result<(), String> {
             "packets hit {hits} rays, single rays {single_hits}"
         ));
     }
+    // The hierarchy's quality: per ray, interior nodes (four boxes each)
+    // and triangles tested by the single-ray walk.
+    let (mut nodes, mut tris, mut walked) = (0u64, 0u64, 0u64);
+    for r in &rays {
+        if let Some((n, t)) = scene.traversal_steps(r) {
+            nodes += u64::from(n);
+            tris += u64::from(t);
+            walked += 1;
+        }
+    }
+    let per_ray = |x: u64| x as f64 / walked.max(1) as f64;
     times.sort_by(f64::total_cmp);
     single_times.sort_by(f64::total_cmp);
     let median = times[2];
@@ -106,7 +120,7 @@ fn main() -> Result<(), String> {
         }
     }
     println!(
-        "{{\"scene\":\"{}\",\"accel\":\"{}\",\"triangles\":{},\"rays\":{},\"hits\":{},\"threads\":{},\"seconds\":{:.6},\"rays_per_s\":{:.0},\"rays_per_s_per_thread\":{:.0},\"seconds_single\":{:.6},\"rays_per_s_single\":{:.0}}}",
+        "{{\"scene\":\"{}\",\"accel\":\"{}\",\"triangles\":{},\"rays\":{},\"hits\":{},\"threads\":{},\"seconds\":{:.6},\"rays_per_s\":{:.0},\"rays_per_s_per_thread\":{:.0},\"seconds_single\":{:.6},\"rays_per_s_single\":{:.0},\"nodes_per_ray\":{:.2},\"triangles_per_ray\":{:.2}}}",
         scene.name,
         accel,
         scene.triangles.len(),
@@ -117,7 +131,9 @@ fn main() -> Result<(), String> {
         rays.len() as f64 / median,
         rays.len() as f64 / median / rayon::current_num_threads() as f64,
         single_median,
-        rays.len() as f64 / single_median
+        rays.len() as f64 / single_median,
+        per_ray(nodes),
+        per_ray(tris)
     );
     Ok(())
 }

@@ -182,6 +182,21 @@ impl WatertightRay {
             sz: 1.0 / dz,
         }
     }
+
+    /// The permutation `[kx, ky, kz]`.
+    pub fn axes(&self) -> [usize; 3] {
+        [self.kx, self.ky, self.kz]
+    }
+
+    /// The ray's origin.
+    pub fn origin(&self) -> Vec3 {
+        self.origin
+    }
+
+    /// The shear `[sx, sy, sz]`.
+    pub fn shear(&self) -> [f32; 3] {
+        [self.sx, self.sy, self.sz]
+    }
 }
 
 /// A hit on one triangle: distance and barycentrics of vertices 1 and 2.

@@ -292,3 +292,25 @@ fn a_full_frame_is_the_single_rays_frame() {
         }
     }
 }
+
+/// `Scene::traversal_steps` (what `trace_rays` reports per ray): a ray
+/// that hits the room walks at least one node and tests at least the
+/// triangle it hits; a ray with a zero direction component walks the
+/// binary BVH and is not counted; a ray that misses the root box costs no
+/// node.
+#[test]
+fn traversal_steps_count_a_walk() {
+    let scene = common::load("room");
+    let g = common::display(64, 48).geometry().expect("geometry");
+    let cam = Camera::new(&g);
+    let ray = cam.pixel_ray(32, 24);
+    assert!(scene
+        .intersect(&ray, 0.0, TriangleTest::Watertight)
+        .is_some());
+    let (nodes, tris) = scene.traversal_steps(&ray).expect("not parallel");
+    assert!(nodes >= 1 && tris >= 1, "{nodes} nodes, {tris} triangles");
+    let parallel = Ray::new(ray.origin, Vec3::new(0.0, 0.0, -1.0));
+    assert_eq!(scene.traversal_steps(&parallel), None);
+    let away = Ray::new(Vec3::splat(1.0e6), Vec3::new(1.0, 1.0, 1.0));
+    assert_eq!(scene.traversal_steps(&away), Some((0, 0)));
+}

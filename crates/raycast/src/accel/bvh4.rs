@@ -100,10 +100,18 @@ impl Bvh4 {
     /// current `t_max`; `visit(first, count, t_max)` returns the new `t_max`.
     /// The ray must have no zero direction component (see `Ray::is_parallel`).
     #[inline]
-    pub fn traverse(
+    pub fn traverse(&self, ray: &Ray, t_max: f32, visit: impl FnMut(u32, u32, f32) -> f32) -> f32 {
+        self.traverse_counting(ray, t_max, || {}, visit)
+    }
+
+    /// [`Bvh4::traverse`], calling `on_node` at every interior node it
+    /// tests (for counting traversal steps: `Scene::traversal_steps`).
+    #[inline]
+    pub fn traverse_counting(
         &self,
         ray: &Ray,
         mut t_max: f32,
+        mut on_node: impl FnMut(),
         mut visit: impl FnMut(u32, u32, f32) -> f32,
     ) -> f32 {
         match self.bounds {
@@ -124,6 +132,7 @@ impl Bvh4 {
                 t_max = visit(r, count, t_max);
                 continue;
             }
+            on_node();
             let n = &self.nodes[r as usize];
             let t1x = (Vec4::from(n.min[0]) - ox) * ix;
             let t2x = (Vec4::from(n.max[0]) - ox) * ix;

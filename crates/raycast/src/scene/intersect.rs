@@ -3,10 +3,10 @@
 
 use glam::Vec3;
 
-use super::{Accel, Scene};
+use super::{Accel, Scene, WorldTriangle};
 use crate::accel::bvh4::PACKET;
 use crate::ray::{
-    moller_trumbore, watertight, watertight_det, Aabb, Ray, TriangleTest, WatertightRay,
+    moller_trumbore, watertight, watertight_det, Aabb, Ray, TriHit, TriangleTest, WatertightRay,
 };
 
 /// What a ray hit.
@@ -76,6 +76,34 @@ impl Scene {
         best.map(|(i, t, u, v)| self.hit_of(i, t, u, v))
     }
 
+    /// What a single ray's walk of the 4-wide BVH costs
+    /// ([`Scene::intersect`] with the watertight test): the interior
+    /// nodes whose four boxes it tests and the triangles it tests. `None`
+    /// for a ray with a zero direction component (it walks the binary
+    /// BVH). For measuring the hierarchy's quality (`trace_rays`).
+    pub fn traversal_steps(&self, ray: &Ray) -> Option<(u32, u32)> {
+        if ray.is_parallel() {
+            return None;
+        }
+        let w = WatertightRay::new(ray);
+        let (mut nodes, mut tris) = (0u32, 0u32);
+        self.bvh4.traverse_counting(
+            ray,
+            f32::INFINITY,
+            || nodes += 1,
+            |first, count, mut t_max| {
+                for tri in &self.triangles[first as usize..(first + count) as usize] {
+                    tris += 1;
+                    if let Some(h) = watertight(&w, tri.p[0], tri.p[1], tri.p[2], 0.0, t_max) {
+                        t_max = h.t;
+                    }
+                }
+                t_max
+            },
+        );
+        Some((nodes, tris))
+    }
+
     /// The hit on triangle `i` at `t` with barycentrics `u`, `v`.
     #[inline]
     fn hit_of(&self, i: u32, t: f32, u: f32, v: f32) -> Hit {
@@ -121,7 +149,10 @@ impl Scene {
     /// tested against all eight lanes at once, eight lanes per instruction
     /// where the processor has AVX2 (`Bvh4::traverse_packet`); with a
     /// lane-by-lane box test instead, packets were 2–10 % slower than
-    /// single rays.
+    /// single rays. A leaf's triangles are tested against the lanes that
+    /// reach it eight at once too (`tri_lanes`, the same arithmetic per
+    /// lane) when at least two do and all share the watertight test's axis
+    /// permutation: about 1.4× faster on the room than lane by lane.
     ///
     /// [`Bvh4::traverse_packet`]: crate::accel::Bvh4::traverse_packet
     pub fn intersect_packet(
@@ -175,36 +206,57 @@ impl Scene {
         let mut wray: [Option<WatertightRay>; PACKET] = [None; PACKET];
         // Per lane: the nearest hit (triangle, t, u, v), the second
         // nearest distance, and whether a figure left the safe range.
-        let mut best = [(u32::MAX, f32::INFINITY, 0.0f32, 0.0f32); PACKET];
-        let mut second = [f32::INFINITY; PACKET];
-        let mut unsafe_lanes = 0u32;
+        let mut st = LaneState {
+            best: [(u32::MAX, f32::INFINITY, 0.0f32, 0.0f32); PACKET],
+            second: [f32::INFINITY; PACKET],
+            unsafe_lanes: 0,
+        };
         let mut t_max = [f32::INFINITY; PACKET];
+        // Set up the watertight rays only once a leaf is reached (most
+        // rays of a sparse scene miss the root box). Lanes whose rays
+        // share one axis permutation (all of a row's camera rays, nearly
+        // always) test a leaf's triangles eight lanes at once
+        // (`leaf_packet`) when more than one of them reaches the leaf;
+        // otherwise lane by lane.
+        let mut shared: Option<Option<TriLanes>> = None;
         self.bvh4
             .traverse_packet(&rays[..n], active, &mut t_max, |first, count, m, t_max| {
-                for i in first..first + count {
-                    let tri = &self.triangles[i as usize];
-                    for lane in lanes(m) {
-                        let w = wray[lane].get_or_insert_with(|| WatertightRay::new(&rays[lane]));
-                        let Some((h, det)) =
-                            watertight_det(w, tri.p[0], tri.p[1], tri.p[2], t_min, t_max[lane])
-                        else {
-                            continue;
-                        };
-                        let a = det.abs();
-                        if !((DET_MIN..=DET_MAX).contains(&a) && h.t.is_finite()) {
-                            unsafe_lanes |= 1 << lane;
-                        }
-                        let b = &mut best[lane];
-                        if h.t < b.1 {
-                            second[lane] = b.1;
-                            *b = (i, h.t, h.u, h.v);
-                            t_max[lane] = h.t * (1.0 + LOOK_PAST);
-                        } else if h.t < second[lane] {
-                            second[lane] = h.t;
+                let tris = &self.triangles[first as usize..(first + count) as usize];
+                let shared = shared.get_or_insert_with(|| {
+                    for lane in lanes(active) {
+                        wray[lane] = Some(WatertightRay::new(&rays[lane]));
+                    }
+                    TriLanes::new(&wray, active)
+                });
+                match shared {
+                    Some(l) if m.count_ones() > 1 => {
+                        leaf_packet(tris, first, l, &wray, t_min, m, t_max, &mut st)
+                    }
+                    _ => {
+                        for (k, tri) in tris.iter().enumerate() {
+                            for lane in lanes(m) {
+                                let Some(w) = &wray[lane] else { continue };
+                                let h = watertight_det(
+                                    w,
+                                    tri.p[0],
+                                    tri.p[1],
+                                    tri.p[2],
+                                    t_min,
+                                    t_max[lane],
+                                );
+                                if let Some((h, det)) = h {
+                                    st.record(lane, first + k as u32, h, det, t_max);
+                                }
+                            }
                         }
                     }
                 }
             });
+        let LaneState {
+            best,
+            second,
+            unsafe_lanes,
+        } = st;
         for lane in 0..n {
             let (i, t, u, v) = best[lane];
             let exact = active & (1 << lane) != 0
@@ -260,4 +312,208 @@ fn lanes(mut mask: u32) -> impl Iterator<Item = usize> {
             i
         })
     })
+}
+
+/// A packet's nearest hits so far, per lane.
+struct LaneState {
+    /// (triangle, t, u, v) of the nearest hit; triangle `u32::MAX` if none.
+    best: [(u32, f32, f32, f32); PACKET],
+    /// The second nearest hit's distance.
+    second: [f32; PACKET],
+    /// Lanes a hit's figures took out of the safe range.
+    unsafe_lanes: u32,
+}
+
+impl LaneState {
+    /// Takes lane `lane`'s hit on triangle `i` (with determinant `det`)
+    /// into account and lowers the lane's `t_max`.
+    #[inline(always)]
+    fn record(&mut self, lane: usize, i: u32, h: TriHit, det: f32, t_max: &mut [f32; PACKET]) {
+        let a = det.abs();
+        if !((DET_MIN..=DET_MAX).contains(&a) && h.t.is_finite()) {
+            self.unsafe_lanes |= 1 << lane;
+        }
+        let b = &mut self.best[lane];
+        if h.t < b.1 {
+            self.second[lane] = b.1;
+            *b = (i, h.t, h.u, h.v);
+            t_max[lane] = h.t * (1.0 + LOOK_PAST);
+        } else if h.t < self.second[lane] {
+            self.second[lane] = h.t;
+        }
+    }
+}
+
+/// The watertight test's per-ray figures for eight lanes whose rays share
+/// one axis permutation `kx`, `ky`, `kz`: origin and shear per lane,
+/// structure of arrays (each lane's figures exactly its
+/// [`WatertightRay`]'s).
+struct TriLanes {
+    k: [usize; 3],
+    o: [[f32; PACKET]; 3],
+    s: [[f32; PACKET]; 3],
+}
+
+impl TriLanes {
+    /// `None` unless every active lane's ray has the same permutation.
+    fn new(wray: &[Option<WatertightRay>; PACKET], active: u32) -> Option<Self> {
+        let mut out: Option<Self> = None;
+        for lane in lanes(active) {
+            let w = wray[lane].as_ref()?;
+            let k = w.axes();
+            let l = out.get_or_insert(Self {
+                k,
+                o: [[0.0; PACKET]; 3],
+                s: [[0.0; PACKET]; 3],
+            });
+            if l.k != k {
+                return None;
+            }
+            let (o, s) = (w.origin(), w.shear());
+            for a in 0..3 {
+                // Permuted: o[0] is the origin's kx, o[1] its ky, o[2] its kz.
+                l.o[a][lane] = o[k[a]];
+                l.s[a][lane] = s[a];
+            }
+        }
+        out
+    }
+}
+
+/// A leaf's triangles against the lanes set in `m`, eight lanes at once
+/// ([`leaf_lanes`], with AVX2 where the processor has it); the rare lane
+/// whose edge function is exactly 0 (the double-precision fallback) is
+/// tested alone by [`watertight_det`].
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+fn leaf_packet(
+    tris: &[WorldTriangle],
+    first: u32,
+    l: &TriLanes,
+    wray: &[Option<WatertightRay>; PACKET],
+    t_min: f32,
+    m: u32,
+    t_max: &mut [f32; PACKET],
+    st: &mut LaneState,
+) {
+    for (k, tri) in tris.iter().enumerate() {
+        let r = tri_lanes(tri, l, t_min, t_max);
+        let i = first + k as u32;
+        for lane in lanes(r.redo & m) {
+            let Some(w) = &wray[lane] else { continue };
+            if let Some((h, det)) =
+                watertight_det(w, tri.p[0], tri.p[1], tri.p[2], t_min, t_max[lane])
+            {
+                st.record(lane, i, h, det, t_max);
+            }
+        }
+        for lane in lanes(r.hit & !r.redo & m) {
+            let h = TriHit {
+                t: r.t[lane],
+                u: r.u[lane],
+                v: r.v[lane],
+            };
+            st.record(lane, i, h, r.det[lane], t_max);
+        }
+    }
+}
+
+/// One triangle against eight lanes ([`tri_lanes`]).
+struct LaneHits {
+    /// Lanes that hit within their range (valid where `redo` is clear).
+    hit: u32,
+    /// Lanes with an edge function exactly 0: test alone.
+    redo: u32,
+    t: [f32; PACKET],
+    u: [f32; PACKET],
+    v: [f32; PACKET],
+    det: [f32; PACKET],
+}
+
+/// [`watertight_det`] for one triangle and eight lanes, per lane the same
+/// arithmetic in the same order (so the same bits), written lane-wise so
+/// the compiler vectorises across the lanes; a lane with an edge function
+/// exactly 0 is flagged in `redo` instead of taking the double-precision
+/// fallback.
+#[inline(always)]
+fn tri_lanes_generic(
+    tri: &WorldTriangle,
+    l: &TriLanes,
+    t_min: f32,
+    t_max: &[f32; PACKET],
+) -> LaneHits {
+    let [kx, ky, kz] = l.k;
+    let p = &tri.p;
+    let (p0x, p0y, p0z) = (p[0][kx], p[0][ky], p[0][kz]);
+    let (p1x, p1y, p1z) = (p[1][kx], p[1][ky], p[1][kz]);
+    let (p2x, p2y, p2z) = (p[2][kx], p[2][ky], p[2][kz]);
+    let mut out = LaneHits {
+        hit: 0,
+        redo: 0,
+        t: [0.0; PACKET],
+        u: [0.0; PACKET],
+        v: [0.0; PACKET],
+        det: [0.0; PACKET],
+    };
+    let mut hit = [false; PACKET];
+    let mut redo = [false; PACKET];
+    for i in 0..PACKET {
+        let (ox, oy, oz) = (l.o[0][i], l.o[1][i], l.o[2][i]);
+        let (sx, sy, sz) = (l.s[0][i], l.s[1][i], l.s[2][i]);
+        let (akx, aky, akz) = (p0x - ox, p0y - oy, p0z - oz);
+        let (bkx, bky, bkz) = (p1x - ox, p1y - oy, p1z - oz);
+        let (ckx, cky, ckz) = (p2x - ox, p2y - oy, p2z - oz);
+        let ax = akx - sx * akz;
+        let ay = aky - sy * akz;
+        let bx = bkx - sx * bkz;
+        let by = bky - sy * bkz;
+        let cx = ckx - sx * ckz;
+        let cy = cky - sy * ckz;
+        let u = cx * by - cy * bx;
+        let v = ax * cy - ay * cx;
+        let w = bx * ay - by * ax;
+        redo[i] = (u == 0.0) | (v == 0.0) | (w == 0.0);
+        let outside = ((u < 0.0) | (v < 0.0) | (w < 0.0)) & ((u > 0.0) | (v > 0.0) | (w > 0.0));
+        let det = u + v + w;
+        let t_scaled = u * (sz * akz) + v * (sz * bkz) + w * (sz * ckz);
+        let pos = det > 0.0;
+        let lo = if pos { t_min * det } else { t_max[i] * det };
+        let hi = if pos { t_max[i] * det } else { t_min * det };
+        let inside = (t_scaled > lo) & (t_scaled < hi);
+        hit[i] = !outside & (det != 0.0) & inside;
+        let inv = 1.0 / det;
+        out.t[i] = t_scaled * inv;
+        out.u[i] = v * inv;
+        out.v[i] = w * inv;
+        out.det[i] = det;
+    }
+    for i in 0..PACKET {
+        out.hit |= u32::from(hit[i]) << i;
+        out.redo |= u32::from(redo[i]) << i;
+    }
+    out
+}
+
+/// [`tri_lanes_generic`] compiled with AVX2 enabled.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+fn tri_lanes_avx2(
+    tri: &WorldTriangle,
+    l: &TriLanes,
+    t_min: f32,
+    t_max: &[f32; PACKET],
+) -> LaneHits {
+    tri_lanes_generic(tri, l, t_min, t_max)
+}
+
+/// [`tri_lanes_generic`], with AVX2 where the processor has it.
+#[inline(always)]
+fn tri_lanes(tri: &WorldTriangle, l: &TriLanes, t_min: f32, t_max: &[f32; PACKET]) -> LaneHits {
+    #[cfg(target_arch = "x86_64")]
+    if std::arch::is_x86_feature_detected!("avx2") {
+        // SAFETY: the processor has AVX2 (checked just above), the only
+        // requirement of a `target_feature(enable = "avx2")` function.
+        return unsafe { tri_lanes_avx2(tri, l, t_min, t_max) };
+    }
+    tri_lanes_generic(tri, l, t_min, t_max)
 }

@@ -1265,6 +1265,39 @@ fn face_pixels_differing(
     (face, differ)
 }
 
+/// One trial of `design` on `backend` in a window on `x`, a simulated
+/// participant answering, its screens saved in `shots`, its data in `out`.
+fn one_reference_trial(
+    x: &Xvfb,
+    design: &Path,
+    backend: &str,
+    shots: &Path,
+    out: &Path,
+) -> std::process::Command {
+    let mut c = windowed(x);
+    c.args(["experiment", "run"])
+        .arg(design)
+        .args([
+            "--participant",
+            "P01",
+            "--tracker",
+            "tests/data/mouse-participant.ron",
+            "--display",
+            "tests/data/experiment/display-small.ron",
+            "--backend",
+            backend,
+            "--simulate-participant",
+            "4",
+            "--max-trials",
+            "1",
+            "--screenshots",
+        ])
+        .arg(shots)
+        .arg("--out")
+        .arg(out);
+    c
+}
+
 /// The reference with `detail: Full` is drawn at full resolution whatever
 /// the method: a reference at the corner cell (0, 0), 12° from the gaze at
 /// the centre, in an NE2 search frame equals the full-resolution stimulus
@@ -1279,27 +1312,7 @@ fn a_full_reference_is_drawn_at_full_resolution_under_the_hybrid_method() {
     std::fs::create_dir(&shots).expect("mkdir");
     let x = Xvfb::start();
     let out = tmp.path().join("data");
-    let o = windowed(&x)
-        .args(["experiment", "run"])
-        .arg(&design)
-        .args([
-            "--participant",
-            "P01",
-            "--tracker",
-            "tests/data/mouse-participant.ron",
-            "--display",
-            "tests/data/experiment/display-small.ron",
-            "--backend",
-            "cpu",
-            "--simulate-participant",
-            "4",
-            "--max-trials",
-            "1",
-            "--screenshots",
-        ])
-        .arg(&shots)
-        .arg("--out")
-        .arg(&out)
+    let o = one_reference_trial(&x, &design, "cpu", &shots, &out)
         .output()
         .expect("runs");
     assert!(
@@ -1352,27 +1365,7 @@ fn gpu_search_frames_are_drawn_into_the_experiment_window_without_a_read_back() 
     std::fs::create_dir(&shots).expect("mkdir");
     let x = Xvfb::start_with_screen_file();
     let out = tmp.path().join("data");
-    let mut child = windowed(&x)
-        .args(["experiment", "run"])
-        .arg(&design)
-        .args([
-            "--participant",
-            "P01",
-            "--tracker",
-            "tests/data/mouse-participant.ron",
-            "--display",
-            "tests/data/experiment/display-small.ron",
-            "--backend",
-            "gpu",
-            "--simulate-participant",
-            "4",
-            "--max-trials",
-            "1",
-            "--screenshots",
-        ])
-        .arg(&shots)
-        .arg("--out")
-        .arg(&out)
+    let mut child = one_reference_trial(&x, &design, "gpu", &shots, &out)
         .stdout(std::process::Stdio::piped())
         .stderr(std::process::Stdio::piped())
         .spawn()

@@ -244,6 +244,17 @@ fn small_display(dir: &std::path::Path) -> std::path::PathBuf {
     path
 }
 
+/// A 160 × 128 display file in `dir` (the GPU tests' frames).
+fn tiny_display(dir: &std::path::Path) -> std::path::PathBuf {
+    let path = dir.join("tiny.ron");
+    std::fs::write(
+        &path,
+        "Display(name: \"tiny\", resolution_px: (160, 128), size_mm: (42.24, 33.79), eye_distance_mm: 600.0)",
+    )
+    .expect("write display");
+    path
+}
+
 /// `gazecast view` of the search task on [`small_display`], CPU backend.
 fn small_view(x: &Xvfb, dir: &std::path::Path) -> std::process::Command {
     small_view_on(x, dir, "cpu")
@@ -763,12 +774,7 @@ fn a_lost_x_server_still_closes_the_recording() {
 fn the_summary_counts_the_gpu_traffic_and_the_presentation_upload() {
     let x = Xvfb::start();
     let dir = tempfile::tempdir().expect("tempdir");
-    let display = dir.path().join("tiny.ron");
-    std::fs::write(
-        &display,
-        "Display(name: \"tiny\", resolution_px: (160, 128), size_mm: (42.24, 33.79), eye_distance_mm: 600.0)",
-    )
-    .expect("write display");
+    let display = tiny_display(dir.path());
     let run = |backend: &str| {
         let mut c = windowed(&x);
         c.args([
@@ -842,12 +848,7 @@ fn gpu_frames_are_drawn_into_the_window_exactly_without_a_read_back() {
     use std::time::{Duration, Instant};
     let x = Xvfb::start_with_screen_file();
     let dir = tempfile::tempdir().expect("tempdir");
-    let display = dir.path().join("tiny.ron");
-    std::fs::write(
-        &display,
-        "Display(name: \"tiny\", resolution_px: (160, 128), size_mm: (42.24, 33.79), eye_distance_mm: 600.0)",
-    )
-    .expect("write display");
+    let display = tiny_display(dir.path());
     let shot = dir.path().join("shot.png");
     let mut child = windowed(&x)
         .args([

@@ -178,6 +178,14 @@ struct SessionInfo<'a> {
     window: Option<window::WindowInfo>,
     /// Attempts aborted by the fixation control (0 headless: no gaze).
     aborted_attempts: u32,
+    #[serde(flatten)]
+    setup: SessionSetup<'a>,
+}
+
+/// What every `session.json` states of the design, the display, the fit
+/// and the trials, headless or in a window.
+#[derive(Serialize)]
+struct SessionSetup<'a> {
     design: &'a SessionSpec,
     display: &'a foveation::Display,
     transfer: TransferKind,
@@ -187,6 +195,22 @@ struct SessionInfo<'a> {
     fit_options: FitOptions,
     trials: usize,
     invalid_trials: usize,
+}
+
+impl<'a> SessionSetup<'a> {
+    fn of(loaded: &'a Loaded, a: &MeasureArgs, session: &Session) -> Self {
+        Self {
+            design: &loaded.spec,
+            display: &loaded.display,
+            transfer: loaded.transfer.kind(),
+            max_contrast: loaded.max_contrast,
+            sigma_deg: a.sigma_deg,
+            background_level: a.background_level,
+            fit_options: fit_options(a, &loaded.spec),
+            trials: session.records().len(),
+            invalid_trials: session.records().iter().filter(|r| !r.valid).count(),
+        }
+    }
 }
 
 /// `fit-<ID>.json`.
@@ -407,18 +431,10 @@ fn measure(a: &MeasureArgs, out: &mut dyn Write) -> Result<(), String> {
         completed: true,
         window: None,
         aborted_attempts: 0,
-        design: &loaded.spec,
-        display: &loaded.display,
-        transfer: loaded.transfer.kind(),
-        max_contrast: loaded.max_contrast,
-        sigma_deg: a.sigma_deg,
-        background_level: a.background_level,
-        fit_options: fit_options(a, &loaded.spec),
-        trials: session.records().len(),
-        invalid_trials: session.records().iter().filter(|r| !r.valid).count(),
+        setup: SessionSetup::of(&loaded, a, &session),
     };
     write_session_json(&dir, &info)?;
-    let fitted = fit_and_table(&session, &info.fit_options)?;
+    let fitted = fit_and_table(&session, &info.setup.fit_options)?;
     let who = format!("a simulated observer ({})", observer_path.display());
     write_results(a, &dir, &session, fitted, &who, out)
 }

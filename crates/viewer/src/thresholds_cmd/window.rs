@@ -65,8 +65,8 @@ use winit::keyboard::{Key, NamedKey};
 use winit::window::WindowId;
 
 use super::{
-    create_folder, fit_and_table, fit_options, load_observer, software, trial_row, write_results,
-    write_session_json, Loaded, MeasureArgs, SessionInfo, Shown, TRIALS_HEADER,
+    create_folder, fit_and_table, load_observer, software, trial_row, write_results,
+    write_session_json, Loaded, MeasureArgs, SessionInfo, SessionSetup, Shown, TRIALS_HEADER,
 };
 use crate::gaze_feed::{GazeFeed, GazeSetup, TrackerMsg};
 use crate::screen::Screen;
@@ -908,15 +908,7 @@ pub(super) fn run(a: &MeasureArgs, out: &mut dyn Write) -> Result<(), String> {
             simulated_fixation_breaks: a.simulate_fixation_breaks,
         }),
         aborted_attempts: m.control.aborts_total(),
-        design: &loaded.spec,
-        display: &loaded.display,
-        transfer: loaded.transfer.kind(),
-        max_contrast: loaded.max_contrast,
-        sigma_deg: a.sigma_deg,
-        background_level: a.background_level,
-        fit_options: fit_options(a, &loaded.spec),
-        trials: m.session.records().len(),
-        invalid_trials: m.session.records().iter().filter(|r| !r.valid).count(),
+        setup: SessionSetup::of(&loaded, a, &m.session),
     };
     if let Some(e) = m.error.take() {
         let _ = write_session_json(&m.dir, &info);
@@ -948,7 +940,7 @@ pub(super) fn run(a: &MeasureArgs, out: &mut dyn Write) -> Result<(), String> {
     write_session_json(&m.dir, &info)?;
     // A fit that fails (too few trials, thresholds that do not rise with
     // frequency) leaves the session's files: a finding, not a failed run.
-    match fit_and_table(&m.session, &info.fit_options) {
+    match fit_and_table(&m.session, &info.setup.fit_options) {
         Ok(fitted) => write_results(a, &m.dir, &m.session, fitted, &who, out),
         Err(e) => writeln!(
             out,

@@ -181,7 +181,7 @@ pub const PACKET: usize = 8;
 
 /// The lanes set in `mask`, lowest first.
 #[inline]
-fn lanes(mut mask: u32) -> impl Iterator<Item = usize> {
+pub(crate) fn lanes(mut mask: u32) -> impl Iterator<Item = usize> {
     std::iter::from_fn(move || {
         (mask != 0).then(|| {
             let i = mask.trailing_zeros() as usize;

@@ -305,10 +305,18 @@ impl GpuRenderer {
 
     /// Replaces the scene on the device with `scene` as posed for the
     /// next frame (a moving scene, its BVH rebuilt on the CPU for the
-    /// pose): its BVH, triangles, materials and lights are uploaded again
-    /// (the gamma table is kept) and the cast's bind group remade. The
-    /// bytes count in the traffic of whoever measures around it.
+    /// pose): its BVH, triangles, materials and lights are written into the
+    /// buffers already there, or, when the pose's BVH outgrows them, into
+    /// new ones (the gamma table is kept) and the cast's bind group is
+    /// remade. The bytes count in the traffic of whoever measures around
+    /// it.
     pub fn set_scene(&mut self, scene: &Scene) -> Result<(), GpuError> {
+        let c = scene.background;
+        self.background = [c.x, c.y, c.z];
+        self.background_rgb8 = scene.background_rgb8;
+        if self.scene.rewrite(&self.queue, &self.traffic, scene) {
+            return Ok(());
+        }
         self.scene = SceneBuffers::upload_with(
             &self.device,
             &self.traffic,
@@ -316,9 +324,6 @@ impl GpuRenderer {
             self.max_binding,
             Some(self.scene.gamma.clone()),
         )?;
-        let c = scene.background;
-        self.background = [c.x, c.y, c.z];
-        self.background_rgb8 = scene.background_rgb8;
         if let Some(t) = &mut self.target {
             t.bind_group = buffers::cast_group(
                 &self.device,

@@ -161,7 +161,8 @@ impl SceneBuffers {
                 &wgpu::util::BufferInitDescriptor {
                     label: Some(what),
                     contents: bytes,
-                    usage: wgpu::BufferUsages::STORAGE,
+                    // A moving scene's next pose is written into them.
+                    usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
                 },
             ))
         };
@@ -181,5 +182,36 @@ impl SceneBuffers {
             n_lights: scene.lights.len() as u32,
             n_materials: scene.object_materials.len() as u32,
         })
+    }
+
+    /// Writes `scene` (another pose of the scene these buffers hold) into
+    /// them when each of its BVH, triangles, materials and lights fits
+    /// (a rebuilt BVH may have more nodes); `false`, writing nothing, when
+    /// one does not. Nodes past the new BVH's are never reached.
+    pub fn rewrite(
+        &mut self,
+        queue: &wgpu::Queue,
+        traffic: &TrafficCounter,
+        scene: &Scene,
+    ) -> bool {
+        let triangles = triangles(scene);
+        let materials = object_materials(scene);
+        let lights = lights(scene);
+        let parts: [(&wgpu::Buffer, &[u8]); 4] = [
+            (&self.bvh, bytemuck::cast_slice(&scene.bvh.nodes)),
+            (&self.triangles, bytemuck::cast_slice(&triangles)),
+            (&self.object_materials, bytemuck::cast_slice(&materials)),
+            (&self.lights, bytemuck::cast_slice(&lights)),
+        ];
+        if parts.iter().any(|(b, bytes)| bytes.len() as u64 > b.size()) {
+            return false;
+        }
+        for (b, bytes) in parts {
+            traffic.write_buffer(queue, b, 0, bytes);
+        }
+        self.n_triangles = scene.triangles.len() as u32;
+        self.n_lights = scene.lights.len() as u32;
+        self.n_materials = scene.object_materials.len() as u32;
+        true
     }
 }

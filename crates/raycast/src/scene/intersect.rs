@@ -4,7 +4,7 @@
 use glam::Vec3;
 
 use super::{Accel, Scene, WorldTriangle};
-use crate::accel::bvh4::PACKET;
+use crate::accel::bvh4::{lanes, PACKET};
 use crate::ray::{
     moller_trumbore, watertight, watertight_det, Aabb, Ray, TriHit, TriangleTest, WatertightRay,
 };
@@ -301,18 +301,6 @@ fn well_conditioned(ray: &Ray, bounds: &Aabb) -> bool {
 const D_MIN: f32 = 1.0 / 1_048_576.0; // 2^-20
 const D_MAX: f32 = 1_073_741_824.0; // 2^30
 const F_MAX: f32 = 1.267_650_6e30; // 2^100
-
-/// The lanes set in `mask`, lowest first.
-#[inline]
-fn lanes(mut mask: u32) -> impl Iterator<Item = usize> {
-    std::iter::from_fn(move || {
-        (mask != 0).then(|| {
-            let i = mask.trailing_zeros() as usize;
-            mask &= mask - 1;
-            i
-        })
-    })
-}
 
 /// A packet's nearest hits so far, per lane.
 struct LaneState {

@@ -57,6 +57,10 @@ pub(super) struct GpuPresent {
     overlay: wgpu::Buffer,
     overlay_size: (u32, u32),
     overlay_origin: (u32, u32),
+    /// The bind group and the frame buffer it was made for: made again
+    /// only when the renderer's buffer or the overlay's changes, not per
+    /// frame.
+    group: Option<(wgpu::Buffer, wgpu::BindGroup)>,
 }
 
 fn storage_entry(binding: u32) -> wgpu::BindGroupLayoutEntry {
@@ -149,6 +153,7 @@ impl GpuPresent {
             overlay: overlay_buffer(device, 4),
             overlay_size: (0, 0),
             overlay_origin: (0, 0),
+            group: None,
         }
     }
 
@@ -169,6 +174,7 @@ impl GpuPresent {
         let bytes: &[u8] = bytemuck::cast_slice(o.words);
         if self.overlay.size() < bytes.len() as u64 {
             self.overlay = overlay_buffer(device, bytes.len() as u64);
+            self.group = None;
         }
         queue.write_buffer(&self.overlay, 0, bytes);
         self.overlay_size = o.size;
@@ -202,24 +208,27 @@ impl GpuPresent {
             self.written = Some(sizes);
             uploaded = std::mem::size_of::<Sizes>() as u64;
         }
-        let group = device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("present"),
-            layout: &self.layout,
-            entries: &[
-                wgpu::BindGroupEntry {
-                    binding: 0,
-                    resource: self.sizes.as_entire_binding(),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 1,
-                    resource: pixels.as_entire_binding(),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 2,
-                    resource: self.overlay.as_entire_binding(),
-                },
-            ],
-        });
+        if self.group.as_ref().is_none_or(|(b, _)| b != pixels) {
+            let group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some("present"),
+                layout: &self.layout,
+                entries: &[
+                    wgpu::BindGroupEntry {
+                        binding: 0,
+                        resource: self.sizes.as_entire_binding(),
+                    },
+                    wgpu::BindGroupEntry {
+                        binding: 1,
+                        resource: pixels.as_entire_binding(),
+                    },
+                    wgpu::BindGroupEntry {
+                        binding: 2,
+                        resource: self.overlay.as_entire_binding(),
+                    },
+                ],
+            });
+            self.group = Some((pixels.clone(), group));
+        }
         let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
             label: Some("present"),
         });
@@ -241,8 +250,11 @@ impl GpuPresent {
                 multiview_mask: None,
             });
             pass.set_pipeline(&self.pipeline);
-            pass.set_bind_group(0, &group, &[]);
-            pass.draw(0..3, 0..1);
+            // Made just above.
+            if let Some((_, group)) = &self.group {
+                pass.set_bind_group(0, group, &[]);
+                pass.draw(0..3, 0..1);
+            }
         }
         (encoder.finish(), uploaded)
     }

@@ -12,6 +12,8 @@ echo "== cargo fmt --check" >&2
 cargo fmt --all -- --check
 echo "== cargo clippy --all-targets -- -D warnings" >&2
 cargo clippy --workspace --all-targets --quiet -- -D warnings
+echo "== the user guide (mdbook build docs)" >&2
+scripts/mdbook.sh
 echo "== cargo test" >&2
 # The GPU tests run on Mesa's lavapipe where there is no GPU; its Wayland
 # probe prints "XDG_RUNTIME_DIR is invalid" on headless machines unless the

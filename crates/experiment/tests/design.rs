@@ -516,3 +516,118 @@ fn bad_practice_names_the_field() {
         "practice.condition"
     );
 }
+
+/// The guide's design-file reference (docs/src/experiments/design-reference.md,
+/// written by scripts/design-reference.py) lists exactly the fields and
+/// variants the code reads: serde's own lists, captured by a deserializer
+/// that records what it is asked for.
+mod reference_page {
+    use experiment::design::{
+        BidsMetadata, Breaks, Calibration, Condition, Counterbalancing, Design, DriftCheck, Factor,
+        Practice, Reference, ReferenceCell, ReferenceDetail, Response, RunOrder, Stimulus,
+    };
+    use serde::de::{self, DeserializeOwned, Visitor};
+    use std::collections::{BTreeMap, BTreeSet};
+
+    const PAGE: &str = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../../docs/src/experiments/design-reference.md"
+    );
+
+    /// Records the name and field (or variant) list serde asks for, then
+    /// stops the deserialisation.
+    struct Introspect<'a>(&'a mut Option<(&'static str, &'static [&'static str])>);
+
+    impl<'de> de::Deserializer<'de> for Introspect<'_> {
+        type Error = de::value::Error;
+
+        fn deserialize_any<V: Visitor<'de>>(self, _: V) -> Result<V::Value, Self::Error> {
+            Err(de::Error::custom("introspection only"))
+        }
+
+        fn deserialize_struct<V: Visitor<'de>>(
+            self,
+            name: &'static str,
+            fields: &'static [&'static str],
+            _: V,
+        ) -> Result<V::Value, Self::Error> {
+            *self.0 = Some((name, fields));
+            Err(de::Error::custom("introspection only"))
+        }
+
+        fn deserialize_enum<V: Visitor<'de>>(
+            self,
+            name: &'static str,
+            variants: &'static [&'static str],
+            _: V,
+        ) -> Result<V::Value, Self::Error> {
+            *self.0 = Some((name, variants));
+            Err(de::Error::custom("introspection only"))
+        }
+
+        serde::forward_to_deserialize_any! {
+            bool i8 i16 i32 i64 i128 u8 u16 u32 u64 u128 f32 f64 char str string
+            bytes byte_buf option unit unit_struct newtype_struct seq tuple
+            tuple_struct map identifier ignored_any
+        }
+    }
+
+    fn names<T: DeserializeOwned>() -> (String, BTreeSet<String>) {
+        let mut seen = None;
+        let _ = T::deserialize(Introspect(&mut seen));
+        let (name, fields) = seen.expect("a struct or enum asks for its fields");
+        (
+            name.to_string(),
+            fields.iter().map(|f| f.to_string()).collect(),
+        )
+    }
+
+    /// `## \`Name\`` sections and the first cell of their table rows.
+    fn page_sections() -> BTreeMap<String, BTreeSet<String>> {
+        let text = std::fs::read_to_string(PAGE).expect("read the design-file reference page");
+        let mut sections = BTreeMap::new();
+        let mut current: Option<String> = None;
+        for line in text.lines() {
+            if let Some(name) = line.strip_prefix("## `") {
+                let name = name.trim_end_matches('`').to_string();
+                sections.insert(name.clone(), BTreeSet::new());
+                current = Some(name);
+            } else if let (Some(name), Some(row)) = (&current, line.strip_prefix("| `")) {
+                let cell = row.split('`').next().unwrap_or_default();
+                let ident = cell.split('(').next().unwrap_or_default().to_string();
+                sections.get_mut(name).expect("section").insert(ident);
+            }
+        }
+        sections
+    }
+
+    #[test]
+    fn design_reference_lists_every_field() {
+        let code: BTreeMap<String, BTreeSet<String>> = [
+            names::<Design>(),
+            names::<Factor>(),
+            names::<Condition>(),
+            names::<Stimulus>(),
+            names::<Reference>(),
+            names::<Response>(),
+            names::<Breaks>(),
+            names::<Calibration>(),
+            names::<DriftCheck>(),
+            names::<Practice>(),
+            names::<BidsMetadata>(),
+            names::<Counterbalancing>(),
+            names::<RunOrder>(),
+            names::<ReferenceCell>(),
+            names::<ReferenceDetail>(),
+        ]
+        .into_iter()
+        .collect();
+        let page = page_sections();
+        assert_eq!(
+            page, code,
+            "docs/src/experiments/design-reference.md is out of date with \
+             crates/experiment/src/design.rs: run scripts/design-reference.py > \
+             docs/src/experiments/design-reference.md"
+        );
+    }
+}

@@ -20,6 +20,8 @@ ENUMS = ["Counterbalancing", "RunOrder", "ReferenceCell", "ReferenceDetail"]
 
 
 def clean(text):
+    # a fenced example inside a doc comment becomes one inline code span
+    text = re.sub(r"```\w*\s*(.*?)\s*```", lambda m: "`" + " ".join(m.group(1).split()) + "`", text)
     # rustdoc links [`x`] / [`x`](y) / [x] become plain code
     text = re.sub(r"\[`([^`]+)`\](\([^)]*\))?", r"`\1`", text)
     text = re.sub(r"\[([A-Za-z_:]+)\]", r"`\1`", text)

@@ -107,18 +107,24 @@ impl AccuracyAccumulator {
     }
 }
 
-/// Lee's velocity thresholds (normalised screen units per 60-Hz frame).
+/// Gaze speed below which a frame is a fixation: Lee's velocity thresholds
+/// are in normalised screen units (screen sizes) per 60-Hz frame.
 pub const FIXATION_BELOW: f64 = 0.03;
+/// Gaze speed above which a frame is a saccade (same units as [`FIXATION_BELOW`]).
 pub const SACCADE_ABOVE: f64 = 0.1;
 
 /// Lee's eye states (§3.5.2).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum EyeState {
+    /// No gaze this frame (no valid sample).
     Blink,
     /// No velocity: the first frame, or the first after a blink.
     Start,
+    /// Gaze speed above [`SACCADE_ABOVE`] (or not finite).
     Saccade,
+    /// Gaze speed between [`FIXATION_BELOW`] and [`SACCADE_ABOVE`].
     Drift,
+    /// Gaze speed below [`FIXATION_BELOW`].
     Fixation,
 }
 

@@ -1,4 +1,5 @@
-//! # attention — which object is the observer looking at?
+//! Decides which object of a rendered scene the observer is looking at:
+//! per-frame saliency maps and object-level attention tracking.
 //!
 //! Saliency maps and object-level attention tracking after Lee 2009,
 //! chapter 3 (`shared/seeds/lee-2009-attention-tracking-perceptual-rendering.txt`;
@@ -168,6 +169,8 @@
 //! at 256², 0.97 ms at 64², §3.4, §7.2) exclude producing the RGB, depth
 //! and item-buffer images; here those arrive at frame size and the
 //! downsampling to the map is part of the measured time.
+
+#![warn(missing_docs)]
 
 pub mod config;
 pub mod context;

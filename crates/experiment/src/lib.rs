@@ -20,6 +20,8 @@
 //! The reference design is Murphy (2007), *Hybrid Image-/Model-Based
 //! Gaze-Contingent Rendering*, ch. 7: `config/experiments/murphy2007-search.ron`.
 
+#![warn(missing_docs)]
+
 pub mod analysis;
 pub mod bids;
 pub mod counterbalance;

@@ -1,4 +1,6 @@
-//! # foveation — the perceptual maths of gazecast
+//! The perceptual maths of gazecast: how finely a point of the screen must
+//! be sampled for a given gaze (contrast sensitivity, ray masks, sampling
+//! bounds, perceptibility) and how good a foveated frame is.
 //!
 //! Pure functions and data, no I/O, no GPU. Every formula cites the seed
 //! section it implements (the seeds are in `shared/seeds/`).
@@ -22,6 +24,8 @@
 //! coordinates are pixels from the top-left corner, y down. Functions return
 //! NaN only when given NaN; parameters that make no sense are a [`ParamError`]
 //! naming the field.
+
+#![warn(missing_docs)]
 
 pub mod bound;
 pub mod csf;

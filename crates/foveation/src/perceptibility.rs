@@ -205,10 +205,12 @@ impl ThresholdTable {
         Self::new(frequencies, eccentricities, rows).unwrap_or_else(|_| self.clone())
     }
 
+    /// The table's spatial frequencies (cycles/degree), ascending: its rows.
     pub fn frequencies_cpd(&self) -> &[f64] {
         &self.frequencies_cpd
     }
 
+    /// The table's eccentricities (degrees), ascending: its columns.
     pub fn eccentricities_deg(&self) -> &[f64] {
         &self.eccentricities_deg
     }

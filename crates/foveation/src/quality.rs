@@ -40,7 +40,9 @@ pub const REGION_RADII_DEG: [f64; 3] = [2.0, 5.0, 10.0];
 /// values it was taken over.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub struct ErrorSum {
+    /// Sum of squared errors (8-bit units²), weighted.
     pub squared: f64,
+    /// Number of values summed, or the sum of their weights.
     pub weight: f64,
 }
 
@@ -78,6 +80,7 @@ pub fn psnr_db(mse: f64) -> f64 {
 /// Error of one frame (or of several merged frames) against its reference.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub struct Quality {
+    /// Every pixel of the screen.
     pub screen: ErrorSum,
     /// Pixels within [`REGION_RADII_DEG`] of the gaze.
     pub within: [ErrorSum; 3],
@@ -85,6 +88,7 @@ pub struct Quality {
     pub foveated: ErrorSum,
     /// Pixels whose hit/miss differs from the reference.
     pub hit_mismatch: u64,
+    /// Pixels compared.
     pub pixels: u64,
 }
 
@@ -109,9 +113,13 @@ impl Quality {
 /// An 8-bit RGB image with its per-pixel hit/miss.
 #[derive(Debug, Clone, Copy)]
 pub struct Image<'a> {
+    /// Width, pixels.
     pub width: u32,
+    /// Height, pixels.
     pub height: u32,
+    /// Colour, 3 bytes (R, G, B) per pixel, rows top to bottom.
     pub rgb: &'a [u8],
+    /// Whether each pixel's ray hit a surface, same order as `rgb`.
     pub hit: &'a [bool],
 }
 

@@ -12,7 +12,9 @@ pub const SEED_MAX_SPACING_PX: f64 = 17.0;
 /// allowed ray spacing at a screen point for a given point of regard.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct SamplingModel {
+    /// The display and the eye's position.
     pub geometry: ScreenGeometry,
+    /// The contrast-sensitivity model giving the cut-off frequency.
     pub csf: GeislerPerry,
     /// Michelson contrast C of the worst-case stimulus (1 = the seed's choice).
     pub contrast: f64,
@@ -201,6 +203,7 @@ pub struct PorSampler {
 }
 
 impl PorSampler {
+    /// The point of regard the sampler was made for, screen pixels.
     pub fn por_px(&self) -> [f64; 2] {
         self.por_px
     }

@@ -32,6 +32,7 @@ impl Default for EyeLens {
 pub const K_SIGMA: f64 = 2.0 / 3.0;
 
 impl EyeLens {
+    /// Checks that every length is positive and finite; the error names the field.
     pub fn validate(&self) -> Result<(), ParamError> {
         positive("focal_length_mm", self.focal_length_mm)?;
         positive("aperture_mm", self.aperture_mm)?;

@@ -163,7 +163,10 @@ impl AttemptTiming {
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub enum AbortReason {
     /// A sample outside the window, this far (degrees) from the target.
-    LeftWindow { offset_deg: f64 },
+    LeftWindow {
+        /// Distance of the sample from the target, degrees.
+        offset_deg: f64,
+    },
     /// An invalid sample (a blink, a lost eye, gaze off the screen).
     InvalidSample,
     /// No sample reached the end of the stimulus within `sample_wait_ms`.
@@ -198,15 +201,27 @@ pub enum AttemptPhase {
     /// Waiting for steady fixation; `inside_since_us`: the first of the
     /// current run of samples inside the window.
     Fixating {
+        /// When the attempt started, µs (the control's clock).
         started_us: u64,
+        /// The first sample of the current run inside the window, µs; `None`
+        /// while the gaze is outside.
         inside_since_us: Option<u64>,
     },
     /// The two intervals, from `onset_us`.
-    Presenting { onset_us: u64 },
+    Presenting {
+        /// The stimulus onset, µs (the control's clock).
+        onset_us: u64,
+    },
     /// The intervals are over; waiting for the samples up to their end.
-    Checking { onset_us: u64 },
+    Checking {
+        /// The stimulus onset, µs (the control's clock).
+        onset_us: u64,
+    },
     /// The stimulus was seen with the gaze in the window throughout.
-    Clean { onset_us: u64 },
+    Clean {
+        /// The stimulus onset, µs (the control's clock).
+        onset_us: u64,
+    },
     /// Aborted; [`FixationControl::start`] begins the next attempt.
     Aborted(Abort),
 }

@@ -1,4 +1,6 @@
-//! # psychophysics — measuring a participant's contrast thresholds
+//! Measures a participant's contrast thresholds for Gabor patches over a
+//! grid of spatial frequency × eccentricity (QUEST or staircases, with
+//! gaze-contingent fixation control) and fits the foveation models to them.
 //!
 //! **This is a procedure no person has yet run.** It was built and checked
 //! against a simulated observer only; every figure below is synthetic, and
@@ -97,6 +99,8 @@
 //! QUEST's (only its lapse rate differs, 2 % against 1 %), so these figures
 //! are a best case: a real observer's slope, criterion shifts, fatigue and
 //! fixation breaks are not modelled.
+
+#![warn(missing_docs)]
 
 pub mod fit;
 pub mod fixation;

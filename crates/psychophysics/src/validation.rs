@@ -131,7 +131,9 @@ pub struct ValidationResult {
     pub proportion_correct: f64,
     /// The exact (Clopper–Pearson) interval of the proportion.
     pub ci_low: f64,
+    /// Upper end of the exact interval of the proportion.
     pub ci_high: f64,
+    /// Confidence level of `ci_low`..`ci_high` (from the configuration, in (0, 1)).
     pub ci_level: f64,
     /// One-sided exact binomial test against chance (0.5): P(X ≥ correct).
     pub p_value: f64,
@@ -237,8 +239,11 @@ pub struct DifferenceVisibility {
     /// Where that is (pixel x, y), its contrast, frequency (cycles/degree)
     /// and eccentricity (degrees from the gaze).
     pub at_px: Option<[u32; 2]>,
+    /// Contrast of the largest difference (Michelson).
     pub contrast: Option<f64>,
+    /// Spatial frequency of the largest difference, cycles/degree.
     pub frequency_cpd: Option<f64>,
+    /// Eccentricity of the largest difference, degrees from the gaze.
     pub eccentricity_deg: Option<f64>,
 }
 

@@ -1,5 +1,7 @@
-//! Loading RON configuration files with errors that name the file, the
-//! line and the field: [`load`] and [`parse`] locate serde's errors, and
+//! Loads gazecast's RON configuration files, with errors that name the
+//! file, the line and the field.
+//!
+//! [`load`] and [`parse`] locate serde's errors, and
 //! [`invalid_field`] places a value that parsed but makes no sense at its
 //! field's line (`objects[3].mesh`, `size_mm.1`), found in the text by a
 //! small RON scanner (comments, nesting, list elements on a shared line).
@@ -9,6 +11,8 @@
 //! trackers, calibrations) goes through it; files are read with
 //! [`input_file`] (a regular file, at most [`input_file::CONFIG`] bytes).
 
+#![warn(missing_docs)]
+
 use std::path::{Path, PathBuf};
 
 use serde::de::DeserializeOwned;
@@ -16,18 +20,29 @@ use serde::de::DeserializeOwned;
 /// A configuration file that could not be used.
 #[derive(Debug, thiserror::Error)]
 pub enum ConfigError {
+    /// The file could not be read (missing, not a regular file, too large, I/O error).
     #[error("{path}: cannot read the file: {source}")]
     Read {
+        /// The file as the caller named it.
         path: PathBuf,
+        /// The reading error, from [`input_file`].
         source: std::io::Error,
     },
+    /// The file was read but is not valid RON for the expected type, or a
+    /// value in it makes no sense ([`invalid_field`]).
     #[error("{path}:{line}:{column}: {field_note}{message}")]
     Invalid {
+        /// The file as the caller named it.
         path: PathBuf,
+        /// 1-based line of the error; 0 when unknown.
         line: usize,
+        /// 1-based column of the error; 0 when unknown.
         column: usize,
+        /// Dotted path of the field the error is about (`objects[3].mesh`), when known.
         field: Option<String>,
+        /// "field `NAME`: " when the field is known, else empty (the message's prefix).
         field_note: String,
+        /// What is wrong, with long numbers shortened.
         message: String,
     },
 }

@@ -1,9 +1,9 @@
-//! # screen-geometry — where the pixels are and where the eye is
-//!
 //! The display geometry gazecast's crates share: a [`Display`] as a lab
 //! describes it (`config/displays/*.ron`), its validated [`ScreenGeometry`]
 //! (pixel pitch, eye position), and the visual angle between two screen
-//! points seen from the eye. `foveation` (the perceptual maths) and
+//! points seen from the eye.
+//!
+//! `foveation` (the perceptual maths) and
 //! `tracker-hal` (gaze sources, calibration) both need it and know nothing
 //! of each other, so it lives here, below both; `foveation` re-exports it
 //! (`foveation::Display`, `foveation::ScreenGeometry`,
@@ -13,6 +13,8 @@
 //! screen centre) at `eye_distance_mm`. Screen coordinates are pixels with the
 //! origin at the top-left corner, x to the right, y down; a pixel's centre is at
 //! `(x + 0.5, y + 0.5)`.
+
+#![warn(missing_docs)]
 
 use serde::{Deserialize, Serialize};
 
@@ -31,6 +33,8 @@ pub struct ParamError {
 }
 
 impl ParamError {
+    /// An error about `field` (its dotted path), which had `value` (formatted
+    /// for the message), saying `reason`.
     pub fn new(
         field: &'static str,
         value: impl std::fmt::Display,
@@ -230,11 +234,17 @@ impl Display {
 /// Validated, derived geometry of one display and one eye position. Cheap to copy.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ScreenGeometry {
+    /// Horizontal resolution, pixels.
     pub width_px: u32,
+    /// Vertical resolution, pixels.
     pub height_px: u32,
+    /// Width of one pixel, millimetres.
     pub pitch_x_mm: f64,
+    /// Height of one pixel, millimetres.
     pub pitch_y_mm: f64,
+    /// Screen point (pixels, origin top-left) the eye's normal passes through.
     pub eye_point_px: [f64; 2],
+    /// Distance from the eye to the screen plane along that normal, millimetres.
     pub eye_distance_mm: f64,
 }
 

@@ -19,12 +19,18 @@ pub enum Phase {
     /// What the participant will do; Space starts.
     Instructions,
     /// A rest: within a run (`between_runs == false`) or between runs.
-    Rest { between_runs: bool },
+    Rest {
+        /// Whether the rest falls between two runs (else within a run).
+        between_runs: bool,
+    },
     /// Full calibration (targets, fit) followed by its validation.
     Calibration,
     /// Validation of the calibration in use; `midpoint` for the session's
     /// mid-point check. Above the design's threshold: recalibrate.
-    Validation { midpoint: bool },
+    Validation {
+        /// Whether this is the session's mid-point check (else a check at a run's start).
+        midpoint: bool,
+    },
     /// Single-target drift check.
     DriftCheck,
     /// The practice trials are over (Murphy 2007 §7.1.5: questions, a

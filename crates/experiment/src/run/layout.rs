@@ -20,7 +20,9 @@ pub const DEPTH_MM: f64 = 20.0;
 /// screen.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Layout {
+    /// Rows of the grid.
     pub rows: u32,
+    /// Columns of the grid.
     pub cols: u32,
     /// Mesh scale (mm): the face mesh fits the unit sphere, so this is the
     /// object's radius.

@@ -205,7 +205,9 @@ pub struct ObserverSearch {
 /// once decided, when Space is pressed (ms after the onset).
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct SearchStep {
+    /// Where the eye lands: (ms after the onset, screen px), in time order.
     pub looks: Vec<(f64, [f64; 2])>,
+    /// When Space is pressed (ms after the onset), once the search has decided.
     pub space_ms: Option<f64>,
 }
 

@@ -39,8 +39,18 @@ pub const WRONG_CLICK: f64 = 0.05;
 /// What the participant does, with the host time it did it.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Action {
-    Space { host_us: u64 },
-    Click { host_us: u64, px: [f64; 2] },
+    /// Presses Space (ends a search, leaves a message screen).
+    Space {
+        /// Host time of the press, µs.
+        host_us: u64,
+    },
+    /// Clicks on the screen: the confirming click on the object found.
+    Click {
+        /// Host time of the click, µs.
+        host_us: u64,
+        /// Where, screen pixels.
+        px: [f64; 2],
+    },
 }
 
 /// What the screen shows, as the participant needs to know it.
@@ -48,6 +58,7 @@ pub enum Action {
 pub struct Seen {
     /// Incremented at every new screen.
     pub epoch: u64,
+    /// Which screen is shown; `None` before the first.
     pub phase: Option<Phase>,
     /// When the screen started (host µs).
     pub since_us: u64,
@@ -55,6 +66,7 @@ pub struct Seen {
     pub target_px: Option<[f64; 2]>,
     /// Search display: every object's centre and the target's.
     pub objects: Vec<[f64; 2]>,
+    /// Search display: the target object's centre (px), when there is one.
     pub target_object: Option<[f64; 2]>,
     /// Search display: the reference's centre (the target mesh shown for
     /// comparison), when the design has one.
@@ -69,7 +81,9 @@ pub struct Seen {
 /// time order, never dated before an earlier look) and what is pressed.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct Response {
+    /// Where the eye goes: (host µs, screen px), in time order.
     pub looks: Vec<(u64, [f64; 2])>,
+    /// What is pressed, if anything.
     pub action: Option<Action>,
 }
 

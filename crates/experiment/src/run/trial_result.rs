@@ -103,6 +103,7 @@ pub struct Measured {
     pub click: Option<Option<(u32, u32)>>,
     /// Search frames shown, and how many of them late.
     pub frames: u64,
+    /// Of those frames, how many were presented late.
     pub frames_late: u64,
     /// Rays cast over the search frames.
     pub rays: u64,

@@ -85,6 +85,7 @@ impl ArcSet {
         arcs: [(0.0, 0.0); MAX_ARCS],
     });
 
+    /// Whether the set holds no angle.
     pub fn is_empty(&self) -> bool {
         matches!(self, ArcSet::Arcs(a) if a.is_empty())
     }
@@ -121,10 +122,12 @@ pub struct ScreenFromPor {
     margins: [f64; 4],
     /// Nearest and farthest screen distance from the POR.
     pub min_distance_px: f64,
+    /// Farthest screen distance from the POR (a corner's).
     pub max_distance_px: f64,
 }
 
 impl ScreenFromPor {
+    /// The screen `width_px × height_px` (pixels, origin top-left) seen from `por`.
     pub fn new(por: [f64; 2], width_px: f64, height_px: f64) -> Self {
         let margins = [width_px - por[0], height_px - por[1], por[0], por[1]];
         let dx = (-por[0]).max(por[0] - width_px).max(0.0);

@@ -67,6 +67,7 @@ pub enum Layout {
 }
 
 impl Layout {
+    /// The layout's name in files and on the command line (`nyquist`, `seed`).
     pub fn name(self) -> &'static str {
         match self {
             Layout::Nyquist => "nyquist",
@@ -130,14 +131,18 @@ pub const NO_VERTEX: u32 = u32::MAX;
 /// A row of contiguous fovea pixels `[x_start, x_end)` on row `y`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct PixelSpan {
+    /// Screen row, pixels from the top.
     pub y: u32,
+    /// First pixel of the span (inclusive).
     pub x_start: u32,
+    /// One past the last pixel of the span (exclusive).
     pub x_end: u32,
 }
 
 /// One ring of the mask.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Ring {
+    /// Distance of the ring from the POR, pixels.
     pub radius_px: f64,
     /// Points on a full turn (only the visible part is materialised).
     pub points_per_turn: u32,
@@ -151,11 +156,14 @@ pub struct Ring {
 /// A ray mask for one POR.
 #[derive(Debug, Clone)]
 pub struct RayMask {
+    /// The layout the mask was built with.
     pub layout: Layout,
     /// The POR the mask was built for: as given, or its stand-in when it is
     /// farther than [`FAR_POR_PX`] from the screen (see [`stand_in_por`]).
     pub por_px: [f64; 2],
+    /// Screen width, pixels.
     pub width_px: u32,
+    /// Screen height, pixels.
     pub height_px: u32,
     /// Pixel centres within this distance of the POR are cast one per pixel.
     /// Off the screen the fovea scan starts just short of the screen, so
@@ -164,6 +172,7 @@ pub struct RayMask {
     pub fovea_radius_px: f64,
     /// The fovea disc, clipped to the screen.
     pub fovea: Vec<PixelSpan>,
+    /// The rings outside the fovea, innermost first.
     pub rings: Vec<Ring>,
     /// Intermediate-mesh vertices in screen pixels. Those on the screen are
     /// rays; the others lie just outside and only close cells at the edge.

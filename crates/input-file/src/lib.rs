@@ -18,6 +18,8 @@
 //! file, `FileTooLarge` for what is too large) whose message says what the
 //! path is and what was expected; callers add the path and the flag.
 
+#![warn(missing_docs)]
+
 use std::fs::{File, OpenOptions};
 use std::io::{self, Read};
 use std::path::Path;

@@ -92,10 +92,12 @@ impl<'t> Cut<'t> {
         }
     }
 
+    /// The tree this cut goes through.
     pub fn tree(&self) -> &'t VertexTree {
         self.tree
     }
 
+    /// Whether `node` is above, on or below the cut.
     pub fn state(&self, node: NodeId) -> NodeState {
         match self.state[node as usize] {
             EXPANDED => NodeState::Expanded,
@@ -104,6 +106,7 @@ impl<'t> Cut<'t> {
         }
     }
 
+    /// Whether `node` is on the cut (its proxy is drawn).
     pub fn is_active(&self, node: NodeId) -> bool {
         self.state[node as usize] == ACTIVE
     }
@@ -120,6 +123,7 @@ impl<'t> Cut<'t> {
             .collect()
     }
 
+    /// Number of triangles the cut draws.
     pub fn active_triangle_count(&self) -> usize {
         self.active.len()
     }

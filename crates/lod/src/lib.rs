@@ -1,4 +1,6 @@
-//! # lod — mesh level of detail for gaze-contingent rendering
+//! Mesh level of detail for gaze-contingent rendering: simplifies a
+//! triangle mesh into a tree of vertex merges and chooses, for each view,
+//! which of its levels to draw where, by a perceptual model.
 //!
 //! Pure geometry, no GPU. A triangle mesh becomes a **vertex tree** of
 //! vertex merges ([`VertexTree`]); a **cut** through it ([`Cut`]) is the mesh
@@ -230,6 +232,8 @@
 //! Dynamic lighting (luminance is per vertex and static, as in L&H §8.2),
 //! temporal contrast and popping (§8.3), geomorphs, frustum and back-face
 //! culling (the caller's renderer does those), several viewers.
+
+#![warn(missing_docs)]
 
 mod build;
 mod cut;

@@ -64,6 +64,7 @@ impl NormalMask {
         self.0.iter().zip(other.0).all(|(a, b)| b & !a == 0)
     }
 
+    /// Whether no bit is set (no normal direction).
     pub fn is_empty(&self) -> bool {
         self.0.iter().all(|w| *w == 0)
     }

@@ -51,13 +51,20 @@ pub enum Mode {
     Imperceptible,
     /// Luebke & Hallen §5.3: greedy unfolding, most perceptible fold first,
     /// while the triangle count stays within `triangles`.
-    Budget { triangles: usize },
+    Budget {
+        /// Most triangles the cut may draw.
+        triangles: usize,
+    },
     /// Murphy & Duchowski §5.4 and Table 1: a node may stay folded while
     /// its angular extent is at most `level_angle_deg[level − 1]`, the
     /// level coming from `foveation::degradation::level_for` at the node's
     /// eccentricity. Angles must be finite, ≥ 0 and non-increasing from
     /// level 1 to level 5.
-    MurphyDuchowski { level_angle_deg: [f64; 5] },
+    MurphyDuchowski {
+        /// Largest angular extent (degrees) a folded node may have at
+        /// each resolution level, levels 1 to 5.
+        level_angle_deg: [f64; 5],
+    },
 }
 
 impl Mode {
@@ -107,6 +114,7 @@ pub enum BudgetStop {
 /// imperceptible").
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct BudgetOutcome {
+    /// Why the greedy stopped.
     pub stopped_by: BudgetStop,
     /// δ* of the most perceptible fold left: the eye-to-node distance (mm)
     /// beyond which that fold, and so every fold left, is imperceptible. 0

@@ -6,7 +6,9 @@ use glam::{DVec3, Vec3};
 /// A sphere in world millimetres.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Sphere {
+    /// Centre, world millimetres.
     pub center: Vec3,
+    /// Radius, world millimetres.
     pub radius: f32,
 }
 

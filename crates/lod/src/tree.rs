@@ -95,6 +95,7 @@ impl VertexTree {
         self.root
     }
 
+    /// Whether `node` is a leaf (an input vertex; it has no children).
     pub fn is_leaf(&self, node: NodeId) -> bool {
         self.children[node as usize][0] == NONE
     }
@@ -110,6 +111,7 @@ impl VertexTree {
         (v != NONE).then_some(v)
     }
 
+    /// The node `node` was merged into; `None` for the root.
     pub fn parent(&self, node: NodeId) -> Option<NodeId> {
         let p = self.parent[node as usize];
         (p != NONE).then_some(p)
@@ -125,6 +127,7 @@ impl VertexTree {
         self.depth[node as usize]
     }
 
+    /// The largest depth of any node (edges from the root).
     pub fn max_depth(&self) -> u32 {
         self.max_depth
     }

@@ -260,6 +260,7 @@ pub struct AttentionGaze {
 }
 
 impl AttentionGaze {
+    /// The gaze source for attention model `model`; no gaze until its first frame.
     pub fn new(model: FrameAttention) -> Self {
         Self { model, gaze: None }
     }

@@ -1,4 +1,6 @@
-//! # pipeline — one entry for a frame
+//! Renders a frame for a point of regard: the one entry every command
+//! goes through, which runs the chosen rendering method on the CPU or the
+//! GPU and then the scene's effect passes ([`Renderer`]).
 //!
 //! Every command that renders (`render`, `view`, `demo`, `bench`, the
 //! experiment runner) goes through [`Renderer`]:
@@ -42,6 +44,8 @@
 //!   which stay the reference) include the per-pixel part of Lee's
 //!   attention model when depth of field focuses on the attended object
 //!   ([`gpu_attention`] states the split and its tolerance).
+
+#![warn(missing_docs)]
 
 pub mod backend;
 pub mod colour;

@@ -53,6 +53,7 @@ const BUILT_IN: [Method; 6] = [
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
 #[error("unknown method {name:?}; known: {known}")]
 pub struct UnknownMethod {
+    /// The name asked for.
     pub name: String,
     /// The known names, comma-separated.
     pub known: String,

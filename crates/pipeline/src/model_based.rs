@@ -114,19 +114,28 @@ pub enum ModelBasedOptionsError {
         "the triangle budget is Luebke & Hallen's best-effort mode, for the simplify \
          method only (not {method})"
     )]
-    BudgetNeedsSimplify { method: &'static str },
+    BudgetNeedsSimplify {
+        /// The method asked for.
+        method: &'static str,
+    },
     /// A triangle budget outside 1 to [`MAX_TRIANGLE_BUDGET`].
     #[error(
         "the triangle budget must be from 1 to {max} triangles (not {budget})",
         max = MAX_TRIANGLE_BUDGET
     )]
-    BudgetOutOfRange { budget: usize },
+    BudgetOutOfRange {
+        /// The budget asked for, triangles.
+        budget: usize,
+    },
     /// Selecting without the gaze with a method that is not model-based.
     #[error(
         "selecting without the gaze is for the model-based methods only (simplify, lod), \
          not {method}"
     )]
-    IgnoreGazeNeedsModelBased { method: &'static str },
+    IgnoreGazeNeedsModelBased {
+        /// The method asked for.
+        method: &'static str,
+    },
 }
 
 impl ModelBasedOptionsError {
@@ -190,11 +199,13 @@ pub struct ModelBasedStats {
     pub triangles_drawn: usize,
     /// Folds and unfolds this frame, over every object.
     pub folds: usize,
+    /// Unfolds this frame, over every object.
     pub unfolds: usize,
     /// Nodes the selection visited.
     pub nodes_visited: usize,
     /// Wall time of the selection and of the raster, ms.
     pub select_ms: f64,
+    /// Wall time of the raster, ms.
     pub raster_ms: f64,
     /// The raster's counts.
     pub raster: RasterStats,
@@ -554,8 +565,11 @@ pub fn proportional_shares(budget: usize, counts: &[usize]) -> Vec<usize> {
 
 /// An object's triangles as an indexed mesh.
 pub struct Welded {
+    /// Vertex positions, world millimetres.
     pub positions: Vec<Vec3>,
+    /// Vertex normals, one per position.
     pub normals: Vec<Vec3>,
+    /// Triangles as indices into `positions`.
     pub triangles: Vec<[u32; 3]>,
 }
 

@@ -92,7 +92,9 @@ impl fmt::Display for Channels {
 /// Where a stage runs.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum Side {
+    /// On the CPU.
     Cpu,
+    /// On the GPU.
     Gpu,
 }
 
@@ -121,10 +123,15 @@ pub enum Role {
 /// One stage of a frame.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Stage {
+    /// The stage's name (the method's or the pass's), as `explain` shows it.
     pub name: String,
+    /// What kind of stage it is.
     pub role: Role,
+    /// Where it runs.
     pub side: Side,
+    /// The G-buffer channels it reads.
     pub reads: Channels,
+    /// The G-buffer channels it writes.
     pub writes: Channels,
     /// The buffers the stage allocates (with its first frame), in words.
     pub owns: String,
@@ -139,6 +146,7 @@ pub struct FramePlan {
     pub method: &'static str,
     /// The backend: `cpu` or `gpu`.
     pub backend: Side,
+    /// The stages, in order: the method first, then its passes.
     pub stages: Vec<Stage>,
     /// The finished frame stays on the GPU, drawn into the window there
     /// (`Renderer::set_stay_on_gpu`): no read-back.

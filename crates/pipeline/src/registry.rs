@@ -26,11 +26,14 @@ use crate::{Options, RenderError};
 pub struct MethodFrame<'a> {
     /// The scene as posed for this frame.
     pub scene: &'a Scene,
+    /// The camera the frame is rendered from.
     pub camera: &'a Camera,
     /// The sampling model this frame is rendered under (the CSF at the
     /// display's geometry and the measured eye distance).
     pub model: &'a SamplingModel,
+    /// The ray/triangle intersection test to use.
     pub test: TriangleTest,
+    /// The point of regard, screen pixels.
     pub gaze_px: [f64; 2],
     /// The frame's time, s.
     pub time_s: f64,
@@ -52,7 +55,9 @@ pub struct MethodFrame<'a> {
 
 /// What `explain` and the frame plan tell a method about where it runs.
 pub struct MethodContext<'a> {
+    /// The sampling model the frame is rendered under.
     pub model: &'a SamplingModel,
+    /// Where the method runs: CPU or GPU.
     pub side: Side,
     /// Whether the renderer keeps cast samples across frames
     /// ([`crate::Options::reuse`]).
@@ -89,8 +94,11 @@ pub trait FrameMethod: Send {
 
 /// What a method module is made from.
 pub struct MethodSetup<'a> {
+    /// The scene as loaded (not yet posed for a frame).
     pub scene: &'a Scene,
+    /// The camera the frames are rendered from.
     pub camera: &'a Camera,
+    /// The sampling model (the CSF at the display's geometry).
     pub model: &'a SamplingModel,
     /// What the command line (or design) chose: layout, triangle test,
     /// refinement triggers, the model-based options.
@@ -148,17 +156,24 @@ pub static METHODS: &[&MethodModule] = crate::methods::ALL;
 
 /// What a debug map is drawn for.
 pub struct MapInput<'a> {
+    /// The sampling model (the CSF at the display's geometry and eye distance).
     pub model: &'a SamplingModel,
+    /// The point of regard, screen pixels.
     pub gaze_px: [f64; 2],
+    /// Screen width, pixels.
     pub width_px: u32,
+    /// Screen height, pixels.
     pub height_px: u32,
 }
 
 /// A per-pixel quantity, row-major.
 #[derive(Debug, Clone, PartialEq)]
 pub struct MapValues {
+    /// Width, pixels.
     pub width_px: u32,
+    /// Height, pixels.
     pub height_px: u32,
+    /// The value at each pixel, row-major, in `unit`.
     pub values: Vec<f32>,
     /// The quantity's unit, for the picture's caption.
     pub unit: &'static str,
@@ -218,6 +233,7 @@ pub struct DebugMap {
     pub name: &'static str,
     /// One line of help (with its seed figure).
     pub help: &'static str,
+    /// Draws the map for an input, or says why it cannot.
     pub make: fn(&MapInput<'_>) -> Result<MapValues, String>,
 }
 

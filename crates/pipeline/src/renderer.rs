@@ -26,8 +26,11 @@ pub enum RenderError {
     /// The gaze (or the sampling model) cannot give a ray mask.
     #[error("the point of regard: {0}")]
     Gaze(#[from] foveation::ParamError),
+    /// The GPU backend failed (no adapter, a device error, a lost device).
     #[error("the GPU backend: {0}")]
     Gpu(#[from] GpuError),
+    /// The method, backend or scene asks for something the renderer cannot
+    /// do; the message says what.
     #[error("{0}")]
     Unsupported(String),
 }
@@ -35,10 +38,13 @@ pub enum RenderError {
 /// How to render: what a command line chooses.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Options {
+    /// The rendering method.
     pub method: Method,
+    /// Where to render: CPU, GPU, or the GPU when there is one.
     pub backend: BackendChoice,
     /// The ray mask's layout (hybrid method).
     pub layout: Layout,
+    /// The ray/triangle intersection test.
     pub test: TriangleTest,
     /// Refinement triggers; `None`: the scene's effects decide.
     pub triggers: Option<Triggers>,

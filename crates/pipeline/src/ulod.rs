@@ -43,7 +43,9 @@ pub const MAX_LEVELS: usize = 8;
 /// One object's levels of detail, finest first (level 0 = the original).
 #[derive(Debug, Clone)]
 pub struct ObjectLevels {
+    /// The object's id in the scene.
     pub object: u32,
+    /// The object's triangles at each level, finest (the original) first.
     pub levels: Vec<Vec<WorldTriangle>>,
 }
 
@@ -134,6 +136,7 @@ pub struct UlodStats {
     pub triangles_full: usize,
     /// Triangles drawn opaque and blended.
     pub triangles_opaque: usize,
+    /// Triangles drawn blended (the second level of a blended object).
     pub triangles_blended: usize,
     /// Objects drawn with a blended second level.
     pub blended_objects: usize,
@@ -141,7 +144,9 @@ pub struct UlodStats {
     pub mean_level: f64,
     /// Time of the attention model, of the rasters and of the blend, ms.
     pub attention_ms: f64,
+    /// Time of the rasters, ms.
     pub raster_ms: f64,
+    /// Time of the blend, ms.
     pub blend_ms: f64,
 }
 

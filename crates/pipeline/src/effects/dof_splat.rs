@@ -203,6 +203,7 @@ type Acc = [[f32; 4]; 3];
 pub struct DepthOfFieldSplat {
     /// The eye; `aperture_mm` is the pupil diameter (0: the identity).
     pub lens: EyeLens,
+    /// Where the pass focuses (the scene's `focus`: fixed distance, gaze, vergence, attention).
     pub focus: DofFocus,
     /// Eq. 5.3's δ.
     pub delta: f32,
@@ -233,6 +234,8 @@ pub struct DepthOfFieldSplat {
 }
 
 impl DepthOfFieldSplat {
+    /// The pass for an eye `lens` focusing by `focus`, with the default δ,
+    /// hidden image, Laplacian threshold and triangle test, and no highlights.
     pub fn new(lens: EyeLens, focus: DofFocus) -> Self {
         Self {
             lens,

@@ -25,7 +25,9 @@ use crate::plan::{Channels, Role};
 /// What a pass may read besides the frame.
 #[derive(Debug, Clone, Copy)]
 pub struct PassInput<'a> {
+    /// The scene as posed for this frame.
     pub scene: &'a Scene,
+    /// The camera the frame was rendered from.
     pub camera: &'a Camera,
     /// The point of regard the frame was rendered for (screen px).
     pub gaze_px: [f64; 2],

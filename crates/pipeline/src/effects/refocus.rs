@@ -58,6 +58,7 @@ pub fn depth_mm(diopters: f64) -> f64 {
 /// The refocusing state of one depth-of-field pass.
 #[derive(Debug, Clone, Default)]
 pub struct Refocus {
+    /// How the focus moves to a new target (at once, or over time).
     pub mode: DofRefocus,
     state: Option<State>,
 }
@@ -76,6 +77,7 @@ struct State {
 }
 
 impl Refocus {
+    /// A refocusing state for `mode` that has shown no frame yet.
     pub fn new(mode: DofRefocus) -> Self {
         Self { mode, state: None }
     }

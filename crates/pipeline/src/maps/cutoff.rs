@@ -5,6 +5,7 @@
 
 use crate::registry::{DebugMap, MapInput, MapValues};
 
+/// The `cutoff` debug map's registration.
 pub static MAP: DebugMap = DebugMap {
     name: "cutoff",
     help: "per-pixel CSF cut-off frequency, cycles/degree (Murphy 2007 Fig. 4.2)",

@@ -4,6 +4,7 @@
 
 use crate::registry::{DebugMap, MapInput, MapValues};
 
+/// The `eccentricity` debug map's registration.
 pub static MAP: DebugMap = DebugMap {
     name: "eccentricity",
     help: "per-pixel eccentricity from the gaze, degrees (Murphy 2007 Fig. 4.1)",

@@ -8,6 +8,7 @@ use crate::plan::Side;
 use crate::registry::{FrameMethod, MethodContext, MethodFrame, MethodModule, MethodSetup};
 use crate::RenderError;
 
+/// The `full` method's registration.
 pub static METHOD: MethodModule = MethodModule {
     name: "full",
     aliases: &[],

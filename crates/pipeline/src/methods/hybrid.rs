@@ -12,6 +12,7 @@ use crate::plan::{Channels, Side};
 use crate::registry::{FrameMethod, MethodContext, MethodFrame, MethodModule, MethodSetup};
 use crate::RenderError;
 
+/// The `hybrid` method's registration.
 pub static METHOD: MethodModule = MethodModule {
     name: "hybrid",
     aliases: &["foveated"],

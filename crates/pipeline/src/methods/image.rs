@@ -13,6 +13,7 @@ use crate::plan::Side;
 use crate::registry::{FrameMethod, MethodContext, MethodFrame, MethodModule, MethodSetup};
 use crate::RenderError;
 
+/// The `image` method's registration.
 pub static METHOD: MethodModule = MethodModule {
     name: "image",
     aliases: &["image-based"],

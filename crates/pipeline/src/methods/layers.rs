@@ -82,6 +82,7 @@ pub struct LayerRect {
     pub band_px: f64,
     /// The window rendered: first screen pixel and size in its own samples.
     pub origin_px: [u32; 2],
+    /// Size of the window, in the layer's own samples (width, height).
     pub size: [u32; 2],
 }
 

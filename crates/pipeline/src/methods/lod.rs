@@ -6,6 +6,7 @@ use crate::model_based::ModelBased;
 use crate::registry::{FrameMethod, MethodModule, MethodSetup};
 use crate::{Method, RenderError};
 
+/// The `lod` method's registration.
 pub static METHOD: MethodModule = MethodModule {
     name: "lod",
     aliases: &["murphy-duchowski"],

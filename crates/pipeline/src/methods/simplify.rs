@@ -6,6 +6,7 @@ use crate::model_based::ModelBased;
 use crate::registry::{FrameMethod, MethodModule, MethodSetup};
 use crate::{Method, RenderError};
 
+/// The `simplify` method's registration.
 pub static METHOD: MethodModule = MethodModule {
     name: "simplify",
     aliases: &["luebke-hallen"],

@@ -13,8 +13,10 @@ use crate::RenderError;
 
 /// The levels (`ULOD5`, Lee's largest set) and the attention map's size.
 pub const ULOD_LEVELS: usize = 5;
+/// Side of the square attention map the model computes, pixels.
 pub const ULOD_MAP_SIZE: u32 = 64;
 
+/// The `ulod` method's registration.
 pub static METHOD: MethodModule = MethodModule {
     name: "ulod",
     aliases: &["attention-lod"],
@@ -41,7 +43,9 @@ fn make(setup: &MethodSetup<'_>) -> Result<Box<dyn FrameMethod>, RenderError> {
 /// The method's state: the levels and the attention model, and the
 /// model's time on the last frame (ms; it set this frame's levels).
 pub struct UlodMethod {
+    /// The levels of every object and the attention model.
     pub ulod: Ulod,
+    /// The attention model's time on the last frame, ms.
     pub attention_ms: f64,
 }
 

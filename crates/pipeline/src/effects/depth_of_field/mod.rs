@@ -123,6 +123,7 @@ pub const GAUSS_SIGMA_TEXELS: f64 = 1.0;
 pub struct DepthOfField {
     /// The eye; `aperture_mm` is the pupil diameter (0: the identity).
     pub lens: EyeLens,
+    /// Where the pass focuses (the scene's `focus`: fixed distance, gaze, vergence, attention).
     pub focus: DofFocus,
     /// The focus search's state (last focus, refocusing, attention model;
     /// the GPU path settles its focus here too).
@@ -145,7 +146,9 @@ pub struct DepthOfField {
 /// One frame's per-pixel maps of the pass, row-major.
 #[derive(Debug, Clone, Copy)]
 pub struct DofMaps<'a> {
+    /// Frame width, pixels.
     pub width: usize,
+    /// Frame height, pixels.
     pub height: usize,
     /// Degree of blur σ = CoC / 2 (eq. 4.5), px; capped at 10⁶.
     pub sigma_px: &'a [f32],
@@ -154,6 +157,8 @@ pub struct DofMaps<'a> {
 }
 
 impl DepthOfField {
+    /// The pass for an eye `lens` focusing by `focus`; the pyramid uses eq. 4.9's
+    /// anisotropic filter and the foreground is not smoothed (the defaults).
     pub fn new(lens: EyeLens, focus: DofFocus) -> Self {
         Self {
             lens,

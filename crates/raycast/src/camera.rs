@@ -7,11 +7,15 @@ use glam::Vec3;
 
 use crate::ray::Ray;
 
+/// The eye looking through the physical display: makes the primary ray
+/// of each pixel (an off-axis frustum through the screen rectangle).
 #[derive(Debug, Clone, Copy)]
 pub struct Camera {
     /// Eye position in world mm (screen centre = origin, z towards the viewer).
     pub eye: Vec3,
+    /// Image width, pixels.
     pub width_px: u32,
+    /// Image height, pixels.
     pub height_px: u32,
     /// The display's pixel pitch, mm.
     pitch_x: f32,
@@ -27,6 +31,8 @@ pub struct Camera {
 }
 
 impl Camera {
+    /// The display's own camera: one ray per display pixel, from the eye
+    /// position of `g`.
     pub fn new(g: &ScreenGeometry) -> Self {
         let [w, h] = g.size_px();
         let eye = Vec3::new(

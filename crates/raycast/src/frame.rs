@@ -14,8 +14,11 @@ pub const NO_OBJECT: u32 = u32::MAX;
 pub enum Layer {
     /// Cast in full-resolution mode.
     Full = 0,
+    /// Cast one ray per pixel in the hybrid's fovea disc.
     Fovea = 1,
+    /// Interpolated from the hybrid's mesh of vertex rays.
     Interpolated = 2,
+    /// Cast because its cell was refined (a silhouette, crease or depth jump).
     Refined = 3,
     /// No owner found (numerically impossible in a correct mesh): cast.
     Gap = 4,
@@ -30,7 +33,9 @@ pub enum Layer {
 /// they are empty and cost nothing ([`Frame::has_surface`]).
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct Frame {
+    /// Width, pixels.
     pub width_px: u32,
+    /// Height, pixels.
     pub height_px: u32,
     /// 8-bit sRGB-encoded colour, three bytes a pixel.
     pub rgb: Vec<u8>,
@@ -46,6 +51,7 @@ pub struct Frame {
     /// Unit shading normal of the visible surface (world space); zero for
     /// the background. Empty without surface buffers.
     pub normal: Vec<[f32; 3]>,
+    /// Which path produced each pixel.
     pub layer: Vec<Layer>,
 }
 

@@ -49,12 +49,17 @@ pub const MAX_LAYER_SAMPLES: usize = 1 << 24;
 /// Why layers could not be cast.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
 pub enum LayersError {
+    /// The layer count asked for is 0 or above [`MAX_LAYERS`].
     #[error("layers per ray must be 1 to {MAX_LAYERS}, found {0}")]
     BadLayerCount(usize),
+    /// The samples would exceed [`MAX_LAYER_SAMPLES`].
     #[error("{width} × {height} pixels × {layers} layers exceed {MAX_LAYER_SAMPLES} samples")]
     TooLarge {
+        /// Width, pixels.
         width: u32,
+        /// Height, pixels.
         height: u32,
+        /// Layers per pixel asked for.
         layers: usize,
     },
 }
@@ -98,10 +103,12 @@ impl Layers {
         &self.hits[..self.len]
     }
 
+    /// Number of hits.
     pub fn len(&self) -> usize {
         self.len
     }
 
+    /// Whether the ray hit nothing.
     pub fn is_empty(&self) -> bool {
         self.len == 0
     }
@@ -207,7 +214,9 @@ pub fn pixel_layers(
 /// Every pixel's first `k` surfaces: row-major, `k` slots a pixel.
 #[derive(Debug, Clone, Default)]
 pub struct LayerFrame {
+    /// Width, pixels.
     pub width_px: u32,
+    /// Height, pixels.
     pub height_px: u32,
     /// Slots per pixel.
     pub layers: usize,

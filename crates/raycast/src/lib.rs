@@ -1,4 +1,6 @@
-//! # raycast — the hybrid foveated ray caster
+//! The hybrid foveated ray caster: loads scenes and casts their frames,
+//! every pixel or Murphy 2007's gaze-dependent ray mask with
+//! reconstruction and refinement, on the CPU or (feature `gpu`) the GPU.
 //!
 //! Modules:
 //! - [`scene`]: scene files and the world they describe ([`Scene`]);
@@ -24,6 +26,8 @@
 //!   where the adapter has them, and the raster path of the model-based
 //!   methods (a render pipeline); it fills the same G-buffer as the CPU;
 //! - [`error`]: scene and mesh errors.
+
+#![warn(missing_docs)]
 
 pub mod accel;
 pub mod camera;

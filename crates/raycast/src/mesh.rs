@@ -10,8 +10,11 @@ use crate::error::SceneError;
 /// An indexed triangle mesh with smooth (area-weighted) vertex normals.
 #[derive(Debug, Clone, PartialEq)]
 pub struct TriangleMesh {
+    /// Vertex positions, mesh units.
     pub positions: Vec<Vec3>,
+    /// Unit vertex normals, one per position.
     pub normals: Vec<Vec3>,
+    /// Triangles as indices into `positions`.
     pub indices: Vec<[u32; 3]>,
 }
 
@@ -90,6 +93,7 @@ impl TriangleMesh {
         }
     }
 
+    /// The corners of triangle `i`.
     pub fn triangle(&self, i: usize) -> [Vec3; 3] {
         self.indices[i].map(|k| self.positions[k as usize])
     }

@@ -33,6 +33,7 @@ pub const MAX_KEYS: usize = 100_000;
 /// Largest key time, seconds (|t_s|), and largest key translation, mm per
 /// component: a day and a kilometre, far beyond a lab session and room.
 pub const MAX_KEY_TIME_S: f64 = 86_400.0;
+/// Largest key translation, mm per component (a kilometre).
 pub const MAX_KEY_TRANSLATE_MM: f32 = 1e6;
 
 /// What a path does after its last key.
@@ -67,6 +68,7 @@ pub struct Key {
 pub struct Motion {
     /// At least one key, times strictly increasing.
     pub keys: Vec<Key>,
+    /// What the path does after its last key.
     #[serde(default)]
     pub repeat: Repeat,
 }
@@ -74,11 +76,14 @@ pub struct Motion {
 /// A rigid pose: `p ↦ rotation · p + translation`.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Pose {
+    /// Rotation part.
     pub rotation: Mat3,
+    /// Translation part, mm.
     pub translation: Vec3,
 }
 
 impl Pose {
+    /// The pose that moves nothing.
     pub const IDENTITY: Pose = Pose {
         rotation: Mat3::IDENTITY,
         translation: Vec3::ZERO,

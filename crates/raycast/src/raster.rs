@@ -114,6 +114,7 @@ pub struct RasterStats {
     pub fragments: u64,
     /// Pixels of the frame that show a triangle.
     pub pixels_covered: u64,
+    /// Wall time of the raster, ms.
     pub time_ms: f64,
 }
 

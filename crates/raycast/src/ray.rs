@@ -6,7 +6,9 @@ use glam::{Vec3, Vec3A};
 /// slab test. `dir` need not be normalised.
 #[derive(Debug, Clone, Copy)]
 pub struct Ray {
+    /// Start of the ray (world mm).
     pub origin: Vec3,
+    /// Direction; need not be unit length.
     pub dir: Vec3,
     /// 1/dir; ±∞ for a zero (or negative zero) component.
     pub inv_dir: Vec3A,
@@ -16,6 +18,7 @@ pub struct Ray {
 }
 
 impl Ray {
+    /// The ray from `origin` along `dir`, with its reciprocal direction.
     pub fn new(origin: Vec3, dir: Vec3) -> Self {
         let parallel = dir.x == 0.0 || dir.y == 0.0 || dir.z == 0.0;
         Self {
@@ -32,6 +35,7 @@ impl Ray {
         self.parallel
     }
 
+    /// The point at parameter `t`: `origin + t·dir`.
     pub fn at(&self, t: f32) -> Vec3 {
         self.origin + self.dir * t
     }
@@ -40,21 +44,26 @@ impl Ray {
 /// An axis-aligned box.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Aabb {
+    /// Lower corner.
     pub min: Vec3,
+    /// Upper corner.
     pub max: Vec3,
 }
 
 impl Aabb {
+    /// The empty box (min +∞, max −∞): the identity of [`Aabb::union`].
     pub const EMPTY: Aabb = Aabb {
         min: Vec3::splat(f32::INFINITY),
         max: Vec3::splat(f32::NEG_INFINITY),
     };
 
+    /// Grows the box to hold `p`.
     pub fn grow(&mut self, p: Vec3) {
         self.min = self.min.min(p);
         self.max = self.max.max(p);
     }
 
+    /// The smallest box holding both.
     pub fn union(&self, o: &Aabb) -> Aabb {
         Aabb {
             min: self.min.min(o.min),
@@ -62,10 +71,12 @@ impl Aabb {
         }
     }
 
+    /// Whether the box holds no point (as [`Aabb::EMPTY`]).
     pub fn is_empty(&self) -> bool {
         self.min.x > self.max.x
     }
 
+    /// Surface area (0 for an empty box), the SAH's cost measure.
     pub fn surface_area(&self) -> f32 {
         if self.is_empty() {
             return 0.0;
@@ -74,6 +85,7 @@ impl Aabb {
         2.0 * (d.x * d.y + d.y * d.z + d.z * d.x)
     }
 
+    /// The box's centre.
     pub fn centre(&self) -> Vec3 {
         (self.min + self.max) * 0.5
     }
@@ -202,8 +214,11 @@ impl WatertightRay {
 /// A hit on one triangle: distance and barycentrics of vertices 1 and 2.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct TriHit {
+    /// Ray parameter of the hit.
     pub t: f32,
+    /// Barycentric weight of vertex 1.
     pub u: f32,
+    /// Barycentric weight of vertex 2.
     pub v: f32,
 }
 

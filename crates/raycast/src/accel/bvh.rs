@@ -13,13 +13,19 @@ use crate::ray::{Aabb, Ray};
 #[repr(C)]
 #[derive(Debug, Clone, Copy, PartialEq, Pod, Zeroable)]
 pub struct BvhNode {
+    /// Lower corner of the node's box, world mm.
     pub min: [f32; 3],
+    /// Interior: index of the left child (the right one follows it). Leaf:
+    /// index of the first triangle in the reordered list.
     pub left_or_first: u32,
+    /// Upper corner of the node's box, world mm.
     pub max: [f32; 3],
+    /// Triangles in the leaf; 0 for an interior node.
     pub count: u32,
 }
 
 impl BvhNode {
+    /// The node's box.
     pub fn aabb(&self) -> Aabb {
         Aabb {
             min: Vec3::from(self.min),
@@ -36,6 +42,7 @@ pub const MAX_DEPTH: usize = 64;
 /// A built hierarchy: nodes, and the order in which triangles must be stored.
 #[derive(Debug, Clone)]
 pub struct Bvh {
+    /// The nodes, depth-first; node 0 is the root.
     pub nodes: Vec<BvhNode>,
     /// `order[i]` = original index of the i-th triangle in leaf order.
     pub order: Vec<u32>,

@@ -18,14 +18,20 @@ pub const EMPTY: u32 = u32::MAX;
 #[repr(C)]
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Bvh4Node {
+    /// Lower corners of the four child boxes: `min[axis][child]`, world mm.
     pub min: [[f32; 4]; 3],
+    /// Upper corners of the four child boxes: `max[axis][child]`, world mm.
     pub max: [[f32; 4]; 3],
+    /// Per slot: the first triangle of a leaf, an interior node's index, or [`EMPTY`].
     pub child: [u32; 4],
+    /// Per slot: the leaf's triangle count; 0 for an interior node or an empty slot.
     pub count: [u32; 4],
 }
 
+/// The 4-wide BVH: the binary [`Bvh`](super::bvh::Bvh) collapsed so that each node tests four boxes at once.
 #[derive(Debug, Clone, Default)]
 pub struct Bvh4 {
+    /// The nodes; node 0 is the root.
     pub nodes: Vec<Bvh4Node>,
     /// Bounds of everything: a ray that misses them costs one box test and
     /// no traversal set-up.

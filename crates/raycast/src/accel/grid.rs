@@ -95,13 +95,19 @@ fn within_limits(tri_bounds: &[Aabb], origin: Vec3, cell_size: Vec3, dims: [u32;
     true
 }
 
+/// The seed's uniform grid (module doc): the triangles overlapping each
+/// cell, in compressed-row form.
 #[derive(Debug, Clone)]
 pub struct UniformGrid {
+    /// Bounds of every triangle: the grid's extent.
     pub bounds: Aabb,
+    /// Cells along x, y and z.
     pub dims: [u32; 3],
+    /// Size of one cell, world mm.
     pub cell_size: Vec3,
     /// CSR: triangles of cell c are `items[start[c]..start[c + 1]]`.
     pub start: Vec<u32>,
+    /// Triangle indices, cell after cell (see `start`).
     pub items: Vec<u32>,
     /// Most triangles in one cell.
     pub max_bin: usize,
@@ -110,6 +116,8 @@ pub struct UniformGrid {
 }
 
 impl UniformGrid {
+    /// Builds the grid over the triangles' bounding boxes (`tri_bounds[i]` is
+    /// triangle `i`'s), refining as the module doc describes.
     pub fn build(tri_bounds: &[Aabb]) -> Self {
         let mut bounds = Aabb::EMPTY;
         for b in tri_bounds {

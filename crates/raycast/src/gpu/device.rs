@@ -127,7 +127,9 @@ pub fn open_shared() -> Result<super::SharedDevice, GpuError> {
 /// for compute work on buffers that do not come from a cast (the attention
 /// model on a frame rendered elsewhere, its tests and benchmarks).
 pub struct GpuDevice {
+    /// The device.
     pub device: wgpu::Device,
+    /// The device's queue.
     pub queue: wgpu::Queue,
     /// The adapter in words (name, backend, type, driver).
     pub adapter: String,

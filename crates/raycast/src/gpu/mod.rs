@@ -81,18 +81,33 @@ use upload::SceneBuffers;
 /// Why the GPU backend cannot render.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum GpuError {
+    /// No adapter could be found; the message says what was tried.
     #[error("no GPU adapter (not even a software one such as Mesa's lavapipe): {0}")]
     NoAdapter(String),
+    /// The adapter would not give a device.
     #[error("the GPU device could not be created: {0}")]
     Device(String),
+    /// A buffer would exceed the adapter's largest storage-buffer binding.
     #[error("{what} needs {bytes} bytes in one storage buffer; this adapter allows {limit} (max_storage_buffer_binding_size)")]
     TooLarge {
+        /// What the buffer holds.
         what: &'static str,
+        /// Bytes it needs.
         bytes: u64,
+        /// The adapter's limit, bytes.
         limit: u64,
     },
+    /// The raster targets exceed the adapter's largest 2-D texture.
     #[error("the raster targets need {width}×{height} pixels; this adapter's textures hold at most {limit} a side (max_texture_dimension_2d)")]
-    TextureTooLarge { width: u32, height: u32, limit: u32 },
+    TextureTooLarge {
+        /// Width needed, pixels.
+        width: u32,
+        /// Height needed, pixels.
+        height: u32,
+        /// The adapter's largest texture side, pixels.
+        limit: u32,
+    },
+    /// Mapping the read-back buffer failed.
     #[error("reading the frame back failed: {0}")]
     Readback(String),
 }
@@ -102,9 +117,13 @@ pub enum GpuError {
 /// ([`GpuRenderer::shared`]); every handle is a cheap clone.
 #[derive(Clone)]
 pub struct SharedDevice {
+    /// The wgpu instance.
     pub instance: wgpu::Instance,
+    /// The adapter the device was made on.
     pub adapter: wgpu::Adapter,
+    /// The device.
     pub device: wgpu::Device,
+    /// The device's queue.
     pub queue: wgpu::Queue,
     /// Bytes and calls moved on the device, shared with the renderer.
     pub traffic: Arc<TrafficCounter>,

@@ -43,10 +43,12 @@ pub struct GpuFrame<'a> {
 }
 
 impl<'a> GpuFrame<'a> {
+    /// The renderer's device.
     pub fn device(&self) -> &'a wgpu::Device {
         self.device
     }
 
+    /// The renderer's queue (submit through [`GpuFrame::traffic`] to have it counted).
     pub fn queue(&self) -> &'a wgpu::Queue {
         self.queue
     }
@@ -78,10 +80,12 @@ impl<'a> GpuFrame<'a> {
         self.object
     }
 
+    /// Frame width, pixels.
     pub fn width(&self) -> u32 {
         self.width
     }
 
+    /// Frame height, pixels.
     pub fn height(&self) -> u32 {
         self.height
     }

@@ -111,7 +111,9 @@ use crate::shade::{shade, to_rgb8};
 /// for the scene (`pipeline::Method::for_scene`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum Mode {
+    /// Every pixel is cast.
     Full,
+    /// Murphy 2007's hybrid: the ray mask, reconstruction and refinement.
     #[default]
     Hybrid,
 }
@@ -141,6 +143,7 @@ impl Triggers {
         }
     }
 
+    /// No trigger: no cell is refined.
     pub const NONE: Triggers = Triggers {
         silhouette: false,
         crease_deg: None,
@@ -152,9 +155,13 @@ impl Triggers {
 /// How to render one frame.
 #[derive(Debug, Clone, Copy)]
 pub struct Settings {
+    /// Every pixel or the hybrid.
     pub mode: Mode,
+    /// The ray mask's layout (hybrid).
     pub layout: Layout,
+    /// What makes the hybrid cast a cell's pixels.
     pub triggers: Triggers,
+    /// The ray/triangle intersection test.
     pub test: TriangleTest,
     /// Rasterise every cell, including homogeneous background cells, so
     /// that any pixel without an owner shows up as a `Gap` (tests use this).
@@ -177,10 +184,13 @@ pub struct Stats {
     /// Every ray of the frame: `rays_fovea + rays_mask + rays_refine +
     /// rays_full`.
     pub rays_total: u64,
+    /// Hybrid: cells of the intermediate mesh.
     pub cells_total: u64,
+    /// Hybrid: of those, cells refined (their pixels cast).
     pub cells_refined: u64,
     /// Pixels that no cell owned and were cast as a fallback (expected 0).
     pub pixels_uncovered: u64,
+    /// Wall time of the frame, ms.
     pub time_ms: f64,
 }
 

@@ -36,6 +36,7 @@ pub enum Effect {
     /// half-size `half_px` around the gaze; `PorOverlay()` gives the seed's
     /// 64-px box.
     PorOverlay {
+        /// Half-size of the box, pixels (default 32: the seed's 64-px box).
         #[serde(default = "default_por_half_px")]
         half_px: u32,
     },
@@ -48,16 +49,22 @@ pub enum Effect {
     /// 16.7 mm, 24 mm) focused at the depth under the gaze, refocusing at
     /// once, by mipmaps.
     DepthOfField {
+        /// Pupil diameter, mm (default 4; 0: no blur).
         #[serde(default = "default_dof_pupil_mm")]
         pupil_mm: f64,
+        /// The eye's focal length, mm (default 16.7).
         #[serde(default = "default_dof_focal_length_mm")]
         focal_length_mm: f64,
+        /// Lens-to-retina distance, mm (default 24).
         #[serde(default = "default_dof_retina_distance_mm")]
         retina_distance_mm: f64,
+        /// Where the eye focuses (default: the depth under the gaze).
         #[serde(default)]
         focus: DofFocus,
+        /// How the focus follows a change of target (default: at once).
         #[serde(default)]
         refocus: DofRefocus,
+        /// How the blur is made (default: ch. 4 mipmaps).
         #[serde(default)]
         method: DofMethod,
         /// Lee §4.3's foreground smoothing (eqs. 4.10–4.11, mipmap method

@@ -17,20 +17,33 @@ use crate::motion::Motion;
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub enum MeshSource {
     /// A Wavefront OBJ file (relative paths are relative to the scene file).
-    Obj { path: String },
+    Obj {
+        /// The file's path.
+        path: String,
+    },
     /// Unit icosphere, 20·4^subdivisions triangles.
-    Icosphere { subdivisions: u32 },
+    Icosphere {
+        /// Times each face of the icosahedron is split in four.
+        subdivisions: u32,
+    },
     /// Torus around y with unit-scale radii.
     Torus {
+        /// Radius of the ring, mesh units.
         major_radius: f32,
+        /// Radius of the tube, mesh units.
         minor_radius: f32,
+        /// Segments around the ring (at least 3).
         segments: u32,
+        /// Sides around the tube (at least 3).
         sides: u32,
     },
     /// Unit sphere with smooth bumps, at least `triangles` triangles.
     Bumpy {
+        /// Fewest triangles.
         triangles: u32,
+        /// Height of the bumps relative to the radius (magnitude below 1).
         amplitude: f32,
+        /// Seed of the bump pattern.
         seed: u64,
     },
     /// A head facing +z (unit scale) with one of the four facial
@@ -38,11 +51,19 @@ pub enum MeshSource {
     /// topology and silhouette for all four, only the front differs
     /// ([`TriangleMesh::face`]). 20·4^subdivisions triangles, at most
     /// [`crate::mesh::FACE_MAX_SUBDIVISIONS`] subdivisions.
-    Face { expression: u32, subdivisions: u32 },
+    Face {
+        /// Index into [`FACE_EXPRESSIONS`].
+        expression: u32,
+        /// Times each face of the base mesh is split in four.
+        subdivisions: u32,
+    },
     /// One triangle with the given corners (scene units).
     Triangle {
+        /// First corner.
         a: (f32, f32, f32),
+        /// Second corner.
         b: (f32, f32, f32),
+        /// Third corner.
         c: (f32, f32, f32),
     },
 }
@@ -54,9 +75,12 @@ pub const FACE_EXPRESSIONS: [&str; 4] = ["neutral", "smile", "frown", "surprise"
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Material {
+    /// Diffuse colour, linear RGB in 0–1.
     pub diffuse: (f32, f32, f32),
+    /// Specular colour, linear RGB (default 0.25 each).
     #[serde(default = "default_specular")]
     pub specular: (f32, f32, f32),
+    /// Blinn–Phong exponent (default 32).
     #[serde(default = "default_shininess")]
     pub shininess: f32,
 }
@@ -83,7 +107,9 @@ impl Default for Material {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Object {
+    /// Name of the mesh in the file's `meshes`.
     pub mesh: String,
+    /// Name of the material in the file's `materials`; none: the default material (grey 0.7, Blinn–Phong).
     #[serde(default)]
     pub material: Option<String>,
     /// Position in mm (screen centre = origin, z towards the viewer).
@@ -113,13 +139,22 @@ fn default_importance() -> f32 {
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub enum Light {
     /// A point light at the eye (the default).
-    Headlight { intensity: f32 },
-    Point {
-        position_mm: (f32, f32, f32),
+    Headlight {
+        /// Intensity (1 = the default headlight's).
         intensity: f32,
     },
+    /// A point light at `position_mm` (screen centre = origin, z towards the viewer).
+    Point {
+        /// Position, mm.
+        position_mm: (f32, f32, f32),
+        /// Intensity (1 = the default headlight's).
+        intensity: f32,
+    },
+    /// A light from infinitely far away, travelling along `direction`.
     Directional {
+        /// Direction the light travels (towards the scene), display frame.
         direction: (f32, f32, f32),
+        /// Intensity (1 = the default headlight's).
         intensity: f32,
     },
 }
@@ -128,13 +163,19 @@ pub enum Light {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(rename = "Scene", deny_unknown_fields)]
 pub struct SceneFile {
+    /// The scene's name, shown in reports.
     pub name: String,
+    /// Background colour, linear RGB in 0–1 (default a dark blue-grey).
     #[serde(default = "default_background")]
     pub background: (f32, f32, f32),
+    /// The meshes, by name.
     pub meshes: BTreeMap<String, MeshSource>,
+    /// The materials, by name.
     #[serde(default)]
     pub materials: BTreeMap<String, Material>,
+    /// The objects placed in the scene.
     pub objects: Vec<Object>,
+    /// The lights (default one headlight of intensity 1).
     #[serde(default = "default_lights")]
     pub lights: Vec<Light>,
     /// How the frame is sampled (`Full`, or `Foveated(refine: […])` with

@@ -14,7 +14,9 @@ use crate::ray::{
 pub struct Hit {
     /// Ray parameter (1 = the screen plane for camera rays).
     pub t: f32,
+    /// The object hit (its id).
     pub object: u32,
+    /// The triangle hit (its index in the scene's BVH-ordered list).
     pub triangle: u32,
     /// Interpolated shading normal, unit length.
     pub normal: Vec3,

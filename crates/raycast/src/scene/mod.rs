@@ -38,15 +38,20 @@ use motion::SceneMotion;
 /// One world-space triangle: corners, corner normals, object.
 #[derive(Debug, Clone, Copy)]
 pub struct WorldTriangle {
+    /// Corners, world mm.
     pub p: [Vec3; 3],
+    /// Unit normals at the corners.
     pub n: [Vec3; 3],
+    /// The object the triangle belongs to (its id).
     pub object: u32,
 }
 
 /// A loaded scene, ready to trace.
 #[derive(Debug, Clone)]
 pub struct Scene {
+    /// The scene's name (from the file).
     pub name: String,
+    /// Background colour, linear RGB in 0–1.
     pub background: Vec3,
     /// The background as the renderer writes it.
     pub background_rgb8: [u8; 3],
@@ -57,6 +62,7 @@ pub struct Scene {
     /// Each object's task importance (`Object::importance`), indexed by
     /// object id like `object_materials`.
     pub object_importance: Vec<f32>,
+    /// The lights.
     pub lights: Vec<Light>,
     /// How the frame is sampled, with the hybrid's refinement triggers.
     pub sampling: Sampling,
@@ -64,12 +70,14 @@ pub struct Scene {
     pub passes: Vec<PostPass>,
     /// Triangles in BVH leaf order.
     pub triangles: Vec<WorldTriangle>,
+    /// The binary BVH over `triangles`.
     pub bvh: Bvh,
     /// The same hierarchy 4 wide, traversed by the CPU caster.
     pub bvh4: Bvh4,
     /// The seed's uniform grid over the same triangles, when asked for
     /// ([`Scene::build_grid`]); used when `accel` is `Grid`.
     pub grid: Option<UniformGrid>,
+    /// Which structure rays are traced through.
     pub accel: Accel,
     /// Names this geometry: a number no other build (or pose of a moving
     /// scene) in the process has. Caches of cast samples key on it.
@@ -92,6 +100,7 @@ fn next_revision() -> u64 {
 /// Which acceleration structure `intersect` uses.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum Accel {
+    /// The BVH (the default).
     #[default]
     Bvh,
     /// Murphy 2007 §6.1.1, for comparison.

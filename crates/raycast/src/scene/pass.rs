@@ -24,6 +24,7 @@ pub enum PostPass {
     /// half-size `half_px` around the gaze; `PorOverlay()` gives the seed's
     /// 64-px box.
     PorOverlay {
+        /// Half-size of the box, pixels (default 32: the seed's 64-px box).
         #[serde(default = "default_por_half_px")]
         half_px: u32,
     },
@@ -36,16 +37,22 @@ pub enum PostPass {
     /// 16.7 mm, 24 mm) focused at the depth under the gaze, refocusing at
     /// once, by mipmaps.
     DepthOfField {
+        /// Pupil diameter, mm (default 4; 0: no blur).
         #[serde(default = "default_dof_pupil_mm")]
         pupil_mm: f64,
+        /// The eye's focal length, mm (default 16.7).
         #[serde(default = "default_dof_focal_length_mm")]
         focal_length_mm: f64,
+        /// Lens-to-retina distance, mm (default 24).
         #[serde(default = "default_dof_retina_distance_mm")]
         retina_distance_mm: f64,
+        /// Where the eye focuses (default: the depth under the gaze).
         #[serde(default)]
         focus: DofFocus,
+        /// How the focus follows a change of target (default: at once).
         #[serde(default)]
         refocus: DofRefocus,
+        /// How the blur is made (default: ch. 4 mipmaps).
         #[serde(default)]
         method: DofMethod,
         /// Lee §4.3's foreground smoothing (eqs. 4.10–4.11, mipmap method
@@ -85,7 +92,10 @@ pub enum DofFocus {
     #[default]
     Gaze,
     /// At a fixed eye distance (mm): beyond the focal length, or `inf`.
-    Fixed { depth_mm: f64 },
+    Fixed {
+        /// The focal eye distance, mm.
+        depth_mm: f64,
+    },
     /// At the eye distance of the binocular 3-D gaze point (vergence,
     /// Murphy & Duchowski 2001 eqs. 1–3) on frames whose tracker sample has
     /// both eyes valid and converging; on other frames (one eye, a blink,
@@ -111,12 +121,14 @@ pub enum DofRefocus {
     /// the 200–300 ms refocusing latency) from the focus shown when the
     /// target jumped to the (tracked) new target.
     Interpolate {
+        /// Duration of the transition, ms (default 300).
         #[serde(default = "default_dof_refocus_ms")]
         ms: f64,
     },
     /// A first-order low-pass filter of cut-off `hz` (Lee: below 2 Hz;
     /// 1 Hz in his Fig. 6.1).
     LowPass {
+        /// Cut-off frequency, Hz (default 1).
         #[serde(default = "default_dof_refocus_hz")]
         hz: f64,
     },

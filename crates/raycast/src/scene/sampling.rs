@@ -16,6 +16,7 @@ pub enum Sampling {
     /// The CSF ray mask is cast instead of every pixel, and the cells that
     /// `refine` triggers on are cast in full. Each trigger may appear once.
     Foveated {
+        /// The refinement triggers (none: no cell is refined).
         #[serde(default)]
         refine: Vec<Refinement>,
     },
@@ -30,12 +31,14 @@ pub enum Refinement {
     /// The cell's corner normals differ by more than `angle_deg`;
     /// `Crease()` gives 30°.
     Crease {
+        /// Crease angle, degrees (default 30).
         #[serde(default = "default_crease_deg")]
         angle_deg: f32,
     },
     /// The largest over the smallest hit distance across the cell's
     /// corners exceeds 1 + `jump`; `Depth()` gives 0.05.
     Depth {
+        /// Relative depth jump (default 0.05).
         #[serde(default = "default_depth_jump")]
         jump: f32,
     },

@@ -6,6 +6,7 @@ use std::time::Instant;
 
 /// A source of host monotonic time in microseconds.
 pub trait Clock: Send {
+    /// The current time, µs; never decreases.
     fn now_us(&self) -> u64;
 }
 
@@ -35,6 +36,7 @@ impl Clock for MonotonicClock {
 pub struct SharedClock(Arc<AtomicU64>);
 
 impl SharedClock {
+    /// Sets the time every clone reads, µs.
     pub fn set_us(&self, t: u64) {
         self.0.store(t, Ordering::Release);
     }

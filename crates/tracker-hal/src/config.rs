@@ -15,7 +15,9 @@ use crate::source::Decoder;
 /// Which driver, with its settings.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub enum Driver {
+    /// ISCAN DQW over a serial port.
     Iscan(IscanConfig),
+    /// The mouse (or a recorded mouse stream) as a stand-in tracker.
     Mouse(MouseConfig),
     /// A tracker on the HID eye-tracker usage page (Tobii and others).
     TobiiHid(HidConfig),
@@ -92,7 +94,9 @@ impl AttentionSourceConfig {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(rename = "Tracker", deny_unknown_fields)]
 pub struct TrackerConfig {
+    /// Which driver, with its settings.
     pub driver: Driver,
+    /// How the driver's coordinates map to screen pixels.
     #[serde(default)]
     pub mapping: Mapping,
 }

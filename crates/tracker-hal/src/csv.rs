@@ -41,6 +41,7 @@ pub struct GazeRow {
     /// The mapped device time (host clock, µs; `mapped_time_us`), or the
     /// arrival time (`host_time_us`) in a CSV without mapped times.
     pub time_us: u64,
+    /// The combined gaze, screen px; `None` where the row says it is invalid.
     pub gaze: Option<[f64; 2]>,
 }
 
@@ -49,7 +50,9 @@ pub struct GazeRow {
 /// data came from (a synthesised session says so there).
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct GazeCsv {
+    /// The comment lines, without their `#`.
     pub notes: Vec<String>,
+    /// The rows, in file order.
     pub rows: Vec<GazeRow>,
 }
 
@@ -57,8 +60,11 @@ pub struct GazeCsv {
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
 #[error("line {line}: {field}: {message}")]
 pub struct CsvError {
+    /// 1-based line number.
     pub line: usize,
+    /// The column (header name) the error is about.
     pub field: String,
+    /// What is wrong.
     pub message: String,
 }
 

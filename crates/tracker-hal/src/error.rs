@@ -26,11 +26,14 @@ pub enum ErrorKind {
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
 #[error("{message}")]
 pub struct Error {
+    /// What went wrong, for the caller's decision (retry, reopen, give up).
     pub kind: ErrorKind,
+    /// What happened, for a person.
     pub message: String,
 }
 
 impl Error {
+    /// An error of `kind` saying `message`.
     pub fn new(kind: ErrorKind, message: impl Into<String>) -> Self {
         Self {
             kind,
@@ -55,4 +58,5 @@ impl Error {
     }
 }
 
+/// The crate's result type: [`Error`] by default.
 pub type Result<T, E = Error> = std::result::Result<T, E>;

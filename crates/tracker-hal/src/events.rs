@@ -65,9 +65,17 @@ pub fn cyclopean(left: Option<[f64; 2]>, right: Option<[f64; 2]>) -> Option<[f64
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub enum EventKind {
     /// Mean position (px) over the fixation.
-    Fixation { centroid_px: [f64; 2] },
+    Fixation {
+        /// Mean gaze over the fixation, screen px.
+        centroid_px: [f64; 2],
+    },
     /// Amplitude (start to end, degrees) and peak velocity (°/s).
-    Saccade { amplitude_deg: f64, peak_deg_s: f64 },
+    Saccade {
+        /// Angle from the first to the last sample, degrees.
+        amplitude_deg: f64,
+        /// Peak angular velocity, degrees per second.
+        peak_deg_s: f64,
+    },
     /// Both eyes missing for a blink-like time.
     Blink,
     /// Missing for longer than a blink (tracking lost).
@@ -81,6 +89,7 @@ pub enum EventKind {
 /// `start_device_us`/`end_device_us` the device times.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct Event {
+    /// Which kind of event, with its measures.
     pub kind: EventKind,
     /// Mapped device time (host monotonic clock, µs) of the first sample.
     pub start_us: u64,
@@ -95,6 +104,7 @@ pub struct Event {
     /// Index of the first and last sample in the classified slice (for a
     /// blink or loss: the valid samples before and after the gap).
     pub first: usize,
+    /// Index of the last sample (see `first`).
     pub last: usize,
 }
 
@@ -106,7 +116,9 @@ pub struct TimedGaze {
     pub device_us: u64,
     /// Mapped device time (µs, host monotonic clock).
     pub mapped_us: u64,
+    /// How the device time relates to the previous sample's (first, increasing, repeated, backwards…).
     pub order: TimeOrder,
+    /// The clock segment (a device clock reset starts a new one).
     pub segment: u32,
     /// Gaze in px, `None` when invalid.
     pub gaze: Option<[f64; 2]>,
@@ -140,6 +152,7 @@ impl TimedGaze {
 /// What [`classify`] found.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Classification {
+    /// The events, in time order.
     pub events: Vec<Event>,
     /// Samples left out because their device time did not increase
     /// (repeated or backwards: no velocity can be computed over them).
@@ -154,6 +167,7 @@ pub struct IvtConfig {
     /// Missing spans from this long up to `max_blink_us` are blinks; longer
     /// ones are tracking loss; shorter ones are ignored.
     pub min_blink_us: u64,
+    /// Missing spans longer than this are tracking loss, µs.
     pub max_blink_us: u64,
     /// A device-time step longer than this between samples counts as
     /// missing data (a HID tracker sends nothing while it sees no eyes).
@@ -382,7 +396,9 @@ pub fn merge_congruent_fixations(
 /// The device clock against the host clock: `host ≈ host0 + rate·(device − device0)`.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct ClockModel {
+    /// Device time of the model's origin, µs (tracker clock).
     pub device0_us: u64,
+    /// Host time at that device time, µs (host monotonic clock).
     pub host0_us: f64,
     /// Host µs per device µs (1 + drift).
     pub rate: f64,

@@ -65,11 +65,17 @@ const MAX_LINE: usize = MAX_PARAMETERS * 12 + 16;
 /// One output parameter.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 pub enum IscanParam {
+    /// Left eye, horizontal point of regard.
     LeftPorH,
+    /// Left eye, vertical point of regard.
     LeftPorV,
+    /// Right eye, horizontal point of regard.
     RightPorH,
+    /// Right eye, vertical point of regard.
     RightPorV,
+    /// Left pupil size.
     LeftPupil,
+    /// Right pupil size.
     RightPupil,
     /// Any other parameter: decoded and ignored.
     Other,
@@ -78,7 +84,9 @@ pub enum IscanParam {
 /// Binary or ASCII output.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 pub enum IscanMode {
+    /// Binary records.
     Binary,
+    /// ASCII lines.
     Ascii,
 }
 
@@ -86,6 +94,7 @@ pub enum IscanMode {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct IscanConfig {
+    /// Binary or ASCII output.
     pub mode: IscanMode,
     /// Output parameters in the order the device sends them (1 to 12).
     pub parameters: Vec<IscanParam>,
@@ -233,6 +242,7 @@ pub struct IscanDecoder {
 }
 
 impl IscanDecoder {
+    /// A decoder for an ISCAN set up as `config`.
     pub fn new(config: IscanConfig) -> Self {
         let n = config.parameters.len();
         let mut framing = Framing::new();
@@ -254,6 +264,7 @@ impl IscanDecoder {
         }
     }
 
+    /// The configuration it decodes.
     pub fn config(&self) -> &IscanConfig {
         &self.config
     }

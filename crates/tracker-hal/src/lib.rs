@@ -1,4 +1,6 @@
-//! # tracker-hal — gaze sources for gazecast
+//! Gaze sources for gazecast: eye-tracker drivers (serial, HID, Lab
+//! Streaming Layer), mouse emulation, recording and replay, calibration
+//! and eye-movement events, behind one blocking trait ([`GazeSource`]).
 //!
 //! Labs run gazecast with a physical eye tracker, developers with a mouse,
 //! tests with recorded device streams. All three go through one small,
@@ -87,6 +89,8 @@
 //! and the live HID transport (`hidapi`, `rusb`) are the default feature
 //! `hid-usb`; without it ([`discovery`] then answers with an error) the
 //! crate still decodes, records, replays, simulates and calibrates.
+
+#![warn(missing_docs)]
 
 pub mod calibration;
 pub mod clock;

@@ -61,7 +61,10 @@ pub enum Mapping {
     #[default]
     Identity,
     /// The whole tracker frame spans the whole screen, linearly.
-    Frame { screen_px: (u32, u32) },
+    Frame {
+        /// The screen's size (width, height), pixels.
+        screen_px: (u32, u32),
+    },
     /// Murphy & Duchowski 2001 §4.1: the application window's corners are
     /// measured in tracker coordinates with the tracker's cursor, then raw
     /// POR is mapped by linear interpolation between those extents.

@@ -35,9 +35,13 @@ use crate::framing::Framing;
 use crate::sample::{DecodeStats, EyeSample, GazeSample};
 use crate::source::Decoder;
 
+/// Start of every record: `GZ`.
 pub const HEADER: [u8; 2] = [0x47, 0x5A];
+/// Length of one record, bytes.
 pub const RECORD_LEN: usize = 23;
+/// Host-to-device command: start streaming.
 pub const START: u8 = 0x01;
+/// Host-to-device command: stop streaming.
 pub const STOP: u8 = 0x02;
 
 /// Mouse-emulation settings (`config/trackers/mouse.ron`).
@@ -92,6 +96,7 @@ impl Default for MouseConfig {
 }
 
 impl MouseConfig {
+    /// Checks the settings; the error names the field and says why.
     pub fn validate(&self) -> Result<(), (&'static str, String)> {
         let positive = |f: &'static str, v: f64| {
             if v.is_finite() && v > 0.0 {
@@ -124,7 +129,9 @@ impl MouseConfig {
 /// What the cursor did, in screen pixels, at host time `t_us`.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct CursorEvent {
+    /// Host time of the event, µs.
     pub t_us: u64,
+    /// Cursor position, screen pixels.
     pub position_px: [f64; 2],
     /// A button or key is held: the emulated eyes are closed.
     pub blink: bool,
@@ -150,6 +157,7 @@ pub struct MouseEmulator {
 }
 
 impl MouseEmulator {
+    /// An emulator with `config`, before any cursor event.
     pub fn new(config: MouseConfig) -> Self {
         Self {
             config,
@@ -160,6 +168,7 @@ impl MouseEmulator {
         }
     }
 
+    /// Its settings.
     pub fn config(&self) -> &MouseConfig {
         &self.config
     }
@@ -305,6 +314,7 @@ pub struct MouseDecoder {
 }
 
 impl MouseDecoder {
+    /// A decoder waiting for a header.
     pub fn new() -> Self {
         Self {
             framing: Framing::new(),
@@ -463,6 +473,7 @@ pub struct Schedule {
 }
 
 impl Schedule {
+    /// Ticks every `period_us` (at least 1) from `start_us` (host µs).
     pub fn new(start_us: u64, period_us: u64) -> Self {
         Self {
             start_us,

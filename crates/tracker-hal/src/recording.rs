@@ -68,6 +68,7 @@ use serde::{Deserialize, Serialize};
 use crate::config::TrackerConfig;
 use crate::error::{Error, ErrorKind, Result};
 
+/// The file's first 8 bytes: "GZCREC", then format version 1.
 pub const MAGIC: [u8; 8] = *b"GZCREC\x00\x01";
 const CHUNK_OVERHEAD: usize = 1 + 4 + 8 + 4;
 /// Largest payload of one chunk: 1 MiB. Writers split longer device and host
@@ -81,10 +82,15 @@ pub const MAX_PAYLOAD: usize = 1 << 20;
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 #[repr(u8)]
 pub enum ChunkKind {
+    /// The recording's header (RON of [`RecordingHeader`]).
     Header = 1,
+    /// Raw transport bytes as read, at their arrival time.
     DeviceToHost = 2,
+    /// Raw bytes written to the device (commands, markers).
     HostToDevice = 3,
+    /// Chunks the recorder lost so far: lost chunks (u64), lost bytes (u64).
     Overflow = 4,
+    /// The recorder closed the file cleanly (empty payload).
     End = 5,
 }
 
@@ -118,8 +124,11 @@ pub struct RecordingHeader {
 /// One chunk read back.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct Chunk {
+    /// What the chunk holds.
     pub kind: ChunkKind,
+    /// Host time, µs (see [`ChunkKind`] for which instant).
     pub time_us: u64,
+    /// The chunk's bytes.
     pub payload: Vec<u8>,
 }
 
@@ -220,6 +229,7 @@ pub struct AfterEnd {
 /// A recording read back.
 #[derive(Debug, Clone)]
 pub struct Recording {
+    /// What the recording says about itself.
     pub header: RecordingHeader,
     /// Data, command and overflow chunks of known kind in file order, empty
     /// ones included (no header, end, unknown kinds or anything after the end).
@@ -262,9 +272,11 @@ pub struct ReadSummary {
     pub bytes_skipped: u64,
     /// Chunks of unknown kind skipped, and their bytes.
     pub unknown_chunks: u64,
+    /// Bytes of those chunks, framing included.
     pub unknown_bytes: u64,
     /// Bytes after the end chunk, not decoded, and the valid chunks in them.
     pub after_end_bytes: u64,
+    /// Valid chunks in the bytes after the end chunk.
     pub after_end_chunks: u64,
     /// Chunks the recorder lost while writing (from overflow chunks).
     pub lost_chunks: u64,
@@ -657,9 +669,13 @@ impl Tap {
 /// Totals of a finished recording.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct RecorderSummary {
+    /// Chunks written to the file.
     pub chunks_written: u64,
+    /// Bytes written to the file.
     pub bytes_written: u64,
+    /// Chunks dropped because the writer fell behind.
     pub lost_chunks: u64,
+    /// Bytes in those chunks.
     pub lost_bytes: u64,
 }
 
@@ -730,6 +746,7 @@ impl Recorder {
         self.tap.clone()
     }
 
+    /// The file being written.
     pub fn path(&self) -> &Path {
         &self.path
     }

@@ -14,11 +14,13 @@ pub struct EyeSample {
 }
 
 impl EyeSample {
+    /// An eye that was not tracked.
     pub const MISSING: EyeSample = EyeSample {
         position: None,
         pupil: None,
     };
 
+    /// Whether the eye was tracked (it has a position).
     pub fn valid(&self) -> bool {
         self.position.is_some()
     }
@@ -45,7 +47,9 @@ pub struct GazeSample {
     /// The clock segment (a device clock reset starts a new one): events
     /// never span two.
     pub clock_segment: u32,
+    /// The left eye.
     pub left: EyeSample,
+    /// The right eye.
     pub right: EyeSample,
     /// The device's own combined (cyclopean) point, for devices that send one.
     pub combined: Option<[f64; 2]>,

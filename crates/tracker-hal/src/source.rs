@@ -25,9 +25,13 @@ use crate::timing::{ClockMapper, ClockState, DeviceClock};
 /// - Garbage in the stream is not an error: decoders skip it, resynchronise and
 ///   count it in [`stats`](GazeSource::stats).
 pub trait GazeSource {
+    /// Asks the device to stream; only sends, does not wait for data.
     fn start(&mut self) -> Result<()>;
+    /// Asks the device to stop streaming; only sends.
     fn stop(&mut self) -> Result<()>;
+    /// The next complete sample; blocks until one is decoded (see the trait doc).
     fn next_sample(&mut self) -> Result<Option<GazeSample>>;
+    /// What the decoder has counted so far (records, dropped bytes, resyncs…).
     fn stats(&self) -> DecodeStats;
     /// How this source's device times are obtained.
     fn device_clock(&self) -> DeviceClock {
@@ -49,6 +53,7 @@ pub trait Decoder: Send {
     fn push(&mut self, bytes: &[u8], arrival_us: u64, out: &mut VecDeque<GazeSample>);
     /// The stream ended: whatever is left is counted as dropped.
     fn finish(&mut self);
+    /// What the decoder has counted so far (records, dropped bytes, resyncs…).
     fn stats(&self) -> DecodeStats;
     /// Bytes that ask the device to start streaming (may be empty).
     fn start_command(&self) -> Vec<u8>;
@@ -114,10 +119,12 @@ impl<T: Read + Write, D: Decoder> StreamDriver<T, D> {
         self
     }
 
+    /// The decoder.
     pub fn decoder(&self) -> &D {
         &self.decoder
     }
 
+    /// The transport, for tests and replays that drive it.
     pub fn transport_mut(&mut self) -> &mut T {
         &mut self.transport
     }

@@ -206,7 +206,9 @@ pub struct ClockState {
     pub samples: u64,
     /// The newest sample's device, arrival and mapped times (µs).
     pub device_us: u64,
+    /// The newest sample's arrival time, µs (host clock).
     pub arrival_us: u64,
+    /// The newest sample's mapped time, µs (host clock).
     pub mapped_us: u64,
     /// Host µs per device µs.
     pub rate: f64,
@@ -264,6 +266,7 @@ impl Default for ClockMapper {
 }
 
 impl ClockMapper {
+    /// A mapper that has seen no sample.
     pub fn new() -> Self {
         Self {
             last: None,

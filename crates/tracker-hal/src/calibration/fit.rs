@@ -40,18 +40,33 @@ impl Model {
 /// Why a calibration could not be made.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum CalibrationError {
+    /// Fewer distinct targets with data than the model needs.
     #[error("{model:?} needs at least {need} distinct targets with data, got {got}")]
     TooFewPoints {
+        /// The model asked for.
         model: Model,
+        /// Distinct targets it needs.
         need: usize,
+        /// Distinct targets with data.
         got: usize,
     },
+    /// The targets do not determine the fit (collinear, or too close together).
     #[error("the targets are degenerate for {model:?} (collinear, or too close to each other): the fit is not determined")]
-    Degenerate { model: Model },
+    Degenerate {
+        /// The model asked for.
+        model: Model,
+    },
+    /// A coordinate in the input is NaN or infinite; the message says which.
     #[error("non-finite coordinate in the input: {0}")]
     NonFinite(String),
+    /// A target's data is unusable; the message says why.
     #[error("target {index}: {reason}")]
-    Target { index: usize, reason: String },
+    Target {
+        /// The target's index in the plan.
+        index: usize,
+        /// What is wrong with it.
+        reason: String,
+    },
     /// The fit is determined but the mapping fails [`Calibration::check`]
     /// (it collapses the tracker's range, folds it, or leaves the screen).
     #[error("the fitted mapping is unusable: {0}")]
@@ -61,7 +76,9 @@ pub enum CalibrationError {
 /// Hartley normalisation: `(p − c)·s`.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct Normaliser {
+    /// Mean of the points, `c`.
     pub centre: [f64; 2],
+    /// Factor `s` that makes the mean distance from `c` equal √2.
     pub scale: f64,
 }
 
@@ -102,10 +119,13 @@ impl Normaliser {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(rename = "Calibration")]
 pub struct Calibration {
+    /// The mapping's form (affine, homography or second-order polynomial).
     pub model: Model,
     /// Parameters in normalised coordinates (see [`Model`] for the count).
     pub params: Vec<f64>,
+    /// Normalisation of the raw (tracker) points.
     pub raw: Normaliser,
+    /// Normalisation of the screen (pixel) points.
     pub screen: Normaliser,
     /// RMS distance (px) between the fitted targets and where the fit puts
     /// their raw points.

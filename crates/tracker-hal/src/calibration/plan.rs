@@ -8,7 +8,10 @@ pub enum Order {
     /// Row by row from the top left.
     RowMajor,
     /// A seeded shuffle (the person cannot anticipate the next target).
-    Shuffled { seed: u64 },
+    Shuffled {
+        /// Seed of the shuffle (same seed, same order).
+        seed: u64,
+    },
 }
 
 /// The targets and timing of a calibration or validation run.
@@ -99,8 +102,14 @@ pub const VALIDATION_MARGIN: f64 = 0.25;
 /// What is wrong with a [`SessionPlan`].
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
 pub enum PlanError {
+    /// The collect time is outside 100–10000 ms or the settle time above 10000 ms.
     #[error("the collect time {collect_ms} ms must be in [100, 10000] and the settle time {settle_ms} ms at most 10000")]
-    Timing { settle_ms: u32, collect_ms: u32 },
+    Timing {
+        /// The settle time asked for, ms.
+        settle_ms: u32,
+        /// The collect time asked for, ms.
+        collect_ms: u32,
+    },
     /// The calibration grid: [`Plan::grid`]'s reason.
     #[error("calibration targets: {0}")]
     Calibration(String),
@@ -117,8 +126,11 @@ pub struct SessionPlan {
     pub points: usize,
     /// Validation targets: 5 or a square number, [`VALIDATION_MARGIN`] in.
     pub validation_points: usize,
+    /// Ignored at the start of each target, ms (the saccade to it and settling).
     pub settle_ms: u32,
+    /// Samples collected per target after settling, ms.
     pub collect_ms: u32,
+    /// Target order.
     pub order: Order,
 }
 

@@ -9,12 +9,17 @@ use super::window::{stable_window, StableWindow, TimedPoint};
 /// A target's outcome.
 #[derive(Debug, Clone, PartialEq)]
 pub struct TargetResult {
+    /// The target's position, screen px.
     pub target_px: [f64; 2],
+    /// The samples taken while it was shown (after settling).
     pub samples: Vec<TimedPoint>,
+    /// The stable fixation found in them, or why there is none.
     pub window: Result<StableWindow, String>,
 }
 
 impl TargetResult {
+    /// Whether the target is usable: a stable window whose dispersion is
+    /// within the plan's `max_dispersion`.
     pub fn accepted(&self, plan: &Plan) -> bool {
         self.window
             .as_ref()
@@ -41,6 +46,7 @@ pub const CHANGE_TOLERANCE_US: u64 = 1000;
 /// the schedule again at the next sample (after a pause).
 #[derive(Debug, Clone)]
 pub struct Procedure {
+    /// The targets and timing.
     pub plan: Plan,
     results: Vec<Option<TargetResult>>,
     /// Targets still to show, in order.
@@ -52,6 +58,7 @@ pub struct Procedure {
 }
 
 impl Procedure {
+    /// A run of `plan`'s targets in order, waiting for its first sample.
     pub fn new(plan: Plan) -> Self {
         let n = plan.targets_px.len();
         Self {
@@ -69,6 +76,7 @@ impl Procedure {
         self.queue.front().map(|&i| (i, self.plan.targets_px[i]))
     }
 
+    /// Whether no target is left to show (each one closed, accepted or not).
     pub fn done(&self) -> bool {
         self.queue.is_empty()
     }
@@ -141,6 +149,7 @@ impl Procedure {
             .collect()
     }
 
+    /// Every finished target's outcome, in target order.
     pub fn results(&self) -> impl Iterator<Item = &TargetResult> {
         self.results.iter().flatten()
     }

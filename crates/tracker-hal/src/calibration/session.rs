@@ -68,8 +68,11 @@ pub type PointResult = Result<PointValidation, String>;
 /// are bad.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ValidationSummary {
+    /// Mean accuracy, degrees.
     pub accuracy_deg: f64,
+    /// Mean sample-to-sample RMS precision, degrees.
     pub precision_rms_deg: f64,
+    /// Mean precision as spread around the mean gaze, degrees.
     pub precision_std_deg: f64,
     /// Points without data or with an accuracy worse than the limit.
     pub bad: usize,
@@ -126,6 +129,7 @@ impl Session {
         }
     }
 
+    /// Where the session stands.
     pub fn phase(&self) -> &SessionPhase {
         &self.phase
     }
@@ -151,10 +155,12 @@ impl Session {
         &self.points
     }
 
+    /// The validation accuracy (degrees) above which a point is bad.
     pub fn max_error_deg(&self) -> f64 {
         self.max_error_deg
     }
 
+    /// Whether the session is unattended (starts at once, decides alone).
     pub fn is_auto(&self) -> bool {
         self.auto
     }

@@ -16,6 +16,7 @@ use super::window::TimedPoint;
 /// Accuracy and precision at one validation target.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct PointValidation {
+    /// The validation target, screen px.
     pub target_px: [f64; 2],
     /// Mean mapped gaze (px).
     pub mean_gaze_px: [f64; 2],
@@ -25,16 +26,20 @@ pub struct PointValidation {
     pub precision_rms_deg: f64,
     /// Root mean square angular distance of the samples from their mean (degrees).
     pub precision_std_deg: f64,
+    /// Samples used.
     pub samples: usize,
 }
 
 /// A validation run's result.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct Validation {
+    /// Each target's measures, in target order.
     pub points: Vec<PointValidation>,
     /// Means over the points.
     pub accuracy_deg: f64,
+    /// Mean sample-to-sample RMS precision, degrees.
     pub precision_rms_deg: f64,
+    /// Mean precision as spread around the mean gaze, degrees.
     pub precision_std_deg: f64,
 }
 

@@ -4,6 +4,7 @@
 /// One raw sample taken while a target was shown.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct TimedPoint {
+    /// The sample's time, µs (the samples' own clock: mapped device time).
     pub t_us: u64,
     /// `None`: invalid (blink, lost eye).
     pub raw: Option<[f64; 2]>,
@@ -14,10 +15,13 @@ pub struct TimedPoint {
 pub struct StableWindow {
     /// Mean of the window's samples after outlier rejection.
     pub raw: [f64; 2],
+    /// Time of the window's first sample, µs.
     pub start_us: u64,
+    /// Time of the window's last sample, µs.
     pub end_us: u64,
     /// Samples kept / in the window.
     pub kept: usize,
+    /// Samples in the window before outlier rejection.
     pub in_window: usize,
     /// Dispersion of the window: (max−min) in x plus (max−min) in y.
     pub dispersion: f64,

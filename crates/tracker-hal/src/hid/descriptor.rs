@@ -14,26 +14,34 @@ use std::collections::HashMap;
 /// The three kinds of report.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum ReportKind {
+    /// Input report: device to host, read as data.
     Input,
+    /// Output report: host to device.
     Output,
+    /// Feature report: read or written on request.
     Feature,
 }
 
 /// One field of a report.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Field {
+    /// The kind of report the field is in.
     pub kind: ReportKind,
     /// 0 when the descriptor declares no report IDs.
     pub report_id: u8,
     /// Bit position in the report data (after the report ID byte).
     pub bit_offset: u32,
+    /// Size of the field, bits.
     pub bit_size: u32,
+    /// Usage page of the field's usage.
     pub usage_page: u16,
     /// 0 for padding (a main item without usages).
     pub usage: u16,
     /// Enclosing collections, outermost first, as (usage page, usage).
     pub collections: Vec<(u16, u16)>,
+    /// Logical minimum: the smallest valid value.
     pub logical_min: i64,
+    /// Logical maximum: the largest valid value.
     pub logical_max: i64,
     /// Declared Constant (kept: see the module doc).
     pub constant: bool,
@@ -123,20 +131,43 @@ pub fn write_bits(data: &mut [u8], offset: u32, size: u32, value: u64) {
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
 pub enum DescriptorError {
     #[error("byte {offset}: item runs past the end of the descriptor")]
-    Truncated { offset: usize },
+    /// An item runs past the end of the descriptor.
+    Truncated {
+        /// Byte offset of the item.
+        offset: usize,
+    },
     #[error("byte {offset}: End Collection without a Collection")]
-    UnbalancedCollection { offset: usize },
+    /// An End Collection without a Collection.
+    UnbalancedCollection {
+        /// Byte offset of the item.
+        offset: usize,
+    },
     #[error("byte {offset}: Pop without a Push")]
-    PopWithoutPush { offset: usize },
+    /// A Pop without a Push.
+    PopWithoutPush {
+        /// Byte offset of the item.
+        offset: usize,
+    },
     #[error("byte {offset}: {what}")]
-    Limit { offset: usize, what: &'static str },
+    /// The descriptor exceeds one of the parser's size limits.
+    Limit {
+        /// Byte offset of the item.
+        offset: usize,
+        /// Which limit.
+        what: &'static str,
+    },
     #[error("the descriptor ends inside {open} open collection(s)")]
-    Unclosed { open: usize },
+    /// The descriptor ends inside open collections.
+    Unclosed {
+        /// Collections still open.
+        open: usize,
+    },
 }
 
 /// A parsed report descriptor.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct ReportDescriptor {
+    /// Every field of every report, in descriptor order.
     pub fields: Vec<Field>,
     /// Whether reports start with a report ID byte.
     pub uses_report_ids: bool,

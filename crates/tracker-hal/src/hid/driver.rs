@@ -46,6 +46,7 @@ pub struct HidDriver<T> {
 }
 
 impl<T: HidTransport> HidDriver<T> {
+    /// A driver reading `transport` with `config`, stamping arrivals with `clock`.
     pub fn new(transport: T, config: HidConfig, clock: Box<dyn Clock>) -> Self {
         Self {
             transport,
@@ -66,10 +67,12 @@ impl<T: HidTransport> HidDriver<T> {
         self
     }
 
+    /// The decoder (its layout, device info and counts).
     pub fn decoder(&self) -> &HidLogDecoder {
         &self.decoder
     }
 
+    /// The transport, for tests and replays that drive it.
     pub fn transport_mut(&mut self) -> &mut T {
         &mut self.transport
     }

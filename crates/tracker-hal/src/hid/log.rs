@@ -29,11 +29,21 @@ const MAX_LINE: usize = 16 * 1024;
 /// One parsed line.
 #[derive(Debug, Clone, PartialEq)]
 pub enum Line {
+    /// `# descriptor …`: the report descriptor (device (re)connected).
     Descriptor(Vec<u8>),
+    /// `# feature …`: a feature report read from the device, ID first.
     Feature(Vec<u8>),
+    /// `# control N`: host to device, a Control mode request (0 = stop).
     Control(u32),
+    /// Any other `#` line: a comment.
     Comment,
-    Report { host_time_us: u64, bytes: Vec<u8> },
+    /// An input report.
+    Report {
+        /// Host arrival time, µs.
+        host_time_us: u64,
+        /// The report's bytes, report ID first.
+        bytes: Vec<u8>,
+    },
 }
 
 fn hex(s: &str) -> Option<Vec<u8>> {
@@ -118,6 +128,7 @@ pub struct HidLogDecoder {
 }
 
 impl HidLogDecoder {
+    /// A decoder that has seen no descriptor yet.
     pub fn new() -> Self {
         Self::default()
     }

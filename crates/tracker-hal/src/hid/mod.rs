@@ -41,56 +41,95 @@ pub const PAGE: u16 = 0x12;
 
 /// Usages of page 0x12 (HUTRR74).
 pub mod usage {
+    /// Eye Tracker: the application collection of a tracker.
     pub const EYE_TRACKER: u16 = 0x01;
+    /// Tracking Data: the input report of samples.
     pub const TRACKING_DATA: u16 = 0x10;
+    /// Capabilities: the feature report of what the device can do.
     pub const CAPABILITIES: u16 = 0x11;
+    /// Configuration: the feature report of the device's setup.
     pub const CONFIGURATION: u16 = 0x12;
+    /// Status: the report of the device's state.
     pub const STATUS: u16 = 0x13;
+    /// Control: the feature report that starts and stops streaming.
     pub const CONTROL: u16 = 0x14;
+    /// Sensor Timestamp: a sample's device time, µs.
     pub const SENSOR_TIMESTAMP: u16 = 0x20;
+    /// Position X (of a gaze point or a position).
     pub const POSITION_X: u16 = 0x21;
+    /// Position Y.
     pub const POSITION_Y: u16 = 0x22;
+    /// Position Z.
     pub const POSITION_Z: u16 = 0x23;
+    /// Gaze Point: where the gaze meets the screen, µm.
     pub const GAZE_POINT: u16 = 0x24;
+    /// Left Eye Position, µm in the tracker's frame.
     pub const LEFT_EYE_POSITION: u16 = 0x25;
+    /// Right Eye Position, µm in the tracker's frame.
     pub const RIGHT_EYE_POSITION: u16 = 0x26;
+    /// Head Position, µm in the tracker's frame.
     pub const HEAD_POSITION: u16 = 0x27;
+    /// Head Direction.
     pub const HEAD_DIRECTION: u16 = 0x28;
+    /// Rotation X (of the head direction).
     pub const ROTATION_X: u16 = 0x29;
+    /// Rotation Y.
     pub const ROTATION_Y: u16 = 0x2A;
+    /// Rotation Z.
     pub const ROTATION_Z: u16 = 0x2B;
+    /// Tracker Quality.
     pub const TRACKER_QUALITY: u16 = 0x100;
+    /// Minimum Tracking Distance, µm.
     pub const MIN_TRACKING_DISTANCE: u16 = 0x101;
+    /// Optimum Tracking Distance, µm.
     pub const OPTIMUM_TRACKING_DISTANCE: u16 = 0x102;
+    /// Maximum Tracking Distance, µm.
     pub const MAX_TRACKING_DISTANCE: u16 = 0x103;
+    /// Maximum Screen Plane Width, µm.
     pub const MAX_SCREEN_PLANE_WIDTH: u16 = 0x104;
+    /// Maximum Screen Plane Height, µm.
     pub const MAX_SCREEN_PLANE_HEIGHT: u16 = 0x105;
+    /// Calibrated Screen Width, µm.
     pub const CALIBRATED_SCREEN_WIDTH: u16 = 0x204;
+    /// Calibrated Screen Height, µm.
     pub const CALIBRATED_SCREEN_HEIGHT: u16 = 0x205;
+    /// Sampling Frequency, Hz.
     pub const SAMPLING_FREQUENCY: u16 = 0x300;
+    /// Configuration Status (see [`ConfigurationStatus`]).
     pub const CONFIGURATION_STATUS: u16 = 0x301;
+    /// Device Mode Request (the bits of [`mode`](super::mode)).
     pub const DEVICE_MODE_REQUEST: u16 = 0x400;
 }
 
 /// Device mode request bits (feature 0x14).
 pub mod mode {
+    /// Report gaze points.
     pub const GAZE_POINT: u32 = 1;
+    /// Report eye positions.
     pub const EYE_POSITION: u32 = 2;
+    /// Report the head position.
     pub const HEAD_POSITION: u32 = 4;
 }
 
 /// Configuration status (feature / input 0x13).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 pub enum ConfigurationStatus {
+    /// Status 0: not known.
     Unknown,
+    /// Status 1: ready; tracking.
     Ready,
+    /// Status 2: being configured.
     Configuring,
+    /// Status 3: the screen must be set up first.
     ScreenSetupNeeded,
+    /// Status 4: the user must calibrate first.
     UserCalibrationNeeded,
+    /// Any other code (clamped to 0–255).
     Other(u8),
 }
 
 impl ConfigurationStatus {
+    /// The status of a Configuration Status value (codes 0–4, others kept).
     pub fn from_code(c: i64) -> Self {
         match c {
             0 => Self::Unknown,
@@ -107,6 +146,7 @@ impl ConfigurationStatus {
 /// one-byte fields), concatenated little-endian in report order.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Value {
+    /// The report the value is in.
     pub report_id: u8,
     fields: Vec<Field>,
 }
@@ -164,29 +204,42 @@ impl Value {
 /// Where everything of an eye tracker is, found by usage in its descriptor.
 #[derive(Debug, Clone, PartialEq)]
 pub struct TrackerLayout {
+    /// The parsed descriptor.
     pub descriptor: ReportDescriptor,
+    /// ID of the Tracking Data input report.
     pub tracking_report_id: u8,
+    /// Sensor Timestamp.
     pub timestamp: Option<Value>,
+    /// Gaze Point X and Y.
     pub gaze: Option<[Value; 2]>,
+    /// Left Eye Position X, Y and Z.
     pub left_eye: Option<[Value; 3]>,
+    /// Right Eye Position X, Y and Z.
     pub right_eye: Option<[Value; 3]>,
+    /// Head Position X, Y and Z.
     pub head: Option<[Value; 3]>,
+    /// Capability values, by usage, as a feature report.
     pub capabilities: Vec<(u16, Value)>,
+    /// Configuration values, by usage, as a feature report.
     pub configuration: Vec<(u16, Value)>,
     /// Status values as a feature report.
     pub status: Vec<(u16, Value)>,
     /// Status values as an input report (sent when the status changes).
     pub status_input: Vec<(u16, Value)>,
+    /// Device Mode Request, as a feature report.
     pub mode_request: Option<Value>,
 }
 
 /// Why a descriptor is not an eye tracker's.
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
 pub enum LayoutError {
+    /// The descriptor does not parse.
     #[error("report descriptor: {0}")]
     Descriptor(#[from] descriptor::DescriptorError),
+    /// No Eye Tracker collection (usage page 0x12, usage 0x01).
     #[error("no Eye Tracker collection (usage page 0x12, usage 0x01)")]
     NotAnEyeTracker,
+    /// No Tracking Data input report with a Gaze Point X and Y.
     #[error("no Tracking Data input report with a Gaze Point X and Y")]
     NoGaze,
 }
@@ -402,10 +455,15 @@ impl TrackerLayout {
 /// One Tracking Data report, decoded. `None` = absent or invalid.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Tracking {
+    /// Sensor Timestamp, µs (device clock).
     pub timestamp_us: Option<u64>,
+    /// Gaze point on the calibrated screen, µm.
     pub gaze_um: Option<[f64; 2]>,
+    /// Left eye position, µm (tracker frame).
     pub left_eye_um: Option<[f64; 3]>,
+    /// Right eye position, µm (tracker frame).
     pub right_eye_um: Option<[f64; 3]>,
+    /// Head position, µm (tracker frame).
     pub head_um: Option<[f64; 3]>,
 }
 
@@ -414,8 +472,11 @@ pub struct Tracking {
 pub struct DeviceInfo {
     /// Calibrated screen size (µm), feature 0x12.
     pub screen_um: Option<(f64, f64)>,
+    /// Sampling frequency, Hz.
     pub sampling_hz: Option<f64>,
+    /// Configuration status.
     pub status: Option<ConfigurationStatus>,
+    /// Tracker quality, as the device reports it.
     pub tracker_quality: Option<i64>,
     /// Minimum, optimum, maximum tracking distance (µm).
     pub tracking_distance_um: Option<(f64, f64, f64)>,
@@ -458,6 +519,7 @@ pub struct HidConfig {
     /// collection; Tobii is 0x2104).
     #[serde(default)]
     pub vendor_id: Option<u16>,
+    /// USB product ID to open (default: any).
     #[serde(default)]
     pub product_id: Option<u16>,
     /// Calibrated screen size (µm) used until the device reports its own
@@ -479,6 +541,7 @@ fn default_timeout() -> u32 {
 }
 
 impl HidConfig {
+    /// Checks the settings; the error names the field and says why.
     pub fn validate(&self) -> Result<(), (&'static str, String)> {
         let (w, h) = self.screen_um;
         if !(w.is_finite() && h.is_finite() && w > 0.0 && h > 0.0) {

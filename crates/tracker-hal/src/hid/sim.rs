@@ -47,6 +47,7 @@ pub enum HidLayout {
 }
 
 impl HidLayout {
+    /// Every layout, for tests that run each.
     pub const ALL: [HidLayout; 5] = [
         HidLayout::Reference,
         HidLayout::Compact,

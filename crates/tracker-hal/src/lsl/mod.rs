@@ -92,7 +92,9 @@ const MAX_SAMPLE_BYTES: usize = 16 + 8 * MAX_CHANNELS;
 /// names it) or by its index (from 0).
 #[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
 pub enum ChannelRef {
+    /// By label, as the stream's description names it.
     Label(String),
+    /// By index, from 0.
     Index(usize),
 }
 
@@ -109,8 +111,11 @@ impl std::fmt::Display for ChannelRef {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct EyeChannels {
+    /// The x coordinate's channel.
     pub x: ChannelRef,
+    /// The y coordinate's channel.
     pub y: ChannelRef,
+    /// The pupil size's channel, when read.
     #[serde(default)]
     pub pupil: Option<ChannelRef>,
 }
@@ -130,15 +135,20 @@ pub enum GazeUnits {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct ConfidenceChannel {
+    /// The channel.
     pub channel: ChannelRef,
+    /// Values below this mark the sample's gaze invalid.
     pub threshold: f64,
 }
 
 /// Unit of a device-time channel.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 pub enum TimeUnit {
+    /// Seconds.
     Seconds,
+    /// Milliseconds.
     Milliseconds,
+    /// Microseconds.
     Microseconds,
 }
 
@@ -156,7 +166,9 @@ impl TimeUnit {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct TimeChannel {
+    /// The channel.
     pub channel: ChannelRef,
+    /// Its unit.
     pub unit: TimeUnit,
 }
 
@@ -168,8 +180,10 @@ pub struct LslConfig {
     /// one); the first stream that matches them all is read.
     #[serde(default)]
     pub name: Option<String>,
+    /// The stream's type (e.g. `Gaze`).
     #[serde(default)]
     pub stream_type: Option<String>,
+    /// The stream's source id.
     #[serde(default)]
     pub source_id: Option<String>,
     /// The combined (cyclopean) point's channels.
@@ -178,13 +192,16 @@ pub struct LslConfig {
     /// The left and right eyes' channels.
     #[serde(default)]
     pub left: Option<EyeChannels>,
+    /// The right eye's channels.
     #[serde(default)]
     pub right: Option<EyeChannels>,
+    /// What the gaze coordinates are.
     pub units: GazeUnits,
     /// The screen's extent in `units` (the tracker's range): needed for
     /// Pixels and Millimetres; (1, 1) for Normalized.
     #[serde(default)]
     pub frame: Option<(f64, f64)>,
+    /// A confidence channel that marks samples invalid.
     #[serde(default)]
     pub confidence: Option<ConfidenceChannel>,
     /// The device's own timestamp channel (else the LSL timestamp).
@@ -357,8 +374,11 @@ impl LslConfig {
 /// What a stream-info record says.
 #[derive(Debug, Clone, PartialEq, Eq, Default)]
 pub struct StreamHeader {
+    /// The stream's name.
     pub name: String,
+    /// The stream's type.
     pub stream_type: String,
+    /// The stream's source id.
     pub source_id: String,
     /// The stream's channel count (0: not stated): every sample record
     /// after this info record then has exactly this many values.
@@ -471,6 +491,7 @@ pub struct LslDecoder {
 }
 
 impl LslDecoder {
+    /// A decoder for streams as `config` describes them.
     pub fn new(config: LslConfig) -> Self {
         let mut framing = Framing::new();
         framing.record_len = PREFIX + 16 + 8 * 2 + TRAILER;

@@ -11,8 +11,11 @@ use super::TruthSample;
 /// rejected and shown again).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Stop {
+    /// Where the eye looks, tracker units.
     pub at: [f64; 2],
+    /// How long, µs.
     pub dwell_us: u64,
+    /// Whether the eye is closed throughout.
     pub closed: bool,
 }
 

@@ -42,8 +42,11 @@ use crate::sample::GazeSample;
 /// The simulated truth at one sampling instant, in tracker units.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct TruthSample {
+    /// The sampling instant, µs.
     pub t_us: u64,
+    /// The left eye's point of regard, tracker units; `None`: closed or lost.
     pub left: Option<[f64; 2]>,
+    /// The right eye's point of regard, tracker units; `None`: closed or lost.
     pub right: Option<[f64; 2]>,
 }
 

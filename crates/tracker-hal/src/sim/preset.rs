@@ -23,8 +23,11 @@ pub const FIXATION_JITTER_DEG: f64 = 0.03;
 /// degree of visual angle.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Preset {
+    /// The device's sampling rate, Hz.
     pub rate_hz: f64,
+    /// The device's frame (width, height), tracker units.
     pub frame: (f64, f64),
+    /// Tracker units per degree of visual angle.
     pub units_per_degree: f64,
 }
 

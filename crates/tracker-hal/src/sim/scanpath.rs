@@ -6,16 +6,6 @@ use screen_geometry::ScreenGeometry;
 
 use super::saccade::{main_sequence_duration_ms, saccade_profile};
 
-/// Gaze (screen px) per frame at `fps` for a search of `objects` that ends
-/// on `target`: a fixation at the centre, then 4–6 of the other objects in
-/// a seeded order (the nearest of three random candidates each time, as
-/// searches tend to go), then the target (fixated twice as long);
-/// fixations of 250–450 ms with uniform jitter of ±0.1° (at the centre's
-/// pixels per degree), saccades between them with main-sequence durations
-/// ([`main_sequence_duration_ms`], amplitudes at the eye from `geometry`)
-/// along [`saccade_profile`]. Deterministic for a seed. The fixation
-/// durations and the nearest-of-three choice are plausible stand-ins for a
-/// search, not fitted to recorded searches.
 /// The places a search fixates: `start`, then a number of the objects
 /// other than the target drawn from `visits` (each visited once, each the
 /// nearest of three random candidates from where the eye is, as searches
@@ -46,6 +36,16 @@ pub fn search_stops<R: Rng>(
     stops
 }
 
+/// Gaze (screen px) per frame at `fps` for a search of `objects` that ends
+/// on `target`: a fixation at the centre, then 4–6 of the other objects in
+/// a seeded order (the nearest of three random candidates each time, as
+/// searches tend to go), then the target (fixated twice as long);
+/// fixations of 250–450 ms with uniform jitter of ±0.1° (at the centre's
+/// pixels per degree), saccades between them with main-sequence durations
+/// ([`main_sequence_duration_ms`], amplitudes at the eye from `geometry`)
+/// along [`saccade_profile`]. Deterministic for a seed. The fixation
+/// durations and the nearest-of-three choice are plausible stand-ins for a
+/// search, not fitted to recorded searches.
 pub fn search_scanpath(
     geometry: &ScreenGeometry,
     objects: &[[f64; 2]],

@@ -10,12 +10,15 @@ use super::TruthSample;
 /// What to simulate.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Script {
+    /// Length of the script, seconds.
     pub seconds: f64,
+    /// Sampling rate, Hz.
     pub rate_hz: f64,
     /// Area the gaze moves in, (width, height) in tracker units.
     pub frame: (f64, f64),
     /// Tracker units per degree (for the main sequence).
     pub units_per_degree: f64,
+    /// Seed of the random generator (same seed, same script).
     pub seed: u64,
 }
 

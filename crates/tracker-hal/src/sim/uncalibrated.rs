@@ -31,7 +31,9 @@ pub fn uncalibrated_raw(px: [f64; 2], screen_px: (u32, u32), frame: (f64, f64)) 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
 #[error("closed target {index}: there are {targets} targets")]
 pub struct NoSuchTarget {
+    /// The target asked for.
     pub index: usize,
+    /// The number of targets.
     pub targets: usize,
 }
 

@@ -19,6 +19,7 @@ pub struct Faults {
     pub far: u64,
     /// Stretches of at least 0.5 s with no record, and the longest (s).
     pub silences: u64,
+    /// The longest silence, seconds.
     pub longest_silence_s: f64,
     /// Stretches of at least 1 s in which bytes arrived but no record
     /// decoded (wrong baud or format).

@@ -26,7 +26,9 @@ pub enum TrackerMsg {
         time_order: TimeOrder,
         /// The clock segment (a device clock reset starts a new one).
         segment: u32,
+        /// The eye tracker's point, tracker units; `None` when invalid.
         raw: Option<[f64; 2]>,
+        /// That point mapped to the screen, pixels; `None` when invalid or far off the screen.
         gaze_px: Option<[f64; 2]>,
         /// The left and right eyes' points of regard, screen pixels, when
         /// the device measures two eyes (not the mouse or the attention

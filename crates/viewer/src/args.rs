@@ -136,7 +136,9 @@ impl From<AccelArg> for Accel {
 /// `--intersector`: the ray/triangle test.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
 pub enum Intersector {
+    /// Woop, Benthin & Wald 2013's watertight test: no ray slips between triangles sharing an edge.
     Watertight,
+    /// Möller–Trumbore (Murphy 2007, Algorithm 4.2), for comparison.
     MollerTrumbore,
 }
 
@@ -457,7 +459,9 @@ pub struct ThresholdsReport {
     pub synthetic: bool,
     /// The Geisler–Perry parameters the sampling model used.
     pub ct0: f64,
+    /// Geisler–Perry α, the spatial-frequency decay constant.
     pub alpha: f64,
+    /// Geisler–Perry e2, the half-resolution eccentricity, degrees.
     pub e2_deg: f64,
 }
 

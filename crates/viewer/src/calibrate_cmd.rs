@@ -37,10 +37,14 @@ use crate::screen::{Input, Screen};
 
 use crate::args::PlanArgs;
 
+/// `--model`: the calibration's mapping.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
 pub enum ModelArg {
+    /// Affine: 6 parameters, at least 3 targets.
     Affine,
+    /// Projective: 8 parameters, at least 4 targets.
     Homography,
+    /// Second-order polynomial per axis: 12 parameters, at least 6 targets.
     Polynomial2,
 }
 
@@ -54,6 +58,7 @@ impl From<ModelArg> for Model {
     }
 }
 
+/// `gazecast calibrate`'s arguments.
 #[derive(Debug, Clone, clap::Args)]
 pub struct CalibrateArgs {
     /// Tracker file (RON); not needed with --replay.
@@ -62,13 +67,16 @@ pub struct CalibrateArgs {
     /// Run the procedure on a recorded session (implies --yes).
     #[arg(long, value_name = "FILE.gzrec")]
     pub replay: Option<PathBuf>,
+    /// Display file (RON).
     #[arg(long, value_name = "FILE")]
     pub display: PathBuf,
     /// Where the calibration is saved (RON).
     #[arg(long, value_name = "FILE.ron")]
     pub out: PathBuf,
+    /// The targets and their timing.
     #[command(flatten)]
     pub plan: PlanArgs,
+    /// The mapping fitted from raw tracker coordinates to screen pixels.
     #[arg(long, value_enum, default_value = "homography")]
     pub model: ModelArg,
     /// A validation point whose accuracy is worse than this is bad.

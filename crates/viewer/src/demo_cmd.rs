@@ -16,6 +16,7 @@ use crate::config::{self, load_scene};
 use crate::live::{self, LiveError, LiveOptions};
 use crate::picture::{draw_box, half_size, save_apng, save_png};
 
+/// `gazecast demo`'s arguments.
 #[derive(Debug, Clone, clap::Args)]
 pub struct DemoArgs {
     /// Output folder: demo.png (animated PNG) and demo-sheet.png.
@@ -36,8 +37,10 @@ pub struct DemoArgs {
     /// The rendering method (`foveated` is an alias of `hybrid`).
     #[arg(long, value_parser = crate::args::method_parser(), default_value = "hybrid")]
     pub method: pipeline::Method,
+    /// Model-based methods' options (budget, no gaze).
     #[command(flatten)]
     pub model_based: crate::args::ModelBasedArgs,
+    /// A participant's thresholds file instead of the default CSF model.
     #[command(flatten)]
     pub thresholds: crate::args::ThresholdsArg,
     /// Hybrid method: keep a ray mask while the gaze stays within DEG

@@ -9,12 +9,15 @@ use pipeline::BackendChoice;
 
 use crate::runner::{self, RunOptions};
 
+/// `gazecast experiment`: its subcommand.
 #[derive(Debug, Clone, clap::Args)]
 pub struct ExperimentArgs {
+    /// What to do.
     #[command(subcommand)]
     pub command: ExperimentCommand,
 }
 
+/// The subcommands of `gazecast experiment`.
 #[derive(Debug, Clone, clap::Subcommand)]
 pub enum ExperimentCommand {
     /// Run (or --resume) one participant's session in a window, writing
@@ -30,6 +33,7 @@ pub enum ExperimentCommand {
     ExportBids(ExportArgs),
 }
 
+/// `gazecast experiment run`'s arguments.
 #[derive(Debug, Clone, clap::Args)]
 pub struct RunArgs {
     /// The design file (RON), e.g. config/experiments/murphy2007-search.ron.
@@ -58,10 +62,13 @@ pub struct RunArgs {
     /// Continue a session at its first unfinished trial (after a crash or Esc).
     #[arg(long)]
     pub resume: bool,
+    /// Where to render: `cpu`, `gpu`, or `auto`.
     #[arg(long, value_parser = crate::args::backend_parser(), default_value = "auto")]
     pub backend: BackendChoice,
+    /// Fullscreen on the current monitor.
     #[arg(long)]
     pub fullscreen: bool,
+    /// Fullscreen on this monitor (0-based).
     #[arg(long, value_name = "INDEX")]
     pub monitor: Option<usize>,
     /// A simulated participant (seeded) looks and presses instead of a
@@ -96,12 +103,15 @@ pub struct RunArgs {
     /// Save the first frame of each kind of screen to DIR/<screen>.png.
     #[arg(long, value_name = "DIR")]
     pub screenshots: Option<PathBuf>,
+    /// Lab Streaming Layer output.
     #[command(flatten)]
     pub lsl: crate::args::LslArgs,
 }
 
+/// `gazecast experiment plan`'s arguments.
 #[derive(Debug, Clone, clap::Args)]
 pub struct PlanArgs {
+    /// The design file (RON).
     #[arg(value_name = "DESIGN.ron")]
     pub design: PathBuf,
     /// Counterbalancing row (0-based).
@@ -118,6 +128,7 @@ pub struct PlanArgs {
     pub display: PathBuf,
 }
 
+/// `gazecast experiment analyze`'s arguments.
 #[derive(Debug, Clone, clap::Args)]
 pub struct AnalyzeArgs {
     /// Session folders (OUT/<design>/sub-<ID>), one per participant.
@@ -131,8 +142,10 @@ pub struct AnalyzeArgs {
     pub exclude_incorrect: bool,
 }
 
+/// `gazecast experiment export-bids`'s arguments.
 #[derive(Debug, Clone, clap::Args)]
 pub struct ExportArgs {
+    /// Session folders (OUT/<design>/sub-<ID>), one per participant.
     #[arg(value_name = "DIR", required = true)]
     pub dirs: Vec<PathBuf>,
     /// The BIDS dataset folder.
@@ -231,6 +244,7 @@ const HEADLESS_TOLERANCE_DEG: f64 = 0.5;
 /// gaze by more than its own radius).
 const MAX_TOLERANCE_DEG: f64 = 2.0;
 
+/// Runs `gazecast experiment`'s subcommand, writing normal output to `out`.
 pub fn run(args: &ExperimentArgs, out: &mut dyn Write) -> Result<(), String> {
     match &args.command {
         ExperimentCommand::Run(a) => {

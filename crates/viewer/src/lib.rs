@@ -1,6 +1,8 @@
 //! The `gazecast` binary's library: command-line wiring, configuration
 //! loading, pictures, windows (viewer, calibration, experiment runs) and
-//! the threads that feed them. It owns no maths or policy: the foveation
+//! the threads that feed them.
+//!
+//! It owns no maths or policy: the foveation
 //! and ray-casting maths are `foveation`, `raycast`, `lod` and `pipeline`
 //! (the frame); the attention model is `attention`; gaze devices, the
 //! tracker supervisor (reconnects, silences, fault counts), recording,
@@ -9,6 +11,8 @@
 //! and every statistic the reports quote (`experiment::stats`) are
 //! `experiment`. Here they are only chosen from the command line and
 //! wired together.
+
+#![warn(missing_docs)]
 
 pub mod args;
 pub mod bench;
@@ -37,10 +41,12 @@ use clap::{Parser, Subcommand};
 #[derive(Debug, Parser)]
 #[command(name = "gazecast", version, about)]
 pub struct Cli {
+    /// The subcommand.
     #[command(subcommand)]
     pub command: Command,
 }
 
+/// The subcommands of `gazecast`.
 #[derive(Debug, Subcommand)]
 pub enum Command {
     /// Build the CSF ray mask for one gaze point; report rays against the

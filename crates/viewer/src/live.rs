@@ -66,6 +66,7 @@ pub struct LiveOptions {
     pub screenshot: Option<PathBuf>,
     /// Draw the POR box whatever the scene asks.
     pub por_overlay: bool,
+    /// Where to render: CPU, GPU, or the GPU when there is one.
     pub backend: BackendChoice,
     /// The rendering method (the scene may still fall back to full).
     pub method: pipeline::Method,
@@ -242,6 +243,7 @@ struct Viewer<'a> {
 /// The newest valid gaze of a drain.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Newest {
+    /// The gaze, screen px.
     pub gaze_px: [f64; 2],
     /// Capture time on this process's monotonic clock (µs,
     /// [`tracker_hal::supervisor::capture_us`]).

@@ -93,6 +93,7 @@ impl LslOptions {
     pub fn name(&self, kind: &str) -> String {
         format!("gazecast-{}-{kind}", self.command)
     }
+    /// A stream's source id: its name, then the source suffix when there is one.
     pub fn source_id(&self, kind: &str) -> String {
         if self.source_suffix.is_empty() {
             self.name(kind)
@@ -118,7 +119,9 @@ pub fn id_part(s: &str) -> String {
 /// One gaze sample: the combined point and each eye's, screen px.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct GazeValues {
+    /// The combined gaze, screen px; `None` when invalid.
     pub gaze_px: Option<[f64; 2]>,
+    /// Left and right eyes' points, screen px, when the sample has both.
     pub eyes_px: Option<[[f64; 2]; 2]>,
 }
 
@@ -374,6 +377,7 @@ pub struct ReplayShift {
 }
 
 impl ReplayShift {
+    /// A shift for a replay (`replay`) or a live source (times pass unchanged).
     pub fn new(replay: bool) -> Self {
         Self {
             replay,

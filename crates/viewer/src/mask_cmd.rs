@@ -52,27 +52,43 @@ pub struct MaskArgs {
 /// contract; the rest add detail.
 #[derive(Debug, Clone, Serialize)]
 pub struct MaskReport {
+    /// Display width, pixels.
     pub width_px: u32,
+    /// Display height, pixels.
     pub height_px: u32,
     /// Conservative local pixels per degree at the gaze point.
     pub ppd: f64,
+    /// Radius of the fovea disc (one ray per pixel), pixels.
     pub fovea_radius_px: f64,
     /// Rays inside the screen for this gaze.
     pub rays: usize,
+    /// The Nyquist bound on the ray count for this gaze.
     pub nyquist_bound_rays: f64,
+    /// The mask's layout (`nyquist` or `seed`).
     pub layout: &'static str,
+    /// Time to build the mask, ms.
     pub mask_build_ms: f64,
+    /// The display's name.
     pub display: String,
+    /// The gaze, screen px.
     pub gaze_px: [f64; 2],
+    /// Eye-to-screen distance, mm.
     pub eye_distance_mm: f64,
+    /// Michelson contrast of the CSF cut-off.
     pub contrast: f64,
+    /// Largest ray spacing allowed, pixels.
     pub max_spacing_px: f64,
+    /// Rays in the fovea disc.
     pub fovea_rays: usize,
+    /// Rays on the rings (mesh vertices on the screen).
     pub ring_rays: usize,
     /// Mesh vertices just off the screen that close the edge cells.
     pub off_screen_vertices: usize,
+    /// Rings outside the fovea.
     pub rings: usize,
+    /// Quadrilateral cells of the mesh.
     pub quads: usize,
+    /// Triangular cells of the mesh.
     pub triangles: usize,
     /// rays / nyquist_bound_rays.
     pub ratio_to_bound: f64,
@@ -80,9 +96,13 @@ pub struct MaskReport {
 
 /// A mask with everything it was built from.
 pub struct BuiltMask {
+    /// The display.
     pub display: Display,
+    /// The sampling model the mask was built with.
     pub model: SamplingModel,
+    /// The mask.
     pub mask: RayMask,
+    /// What `--json` prints about it.
     pub report: MaskReport,
 }
 

@@ -69,6 +69,7 @@ pub struct Inputs {
 }
 
 impl Inputs {
+    /// No input paths yet.
     pub fn new() -> Self {
         Self::default()
     }

@@ -183,10 +183,13 @@ pub fn draw_csf(path: &Path, m: &RayMask, model: &SamplingModel, display: &str) 
 /// One configuration on the accuracy-versus-time plot.
 #[derive(Debug, Clone)]
 pub struct ParetoPoint {
+    /// The configuration's label.
     pub label: String,
+    /// Frame time, ms.
     pub time_ms: f64,
     /// Foveated PSNR (dB); ∞ for the exact reference, drawn at the top.
     pub quality_db: f64,
+    /// Whether the point is on the Pareto front (drawn joined).
     pub pareto: bool,
     /// The default configuration (drawn larger, always labelled).
     pub highlight: bool,

@@ -16,6 +16,7 @@ use crate::config::{self, load_scene};
 use crate::picture::{draw_text_lines, save_png};
 use experiment::stats::nearest_rank::median;
 
+/// `gazecast render`'s arguments.
 #[derive(Debug, Clone, clap::Args)]
 pub struct RenderArgs {
     /// Scene file (RON).
@@ -36,6 +37,7 @@ pub struct RenderArgs {
     /// Where to render; `auto` says which it used.
     #[arg(long, value_parser = crate::args::backend_parser(), default_value = "auto")]
     pub backend: BackendChoice,
+    /// The ray mask's layout (hybrid method).
     #[arg(long, value_name = "nyquist|seed", default_value = "nyquist")]
     pub layout: Layout,
     /// Michelson contrast C of the CSF cut-off.
@@ -91,8 +93,10 @@ pub struct RenderArgs {
     /// Draw the POR box even if the scene does not ask for it.
     #[arg(long, value_enum, value_name = "por")]
     pub overlay: Option<Overlay>,
+    /// Model-based methods' options (budget, no gaze).
     #[command(flatten)]
     pub model_based: ModelBasedArgs,
+    /// A participant's thresholds file instead of the default CSF model.
     #[command(flatten)]
     pub thresholds: ThresholdsArg,
 }
@@ -100,8 +104,10 @@ pub struct RenderArgs {
 /// The `--stats` JSON.
 #[derive(Debug, Clone, Serialize)]
 pub struct RenderReport {
+    /// The frame's counts and median time.
     #[serde(flatten)]
     pub stats: Stats,
+    /// Where it rendered: `cpu` or `gpu`.
     pub backend: &'static str,
     /// The GPU adapter (name, API, type, driver) when the GPU rendered.
     pub adapter: Option<String>,
@@ -112,13 +118,21 @@ pub struct RenderReport {
     /// uploaded and read back, dispatches, draws, submits, counted at the
     /// `wgpu` calls), when the GPU rendered.
     pub gpu_traffic: Option<raycast::gpu::Traffic>,
+    /// Threads in the rayon pool.
     pub threads: usize,
+    /// The rendering method's name.
     pub mode: &'static str,
+    /// The scene's name.
     pub scene: String,
+    /// Frame width, pixels.
     pub width_px: u32,
+    /// Frame height, pixels.
     pub height_px: u32,
+    /// The gaze, screen px.
     pub gaze_px: [f64; 2],
+    /// Triangles in the scene.
     pub triangles: usize,
+    /// The acceleration structure's name.
     pub accel: &'static str,
     /// All repeat times, ms.
     pub times_ms: Vec<f64>,
@@ -135,17 +149,24 @@ pub struct RenderReport {
 /// A moving scene's pose (`--stats`).
 #[derive(Debug, Clone, Serialize)]
 pub struct PoseReport {
+    /// The time on the scene's clock, s.
     pub time_s: f64,
+    /// Each object's fastest corner's velocity, mm/s (display frame).
     pub object_velocity_mm_per_s: Vec<[f32; 3]>,
+    /// The camera's velocity, mm/s (display frame).
     pub camera_velocity_mm_per_s: [f32; 3],
 }
 
 /// What a model-based frame drew (`--stats`).
 #[derive(Debug, Clone, Serialize)]
 pub struct ModelBasedReport {
+    /// Triangles of the unsimplified scene.
     pub triangles_full: usize,
+    /// Triangles drawn.
     pub triangles_drawn: usize,
+    /// Selection time, ms.
     pub select_ms: f64,
+    /// Raster time, ms.
     pub raster_ms: f64,
     /// Selection without the gaze (`--no-gaze`).
     pub no_gaze: bool,
@@ -164,6 +185,7 @@ pub struct ModelBasedReport {
 }
 
 impl ModelBasedReport {
+    /// The report of `m`; `no_gaze` when the selection ignored the gaze.
     pub fn new(m: &pipeline::model_based::ModelBasedStats, no_gaze: bool) -> Self {
         Self {
             triangles_full: m.triangles_full,
@@ -219,7 +241,9 @@ pub fn budget_stop_name(s: pipeline::model_based::BudgetStop) -> &'static str {
 /// One GPU stage's time.
 #[derive(Debug, Clone, Serialize)]
 pub struct StageTime {
+    /// The stage's name.
     pub stage: &'static str,
+    /// Its time, ms.
     pub ms: f64,
 }
 

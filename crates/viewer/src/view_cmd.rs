@@ -9,10 +9,13 @@ use pipeline::BackendChoice;
 use crate::args::Overlay;
 use crate::live::{self, LiveOptions};
 
+/// `gazecast view`'s arguments.
 #[derive(Debug, Clone, clap::Args)]
 pub struct ViewArgs {
+    /// Scene file (RON).
     #[arg(long, value_name = "FILE")]
     pub scene: PathBuf,
+    /// Display file (RON).
     #[arg(long, value_name = "FILE")]
     pub display: PathBuf,
     /// Tracker file (RON). Not needed with --replay (the recording's header
@@ -41,13 +44,16 @@ pub struct ViewArgs {
     /// Force the POR box on.
     #[arg(long, value_enum, value_name = "por")]
     pub overlay: Option<Overlay>,
+    /// Where to render: `cpu`, `gpu`, or `auto` (the GPU when there is one).
     #[arg(long, value_parser = crate::args::backend_parser(), default_value = "auto")]
     pub backend: BackendChoice,
     /// The rendering method (`foveated` is an alias of `hybrid`).
     #[arg(long, value_parser = crate::args::method_parser(), default_value = "hybrid")]
     pub method: pipeline::Method,
+    /// Model-based methods' options (budget, no gaze).
     #[command(flatten)]
     pub model_based: crate::args::ModelBasedArgs,
+    /// A participant's thresholds file instead of the default CSF model.
     #[command(flatten)]
     pub thresholds: crate::args::ThresholdsArg,
     /// Hybrid method: build each ray mask dense enough for any gaze within
@@ -78,6 +84,7 @@ pub struct ViewArgs {
     /// Print the passes the scene's effects make the pipeline run, and exit.
     #[arg(long)]
     pub explain: bool,
+    /// Lab Streaming Layer output.
     #[command(flatten)]
     pub lsl: crate::args::LslArgs,
 }

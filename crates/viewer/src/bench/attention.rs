@@ -72,11 +72,13 @@ use crate::config::{self, load_scene};
 pub const MAX_FRAMES: usize = 2_000_000;
 /// Most `#` note lines kept from a session, and their length.
 pub const MAX_NOTES: usize = 100;
+/// Longest note line kept, characters.
 pub const MAX_NOTE_CHARS: usize = 500;
 /// Largest `--radius-deg`.
 pub const MAX_RADIUS_DEG: f64 = 5.0;
 pub use attention::eval::{eye_state, EyeState, FIXATION_BELOW, SACCADE_ABOVE};
 
+/// `gazecast bench attention`'s arguments.
 #[derive(Debug, Clone, clap::Args)]
 pub struct AttentionArgs {
     /// Scene file (RON).
@@ -143,12 +145,14 @@ pub const LONG_GAP_S: f64 = 2.0;
 /// A session cut into frames.
 #[derive(Debug, Clone, Default)]
 pub struct FrameCut {
+    /// One entry per frame: its time and gaze.
     pub frames: Vec<FrameGaze>,
     /// More frames were due than `max`.
     pub truncated: bool,
     /// Gaps between samples longer than [`LONG_GAP_S`], and the seconds
     /// of them that got no frames.
     pub long_gaps: usize,
+    /// Seconds of those gaps that got no frames.
     pub skipped_s: f64,
 }
 
@@ -317,15 +321,21 @@ pub const LEE_TABLE_3_2: [[f64; 3]; 8] = [
 /// One session's outcome.
 #[derive(Debug, Clone)]
 pub struct SessionResult {
+    /// The session's sample CSV.
     pub path: PathBuf,
+    /// Its comment lines (`#`), at most [`MAX_NOTES`].
     pub notes: Vec<String>,
+    /// Frames the session was cut into.
     pub frames: usize,
+    /// More frames were due than [`MAX_FRAMES`].
     pub truncated: bool,
     /// Gaps between samples over [`LONG_GAP_S`] and the seconds skipped.
     pub long_gaps: usize,
+    /// Seconds of those gaps that got no frames.
     pub skipped_s: f64,
     /// Frames per eye state: blink, start, saccade, drift, fixation.
     pub states: [usize; 5],
+    /// Lee's `A_1`–`A_3` per feature-group combination (Table 3.2's eight).
     pub accuracy: [attention::AccuracyAccumulator; 8],
     /// Median model time per frame, ms, per combination (the baseline's is
     /// drawing its random pixels).

@@ -11,12 +11,16 @@ use crate::args::AccelArg;
 /// Which refinement triggers run.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord)]
 pub enum Refinement {
+    /// No refinement.
     None,
+    /// Silhouette refinement (with its margin).
     Silhouette,
+    /// Silhouette and crease refinement.
     SilhouetteCrease,
 }
 
 impl Refinement {
+    /// The name in reports (`none`, `silhouette`, `silhouette+crease`).
     pub fn name(self) -> &'static str {
         match self {
             Refinement::None => "none",
@@ -48,11 +52,17 @@ impl Refinement {
 /// `layout` is `Some` exactly for the hybrid method.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Config {
+    /// The rendering method.
     pub method: Method,
+    /// The ray mask's layout (hybrid only).
     pub layout: Option<Layout>,
+    /// Michelson contrast of the CSF cut-off.
     pub contrast: f64,
+    /// Largest ray spacing allowed, pixels.
     pub max_spacing_px: f64,
+    /// Which refinement triggers run (hybrid only).
     pub refinement: Refinement,
+    /// The acceleration structure.
     pub accel: AccelArg,
     /// `Simplify` under a triangle budget (Luebke & Hallen §5.3,
     /// `bench accuracy --budget`); `None` for every other configuration.
@@ -60,6 +70,7 @@ pub struct Config {
 }
 
 impl Config {
+    /// The configuration's name in reports and plots.
     pub fn name(&self) -> String {
         let accel = self.accel.name();
         match self.layout {

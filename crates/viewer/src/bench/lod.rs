@@ -46,6 +46,7 @@ pub const MAX_FRAMES: usize = 10_000;
 /// Luebke & Hallen Fig. 8: the gaze 29° from the bunny's centre.
 pub const FIG8_ECCENTRICITY_DEG: f64 = 29.0;
 
+/// `gazecast bench lod`'s arguments.
 #[derive(Debug, Clone, clap::Args)]
 pub struct LodArgs {
     /// Output folder (created): lod.md, lod.csv, lod.json.
@@ -72,30 +73,48 @@ pub struct LodArgs {
 /// One frame of one method on one mesh.
 #[derive(Debug, Clone, Copy, Serialize)]
 pub struct LodFrame {
+    /// Index along the scanpath.
     pub frame: usize,
+    /// The gaze, screen px.
     pub gaze_px: [f64; 2],
+    /// Triangles drawn.
     pub faces: usize,
+    /// Selection time, ms.
     pub select_ms: f64,
+    /// Raster time, ms.
     pub raster_ms: f64,
+    /// Whole frame time, ms.
     pub frame_ms: f64,
 }
 
 /// Table 2's row: one method on one mesh over the scanpath.
 #[derive(Debug, Clone, Serialize)]
 pub struct LodSummary {
+    /// The mesh's name.
     pub mesh: String,
+    /// The method's name.
     pub method: &'static str,
+    /// Triangles of the unsimplified mesh.
     pub faces_full: usize,
+    /// Frames measured.
     pub frames: usize,
     /// Tree building (scene set-up) time, ms; 0 for `full-raster`.
     pub build_ms: f64,
+    /// Fewest triangles drawn in a frame.
     pub faces_min: usize,
+    /// Most triangles drawn in a frame.
     pub faces_max: usize,
+    /// Mean triangles drawn per frame.
     pub faces_avg: f64,
+    /// Shortest frame time, ms.
     pub frame_ms_min: f64,
+    /// Longest frame time, ms.
     pub frame_ms_max: f64,
+    /// Mean frame time, ms.
     pub frame_ms_avg: f64,
+    /// Mean selection time, ms.
     pub select_ms_avg: f64,
+    /// Mean raster time, ms.
     pub raster_ms_avg: f64,
     /// 1000 / `frame_ms_avg` (M&D report frame rates).
     pub fps_avg: f64,
@@ -105,11 +124,15 @@ pub struct LodSummary {
 /// one frame from a fresh cut.
 #[derive(Debug, Clone, Serialize)]
 pub struct Fig8Row {
+    /// The mesh's name.
     pub mesh: String,
+    /// Triangles of the unsimplified mesh.
     pub faces_full: usize,
     /// Angle between the gaze and the eye → object-centre direction, deg.
     pub eccentricity_deg: f64,
+    /// The gaze, screen px.
     pub gaze_px: [f64; 2],
+    /// Triangles drawn.
     pub faces: usize,
     /// The object's angular extent, deg: the diameter of the sphere about
     /// its bounding box's centre that holds every triangle.
@@ -119,12 +142,19 @@ pub struct Fig8Row {
 /// Everything `lod.json` holds.
 #[derive(Debug, Clone, Serialize)]
 pub struct LodReport {
+    /// The display's name.
     pub display: String,
+    /// Display width, pixels.
     pub width_px: u32,
+    /// Display height, pixels.
     pub height_px: u32,
+    /// Threads in the rayon pool.
     pub threads: usize,
+    /// Which scanpath the frames follow.
     pub scanpath: &'static str,
+    /// Table 2's rows: one per method and mesh.
     pub summaries: Vec<LodSummary>,
+    /// Fig. 8's rows: one per mesh.
     pub fig8: Vec<Fig8Row>,
 }
 

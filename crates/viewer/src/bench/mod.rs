@@ -36,8 +36,10 @@ use std::path::PathBuf;
 
 use pipeline::BackendChoice;
 
+/// `gazecast bench`: its subcommand.
 #[derive(Debug, Clone, clap::Args)]
 pub struct BenchArgs {
+    /// The benchmark to run.
     #[command(subcommand)]
     pub command: BenchCommand,
 }
@@ -51,6 +53,7 @@ fn quick_help() -> String {
     )
 }
 
+/// The benchmarks of `gazecast bench`.
 #[derive(Debug, Clone, clap::Subcommand)]
 pub enum BenchCommand {
     /// Sweep layout, contrast, maximum spacing, refinement and acceleration
@@ -82,6 +85,7 @@ pub const MAX_GAZES: usize = 10_000;
 /// Most timed repeats per point.
 pub const MAX_REPEATS: u32 = 1000;
 
+/// `gazecast bench accuracy`'s arguments.
 #[derive(Debug, Clone, clap::Args)]
 pub struct AccuracyArgs {
     /// Scene file (RON).
@@ -117,10 +121,12 @@ pub struct AccuracyArgs {
     /// best-effort mode; 1 to 10^9); repeat for several budgets.
     #[arg(long, value_name = "TRIANGLES", value_parser = crate::args::parse_budget)]
     pub budget: Vec<usize>,
+    /// A participant's thresholds file instead of the default CSF model.
     #[command(flatten)]
     pub thresholds: crate::args::ThresholdsArg,
 }
 
+/// `gazecast bench scaling`'s arguments.
 #[derive(Debug, Clone, clap::Args)]
 pub struct ScalingArgs {
     /// Output folder (created).

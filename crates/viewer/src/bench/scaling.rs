@@ -49,13 +49,21 @@ pub fn scaling_display(w: u32, h: u32) -> Display {
 /// One point of the scaling sweep.
 #[derive(Debug, Clone, Copy)]
 pub struct ScalingPoint {
+    /// Which sweep the point is on: `triangles` or `pixels`.
     pub axis: &'static str,
+    /// Triangles in the scene.
     pub triangles: usize,
+    /// Frame width, pixels.
     pub width_px: u32,
+    /// Frame height, pixels.
     pub height_px: u32,
+    /// Median full-resolution frame time, ms.
     pub full_ms: f64,
+    /// Median foveated frame time, ms.
     pub foveated_ms: f64,
+    /// Rays of the full-resolution frame.
     pub full_rays: u64,
+    /// Rays of the foveated frame.
     pub foveated_rays: u64,
 }
 

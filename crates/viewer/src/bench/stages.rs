@@ -38,10 +38,13 @@ use experiment::stats::nearest_rank::median;
 /// `--backend` of `bench stages`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
 pub enum StagesBackend {
+    /// The CPU backend (stage times are wall times).
     Cpu,
+    /// The GPU backend (stage times from timestamp queries).
     Gpu,
 }
 
+/// `gazecast bench stages`'s arguments.
 #[derive(Debug, Clone, clap::Args)]
 pub struct StagesArgs {
     /// Scene files (RON), comma-separated.
@@ -95,7 +98,9 @@ fn frame(renderer: &mut Renderer<'_>, gaze: [f64; 2]) -> Result<Run, String> {
 /// frames.
 #[derive(Debug, Clone, Copy, Serialize)]
 pub struct P50Max {
+    /// Median (nearest rank).
     pub p50: u64,
+    /// Maximum.
     pub max: u64,
 }
 
@@ -117,10 +122,15 @@ pub struct TrafficSummary {
     pub frame: &'static str,
     /// Frames counted (the warm-up included).
     pub frames: usize,
+    /// Bytes uploaded per frame.
     pub uploaded_bytes: P50Max,
+    /// Bytes read back per frame.
     pub read_back_bytes: P50Max,
+    /// Compute dispatches per frame.
     pub dispatches: P50Max,
+    /// Draw calls per frame.
     pub draws: P50Max,
+    /// Queue submits per frame.
     pub submits: P50Max,
 }
 
@@ -142,25 +152,36 @@ impl TrafficSummary {
 /// One pass's median GPU time (`--json`).
 #[derive(Debug, Clone, Serialize)]
 pub struct PassTime {
+    /// The pass's name.
     pub pass: &'static str,
+    /// Its median time, ms.
     pub ms: f64,
 }
 
 /// One scene and display (`--json`).
 #[derive(Debug, Clone, Serialize)]
 pub struct StagesRow {
+    /// The scene's name.
     pub scene: String,
+    /// Display width, pixels.
     pub width_px: u32,
+    /// Display height, pixels.
     pub height_px: u32,
+    /// Median full-resolution frame time (the method's), ms.
     pub full_ms: f64,
+    /// Median foveated frame time (the method's), ms.
     pub foveated_ms: f64,
+    /// `full_ms / foveated_ms`.
     pub full_over_foveated: f64,
+    /// Million rays per second, full resolution.
     pub mrays_per_s_full: f64,
+    /// Million rays per second, foveated.
     pub mrays_per_s_foveated: f64,
     /// The foveated frame's stages (CPU wall times or GPU timestamps).
     pub foveated_stages_ms: Vec<PassTime>,
     /// The full frame's passes (GPU timestamps; empty on the CPU).
     pub full_stages_ms: Vec<PassTime>,
+    /// Median wall time beyond the method (the effect passes), ms.
     pub effects_ms: f64,
     /// The GPU backend: full, foveated with a new mask, foveated kept.
     pub traffic: Vec<TrafficSummary>,
@@ -170,12 +191,14 @@ pub struct StagesRow {
     /// The GPU backend: foveated frames per second back to back at one
     /// gaze, the mask kept.
     pub loop_fps_kept_mask: Option<f64>,
+    /// Frames in each back-to-back loop.
     pub loop_frames: u32,
 }
 
 /// The `--json` document.
 #[derive(Debug, Clone, Serialize)]
 pub struct StagesReport {
+    /// The backend's name (`cpu` or `gpu`).
     pub backend: &'static str,
     /// The adapter in words (the GPU backend).
     pub adapter: Option<String>,
@@ -184,7 +207,9 @@ pub struct StagesReport {
     pub software_adapter: Option<bool>,
     /// Whether the stage times come from timestamp queries.
     pub timestamps: bool,
+    /// Timed frames per mode.
     pub repeats: u32,
+    /// One row per scene and display.
     pub rows: Vec<StagesRow>,
 }
 

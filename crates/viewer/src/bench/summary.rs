@@ -10,21 +10,30 @@ use experiment::stats::tradeoff::pareto_front;
 /// One row of `results.csv`.
 #[derive(Debug, Clone)]
 pub struct Row {
+    /// The configuration.
     pub config: Config,
+    /// Which gaze (index into the sweep's gazes).
     pub gaze_index: usize,
+    /// The gaze, screen px.
     pub gaze_px: [f64; 2],
+    /// The frame's counts and median time.
     pub stats: Stats,
+    /// The frame's error against full resolution.
     pub quality: Quality,
 }
 
 /// A configuration's figures over all gazes.
 #[derive(Debug, Clone)]
 pub struct Summary {
+    /// The configuration.
     pub config: Config,
     /// Mean over gazes of the per-gaze median frame time.
     pub time_ms: f64,
+    /// Mean rays per frame over gazes.
     pub rays: f64,
+    /// The error, merged over gazes.
     pub quality: Quality,
+    /// Whether the configuration is on the time–error Pareto front.
     pub pareto: bool,
 }
 

@@ -9,7 +9,9 @@ use raycast::{Scene, SceneFile};
 
 /// Where the torus sits (world mm; the screen is at z = 0).
 pub struct Placement {
+    /// Position of the torus's centre, mm.
     pub translate_mm: (f32, f32, f32),
+    /// Mesh units to mm.
     pub scale_mm: f32,
 }
 

@@ -39,6 +39,7 @@ use experiment::stats::nearest_rank::median;
 /// Most instances (Lee's 8-bit item buffer held 256).
 pub const MAX_OBJECTS: usize = 256;
 
+/// `gazecast bench ulod`'s arguments.
 #[derive(Debug, Clone, clap::Args)]
 pub struct UlodArgs {
     /// Scene whose first object's mesh is instanced (RON).

@@ -70,10 +70,12 @@ impl GazeSetup {
         self.tracker.decoder().device_clock()
     }
 
+    /// Whether the gaze comes from a replayed recording.
     pub fn is_replay(&self) -> bool {
         self.replay.is_some()
     }
 
+    /// Whether the tracker is the mouse.
     pub fn is_mouse(&self) -> bool {
         matches!(self.tracker.driver, Driver::Mouse(_))
     }

@@ -8,17 +8,25 @@ use pipeline::BackendChoice;
 /// What `experiment run` was asked.
 #[derive(Debug, Clone)]
 pub struct RunOptions {
+    /// The design file (RON).
     pub design: PathBuf,
+    /// The participant's id.
     pub participant: String,
     /// Counterbalancing row; `None`: from the id's trailing number − 1.
     pub participant_index: Option<usize>,
+    /// Tracker file (RON) the gaze comes from.
     pub tracker: Option<PathBuf>,
+    /// Display file (RON).
     pub display: PathBuf,
     /// Session folders go to `out/<design name>/sub-<participant>`.
     pub out: PathBuf,
+    /// Continue the session at its first unfinished trial.
     pub resume: bool,
+    /// Where to render: CPU, GPU, or the GPU when there is one.
     pub backend: BackendChoice,
+    /// Fullscreen on the current monitor.
     pub fullscreen: bool,
+    /// Fullscreen on this monitor (0-based).
     pub monitor: Option<usize>,
     /// Run the simulated participant with this seed (mouse tracker only).
     pub simulate: Option<u64>,

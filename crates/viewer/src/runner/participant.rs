@@ -51,8 +51,11 @@ pub enum Eye {
     /// An ISCAN's serial line (the master side of a pseudo-terminal whose
     /// slave the tracker opens).
     Iscan {
+        /// The master side of the pseudo-terminal.
         port: serialport::TTYPort,
+        /// The simulated ISCAN's settings.
         config: IscanConfig,
+        /// The screen's size, pixels (the tracker's mapping frame).
         screen_px: (u32, u32),
     },
 }

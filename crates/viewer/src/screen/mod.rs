@@ -60,12 +60,15 @@ unsafe extern "C" fn on_x_io_error(_display: *mut x11_dl::xlib::Display) -> std:
 
 /// What a window event means to gazecast's windows.
 pub enum Input {
+    /// The window was asked to close.
     Close,
     /// The cursor, in window pixels.
     Cursor(f64, f64),
     /// A key pressed (not released, not repeated).
     Key(Key),
+    /// The window needs drawing.
     Redraw,
+    /// Anything else.
     Other,
 }
 
@@ -175,7 +178,9 @@ pub fn pick_present_mode(
     ))
 }
 
+/// A window and its surface on a wgpu device: where gazecast's windows present their frames.
 pub struct Screen {
+    /// The window.
     pub window: Arc<Window>,
     surface: wgpu::Surface<'static>,
     device: wgpu::Device,
@@ -196,6 +201,7 @@ pub struct Screen {
     /// Frames drawn from the GPU ([`Screen::present_gpu`]) and copied from
     /// the CPU ([`Screen::present`]) so far.
     pub drawn_from_gpu: u64,
+    /// Frames copied from the CPU.
     pub copied_from_cpu: u64,
     /// Bytes uploaded for frames drawn from the GPU: the HUD's overlay
     /// when its text changed, the draw's uniform when the sizes changed.

@@ -22,12 +22,16 @@ struct Sizes {
 /// An [`Overlay`] that owns its words.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct OverlayBuf {
+    /// RGBA words, row-major (see [`Overlay`]).
     pub words: Vec<u32>,
+    /// Width and height, pixels.
     pub size: (u32, u32),
+    /// Top left in the frame, pixels.
     pub origin: (u32, u32),
 }
 
 impl OverlayBuf {
+    /// The overlay, borrowed.
     pub fn as_overlay(&self) -> Overlay<'_> {
         Overlay {
             words: &self.words,
@@ -42,8 +46,11 @@ impl OverlayBuf {
 /// left in the frame.
 #[derive(Clone, Copy)]
 pub struct Overlay<'a> {
+    /// RGBA words, row-major, red in the low byte; alpha 0 shows the frame.
     pub words: &'a [u32],
+    /// Width and height, pixels.
     pub size: (u32, u32),
+    /// Top left in the frame, pixels.
     pub origin: (u32, u32),
 }
 

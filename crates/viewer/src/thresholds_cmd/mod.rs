@@ -45,12 +45,15 @@ use psychophysics::session::{ConditionResult, Session, SessionSpec, TrialRecord}
 use psychophysics::stimulus::{GaborPatch, GaborSpec};
 use serde::Serialize;
 
+/// `gazecast thresholds`: its subcommand.
 #[derive(Debug, Clone, clap::Args)]
 pub struct ThresholdsArgs {
+    /// What to do.
     #[command(subcommand)]
     pub command: ThresholdsCommand,
 }
 
+/// The subcommands of `gazecast thresholds`.
 #[derive(Debug, Clone, clap::Subcommand)]
 pub enum ThresholdsCommand {
     /// Measure a participant's thresholds and fit the Geisler–Perry CSF.
@@ -62,6 +65,7 @@ pub enum ThresholdsCommand {
     Validate(validate::ValidateArgs),
 }
 
+/// `gazecast thresholds measure`'s arguments.
 #[derive(Debug, Clone, clap::Args)]
 pub struct MeasureArgs {
     /// No window: the simulated observer answers every trial at once.
@@ -221,6 +225,7 @@ struct FitFile<'a> {
     conditions: Vec<ConditionResult>,
 }
 
+/// Runs `gazecast thresholds`'s subcommand, writing normal output to `out`.
 pub fn run(args: &ThresholdsArgs, out: &mut dyn Write) -> Result<(), String> {
     match &args.command {
         ThresholdsCommand::Measure(a) => measure(a, out),

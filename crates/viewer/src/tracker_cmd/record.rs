@@ -12,6 +12,7 @@ use tracker_hal::{Driver, GazeSource, MonotonicClock, Recorder, StreamDriver};
 use super::load_tracker;
 use crate::interrupt;
 
+/// `gazecast record`'s arguments.
 #[derive(Debug, Clone, clap::Args)]
 pub struct RecordArgs {
     /// Tracker file (RON); an ISCAN needs `port`.

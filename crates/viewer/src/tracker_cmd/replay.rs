@@ -27,6 +27,7 @@ pub enum InputFormat {
     HidLog,
 }
 
+/// `gazecast replay`'s arguments.
 #[derive(Debug, Clone, clap::Args)]
 pub struct ReplayArgs {
     /// Tracker file (RON): driver and mapping used to decode. Needed for
@@ -43,6 +44,7 @@ pub struct ReplayArgs {
     /// The recording or byte dump to decode.
     #[arg(long, value_name = "FILE")]
     pub input: PathBuf,
+    /// How `--input` is encoded: a recording, raw device bytes or a HID report log.
     #[arg(long, value_enum, default_value = "recording")]
     pub format: InputFormat,
     /// Output CSV, one row per decoded record.

@@ -16,6 +16,7 @@ use super::sample_csv::SampleCsv;
 use crate::args::PlanArgs;
 use crate::config;
 
+/// `gazecast simulate`'s arguments.
 #[derive(Debug, Clone, clap::Args)]
 pub struct SimulateArgs {
     /// Tracker file (RON) whose wire format to simulate.
@@ -27,11 +28,13 @@ pub struct SimulateArgs {
     /// Also write the samples a correct decoder must produce (tracker units).
     #[arg(long, value_name = "FILE.csv")]
     pub csv: Option<PathBuf>,
+    /// Length of the simulated session, seconds (`--script search`).
     #[arg(long, value_name = "S", default_value_t = 10.0)]
     pub seconds: f64,
     /// Sampling rate (default: 60 Hz for ISCAN, the tracker file's rate for the mouse).
     #[arg(long, value_name = "HZ")]
     pub rate: Option<f64>,
+    /// Seed of the simulated behaviour (same seed, same stream).
     #[arg(long, value_name = "N", default_value_t = 1)]
     pub seed: u64,
     /// HID trackers: which report layout the simulated device uses.
@@ -50,6 +53,7 @@ pub struct SimulateArgs {
     /// --script calibration: the display the targets are on.
     #[arg(long, value_name = "FILE")]
     pub display: Option<PathBuf>,
+    /// The calibration plan (`--script calibration`).
     #[command(flatten)]
     pub plan: PlanArgs,
     /// --script calibration: the eyes are closed through this calibration
@@ -62,7 +66,9 @@ pub struct SimulateArgs {
 /// Behaviours the simulator scripts.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
 pub enum ScriptArg {
+    /// Fixations anywhere, saccades, blinks, a lost eye.
     Search,
+    /// Follows `gazecast calibrate`'s targets, then its validation targets.
     Calibration,
 }
 

@@ -36,7 +36,7 @@
 //!    repeats pixels). The map is square whatever the frame's aspect, as
 //!    Lee's textures. RGB is averaged as stored (display-encoded, like a
 //!    2006 GPU's non-sRGB mipmaps), then converted per cell.
-//! 2. **Features** (§3.1.1, [`pyramid`], [`color`]):
+//! 2. **Features** (§3.1.1, [`pyramid`], [`hls`]):
 //!    - `B_l`: HLS lightness `(max + min)/2`.
 //!    - `B_h`: HLS (hexcone) hue as a chroma-weighted vector
 //!      `C·(cos h, sin h)`, `C = max − min`.

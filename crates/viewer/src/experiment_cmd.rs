@@ -56,7 +56,7 @@ pub struct RunArgs {
         default_value = "config/displays/tobii-et1750-17in.ron"
     )]
     pub display: PathBuf,
-    /// Session folders go to OUT/<design name>/sub-<ID>.
+    /// Session folders go to `OUT/<design name>/sub-<ID>`.
     #[arg(long, value_name = "DIR", default_value = "data")]
     pub out: PathBuf,
     /// Continue a session at its first unfinished trial (after a crash or Esc).
@@ -100,7 +100,7 @@ pub struct RunArgs {
     /// End this sitting after N trials (the session stays resumable).
     #[arg(long, value_name = "N")]
     pub max_trials: Option<usize>,
-    /// Save the first frame of each kind of screen to DIR/<screen>.png.
+    /// Save the first frame of each kind of screen to `DIR/<screen>.png`.
     #[arg(long, value_name = "DIR")]
     pub screenshots: Option<PathBuf>,
     /// Lab Streaming Layer output.
@@ -131,7 +131,7 @@ pub struct PlanArgs {
 /// `gazecast experiment analyze`'s arguments.
 #[derive(Debug, Clone, clap::Args)]
 pub struct AnalyzeArgs {
-    /// Session folders (OUT/<design>/sub-<ID>), one per participant.
+    /// Session folders (`OUT/<design>/sub-<ID>`), one per participant.
     #[arg(value_name = "DIR", required = true)]
     pub dirs: Vec<PathBuf>,
     /// Where the report, tables and figures go.
@@ -145,7 +145,7 @@ pub struct AnalyzeArgs {
 /// `gazecast experiment export-bids`'s arguments.
 #[derive(Debug, Clone, clap::Args)]
 pub struct ExportArgs {
-    /// Session folders (OUT/<design>/sub-<ID>), one per participant.
+    /// Session folders (`OUT/<design>/sub-<ID>`), one per participant.
     #[arg(value_name = "DIR", required = true)]
     pub dirs: Vec<PathBuf>,
     /// The BIDS dataset folder.

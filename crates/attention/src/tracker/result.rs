@@ -17,7 +17,7 @@ pub enum Feature {
 }
 
 impl Feature {
-    /// All five, in the order of [`SaliencyMaps::weights`].
+    /// All five, in the order of [`SaliencyMaps::weights`](crate::SaliencyMaps::weights).
     pub const ALL: [Feature; 5] = [
         Feature::Luminance,
         Feature::Hue,

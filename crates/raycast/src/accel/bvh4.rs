@@ -28,7 +28,7 @@ pub struct Bvh4Node {
     pub count: [u32; 4],
 }
 
-/// The 4-wide BVH: the binary [`Bvh`](super::bvh::Bvh) collapsed so that each node tests four boxes at once.
+/// The 4-wide BVH: the binary [`Bvh`] collapsed so that each node tests four boxes at once.
 #[derive(Debug, Clone, Default)]
 pub struct Bvh4 {
     /// The nodes; node 0 is the root.

@@ -46,7 +46,7 @@ impl StageTimes {
 ///
 /// [`Scratch::default`] keeps buffers only. [`Scratch::with_reuse`] also
 /// keeps the samples it casts for the next frames (temporal reuse during
-/// fixations, see the [`render`](crate::render) module): the frames are the same,
+/// fixations, see the [`render`](mod@crate::render) module): the frames are the same,
 /// byte for byte, with or without it.
 #[derive(Debug, Default)]
 pub struct Scratch {

@@ -49,7 +49,7 @@ pub enum MeshSource {
     /// A head facing +z (unit scale) with one of the four facial
     /// expressions of Murphy 2007 §7.1.4 ([`FACE_EXPRESSIONS`]): the same
     /// topology and silhouette for all four, only the front differs
-    /// ([`TriangleMesh::face`]). 20·4^subdivisions triangles, at most
+    /// ([`TriangleMesh::face`](crate::mesh::TriangleMesh::face)). 20·4^subdivisions triangles, at most
     /// [`crate::mesh::FACE_MAX_SUBDIVISIONS`] subdivisions.
     Face {
         /// Index into [`FACE_EXPRESSIONS`].

@@ -4,10 +4,10 @@
 //! behind the screen have z < 0), with one BVH over all of them.
 //!
 //! The file's schema is in [`file`]: the sampling and its refinement
-//! triggers in [`sampling`], the post passes and their parameters in
-//! [`pass`], the old form's effect list in [`effect`]. Building, checking
-//! and placing a scene is [`build`]; moving scenes pose themselves with
-//! [`motion`]; ray queries are in [`intersect`].
+//! triggers in `sampling`, the post passes and their parameters in
+//! `pass`, the old form's effect list in `effect`. Building, checking
+//! and placing a scene is `build`; moving scenes pose themselves with
+//! `motion`; ray queries are in `intersect`.
 
 mod build;
 mod effect;

@@ -95,7 +95,7 @@ pub mod usage {
     pub const CALIBRATED_SCREEN_HEIGHT: u16 = 0x205;
     /// Sampling Frequency, Hz.
     pub const SAMPLING_FREQUENCY: u16 = 0x300;
-    /// Configuration Status (see [`ConfigurationStatus`]).
+    /// Configuration Status (see [`ConfigurationStatus`](super::ConfigurationStatus)).
     pub const CONFIGURATION_STATUS: u16 = 0x301;
     /// Device Mode Request (the bits of [`mode`](super::mode)).
     pub const DEVICE_MODE_REQUEST: u16 = 0x400;

@@ -2,13 +2,13 @@
 //! frequency × eccentricity grid with interleaved QUEST staircases
 //! (`psychophysics`), fit the Geisler–Perry CSF and write a session folder.
 //! (`gazecast thresholds validate`, Luebke & Hallen §6.2's full-against-
-//! simplified validation, is [`validate`].)
+//! simplified validation, is `validate`.)
 //!
 //! Two forms:
 //!
 //! - `--headless --simulate-observer FILE`: no window; a simulated observer
 //!   answers every trial at once, and every file says `synthetic`.
-//! - with `--tracker FILE` (and no `--headless`): a window ([`window`]):
+//! - with `--tracker FILE` (and no `--headless`): a window (`window`):
 //!   a two-interval forced choice with gaze-contingent fixation control
 //!   (`psychophysics::fixation`), answered by a person with the arrow keys
 //!   or the mouse buttons — or, for tests and demonstrations, by the
@@ -117,7 +117,7 @@ pub struct MeasureArgs {
     /// Participant id (letters, digits, '-', '_'); names the folder.
     #[arg(long, value_name = "ID")]
     pub participant: String,
-    /// The session folder goes to OUT/sub-<ID>; it must not exist yet.
+    /// The session folder goes to `OUT/sub-<ID>`; it must not exist yet.
     #[arg(long, value_name = "DIR")]
     pub out: PathBuf,
     /// The session design (RON, psychophysics::session::SessionSpec);

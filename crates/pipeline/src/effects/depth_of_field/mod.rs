@@ -72,7 +72,7 @@
 //! **Foreground smoothing** (§4.3, eqs. 4.10–4.11) is an option
 //! (`smooth_foreground: true` in the scene; off by default): the DoN mip ρ
 //! and the smoothed σ(n) replace σ(0) around blurred foreground objects
-//! ([`smooth_foreground`]). Off by default because it blurs in-focus pixels
+//! (`smooth_foreground`). Off by default because it blurs in-focus pixels
 //! beside a blurred foreground, which the rule "a pixel with CoC < 0.5 px
 //! is unchanged" forbids; with it on, that rule holds only away from
 //! blurred foreground objects, and the pass stays on the CPU on the GPU
@@ -83,9 +83,9 @@
 //! ray casting, 64 rays per pixel).
 //!
 //! This file holds the pass; the focus search shared with ch. 5 is in
-//! [`focuser`], the gaze-window helpers (also used by the GPU path) in
-//! [`window`], the pass's pyramid and circular filter in [`levels`], and
-//! foreground smoothing in [`foreground`].
+//! `focuser`, the gaze-window helpers (also used by the GPU path) in
+//! `window`, the pass's pyramid and circular filter in `levels`, and
+//! foreground smoothing in `foreground`.
 
 mod focuser;
 mod foreground;

@@ -205,12 +205,14 @@ impl ThresholdTable {
         Self::new(frequencies, eccentricities, rows).unwrap_or_else(|_| self.clone())
     }
 
-    /// The table's spatial frequencies (cycles/degree), ascending: its rows.
+    /// The table's spatial frequencies (cycles/degree), strictly increasing:
+    /// one threshold per frequency in each row.
     pub fn frequencies_cpd(&self) -> &[f64] {
         &self.frequencies_cpd
     }
 
-    /// The table's eccentricities (degrees), ascending: its columns.
+    /// The table's eccentricities (degrees), strictly increasing: one row
+    /// of thresholds per eccentricity.
     pub fn eccentricities_deg(&self) -> &[f64] {
         &self.eccentricities_deg
     }

@@ -26,7 +26,7 @@ pub enum RenderError {
     /// The gaze (or the sampling model) cannot give a ray mask.
     #[error("the point of regard: {0}")]
     Gaze(#[from] foveation::ParamError),
-    /// The GPU backend failed (no adapter, a device error, a lost device).
+    /// The GPU backend failed ([`GpuError`] says how).
     #[error("the GPU backend: {0}")]
     Gpu(#[from] GpuError),
     /// The method, backend or scene asks for something the renderer cannot

@@ -6,7 +6,7 @@ use std::time::Instant;
 
 /// A source of host monotonic time in microseconds.
 pub trait Clock: Send {
-    /// The current time, µs; never decreases.
+    /// The current time, µs.
     fn now_us(&self) -> u64;
 }
 

@@ -28,7 +28,7 @@ pub enum Phase {
     /// Validation of the calibration in use; `midpoint` for the session's
     /// mid-point check. Above the design's threshold: recalibrate.
     Validation {
-        /// Whether this is the session's mid-point check (else a check at a run's start).
+        /// Whether this is the session's mid-point check.
         midpoint: bool,
     },
     /// Single-target drift check.

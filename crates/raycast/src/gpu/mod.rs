@@ -81,7 +81,7 @@ use upload::SceneBuffers;
 /// Why the GPU backend cannot render.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum GpuError {
-    /// No adapter could be found; the message says what was tried.
+    /// No adapter was found; the message says why.
     #[error("no GPU adapter (not even a software one such as Mesa's lavapipe): {0}")]
     NoAdapter(String),
     /// The adapter would not give a device.

@@ -75,9 +75,9 @@ pub const FACE_EXPRESSIONS: [&str; 4] = ["neutral", "smile", "frown", "surprise"
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Material {
-    /// Diffuse colour, linear RGB in 0–1.
+    /// Diffuse colour, linear RGB (1 = white, up to [`MAX_COLOUR`]).
     pub diffuse: (f32, f32, f32),
-    /// Specular colour, linear RGB (default 0.25 each).
+    /// Specular colour, linear RGB (default 0.25 each, up to [`MAX_COLOUR`]).
     #[serde(default = "default_specular")]
     pub specular: (f32, f32, f32),
     /// Blinn–Phong exponent (default 32).
@@ -165,7 +165,8 @@ pub enum Light {
 pub struct SceneFile {
     /// The scene's name, shown in reports.
     pub name: String,
-    /// Background colour, linear RGB in 0–1 (default a dark blue-grey).
+    /// Background colour, linear RGB (1 = white, up to [`MAX_COLOUR`];
+    /// default a dark blue-grey).
     #[serde(default = "default_background")]
     pub background: (f32, f32, f32),
     /// The meshes, by name.

@@ -51,7 +51,7 @@ pub struct WorldTriangle {
 pub struct Scene {
     /// The scene's name (from the file).
     pub name: String,
-    /// Background colour, linear RGB in 0–1.
+    /// Background colour, linear RGB (1 = white).
     pub background: Vec3,
     /// The background as the renderer writes it.
     pub background_rgb8: [u8; 3],

@@ -116,7 +116,7 @@ pub mod mode {
 pub enum ConfigurationStatus {
     /// Status 0: not known.
     Unknown,
-    /// Status 1: ready; tracking.
+    /// Status 1: ready.
     Ready,
     /// Status 2: being configured.
     Configuring,

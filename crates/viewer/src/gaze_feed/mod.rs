@@ -33,7 +33,7 @@ const JOIN_WAIT: Duration = Duration::from_millis(500);
 
 /// A running tracker thread.
 pub struct GazeFeed {
-    /// The tracker thread's messages: samples, status and faults.
+    /// The tracker thread's messages: samples, clock-model updates and status lines.
     pub rx: Receiver<TrackerMsg>,
     /// The mouse device's cursor input (dropped to stop it).
     pub cursor_tx: Option<Sender<CursorEvent>>,

@@ -55,7 +55,7 @@ pub enum Eye {
         port: serialport::TTYPort,
         /// The simulated ISCAN's settings.
         config: IscanConfig,
-        /// The screen's size, pixels (the tracker's mapping frame).
+        /// The screen's size, pixels.
         screen_px: (u32, u32),
     },
 }

@@ -1,6 +1,6 @@
 //! Measures a participant's contrast thresholds for Gabor patches over a
 //! grid of spatial frequency × eccentricity (QUEST or staircases, with
-//! gaze-contingent fixation control) and fits the foveation models to them.
+//! gaze-contingent fixation control) and fits the Geisler–Perry CSF to them.
 //!
 //! **This is a procedure no person has yet run.** It was built and checked
 //! against a simulated observer only; every figure below is synthetic, and

@@ -39,3 +39,8 @@ pub use design::{Design, DesignError};
 pub use plan::{plan, Step, Trial};
 pub use session::{read_tsv, ReadOutcome, SessionFileError, SessionInfo, TsvLog, TsvRow};
 pub use stats::StatsError;
+
+/// The README's examples, compiled and run as doc-tests so they cannot go stale.
+#[cfg(doctest)]
+#[doc = include_str!("../README.md")]
+struct ReadmeDoctests;

@@ -44,3 +44,8 @@ pub use error::{fmt_f64, ParamError};
 pub use mask::{Layout, RayMask};
 pub use sampling::SamplingModel;
 pub use screen_geometry::EYE_DISTANCE_RANGE_MM;
+
+/// The README's examples, compiled and run as doc-tests so they cannot go stale.
+#[cfg(doctest)]
+#[doc = include_str!("../README.md")]
+struct ReadmeDoctests;

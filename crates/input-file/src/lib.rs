@@ -269,3 +269,8 @@ mod tests {
         }
     }
 }
+
+/// The README's examples, compiled and run as doc-tests so they cannot go stale.
+#[cfg(doctest)]
+#[doc = include_str!("../README.md")]
+struct ReadmeDoctests;

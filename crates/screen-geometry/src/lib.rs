@@ -409,3 +409,8 @@ mod tests {
         assert!((35.0..40.0).contains(&ppd));
     }
 }
+
+/// The README's examples, compiled and run as doc-tests so they cannot go stale.
+#[cfg(doctest)]
+#[doc = include_str!("../README.md")]
+struct ReadmeDoctests;

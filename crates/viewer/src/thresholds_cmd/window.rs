@@ -66,7 +66,8 @@ use winit::window::WindowId;
 
 use super::{
     create_folder, fit_and_table, load_observer, software, trial_row, write_results,
-    write_session_json, Loaded, MeasureArgs, SessionInfo, SessionSetup, Shown, TRIALS_HEADER,
+    write_session_json, Loaded, MeasureArgs, Measured, SessionInfo, SessionSetup, Shown,
+    TRIALS_HEADER,
 };
 use crate::gaze_feed::{GazeFeed, GazeSetup, TrackerMsg};
 use crate::screen::Screen;
@@ -941,7 +942,7 @@ pub(super) fn run(a: &MeasureArgs, out: &mut dyn Write) -> Result<(), String> {
     // A fit that fails (too few trials, thresholds that do not rise with
     // frequency) leaves the session's files: a finding, not a failed run.
     match fit_and_table(&m.session, &info.setup.fit_options) {
-        Ok(fitted) => write_results(a, &m.dir, &m.session, fitted, &who, out),
+        Ok(fitted) => write_results(a, &m.dir, &Measured::of(&m.session), fitted, &who, out),
         Err(e) => writeln!(
             out,
             "{}: no thresholds file: {e}; the trials are in trials.tsv",

@@ -202,10 +202,11 @@ fn every_page_is_in_the_summary_and_every_link_resolves() {
             .unwrap_or(&file)
             .display()
             .to_string();
-        if file.starts_with(&src) && file.file_name() != Some("SUMMARY.md".as_ref()) {
-            if !listed.contains(&normalise(&file)) {
-                problems.push(format!("{shown}: not listed in docs/src/SUMMARY.md"));
-            }
+        if file.starts_with(&src)
+            && file.file_name() != Some("SUMMARY.md".as_ref())
+            && !listed.contains(&normalise(&file))
+        {
+            problems.push(format!("{shown}: not listed in docs/src/SUMMARY.md"));
         }
         for (line, target) in links(&text) {
             if target.contains("://") || target.starts_with("mailto:") {
@@ -257,7 +258,7 @@ fn program_words(line: &str) -> Option<Vec<String>> {
     let words = shlex::split(line)?;
     let start = words
         .iter()
-        .position(|w| !(w.contains('=') && !w.starts_with('-')))?;
+        .position(|w| !w.contains('=') || w.starts_with('-'))?;
     Some(words[start..].to_vec())
 }
 

@@ -124,7 +124,7 @@ fn luebke_and_hallens_ramp_writes_the_same_folder_with_its_own_columns() {
     assert!(tsv.lines().all(|l| l.split('\t').count() == header.len()));
     let outcome = column(&tsv, "outcome");
     let correct = outcome.iter().filter(|o| *o == "correct").count();
-    assert!(correct >= 140 && correct <= 160, "{correct}");
+    assert!((140..=160).contains(&correct), "{correct}");
     assert!(outcome
         .iter()
         .all(|o| ["correct", "wrong_location", "no_response", "too_early"].contains(&o.as_str())));

@@ -173,7 +173,8 @@ fn luebke_and_hallens_ramp_writes_the_same_folder_with_its_own_columns() {
     let png = std::fs::read(dir.join("thresholds-P01.png")).unwrap();
     assert!(png.starts_with(b"\x89PNG"), "not a PNG");
 
-    // Without --headless: a clear refusal, nothing written.
+    // Without --headless and without a tracker: a clear refusal, nothing
+    // written.
     let o = gazecast()
         .args(["thresholds", "measure", "--procedure", "luebke-hallen"])
         .args([
@@ -188,7 +189,7 @@ fn luebke_and_hallens_ramp_writes_the_same_folder_with_its_own_columns() {
         .unwrap();
     assert!(!o.status.success());
     let err = String::from_utf8_lossy(&o.stderr);
-    assert!(err.contains("headless-only"), "{err}");
+    assert!(err.contains("--tracker"), "{err}");
     assert!(!out.join("sub-P02").exists());
     // A bad ramp design names its field before anything is written.
     let bad = tmp.path().join("bad.ron");
@@ -316,6 +317,91 @@ fn the_windowed_session_aborts_and_repeats_trials_whose_gaze_left_the_window() {
         "response",
         "over",
     ] {
+        assert!(shots.join(format!("{s}.png")).is_file(), "no {s}.png");
+    }
+}
+
+/// Luebke & Hallen's ramp in a window: the simulated observer answers
+/// each ramp at the time it planned, a scripted gaze fixates and breaks
+/// fixation during the first two ramps (each aborted and shown again).
+#[test]
+fn the_windowed_ramp_aborts_and_repeats_ramps_whose_gaze_left_the_window() {
+    let mut x = Xvfb::start();
+    let tmp = tempfile::tempdir().expect("tempdir");
+    let out = tmp.path().join("ramp");
+    let shots = tmp.path().join("shots");
+    let o = succeed_windowed(
+        &mut x,
+        &[
+            "thresholds",
+            "measure",
+            "--procedure",
+            "luebke-hallen",
+            "--tracker",
+            "config/trackers/mouse.ron",
+            "--simulate-observer",
+            OBSERVER,
+            "--simulate-fixation-breaks",
+            "2",
+            "--session",
+            "tests/data/thresholds/ramp-short.ron",
+            "--participant",
+            "P01",
+            "--bootstrap",
+            "20",
+            "--out",
+            &out.display().to_string(),
+            "--screenshots",
+            &shots.display().to_string(),
+        ],
+    );
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    assert!(stdout.contains("SIMULATED observer"), "{stdout}");
+    assert!(stdout.contains("2 attempts aborted"), "{stdout}");
+    let dir = out.join("sub-P01");
+    let tsv = std::fs::read_to_string(dir.join("trials.tsv")).unwrap();
+    let header: Vec<&str> = tsv.lines().next().unwrap().split('\t').collect();
+    assert!(tsv.lines().all(|l| l.split('\t').count() == header.len()));
+    // 4 conditions, each ended by 2 correct or 2 failed trials.
+    let outcome = column(&tsv, "outcome");
+    assert!((8..=16).contains(&outcome.len()), "{tsv}");
+    let aborted: u32 = column(&tsv, "aborted_attempts")
+        .iter()
+        .map(|v| v.parse::<u32>().unwrap())
+        .sum();
+    assert_eq!(aborted, 2, "{tsv}");
+    // Onsets before responses on one clock; a response's time from the
+    // onset is the ramp's response_ms.
+    let (on, re, ms) = (
+        column(&tsv, "onset_host_us"),
+        column(&tsv, "response_host_us"),
+        column(&tsv, "response_ms"),
+    );
+    for i in (0..outcome.len()).filter(|&i| outcome[i] == "correct") {
+        let (on, re): (u64, u64) = (on[i].parse().unwrap(), re[i].parse().unwrap());
+        let ms: f64 = ms[i].parse().unwrap();
+        assert!(on > 0 && re > on, "{tsv}");
+        assert!(((re - on) as f64 / 1e3 - ms).abs() < 1.0, "{tsv}");
+    }
+    let aborts = std::fs::read_to_string(dir.join("aborts.tsv")).unwrap();
+    assert_eq!(column(&aborts, "reason"), ["left-window", "left-window"]);
+    let samples = std::fs::read_to_string(dir.join("samples.tsv")).unwrap();
+    assert!(column(&samples, "screen").iter().any(|s| s == "stimulus"));
+    let session: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("session.json")).unwrap()).unwrap();
+    assert_eq!(session["synthetic"], true);
+    assert_eq!(session["completed"], true);
+    assert_eq!(session["procedure"], "luebke-hallen");
+    assert_eq!(session["aborted_attempts"], 2);
+    assert_eq!(session["trials"], outcome.len());
+    // Too few trials for a fit: the files stay, or the fit is SYNTHETIC.
+    assert!(
+        std::fs::read_to_string(dir.join("thresholds-P01.ron"))
+            .is_ok_and(|t| t.starts_with("// SYNTHETIC"))
+            || stdout.contains("no thresholds file: the fit"),
+        "{stdout}"
+    );
+    for s in ["instructions", "fixation", "stimulus", "abort", "over"] {
         assert!(shots.join(format!("{s}.png")).is_file(), "no {s}.png");
     }
 }

@@ -32,6 +32,7 @@
 //! is never overwritten.
 
 mod ramp;
+mod ramp_window;
 mod validate;
 mod window;
 
@@ -71,7 +72,7 @@ pub enum ProcedureArg {
     #[value(name = "2ifc")]
     TwoIfc,
     /// Luebke & Hallen §6.1: a contrast ramp, a response, a click on
-    /// where the grating was (psychophysics::ramp). Headless only.
+    /// where the grating was (psychophysics::ramp).
     LuebkeHallen,
 }
 
@@ -82,8 +83,9 @@ pub struct MeasureArgs {
     #[arg(long)]
     pub headless: bool,
     /// The procedure: 2ifc (QUEST) or luebke-hallen (a contrast ramp and
-    /// a location click; headless only, --session then reads a
-    /// psychophysics::ramp::RampSpec).
+    /// a location click; --session then reads a
+    /// psychophysics::ramp::RampSpec; in a window --interval-ms and
+    /// --gap-ms do not apply).
     #[arg(long, value_enum, value_name = "NAME", default_value = "2ifc")]
     pub procedure: ProcedureArg,
     /// The simulated observer (RON, psychophysics::observer::ObserverSpec).
@@ -485,12 +487,7 @@ fn measure(a: &MeasureArgs, out: &mut dyn Write) -> Result<(), String> {
     experiment::design::check_id(&a.participant).map_err(|e| format!("--participant {e}"))?;
     if a.procedure == ProcedureArg::LuebkeHallen {
         if !a.headless {
-            return Err(
-                "--procedure luebke-hallen is headless-only: its windowed form (the ramp drawn \
-                 frame by frame with fixation control and mouse clicks) is not built; use \
-                 --headless --simulate-observer FILE.ron, or --procedure 2ifc in a window"
-                    .into(),
-            );
+            return ramp_window::run(a, out);
         }
         return ramp::measure_headless(a, out);
     }

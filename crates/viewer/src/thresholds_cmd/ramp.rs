@@ -3,7 +3,7 @@
 //! simulated observer frame by frame on a virtual clock, written to the
 //! same session folder as the 2IFC procedure: `trials.tsv` (the ramp's
 //! columns), `session.json`, `thresholds-<ID>.ron`, `fit-<ID>.json` and
-//! the plot. The windowed form is not built (`measure` says so).
+//! the plot. The windowed form is [`super::ramp_window`].
 
 use std::io::Write;
 
@@ -18,24 +18,30 @@ use super::{
 
 /// `trials.tsv`'s header for the ramp. `response_ms` is on the ramp's
 /// clock: ms from its first frame (headless: a virtual clock of
-/// `frame_ms` frames, no host clock). Contrasts are Michelson; `n/a` where
-/// a trial has none (no response, no click, no sample).
-const RAMP_TRIALS_HEADER: &str =
+/// `frame_ms` frames, no host clock; windowed: from the onset on the host
+/// monotonic clock). Contrasts are Michelson; `n/a` where a trial has none
+/// (no response, no click, no sample). The last three columns are the
+/// windowed form's (attempts aborted before the answered one, the onset
+/// and the "seen" response on the host monotonic clock, µs): `0`, `n/a`
+/// headless.
+pub(super) const RAMP_TRIALS_HEADER: &str =
     "trial\tcondition\tfrequency_cpd\teccentricity_deg\tlocations\tlocation_shown\t\
      direction_deg\tstart_contrast\tstop_contrast\tmax_contrast\trate_log10_per_s\t\
      response_ms\tlocation_clicked\toutcome\tsample_contrast\tsample_log10\t\
-     shown_sample_contrast\tdither_sd\testimate_log10\tse_log10\tfinished_condition\n";
+     shown_sample_contrast\tdither_sd\testimate_log10\tse_log10\tfinished_condition\t\
+     aborted_attempts\tonset_host_us\tresponse_host_us\n";
 
 fn opt<T: std::fmt::Display>(v: Option<T>) -> String {
     v.map_or_else(|| "n/a".into(), |v| v.to_string())
 }
 
-/// One `trials.tsv` row; `p`: the patch rendered at the sample contrast.
-fn ramp_row(rec: &RampRecord, p: Option<&GaborPatch>) -> String {
+/// One `trials.tsv` row; `p`: the patch rendered at the sample contrast;
+/// `windowed`: the last three columns.
+pub(super) fn ramp_row(rec: &RampRecord, p: Option<&GaborPatch>, windowed: &str) -> String {
     let t = &rec.trial;
     let s = &t.schedule;
     format!(
-        "{}\t{}\t{}\t{}\t{}\t{}\t{}\t{:.6}\t{:.6}\t{:.6}\t{}\t{}\t{}\t{}\t{}\t{}\t{}\t{}\t{:.4}\t{:.4}\t{}\n",
+        "{}\t{}\t{}\t{}\t{}\t{}\t{}\t{:.6}\t{:.6}\t{:.6}\t{}\t{}\t{}\t{}\t{}\t{}\t{}\t{}\t{:.4}\t{:.4}\t{}\t{windowed}\n",
         t.index,
         t.condition,
         t.frequency_cpd,
@@ -98,7 +104,7 @@ pub(super) fn measure_headless(a: &MeasureArgs, out: &mut dyn Write) -> Result<(
             ),
             None => None,
         };
-        tsv.push_str(&ramp_row(&rec, patch.as_ref()));
+        tsv.push_str(&ramp_row(&rec, patch.as_ref(), "0\tn/a\tn/a"));
     }
     let p = dir.join("trials.tsv");
     std::fs::write(&p, tsv).map_err(|e| format!("{}: {e}", p.display()))?;

@@ -2,7 +2,9 @@
 //! frequency × eccentricity grid with interleaved QUEST staircases
 //! (`psychophysics`), fit the Geisler–Perry CSF and write a session folder.
 //! (`gazecast thresholds validate`, Luebke & Hallen §6.2's full-against-
-//! simplified validation, is [`validate`].)
+//! simplified validation, is [`validate`]; `--procedure luebke-hallen`,
+//! Luebke & Hallen §6.1's own contrast ramp with a location click, is
+//! [`ramp`] headless and [`ramp_window`] in a window.)
 //!
 //! Two forms:
 //!

@@ -25,7 +25,9 @@
 //! the window or an invalid one aborts the attempt: a notice for a second,
 //! then the same trial again (the same place and ramp: the session draws
 //! them once per trial). Aborts go to `aborts.tsv` and are counted in
-//! `trials.tsv` (`aborted_attempts`) and `session.json`.
+//! `trials.tsv` (`aborted_attempts`) and `session.json`. Unlike the 2IFC
+//! window, a tracker that stops sending samples does not abort a ramp:
+//! only the samples that come are checked.
 //!
 //! # Clocks
 //!

@@ -37,7 +37,8 @@ use foveation::perceptibility::{ThresholdTable, ThresholdTableData};
 use foveation::GeislerPerry;
 
 use crate::quest::{normalise, QuestMethod};
-use crate::session::{Session, Track};
+use crate::ramp::RampSession;
+use crate::session::{ConditionResult, Session, Track};
 use crate::ParamError;
 
 /// How to fit.
@@ -245,8 +246,13 @@ fn solve3(mut m: [[f64; 3]; 3], mut v: [f64; 3]) -> Option<[f64; 3]> {
 
 /// The conditions a fit uses: neither censored nor abandoned.
 pub fn fit_points_of(session: &Session) -> Vec<(usize, FitPoint)> {
-    session
-        .results()
+    fit_points_of_results(&session.results())
+}
+
+/// The conditions among `results` a fit uses: neither censored nor
+/// abandoned, with at least one valid trial.
+pub fn fit_points_of_results(results: &[ConditionResult]) -> Vec<(usize, FitPoint)> {
+    results
         .iter()
         .enumerate()
         .filter(|(_, r)| !r.censored && !r.abandoned && r.valid_trials > 0)
@@ -273,6 +279,8 @@ enum Resampler {
         method: QuestMethod,
     },
     Reversals(Vec<f64>),
+    /// A ramp condition's samples (log10): the mean of a redraw.
+    Samples(Vec<f64>),
 }
 
 impl Resampler {
@@ -341,7 +349,7 @@ impl Resampler {
                     QuestMethod::Mean => pdf.iter().zip(grid).map(|(p, t)| p * t).sum(),
                 }
             }
-            Resampler::Reversals(r) => {
+            Resampler::Reversals(r) | Resampler::Samples(r) => {
                 if r.is_empty() {
                     return f64::NAN;
                 }
@@ -364,6 +372,36 @@ fn percentile(sorted: &[f64], q: f64) -> f64 {
 
 /// Fits a session's thresholds and bootstraps the intervals.
 pub fn fit_session(session: &Session, options: &FitOptions) -> Result<GeislerPerryFit, ParamError> {
+    let results = session.results();
+    let resamplers = fit_points_of_results(&results)
+        .iter()
+        .map(|(i, _)| Resampler::new(&session.tracks()[*i]))
+        .collect();
+    fit_with(&results, resamplers, session.is_synthetic(), options)
+}
+
+/// Fits a Luebke & Hallen ramp session's thresholds (each condition's
+/// geometric mean, weighted by its standard error) and bootstraps the
+/// intervals by redrawing each condition's samples.
+pub fn fit_ramp(
+    session: &RampSession,
+    options: &FitOptions,
+) -> Result<GeislerPerryFit, ParamError> {
+    let results = session.results();
+    let resamplers = fit_points_of_results(&results)
+        .iter()
+        .map(|(i, _)| Resampler::Samples(session.samples(*i).to_vec()))
+        .collect();
+    fit_with(&results, resamplers, session.is_synthetic(), options)
+}
+
+/// The fit of `results` with one resampler per used condition.
+fn fit_with(
+    results: &[ConditionResult],
+    resamplers: Vec<Resampler>,
+    synthetic: bool,
+    options: &FitOptions,
+) -> Result<GeislerPerryFit, ParamError> {
     if !(options.min_sd_log10.is_finite() && options.min_sd_log10 > 0.0) {
         return Err(ParamError::new(
             "min_sd_log10",
@@ -378,15 +416,10 @@ pub fn fit_session(session: &Session, options: &FitOptions) -> Result<GeislerPer
             "must be in (0, 1)",
         ));
     }
-    let used = fit_points_of(session);
+    let used = fit_points_of_results(results);
     let points: Vec<FitPoint> = used.iter().map(|(_, p)| *p).collect();
     let model = fit_points(&points, options.weighted, options.min_sd_log10)?;
-    let n_cond = session.tracks().len();
-
-    let resamplers: Vec<Resampler> = used
-        .iter()
-        .map(|(i, _)| Resampler::new(&session.tracks()[*i]))
-        .collect();
+    let n_cond = results.len();
     let mut rng = ChaCha8Rng::seed_from_u64(options.seed);
     let mut scratch = Vec::new();
     let (mut ct0s, mut alphas, mut e2s) = (Vec::new(), Vec::new(), Vec::new());
@@ -435,7 +468,7 @@ pub fn fit_session(session: &Session, options: &FitOptions) -> Result<GeislerPer
         / points.len() as f64)
         .sqrt();
     Ok(GeislerPerryFit {
-        synthetic: session.is_synthetic(),
+        synthetic,
         ct0: interval(ct0s, model.ct0),
         alpha: interval(alphas, model.alpha),
         e2_deg: interval(e2s, model.e2_deg),
@@ -460,16 +493,52 @@ pub fn threshold_table(
     fit: &GeislerPerryFit,
 ) -> Result<ThresholdTable, ParamError> {
     let spec = session.spec();
-    let nf = spec.frequencies_cpd.len();
-    let model = fit.model();
-    let max_contrast = |c: usize| {
-        let x = match &session.tracks()[c] {
-            Track::Quest(q) => q.params().max_intensity,
-            Track::Staircase(s) => s.params().max_intensity,
-        };
-        10f64.powf(x)
-    };
+    let max_contrast: Vec<f64> = session
+        .tracks()
+        .iter()
+        .map(|t| {
+            10f64.powf(match t {
+                Track::Quest(q) => q.params().max_intensity,
+                Track::Staircase(s) => s.params().max_intensity,
+            })
+        })
+        .collect();
+    table_with(
+        &spec.frequencies_cpd,
+        &spec.eccentricities_deg,
+        &session.results(),
+        &max_contrast,
+        fit,
+    )
+}
+
+/// [`threshold_table`] of a Luebke & Hallen ramp session (the same rules;
+/// the display's highest contrast is the ramp's end).
+pub fn ramp_threshold_table(
+    session: &RampSession,
+    fit: &GeislerPerryFit,
+) -> Result<ThresholdTable, ParamError> {
+    let spec = session.spec();
     let results = session.results();
+    let max_contrast = vec![spec.max_contrast; results.len()];
+    table_with(
+        &spec.frequencies_cpd,
+        &spec.eccentricities_deg,
+        &results,
+        &max_contrast,
+        fit,
+    )
+}
+
+fn table_with(
+    frequencies_cpd: &[f64],
+    eccentricities_deg: &[f64],
+    results: &[ConditionResult],
+    max_contrast: &[f64],
+    fit: &GeislerPerryFit,
+) -> Result<ThresholdTable, ParamError> {
+    let nf = frequencies_cpd.len().max(1);
+    let model = fit.model();
     let rows = results
         .chunks(nf)
         .enumerate()
@@ -478,10 +547,10 @@ pub fn threshold_table(
                 .enumerate()
                 .map(|(fi, r)| {
                     let predicted = model.contrast_threshold(r.frequency_cpd, r.eccentricity_deg);
-                    if r.abandoned || r.valid_trials == 0 {
+                    if r.censored && !r.abandoned {
+                        predicted.max(max_contrast.get(ei * nf + fi).copied().unwrap_or(1.0))
+                    } else if r.abandoned || r.valid_trials == 0 {
                         predicted
-                    } else if r.censored {
-                        predicted.max(max_contrast(ei * nf + fi))
                     } else {
                         r.threshold
                     }
@@ -490,8 +559,8 @@ pub fn threshold_table(
         })
         .collect();
     ThresholdTable::try_from(ThresholdTableData {
-        frequencies_cpd: spec.frequencies_cpd.clone(),
-        eccentricities_deg: spec.eccentricities_deg.clone(),
+        frequencies_cpd: frequencies_cpd.to_vec(),
+        eccentricities_deg: eccentricities_deg.to_vec(),
         thresholds: rows,
     })
 }

@@ -31,7 +31,13 @@
 //!   trial (a window around the target; an attempt is aborted and shown
 //!   again when the gaze leaves it or a sample is invalid), no window or
 //!   tracker needed.
-//! - [`observer`]: a simulated Geisler–Perry observer read from RON.
+//! - [`ramp`]: Luebke & Hallen §6.1's own procedure: a log-linear
+//!   contrast ramp at one of several locations, a response, a location
+//!   click (a wrong one fails the trial), the geometric mean of each
+//!   condition's samples; fitted and tabled like the rest
+//!   ([`fit::fit_ramp`], [`fit::ramp_threshold_table`]).
+//! - [`observer`]: a simulated Geisler–Perry observer read from RON; it
+//!   also answers a ramp frame by frame (probability summation over time).
 //! - [`fit`]: the Geisler–Perry fit by weighted least squares on log
 //!   threshold (linear in ln CT0, α, α/e2), bootstrap percentile
 //!   intervals by resampling each condition's trials, and the
@@ -56,8 +62,9 @@
 //! Neither gives step sizes, reversal counts or how misses count. This crate
 //! uses the lab conventions instead: a forced choice (2AFC by default:
 //! which interval, or which location, held the patch) driven by QUEST or an
-//! up-down staircase, interleaved across conditions. The fade-in variant is
-//! not implemented.
+//! up-down staircase, interleaved across conditions. The fade-in method
+//! itself is [`ramp`], beside it (`--procedure luebke-hallen`), with what
+//! it decided where the seed is silent.
 //!
 //! ## Recovery (`tests/recovery.rs`)
 //!
@@ -108,6 +115,7 @@ pub mod luminance;
 pub mod observer;
 pub mod participant;
 pub mod quest;
+pub mod ramp;
 pub mod session;
 pub mod staircase;
 pub mod stimulus;

@@ -237,6 +237,92 @@ impl SimulatedObserver {
     }
 }
 
+/// The duration of one "look" whose detection probability is the
+/// observer's psychometric function, ms: the 2IFC interval
+/// (`gazecast thresholds measure --interval-ms`, default 200 ms) its
+/// threshold is defined for. [`SimulatedObserver::respond_ramp`] spreads
+/// that look's detection hazard over time.
+pub const RAMP_LOOK_MS: f64 = 200.0;
+
+impl SimulatedObserver {
+    /// The observer's chance of detecting contrast `log10_over_threshold`
+    /// in one look, its forced-choice function corrected for guessing and
+    /// lapses: `D = 1 − exp(−H)`, `H = 10^(β(x + x_T)))`; returns `H`, the
+    /// look's detection hazard.
+    pub fn detection_hazard_at(&self, log10_over_threshold: f64) -> f64 {
+        10f64.powf(self.spec.beta * (log10_over_threshold + self.x_threshold))
+    }
+
+    /// Answers a Luebke & Hallen ramp ([`crate::ramp`]) frame by frame.
+    ///
+    /// With probability `lapse_rate` the trial is a lapse: a response at a
+    /// uniformly random time during the trial and a click on a uniformly
+    /// random location. Otherwise, at each frame `k` (time `k·frame_ms`,
+    /// the trial's own [`crate::ramp::RampSchedule`]) the observer detects
+    /// with probability `1 − exp(−H(c_k)·frame_ms/RAMP_LOOK_MS)`:
+    /// probability summation over time with the hazard of one look
+    /// ([`RAMP_LOOK_MS`]) spread evenly over it, so the frame rate does
+    /// not matter. On detection it responds a log-normal response time
+    /// later (its `rt_median_ms`, `rt_log_sd`) and clicks the location
+    /// shown; a response after the trial's end is no response. No
+    /// detection by the end: no response. `frame_ms` must be in [1, 100].
+    pub fn respond_ramp(
+        &mut self,
+        trial: &crate::ramp::RampTrial,
+        frame_ms: f64,
+    ) -> Result<crate::ramp::SyntheticRampResponse, ParamError> {
+        use crate::ramp::{RampResponse, SyntheticRampResponse};
+        let s = &trial.schedule;
+        let frames = s.frames(frame_ms)?;
+        if trial.locations == 0 || trial.location >= trial.locations {
+            return Err(ParamError::new(
+                "location",
+                trial.location,
+                format!("must be in 0..{}", trial.locations),
+            ));
+        }
+        let end = s.end_ms();
+        if self.rng.random::<f64>() < self.spec.lapse_rate {
+            let t = self.rng.random::<f64>() * end;
+            let l = self.rng.random_range(0..trial.locations);
+            return Ok(SyntheticRampResponse(RampResponse {
+                response_ms: Some(t),
+                clicked_location: Some(l),
+            }));
+        }
+        let log_ct = self
+            .spec
+            .csf
+            .contrast_threshold(trial.frequency_cpd, trial.eccentricity_deg)
+            .log10();
+        let share = frame_ms / RAMP_LOOK_MS;
+        for k in 0..frames {
+            let t = k as f64 * frame_ms;
+            let h = self.detection_hazard_at(s.log10_at(t) - log_ct);
+            let p = -(-h * share).exp_m1();
+            if self.rng.random::<f64>() < p {
+                let rt = self.rt.sample(&mut self.rng);
+                let at = t + rt;
+                return Ok(SyntheticRampResponse(if at <= end {
+                    RampResponse {
+                        response_ms: Some(at),
+                        clicked_location: Some(trial.location),
+                    }
+                } else {
+                    RampResponse {
+                        response_ms: None,
+                        clicked_location: None,
+                    }
+                }));
+            }
+        }
+        Ok(SyntheticRampResponse(RampResponse {
+            response_ms: None,
+            clicked_location: None,
+        }))
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

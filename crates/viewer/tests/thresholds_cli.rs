@@ -94,6 +94,117 @@ fn a_simulated_session_writes_its_folder_and_refuses_to_overwrite() {
     );
 }
 
+#[test]
+fn luebke_and_hallens_ramp_writes_the_same_folder_with_its_own_columns() {
+    let tmp = tempfile::tempdir().expect("tempdir");
+    let out = tmp.path().join("ramp");
+    let o = measure(&out, "P01")
+        .args(["--procedure", "luebke-hallen"])
+        .succeed();
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    assert!(stdout.starts_with("SYNTHETIC"), "{stdout}");
+    let dir = out.join("sub-P01");
+
+    // trials.tsv: the ramp's columns, a row per trial, every condition
+    // ended by 8 correct trials or 6 failed ones.
+    let tsv = std::fs::read_to_string(dir.join("trials.tsv")).unwrap();
+    let header: Vec<&str> = tsv.lines().next().unwrap().split('\t').collect();
+    for col in [
+        "start_contrast",
+        "stop_contrast",
+        "response_ms",
+        "location_shown",
+        "location_clicked",
+        "outcome",
+        "sample_contrast",
+        "shown_sample_contrast",
+    ] {
+        assert!(header.contains(&col), "no column {col}: {header:?}");
+    }
+    assert!(tsv.lines().all(|l| l.split('\t').count() == header.len()));
+    let outcome = column(&tsv, "outcome");
+    let correct = outcome.iter().filter(|o| *o == "correct").count();
+    assert!((140..=160).contains(&correct), "{correct}");
+    assert!(outcome
+        .iter()
+        .all(|o| ["correct", "wrong_location", "no_response", "too_early"].contains(&o.as_str())));
+    // A correct trial clicked the location shown, and its sample is at
+    // most the contrast on screen at the response (the reaction allowance;
+    // equal during the hold at the highest contrast).
+    let (shown, clicked) = (
+        column(&tsv, "location_shown"),
+        column(&tsv, "location_clicked"),
+    );
+    let (sample, stop) = (
+        column(&tsv, "sample_contrast"),
+        column(&tsv, "stop_contrast"),
+    );
+    for i in (0..outcome.len()).filter(|&i| outcome[i] == "correct") {
+        assert_eq!(shown[i], clicked[i]);
+        let (a, b): (f64, f64) = (sample[i].parse().unwrap(), stop[i].parse().unwrap());
+        assert!(a <= b, "row {i}: {a} > {b}");
+    }
+
+    // session.json names the procedure and says synthetic; the fit, the
+    // thresholds file and the plot are the 2IFC procedure's.
+    let session: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("session.json")).unwrap()).unwrap();
+    assert_eq!(session["synthetic"], true);
+    assert_eq!(session["procedure"], "luebke-hallen");
+    assert_eq!(session["design"]["locations"], 4);
+    assert_eq!(session["trials"], outcome.len());
+    let fit: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("fit-P01.json")).unwrap()).unwrap();
+    assert_eq!(fit["synthetic"], true);
+    // α and e2 come back; CT0 carries the ramp's bias (≈ −0.12 log10 for
+    // this observer: the guide's "Luebke & Hallen's ramp").
+    let est = |k: &str| fit["fit"][k]["estimate"].as_f64().unwrap();
+    assert!(
+        (est("ct0") / (0.012 * 10f64.powf(-0.12)) - 1.0).abs() < 0.2,
+        "{fit}"
+    );
+    assert!((est("alpha") / 0.095 - 1.0).abs() < 0.3, "{fit}");
+    assert!((est("e2_deg") / 2.8 - 1.0).abs() < 0.35, "{fit}");
+    let text = std::fs::read_to_string(dir.join("thresholds-P01.ron")).unwrap();
+    assert!(text.starts_with("// SYNTHETIC"), "{text}");
+    let file: psychophysics::participant::ParticipantThresholds = ron::from_str(&text).unwrap();
+    file.validate().unwrap();
+    assert!(file.synthetic);
+    let png = std::fs::read(dir.join("thresholds-P01.png")).unwrap();
+    assert!(png.starts_with(b"\x89PNG"), "not a PNG");
+
+    // Without --headless and without a tracker: a clear refusal, nothing
+    // written.
+    let o = gazecast()
+        .args(["thresholds", "measure", "--procedure", "luebke-hallen"])
+        .args([
+            "--simulate-observer",
+            OBSERVER,
+            "--participant",
+            "P02",
+            "--out",
+        ])
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert!(!o.status.success());
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(err.contains("--tracker"), "{err}");
+    assert!(!out.join("sub-P02").exists());
+    // A bad ramp design names its field before anything is written.
+    let bad = tmp.path().join("bad.ron");
+    std::fs::write(&bad, "(frequencies_cpd: [1.0, 4.0], eccentricities_deg: [0.0, 5.0], locations: 4, start_below_log10: 1.0, start_jitter_log10: 0.3, min_start_contrast: 0.0001, rate_log10_per_s: 0.0, max_contrast: 1.0, hold_ms: 1000.0, frame_ms: 16.7, reaction_allowance_ms: 300.0, repetitions: 8, max_failed_per_condition: 6, censor_margin_log10: 0.1, seed: 1)").unwrap();
+    let o = measure(&out, "P03")
+        .args(["--procedure", "luebke-hallen", "--session"])
+        .arg(&bad)
+        .output()
+        .unwrap();
+    assert!(!o.status.success());
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(err.contains("rate_log10_per_s"), "{err}");
+    assert!(!out.join("sub-P03").exists());
+}
+
 /// Column `name` of a TSV file's rows.
 fn column(tsv: &str, name: &str) -> Vec<String> {
     let mut lines = tsv.lines();
@@ -206,6 +317,91 @@ fn the_windowed_session_aborts_and_repeats_trials_whose_gaze_left_the_window() {
         "response",
         "over",
     ] {
+        assert!(shots.join(format!("{s}.png")).is_file(), "no {s}.png");
+    }
+}
+
+/// Luebke & Hallen's ramp in a window: the simulated observer answers
+/// each ramp at the time it planned, a scripted gaze fixates and breaks
+/// fixation during the first two ramps (each aborted and shown again).
+#[test]
+fn the_windowed_ramp_aborts_and_repeats_ramps_whose_gaze_left_the_window() {
+    let mut x = Xvfb::start();
+    let tmp = tempfile::tempdir().expect("tempdir");
+    let out = tmp.path().join("ramp");
+    let shots = tmp.path().join("shots");
+    let o = succeed_windowed(
+        &mut x,
+        &[
+            "thresholds",
+            "measure",
+            "--procedure",
+            "luebke-hallen",
+            "--tracker",
+            "config/trackers/mouse.ron",
+            "--simulate-observer",
+            OBSERVER,
+            "--simulate-fixation-breaks",
+            "2",
+            "--session",
+            "tests/data/thresholds/ramp-short.ron",
+            "--participant",
+            "P01",
+            "--bootstrap",
+            "20",
+            "--out",
+            &out.display().to_string(),
+            "--screenshots",
+            &shots.display().to_string(),
+        ],
+    );
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    assert!(stdout.contains("SIMULATED observer"), "{stdout}");
+    assert!(stdout.contains("2 attempts aborted"), "{stdout}");
+    let dir = out.join("sub-P01");
+    let tsv = std::fs::read_to_string(dir.join("trials.tsv")).unwrap();
+    let header: Vec<&str> = tsv.lines().next().unwrap().split('\t').collect();
+    assert!(tsv.lines().all(|l| l.split('\t').count() == header.len()));
+    // 4 conditions, each ended by 2 correct or 2 failed trials.
+    let outcome = column(&tsv, "outcome");
+    assert!((8..=16).contains(&outcome.len()), "{tsv}");
+    let aborted: u32 = column(&tsv, "aborted_attempts")
+        .iter()
+        .map(|v| v.parse::<u32>().unwrap())
+        .sum();
+    assert_eq!(aborted, 2, "{tsv}");
+    // Onsets before responses on one clock; a response's time from the
+    // onset is the ramp's response_ms.
+    let (on, re, ms) = (
+        column(&tsv, "onset_host_us"),
+        column(&tsv, "response_host_us"),
+        column(&tsv, "response_ms"),
+    );
+    for i in (0..outcome.len()).filter(|&i| outcome[i] == "correct") {
+        let (on, re): (u64, u64) = (on[i].parse().unwrap(), re[i].parse().unwrap());
+        let ms: f64 = ms[i].parse().unwrap();
+        assert!(on > 0 && re > on, "{tsv}");
+        assert!(((re - on) as f64 / 1e3 - ms).abs() < 1.0, "{tsv}");
+    }
+    let aborts = std::fs::read_to_string(dir.join("aborts.tsv")).unwrap();
+    assert_eq!(column(&aborts, "reason"), ["left-window", "left-window"]);
+    let samples = std::fs::read_to_string(dir.join("samples.tsv")).unwrap();
+    assert!(column(&samples, "screen").iter().any(|s| s == "stimulus"));
+    let session: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("session.json")).unwrap()).unwrap();
+    assert_eq!(session["synthetic"], true);
+    assert_eq!(session["completed"], true);
+    assert_eq!(session["procedure"], "luebke-hallen");
+    assert_eq!(session["aborted_attempts"], 2);
+    assert_eq!(session["trials"], outcome.len());
+    // Too few trials for a fit: the files stay, or the fit is SYNTHETIC.
+    assert!(
+        std::fs::read_to_string(dir.join("thresholds-P01.ron"))
+            .is_ok_and(|t| t.starts_with("// SYNTHETIC"))
+            || stdout.contains("no thresholds file: the fit"),
+        "{stdout}"
+    );
+    for s in ["instructions", "fixation", "stimulus", "abort", "over"] {
         assert!(shots.join(format!("{s}.png")).is_file(), "no {s}.png");
     }
 }

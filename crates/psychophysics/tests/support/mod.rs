@@ -5,8 +5,9 @@
 #![allow(dead_code)]
 
 use foveation::GeislerPerry;
-use psychophysics::fit::{fit_session, FitOptions, GeislerPerryFit};
+use psychophysics::fit::{fit_ramp, fit_session, FitOptions, GeislerPerryFit};
 use psychophysics::observer::{ObserverSpec, SimulatedObserver};
+use psychophysics::ramp::{RampSession, RampSpec};
 use psychophysics::session::{Procedure, Session, SessionSpec};
 use psychophysics::staircase::StaircaseParams;
 use rand::{Rng, SeedableRng};
@@ -78,4 +79,46 @@ pub fn measure_with(
 
 pub fn rel(est: f64, truth: f64) -> f64 {
     (est / truth - 1.0).abs()
+}
+
+/// One Luebke & Hallen ramp measurement of a hidden observer: the default
+/// [`RampSpec`] with `repetitions` correct trials per condition, the
+/// simulated observer answering every ramp frame by frame, the fit.
+pub fn measure_ramp(
+    spec: ObserverSpec,
+    repetitions: u32,
+    seed: u64,
+    tweak: impl FnOnce(&mut RampSpec),
+) -> (RampSession, GeislerPerryFit) {
+    let mut obs = SimulatedObserver::new(spec).unwrap();
+    let mut design = RampSpec {
+        seed,
+        repetitions,
+        ..RampSpec::default()
+    };
+    tweak(&mut design);
+    let mut s = RampSession::new(design).unwrap();
+    while let Some(t) = s.next_trial() {
+        let r = obs.respond_ramp(&t, s.spec().frame_ms).unwrap();
+        s.record_synthetic(&t, r).unwrap();
+    }
+    let fit = fit_ramp(&s, &FitOptions::default()).unwrap();
+    (s, fit)
+}
+
+/// The mean over a ramp session's used conditions of measured minus true
+/// log10 threshold.
+pub fn ramp_condition_bias(s: &RampSession, truth: &GeislerPerry) -> f64 {
+    let used: Vec<f64> = s
+        .results()
+        .iter()
+        .filter(|r| !r.censored && !r.abandoned)
+        .map(|r| {
+            r.log10_threshold
+                - truth
+                    .contrast_threshold(r.frequency_cpd, r.eccentricity_deg)
+                    .log10()
+        })
+        .collect();
+    used.iter().sum::<f64>() / used.len().max(1) as f64
 }

@@ -2,7 +2,9 @@
 //! frequency × eccentricity grid with interleaved QUEST staircases
 //! (`psychophysics`), fit the Geisler–Perry CSF and write a session folder.
 //! (`gazecast thresholds validate`, Luebke & Hallen §6.2's full-against-
-//! simplified validation, is `validate`.)
+//! simplified validation, is `validate`; `--procedure luebke-hallen`,
+//! Luebke & Hallen §6.1's own contrast ramp with a location click, is
+//! `ramp` headless and `ramp_window` in a window.)
 //!
 //! Two forms:
 //!
@@ -31,6 +33,8 @@
 //! tracker's bytes), and `trials.tsv` a row per answer. An existing folder
 //! is never overwritten.
 
+mod ramp;
+mod ramp_window;
 mod validate;
 mod window;
 
@@ -41,6 +45,7 @@ use foveation::perceptibility::ThresholdTable;
 use psychophysics::fit::{fit_session, threshold_table, FitOptions, GeislerPerryFit};
 use psychophysics::luminance::{GammaCurve, LuminanceTable, Transfer, TransferKind};
 use psychophysics::observer::{ObserverSpec, SimulatedObserver};
+use psychophysics::ramp::{RampOutcome, RampSession, RampSpec};
 use psychophysics::session::{ConditionResult, Session, SessionSpec, TrialRecord};
 use psychophysics::stimulus::{GaborPatch, GaborSpec};
 use serde::Serialize;
@@ -65,6 +70,17 @@ pub enum ThresholdsCommand {
     Validate(validate::ValidateArgs),
 }
 
+/// How thresholds are measured.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum ProcedureArg {
+    /// Two-interval forced choice with interleaved QUEST staircases.
+    #[value(name = "2ifc")]
+    TwoIfc,
+    /// Luebke & Hallen §6.1: a contrast ramp, a response, a click on
+    /// where the grating was (psychophysics::ramp).
+    LuebkeHallen,
+}
+
 /// `gazecast thresholds measure`'s arguments.
 #[derive(Debug, Clone, clap::Args)]
 pub struct MeasureArgs {
@@ -72,6 +88,12 @@ pub struct MeasureArgs {
     /// Without it the session runs in a window with --tracker.
     #[arg(long)]
     pub headless: bool,
+    /// The procedure: 2ifc (QUEST) or luebke-hallen (a contrast ramp and
+    /// a location click; --session then reads a
+    /// psychophysics::ramp::RampSpec; in a window --interval-ms and
+    /// --gap-ms do not apply).
+    #[arg(long, value_enum, value_name = "NAME", default_value = "2ifc")]
+    pub procedure: ProcedureArg,
     /// The simulated observer (RON, psychophysics::observer::ObserverSpec).
     /// A model, not a person: everything written is marked synthetic. In a
     /// window it answers, and a scripted gaze on the mouse tracker fixates.
@@ -186,11 +208,21 @@ struct SessionInfo<'a> {
     setup: SessionSetup<'a>,
 }
 
+/// A session's design as `session.json` writes it.
+#[derive(Serialize)]
+#[serde(untagged)]
+enum Design<'a> {
+    Quest(&'a SessionSpec),
+    Ramp(&'a RampSpec),
+}
+
 /// What every `session.json` states of the design, the display, the fit
 /// and the trials, headless or in a window.
 #[derive(Serialize)]
 struct SessionSetup<'a> {
-    design: &'a SessionSpec,
+    /// `2ifc` or `luebke-hallen`.
+    procedure: &'static str,
+    design: Design<'a>,
     display: &'a foveation::Display,
     transfer: TransferKind,
     max_contrast: f64,
@@ -204,15 +236,36 @@ struct SessionSetup<'a> {
 impl<'a> SessionSetup<'a> {
     fn of(loaded: &'a Loaded, a: &MeasureArgs, session: &Session) -> Self {
         Self {
-            design: &loaded.spec,
+            procedure: "2ifc",
+            design: Design::Quest(&loaded.spec),
             display: &loaded.display,
             transfer: loaded.transfer.kind(),
             max_contrast: loaded.max_contrast,
             sigma_deg: a.sigma_deg,
             background_level: a.background_level,
-            fit_options: fit_options(a, &loaded.spec),
+            fit_options: fit_options(a, loaded.spec.seed),
             trials: session.records().len(),
             invalid_trials: session.records().iter().filter(|r| !r.valid).count(),
+        }
+    }
+
+    /// A ramp session's; its failed trials are the invalid ones.
+    fn of_ramp(loaded: &'a Loaded<RampSpec>, a: &MeasureArgs, session: &RampSession) -> Self {
+        Self {
+            procedure: "luebke-hallen",
+            design: Design::Ramp(&loaded.spec),
+            display: &loaded.display,
+            transfer: loaded.transfer.kind(),
+            max_contrast: loaded.max_contrast,
+            sigma_deg: a.sigma_deg,
+            background_level: a.background_level,
+            fit_options: fit_options(a, loaded.spec.seed),
+            trials: session.records().len(),
+            invalid_trials: session
+                .records()
+                .iter()
+                .filter(|r| r.outcome != RampOutcome::Correct)
+                .count(),
         }
     }
 }
@@ -233,33 +286,84 @@ pub fn run(args: &ThresholdsArgs, out: &mut dyn Write) -> Result<(), String> {
     }
 }
 
-/// Everything read and checked before a folder is created.
-struct Loaded {
+/// Everything read and checked before a folder is created; `S` is the
+/// design (a QUEST [`SessionSpec`] or a ramp's [`RampSpec`]).
+struct Loaded<S = SessionSpec> {
     display: foveation::Display,
     geometry: foveation::ScreenGeometry,
     transfer: Transfer,
     /// The display's highest contrast around the background.
     max_contrast: f64,
     /// The design, limited to that contrast.
-    spec: SessionSpec,
+    spec: S,
 }
 
 impl Loaded {
     /// Reads the display, the transfer and the design, and requires every
     /// condition to be drawable on this display.
     fn read(a: &MeasureArgs) -> Result<Self, String> {
+        Loaded::read_with(a, |p, max_contrast| {
+            match p {
+                Some(p) => read_ron::<SessionSpec>(p, "session design")?,
+                None => SessionSpec::default(),
+            }
+            .limited_to_contrast(max_contrast)
+            .map_err(|e| format!("--background-level {}: {e}", a.background_level))
+        })
+    }
+}
+
+impl Loaded<RampSpec> {
+    /// [`Loaded::read`] for a ramp: `--session` is a [`RampSpec`], checked.
+    fn read_ramp(a: &MeasureArgs) -> Result<Self, String> {
+        Loaded::read_with(a, |p, max_contrast| {
+            let spec = match p {
+                Some(p) => {
+                    let s = read_ron::<RampSpec>(p, "ramp design (psychophysics::ramp::RampSpec)")?;
+                    s.validate()
+                        .map_err(|e| format!("{}: ramp design: {e}", p.display()))?;
+                    s
+                }
+                None => RampSpec::default(),
+            };
+            spec.limited_to_contrast(max_contrast)
+                .map_err(|e| format!("--background-level {}: {e}", a.background_level))
+        })
+    }
+}
+
+/// A design's grid.
+trait Grid {
+    fn grid(&self) -> (&[f64], &[f64]);
+}
+
+impl Grid for SessionSpec {
+    fn grid(&self) -> (&[f64], &[f64]) {
+        (&self.frequencies_cpd, &self.eccentricities_deg)
+    }
+}
+
+impl Grid for RampSpec {
+    fn grid(&self) -> (&[f64], &[f64]) {
+        (&self.frequencies_cpd, &self.eccentricities_deg)
+    }
+}
+
+impl<S: Grid> Loaded<S> {
+    /// Reads the display and the transfer, the design by `read_spec` (the
+    /// `--session` path, the display's highest contrast), and requires
+    /// every condition to be drawable on this display.
+    fn read_with(
+        a: &MeasureArgs,
+        read_spec: impl FnOnce(Option<&Path>, f64) -> Result<S, String>,
+    ) -> Result<Self, String> {
         let display = crate::config::load_display(&a.display).map_err(|e| e.to_string())?;
         let geometry = display.geometry().map_err(|e| e.to_string())?;
         let transfer = read_transfer(a.luminance_table.as_deref())?;
         // No trial asks for more contrast than the display shows around the
         // background.
         let max_contrast = transfer.max_contrast(a.background_level);
-        let spec = match &a.session {
-            Some(p) => read_ron::<SessionSpec>(p, "session design")?,
-            None => SessionSpec::default(),
-        }
-        .limited_to_contrast(max_contrast)
-        .map_err(|e| format!("--background-level {}: {e}", a.background_level))?;
+        let spec = read_spec(a.session.as_deref(), max_contrast)?;
         let loaded = Self {
             display,
             geometry,
@@ -267,8 +371,9 @@ impl Loaded {
             max_contrast,
             spec,
         };
-        for &e in &loaded.spec.eccentricities_deg {
-            for &f in &loaded.spec.frequencies_cpd {
+        let (freqs, eccs) = loaded.spec.grid();
+        for &e in eccs {
+            for &f in freqs {
                 loaded.patch(a, f, e, 0.0, 0).map_err(|err| {
                     format!(
                         "{} cpd at {}° cannot be shown on {}: {err}",
@@ -387,6 +492,12 @@ fn trial_row(p: &GaborPatch, rec: &TrialRecord, shown: Option<&Shown>) -> String
 
 fn measure(a: &MeasureArgs, out: &mut dyn Write) -> Result<(), String> {
     experiment::design::check_id(&a.participant).map_err(|e| format!("--participant {e}"))?;
+    if a.procedure == ProcedureArg::LuebkeHallen {
+        if !a.headless {
+            return ramp_window::run(a, out);
+        }
+        return ramp::measure_headless(a, out);
+    }
     if !a.headless {
         return window::run(a, out);
     }
@@ -441,7 +552,7 @@ fn measure(a: &MeasureArgs, out: &mut dyn Write) -> Result<(), String> {
     write_session_json(&dir, &info)?;
     let fitted = fit_and_table(&session, &info.setup.fit_options)?;
     let who = format!("a simulated observer ({})", observer_path.display());
-    write_results(a, &dir, &session, fitted, &who, out)
+    write_results(a, &dir, &Measured::of(&session), fitted, &who, out)
 }
 
 fn software() -> String {
@@ -458,10 +569,10 @@ fn load_observer(path: &Path) -> Result<SimulatedObserver, String> {
     SimulatedObserver::from_ron(&text).map_err(|e| format!("{}: {e}", path.display()))
 }
 
-fn fit_options(a: &MeasureArgs, spec: &SessionSpec) -> FitOptions {
+fn fit_options(a: &MeasureArgs, seed: u64) -> FitOptions {
     FitOptions {
         bootstrap_resamples: a.bootstrap,
-        seed: spec.seed,
+        seed,
         ..FitOptions::default()
     }
 }
@@ -489,18 +600,48 @@ fn fit_and_table(
     Ok((fit, table))
 }
 
+/// What [`write_results`] needs of a finished session, of either
+/// procedure.
+struct Measured {
+    synthetic: bool,
+    results: Vec<ConditionResult>,
+    trials: usize,
+    /// What the plot's error bars are.
+    bars: &'static str,
+}
+
+impl Measured {
+    fn of(session: &Session) -> Self {
+        Self {
+            synthetic: session.is_synthetic(),
+            results: session.results(),
+            trials: session.records().len(),
+            bars: "±1.96 sd of each QUEST estimate",
+        }
+    }
+
+    fn of_ramp(session: &RampSession) -> Self {
+        Self {
+            synthetic: session.is_synthetic(),
+            results: session.results(),
+            trials: session.records().len(),
+            bars: "±1.96 standard errors of each geometric mean of the ramp's samples",
+        }
+    }
+}
+
 /// The thresholds file, the fit's JSON and the plot of a finished session
 /// with its fit; a line to `out`. `who` answered (for the thresholds
 /// file's first line when synthetic).
 fn write_results(
     a: &MeasureArgs,
     dir: &Path,
-    session: &Session,
+    session: &Measured,
     (fit, table): (GeislerPerryFit, ThresholdTable),
     who: &str,
     out: &mut dyn Write,
 ) -> Result<(), String> {
-    let synthetic = session.is_synthetic();
+    let synthetic = session.synthetic;
     let file = psychophysics::participant::ParticipantThresholds::new(
         &a.participant,
         synthetic,
@@ -526,7 +667,7 @@ fn write_results(
     let fit_file = FitFile {
         synthetic,
         fit: &fit,
-        conditions: session.results(),
+        conditions: session.results.clone(),
     };
     write_file(
         dir,
@@ -535,7 +676,7 @@ fn write_results(
     )?;
     let png = dir.join(format!("thresholds-{}.png", a.participant));
     let points: Vec<crate::plots::ThresholdPoint> = session
-        .results()
+        .results
         .iter()
         .filter(|r| !r.abandoned && r.valid_trials > 0)
         .map(|r| crate::plots::ThresholdPoint {
@@ -547,7 +688,7 @@ fn write_results(
         })
         .collect();
     let fit_note = format!(
-        "fit: CT0 {:.4} [{:.4}, {:.4}], α {:.4} [{:.4}, {:.4}], e2 {:.2}° [{:.2}, {:.2}] ({:.0} % bootstrap intervals, {} resamples)\nhollow circles: censored (beyond the display's contrast), left out of the fit; bars: ±1.96 sd of each QUEST estimate",
+        "fit: CT0 {:.4} [{:.4}, {:.4}], α {:.4} [{:.4}, {:.4}], e2 {:.2}° [{:.2}, {:.2}] ({:.0} % bootstrap intervals, {} resamples)\nhollow circles: censored (beyond the display's contrast), left out of the fit; bars: {}",
         fit.ct0.estimate,
         fit.ct0.ci_low,
         fit.ct0.ci_high,
@@ -559,6 +700,7 @@ fn write_results(
         fit.e2_deg.ci_high,
         fit.ci_level * 100.0,
         fit.bootstrap_resamples,
+        session.bars,
     );
     crate::plots::draw_thresholds(
         &png,
@@ -575,7 +717,7 @@ fn write_results(
         "{}{}: {} trials; CT0 {:.4} [{:.4}, {:.4}], alpha {:.4} [{:.4}, {:.4}], e2 {:.3} [{:.3}, {:.3}] deg ({} of {} conditions fitted)",
         if synthetic { "SYNTHETIC " } else { "" },
         dir.display(),
-        session.records().len(),
+        session.trials,
         m.ct0,
         fit.ct0.ci_low,
         fit.ct0.ci_high,

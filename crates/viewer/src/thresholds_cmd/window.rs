@@ -66,28 +66,29 @@ use winit::window::WindowId;
 
 use super::{
     create_folder, fit_and_table, load_observer, software, trial_row, write_results,
-    write_session_json, Loaded, MeasureArgs, SessionInfo, SessionSetup, Shown, TRIALS_HEADER,
+    write_session_json, Loaded, MeasureArgs, Measured, SessionInfo, SessionSetup, Shown,
+    TRIALS_HEADER,
 };
 use crate::gaze_feed::{GazeFeed, GazeSetup, TrackerMsg};
 use crate::screen::Screen;
 
 /// How long the abort notice stays, µs.
-const NOTICE_US: u64 = 1_000_000;
+pub(super) const NOTICE_US: u64 = 1_000_000;
 /// How far the scripted gaze looks away in a simulated fixation break, degrees.
-const BREAK_DEG: f64 = 3.0;
+pub(super) const BREAK_DEG: f64 = 3.0;
 /// The scripted gaze breaks this long after the onset, µs.
-const BREAK_AFTER_US: u64 = 100_000;
+pub(super) const BREAK_AFTER_US: u64 = 100_000;
 
 /// What `session.json` says about the windowed session.
 #[derive(Debug, Clone, Serialize)]
 pub(super) struct WindowInfo {
-    tracker: String,
-    calibration: Option<String>,
-    fixation_window_deg: f64,
-    timing: AttemptTiming,
-    procedure: &'static str,
-    clocks: &'static str,
-    simulated_fixation_breaks: u32,
+    pub(super) tracker: String,
+    pub(super) calibration: Option<String>,
+    pub(super) fixation_window_deg: f64,
+    pub(super) timing: AttemptTiming,
+    pub(super) procedure: &'static str,
+    pub(super) clocks: &'static str,
+    pub(super) simulated_fixation_breaks: u32,
 }
 
 /// The screen shown.
@@ -136,14 +137,19 @@ struct Current {
 }
 
 /// The files written as it happens.
-struct Files {
-    trials: BufWriter<File>,
-    samples: BufWriter<File>,
-    aborts: BufWriter<File>,
+pub(super) struct Files {
+    pub(super) trials: BufWriter<File>,
+    pub(super) samples: BufWriter<File>,
+    pub(super) aborts: BufWriter<File>,
 }
 
 impl Files {
     fn create(dir: &Path) -> Result<Self, String> {
+        Self::create_with(dir, TRIALS_HEADER)
+    }
+
+    /// With `trials_header` as `trials.tsv`'s first line.
+    pub(super) fn create_with(dir: &Path, trials_header: &str) -> Result<Self, String> {
         let open = |name: &str, header: &str| -> Result<BufWriter<File>, String> {
             let p = dir.join(name);
             let mut f =
@@ -154,7 +160,7 @@ impl Files {
             Ok(f)
         };
         Ok(Self {
-            trials: open("trials.tsv", TRIALS_HEADER)?,
+            trials: open("trials.tsv", trials_header)?,
             // mapped: the device time on the host monotonic clock; device:
             // the tracker's own clock; arrival: host monotonic.
             samples: open(
@@ -201,7 +207,7 @@ struct Measurer<'a> {
 }
 
 /// Writes `lines` centred on (x, y), `px` high, black.
-fn centred_text(
+pub(super) fn centred_text(
     rgb: &mut [u8],
     size: (u32, u32),
     at: (i32, i32),
@@ -228,7 +234,7 @@ fn centred_text(
 }
 
 /// A filled disc of `level` (grey) at `c`, radius `r` px.
-fn disc(rgb: &mut [u8], (w, h): (u32, u32), c: [f64; 2], r: f64, level: u8) {
+pub(super) fn disc(rgb: &mut [u8], (w, h): (u32, u32), c: [f64; 2], r: f64, level: u8) {
     let (x0, x1) = (
         (c[0] - r).floor().max(0.0),
         (c[0] + r).ceil().min(f64::from(w)),
@@ -249,7 +255,7 @@ fn disc(rgb: &mut [u8], (w, h): (u32, u32), c: [f64; 2], r: f64, level: u8) {
 }
 
 /// Copies the patch's levels (grey) into the frame at its place.
-fn blit(rgb: &mut [u8], (w, h): (u32, u32), p: &GaborPatch) {
+pub(super) fn blit(rgb: &mut [u8], (w, h): (u32, u32), p: &GaborPatch) {
     let n = p.side_px as i64;
     let half = n / 2;
     // centre_px is a pixel centre (x.5): its pixel index is the floor.
@@ -941,7 +947,7 @@ pub(super) fn run(a: &MeasureArgs, out: &mut dyn Write) -> Result<(), String> {
     // A fit that fails (too few trials, thresholds that do not rise with
     // frequency) leaves the session's files: a finding, not a failed run.
     match fit_and_table(&m.session, &info.setup.fit_options) {
-        Ok(fitted) => write_results(a, &m.dir, &m.session, fitted, &who, out),
+        Ok(fitted) => write_results(a, &m.dir, &Measured::of(&m.session), fitted, &who, out),
         Err(e) => writeln!(
             out,
             "{}: no thresholds file: {e}; the trials are in trials.tsv",

@@ -493,7 +493,7 @@ fn every_numeric_field_is_refused_by_name_or_works() {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig { cases: 48, failure_persistence: None, ..ProptestConfig::default() })]
+    #![proptest_config(ProptestConfig { cases: fixtures::proptest_cases(48), failure_persistence: None, ..ProptestConfig::default() })]
     /// Two fields changed at once.
     #[test]
     fn two_fields_at_once_are_refused_by_name_or_work(

@@ -391,7 +391,7 @@ fn check_invariants(
 proptest! {
     // 34 000 random streams per decoder (136 000 cases) plus the 4 000
     // mutated real streams below: over 100 000 cases in a few seconds.
-    #![proptest_config(ProptestConfig { cases: 34_000, failure_persistence: None, ..ProptestConfig::default() })]
+    #![proptest_config(ProptestConfig { cases: fixtures::proptest_cases(34_000), failure_persistence: None, ..ProptestConfig::default() })]
 
     #[test]
     fn iscan_binary_never_panics_on_random_bytes(input in prop::collection::vec(any::<u8>(), 0..160), split in 1usize..40) {
@@ -423,7 +423,7 @@ proptest! {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig { cases: 4_000, failure_persistence: None, ..ProptestConfig::default() })]
+    #![proptest_config(ProptestConfig { cases: fixtures::proptest_cases(4_000), failure_persistence: None, ..ProptestConfig::default() })]
 
     /// Real records with random damage: still no panic, invariants hold.
     #[test]

@@ -10,6 +10,7 @@ use tracker_hal::recording::RecordingHeader;
 use tracker_hal::{Driver, Recorder, Recording, TrackerConfig};
 
 #[test]
+#[ignore = "slow tier: stress test (a minute of 2000-Hz samples under load)"]
 fn recording_2000_hz_for_60_s_under_load_loses_nothing() {
     let dir = tempfile::tempdir().expect("tempdir");
     let path = dir.path().join("stress.gzrec");

@@ -168,7 +168,7 @@ fn a_loaded_host_changes_neither_device_times_nor_events() {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig::with_cases(12))]
+    #![proptest_config(ProptestConfig::with_cases(fixtures::proptest_cases(12)))]
 
     /// Any delivery pattern up to the bounds.
     #[test]

@@ -111,7 +111,7 @@ fn case() -> impl Strategy<Value = Case> {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig { cases: 48, ..ProptestConfig::default() })]
+    #![proptest_config(ProptestConfig { cases: fixtures::proptest_cases(48), ..ProptestConfig::default() })]
 
     #[test]
     fn outputs_are_finite_in_range_and_attend_only_visible_objects(c in case()) {

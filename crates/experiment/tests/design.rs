@@ -272,7 +272,7 @@ fn point_counts_have_upper_bounds() {
 }
 
 proptest::proptest! {
-    #![proptest_config(proptest::prelude::ProptestConfig::with_cases(200))]
+    #![proptest_config(proptest::prelude::ProptestConfig::with_cases(fixtures::proptest_cases(200)))]
 
     /// An accepted name is exactly one plain folder under any output
     /// folder: never `..`, a root, a separator or `.`.

@@ -252,7 +252,7 @@ fn each_mesh_is_the_target_equally_often_and_only_once_per_display() {
 }
 
 proptest::proptest! {
-    #![proptest_config(proptest::prelude::ProptestConfig::with_cases(64))]
+    #![proptest_config(proptest::prelude::ProptestConfig::with_cases(fixtures::proptest_cases(64)))]
 
     /// Any mesh count and trial count: the pool's counts differ by at most
     /// one, and the distractors use every non-target mesh over many cells.

@@ -610,7 +610,7 @@ fn round_trip<T: TsvRow + Clone>(rows: &[T], split: usize) -> Vec<T> {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig::with_cases(48))]
+    #![proptest_config(ProptestConfig::with_cases(fixtures::proptest_cases(48)))]
 
     #[test]
     fn trials_round_trip(rows in proptest::collection::vec(trial_row(), 0..12), split in 0usize..12) {

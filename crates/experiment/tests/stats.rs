@@ -309,7 +309,7 @@ fn value() -> impl Strategy<Value = f64> {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig::with_cases(400))]
+    #![proptest_config(ProptestConfig::with_cases(fixtures::proptest_cases(400)))]
 
     /// Any finite values: every test gives finite statistics with p in
     /// [0, 1] (F may be +∞ with p = 0 when only the means differ), or an

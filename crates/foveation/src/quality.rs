@@ -453,7 +453,7 @@ mod tests {
     }
 
     proptest! {
-        #![proptest_config(ProptestConfig::with_cases(64))]
+        #![proptest_config(ProptestConfig::with_cases(fixtures::proptest_cases(64)))]
 
         /// Random images, sizes and gazes (far off the screen, tiny screens):
         /// every figure is in range and never NaN.

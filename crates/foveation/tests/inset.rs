@@ -104,7 +104,7 @@ fn bad_insets_are_refused_by_name() {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig::with_cases(48))]
+    #![proptest_config(ProptestConfig::with_cases(fixtures::proptest_cases(48)))]
 
     /// Any display, POR (on or off the screen, far or near) and inset: the
     /// pixels within the inset's half-angle are all cast, and the mask has

@@ -53,7 +53,7 @@ fn check_coverage(model: &SamplingModel, layout: Layout, por: [f64; 2], pixels: 
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig { cases: 24, ..ProptestConfig::default() })]
+    #![proptest_config(ProptestConfig { cases: fixtures::proptest_cases(24), ..ProptestConfig::default() })]
 
     /// Independent of how the mask is built: for random pixels and random
     /// PORs, some ray lies within the allowed spacing at that pixel.
@@ -248,7 +248,7 @@ fn bound_on_two_pixel_cells_matches_the_per_pixel_sum() {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig { cases: 64, ..ProptestConfig::default() })]
+    #![proptest_config(ProptestConfig { cases: fixtures::proptest_cases(64), ..ProptestConfig::default() })]
 
     /// Any finite POR (on, at the edge of, or far off the screen) and any eye
     /// distance from 1 mm to 100 m gives a mask without panicking, with

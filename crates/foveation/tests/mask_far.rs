@@ -178,7 +178,7 @@ fn coordinate() -> impl Strategy<Value = f64> {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig { cases: 512, ..ProptestConfig::default() })]
+    #![proptest_config(ProptestConfig { cases: fixtures::proptest_cases(512), ..ProptestConfig::default() })]
 
     /// Any f64 gaze: a non-finite one is an error naming the coordinate, a
     /// finite one gives a mask whose work (rings, vertices, cells) stays

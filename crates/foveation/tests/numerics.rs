@@ -44,7 +44,7 @@ fn reference_eccentricity_deg(d: &Display, a: [f64; 2], b: [f64; 2]) -> f64 {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig { cases: 2000, ..ProptestConfig::default() })]
+    #![proptest_config(ProptestConfig { cases: fixtures::proptest_cases(2000), ..ProptestConfig::default() })]
 
     #[test]
     fn eccentricity_of_identical_points_is_exactly_zero(

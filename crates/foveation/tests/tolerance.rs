@@ -61,7 +61,7 @@ fn a_wider_tolerance_casts_more_rays() {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig::with_cases(64))]
+    #![proptest_config(ProptestConfig::with_cases(fixtures::proptest_cases(64)))]
 
     /// The spacing a tolerant model allows at any point for its POR `c` is
     /// at most what the plain model allows there for any POR `g` within the

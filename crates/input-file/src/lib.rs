@@ -244,7 +244,7 @@ mod tests {
     }
 
     proptest! {
-        #![proptest_config(ProptestConfig::with_cases(48))]
+        #![proptest_config(ProptestConfig::with_cases(fixtures::proptest_cases(48)))]
         /// Files up to the limit read whole and equal; one byte more is
         /// refused, for limits from 0 bytes up.
         #[test]

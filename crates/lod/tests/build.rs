@@ -344,7 +344,7 @@ fn points_without_triangles_still_make_a_tree() {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig::with_cases(32))]
+    #![proptest_config(ProptestConfig::with_cases(fixtures::proptest_cases(32)))]
 
     /// Random soups of triangles over few vertices: duplicates, repeated
     /// indices, non-manifold edges and coincident points all show up.

@@ -191,7 +191,7 @@ fn meshes() -> Vec<Mesh> {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig::with_cases(48))]
+    #![proptest_config(ProptestConfig::with_cases(fixtures::proptest_cases(48)))]
 
     /// Random fold / fold_subtree / unfold sequences keep the cut
     /// consistent, and unfolding everything gives back the original mesh.

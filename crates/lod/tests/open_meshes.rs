@@ -186,7 +186,7 @@ fn arb_shape() -> impl Strategy<Value = Shape> {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig::with_cases(96))]
+    #![proptest_config(ProptestConfig::with_cases(fixtures::proptest_cases(96)))]
 
     /// A flat object of uniform luminance, 1° to 30° across, at any tilt
     /// (facing, tilted, exactly edge-on, from behind), with or without the

@@ -369,7 +369,7 @@ fn arb_mode() -> impl Strategy<Value = Mode> {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig::with_cases(32))]
+    #![proptest_config(ProptestConfig::with_cases(fixtures::proptest_cases(32)))]
 
     /// Whatever the cut went through, a view gives the cut a fresh cut
     /// would get from it.

@@ -250,7 +250,7 @@ fn focus() -> impl Strategy<Value = DofFocus> {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig::with_cases(64))]
+    #![proptest_config(ProptestConfig::with_cases(fixtures::proptest_cases(64)))]
 
     /// No panic for any depth, focus, aperture or gaze; every pixel whose
     /// CoC is under 0.5 px (and every one at level 0) keeps its bytes.
@@ -669,7 +669,7 @@ fn refocus_mode() -> impl Strategy<Value = DofRefocus> {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig::with_cases(128))]
+    #![proptest_config(ProptestConfig::with_cases(fixtures::proptest_cases(128)))]
 
     /// Random jump sequences and time steps (0, huge, NaN, negative, …):
     /// the focus is never NaN, stays between the targets seen (in

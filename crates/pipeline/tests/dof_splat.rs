@@ -372,7 +372,7 @@ fn focus_strategy() -> impl Strategy<Value = DofFocus> {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig { cases: 48, ..ProptestConfig::default() })]
+    #![proptest_config(ProptestConfig { cases: fixtures::proptest_cases(48), ..ProptestConfig::default() })]
 
     /// Degenerate depths, foci, apertures and gazes: no panic, and a frame
     /// of one colour keeps it (within a byte), whatever the blur — which

@@ -742,7 +742,7 @@ fn case() -> impl Strategy<Value = Case> {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig { cases: 16, ..ProptestConfig::default() })]
+    #![proptest_config(ProptestConfig { cases: fixtures::proptest_cases(16), ..ProptestConfig::default() })]
 
     /// Random frames (smaller and larger than the map, non-finite depths,
     /// unlisted ids, random importances and motions): the GPU path is the

@@ -161,7 +161,7 @@ fn a_constant_frame_stays_constant_and_spacing_one_is_the_identity() {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig { cases: 24, ..ProptestConfig::default() })]
+    #![proptest_config(ProptestConfig { cases: fixtures::proptest_cases(24), ..ProptestConfig::default() })]
 
     /// Any gaze (on or far off the screen) and any small frame size: no
     /// panic, levels in range, pixels at spacing 1 untouched.

@@ -229,7 +229,7 @@ fn a_gaze_that_is_not_finite_is_refused_and_tiny_frames_render() {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig::with_cases(24))]
+    #![proptest_config(ProptestConfig::with_cases(fixtures::proptest_cases(24)))]
     /// Any finite gaze, near or far, on small screens: a frame of the
     /// screen's size, the outer layer always there, the rays counted.
     #[test]

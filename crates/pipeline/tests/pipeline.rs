@@ -309,7 +309,7 @@ mod any_gaze {
     }
 
     proptest! {
-        #![proptest_config(ProptestConfig { cases: 48, ..ProptestConfig::default() })]
+        #![proptest_config(ProptestConfig { cases: fixtures::proptest_cases(48), ..ProptestConfig::default() })]
 
         /// A gaze at any f64 — NaN, ±∞, 1e300 — renders a frame or is an
         /// error naming the gaze; never a panic, and the work is bounded by

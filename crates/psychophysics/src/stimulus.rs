@@ -472,7 +472,7 @@ mod tests {
     }
 
     proptest! {
-        #![proptest_config(ProptestConfig::with_cases(48))]
+        #![proptest_config(ProptestConfig::with_cases(fixtures::proptest_cases(48)))]
 
         #[test]
         fn mean_and_contrast_survive_dithering(

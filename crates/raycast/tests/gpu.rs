@@ -207,6 +207,7 @@ fn sphere_scene(radius_mm: f32) -> Scene {
 }
 
 #[test]
+#[ignore = "slow tier: lavapipe at 3840x2160"]
 fn hard_cases_one_pixel_4k_and_an_empty_scene() {
     let scene = sphere_scene(120.0);
     let mut g = gpu(&scene);
@@ -246,6 +247,7 @@ fn rss_bytes() -> u64 {
 }
 
 #[test]
+#[ignore = "slow tier: soak test (100 frames on lavapipe, memory watched)"]
 fn rendering_many_frames_reuses_its_buffers() {
     // 512×384: a frame's output and readback buffers are 1.5 MiB, so
     // allocating them per frame would grow memory by ~150 MiB over 100 frames.

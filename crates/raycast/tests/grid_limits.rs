@@ -262,7 +262,7 @@ fn triangles() -> impl Strategy<Value = Vec<Tri>> {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig { cases: 64, ..ProptestConfig::default() })]
+    #![proptest_config(ProptestConfig { cases: fixtures::proptest_cases(64), ..ProptestConfig::default() })]
 
     #[test]
     fn degenerate_grids_stay_bounded_and_agree_with_the_bvh(

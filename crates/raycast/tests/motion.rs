@@ -251,7 +251,7 @@ fn a_path_that_leaves_the_representable_world_is_refused() {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig::with_cases(48))]
+    #![proptest_config(ProptestConfig::with_cases(fixtures::proptest_cases(48)))]
 
     /// Any valid path, any time (NaN, infinities, huge, tiny steps): every
     /// posed vertex, normal and velocity is finite.

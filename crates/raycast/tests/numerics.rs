@@ -95,7 +95,7 @@ fn edge_rays(m: &TriangleMesh, n: usize, seed: u64) -> Vec<(Vec3, Vec3, u32, u32
 
 proptest! {
     // 1000 cases × 1000 rays = 10^6 rays at shared edges and vertices.
-    #![proptest_config(ProptestConfig { cases: 1000, failure_persistence: None, ..ProptestConfig::default() })]
+    #![proptest_config(ProptestConfig { cases: fixtures::proptest_cases(1000), failure_persistence: None, ..ProptestConfig::default() })]
 
     #[test]
     fn rays_at_shared_edges_and_vertices_never_slip_through(seed in any::<u64>(), torus in any::<bool>()) {
@@ -210,7 +210,7 @@ fn a_ray_starting_on_a_surface_reports_the_next_surface_with_t_min() {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig { cases: 2000, failure_persistence: None, ..ProptestConfig::default() })]
+    #![proptest_config(ProptestConfig { cases: fixtures::proptest_cases(2000), failure_persistence: None, ..ProptestConfig::default() })]
 
     /// Tiny triangles (1e-6), huge coordinates (1e6), degenerate and random
     /// rays: results are finite, within range, and both tests agree on clear hits.

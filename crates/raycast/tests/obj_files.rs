@@ -111,7 +111,7 @@ fn a_byte_order_mark_is_skipped() {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig::with_cases(256))]
+    #![proptest_config(ProptestConfig::with_cases(fixtures::proptest_cases(256)))]
 
     /// Any bytes: a mesh, or an error that names the file and is not one
     /// of the reasonless messages; never a panic.

@@ -133,7 +133,7 @@ fn component() -> impl Strategy<Value = f32> {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig { cases: 300, failure_persistence: None, ..ProptestConfig::default() })]
+    #![proptest_config(ProptestConfig { cases: fixtures::proptest_cases(300), failure_persistence: None, ..ProptestConfig::default() })]
 
     /// Rays fanning out from one eye through a small patch (what a row of
     /// pixels casts), some with awkward components, through a soup.

@@ -601,7 +601,7 @@ fn triangles_sharing_edges_cover_each_pixel_exactly_once() {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig { cases: 32, ..ProptestConfig::default() })]
+    #![proptest_config(ProptestConfig { cases: fixtures::proptest_cases(32), ..ProptestConfig::default() })]
 
     #[test]
     fn random_triangles_near_the_camera_never_break_the_frame(

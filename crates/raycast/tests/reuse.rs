@@ -555,7 +555,7 @@ fn op() -> impl Strategy<Value = Op> {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig { cases: 32, ..ProptestConfig::default() })]
+    #![proptest_config(ProptestConfig { cases: fixtures::proptest_cases(32), ..ProptestConfig::default() })]
 
     #[test]
     fn random_gaze_sequences_render_what_fresh_frames_render(

@@ -125,7 +125,7 @@ fn check(file: &SceneFile) -> Result<(), TestCaseError> {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig { cases: 10_000, failure_persistence: None, ..ProptestConfig::default() })]
+    #![proptest_config(ProptestConfig { cases: fixtures::proptest_cases(10_000), failure_persistence: None, ..ProptestConfig::default() })]
 
     #[test]
     fn any_mesh_and_placement_builds_finite_or_is_refused(

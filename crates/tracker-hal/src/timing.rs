@@ -636,7 +636,7 @@ mod tests {
     }
 
     proptest! {
-        #![proptest_config(ProptestConfig::with_cases(48))]
+        #![proptest_config(ProptestConfig::with_cases(fixtures::proptest_cases(48)))]
 
         /// Whatever the load (bursts, stalls, jitter) and drift: mapped
         /// times increase strictly, and each interval is the device's

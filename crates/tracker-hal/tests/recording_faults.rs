@@ -419,7 +419,7 @@ fn is_unknown(kind: u8) -> bool {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig::with_cases(256))]
+    #![proptest_config(ProptestConfig::with_cases(fixtures::proptest_cases(256)))]
 
     #[test]
     fn bit_flips_lose_only_the_chunks_they_hit(

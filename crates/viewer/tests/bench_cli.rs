@@ -220,6 +220,7 @@ fn bench_stages_breaks_a_frame_down_on_the_cpu_and_the_gpu() {
 /// pixel owners (4 B a pixel) besides; every frame reads its colour back.
 /// Without an adapter it fails with a clear message.
 #[test]
+#[ignore = "slow tier: runs bench/gpu.sh --quick end to end"]
 fn the_gpu_script_runs_its_quick_mode_and_fails_clearly_without_an_adapter() {
     let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
     let dir = tempfile::tempdir().expect("tempdir");

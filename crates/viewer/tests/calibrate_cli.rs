@@ -29,6 +29,7 @@ fn simulate(dir: &std::path::Path, tracker: &str) -> std::path::PathBuf {
 }
 
 #[test]
+#[ignore = "slow tier: a windowed calibration session under Xvfb"]
 fn a_recorded_iscan_session_calibrates_validates_and_saves() {
     let x = Xvfb::start();
     let dir = tempfile::tempdir().expect("tempdir");

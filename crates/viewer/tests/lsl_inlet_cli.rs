@@ -298,6 +298,7 @@ fn check(sent: &[Sent], rows: &[Row]) {
 }
 
 #[test]
+#[ignore = "slow tier: peer test against pylsl"]
 fn a_pylsl_stream_records_and_replays_exactly() {
     loopback();
     let dir = tempfile::tempdir().expect("tempdir");
@@ -333,6 +334,7 @@ fn a_pylsl_stream_records_and_replays_exactly() {
 }
 
 #[test]
+#[ignore = "slow tier: peer test against pylsl"]
 fn a_killed_and_restarted_outlet_is_reconnected_without_loss() {
     loopback();
     let dir = tempfile::tempdir().expect("tempdir");
@@ -372,6 +374,7 @@ fn a_killed_and_restarted_outlet_is_reconnected_without_loss() {
 /// outlet under the same source id is a reconnect, and the recording
 /// replays to every sample both outlets sent, exactly.
 #[test]
+#[ignore = "slow tier: peer test against pylsl, in a window under Xvfb"]
 fn a_pylsl_stream_drives_the_viewer_through_a_restart() {
     loopback();
     let x = common::Xvfb::start();

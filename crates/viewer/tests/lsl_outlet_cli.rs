@@ -198,6 +198,7 @@ fn lsl_of(us: &str, offset: f64) -> f64 {
 }
 
 #[test]
+#[ignore = "slow tier: peer test against pylsl"]
 fn view_replay_publishes_every_gaze_sample_and_a_marker_per_frame() {
     let dir = tempfile::tempdir().expect("tempdir");
     // What the recording decodes to (the viewer's gaze and mapped times).
@@ -371,6 +372,7 @@ fn view_replay_publishes_every_gaze_sample_and_a_marker_per_frame() {
 }
 
 #[test]
+#[ignore = "slow tier: peer test against pylsl (an experiment session)"]
 fn experiment_run_publishes_the_session_files_rows() {
     let dir = tempfile::tempdir().expect("tempdir");
     let out = dir.path().join("data");
@@ -538,6 +540,7 @@ fn lsl_wait_needs_lsl_and_a_sane_number_of_seconds() {
 /// The windowed demo (the mouse as the gaze) publishes its own streams;
 /// everything it says it pushed arrives.
 #[test]
+#[ignore = "slow tier: peer test against pylsl, in a window under Xvfb"]
 fn windowed_demo_publishes_under_its_own_ids() {
     let dir = tempfile::tempdir().expect("tempdir");
     let x = Xvfb::start();

@@ -219,6 +219,7 @@ fn column(tsv: &str, name: &str) -> Vec<String> {
 }
 
 #[test]
+#[ignore = "slow tier: a windowed thresholds session under Xvfb"]
 fn the_windowed_session_aborts_and_repeats_trials_whose_gaze_left_the_window() {
     let mut x = Xvfb::start();
     let tmp = tempfile::tempdir().expect("tempdir");
@@ -410,6 +411,7 @@ fn the_windowed_ramp_aborts_and_repeats_ramps_whose_gaze_left_the_window() {
 /// same path: the window stops without finishing) keeps every answer it
 /// had written, says `completed: false` and makes no fit.
 #[test]
+#[ignore = "slow tier: a windowed thresholds session under Xvfb"]
 fn a_windowed_session_ended_early_keeps_its_answers_and_makes_no_fit() {
     let x = Xvfb::start();
     let tmp = tempfile::tempdir().expect("tempdir");
@@ -760,6 +762,7 @@ fn view_explain_says_which_thresholds_are_in_use() {
 }
 
 #[test]
+#[ignore = "slow tier: measures thresholds, then runs an experiment session with them"]
 fn a_design_with_thresholds_renders_every_frame_with_them_and_says_so() {
     let tmp = tempfile::tempdir().expect("tempdir");
     let out = tmp.path().join("thresholds");
@@ -870,6 +873,7 @@ fn validate(
 }
 
 #[test]
+#[ignore = "slow tier: measures thresholds, then runs two validations with them"]
 fn the_validation_is_at_chance_when_nothing_is_seen_and_above_it_when_the_simplification_is() {
     let tmp = tempfile::tempdir().expect("tempdir");
     // P01's thresholds, measured from the simulated observer OBSERVER.

@@ -280,6 +280,7 @@ fn small_view_on(x: &Xvfb, dir: &std::path::Path, backend: &str) -> std::process
 /// line), then Ctrl-C ends the session and the recording is closed
 /// properly and holds every byte the device sent.
 #[test]
+#[ignore = "slow tier: a windowed live session under Xvfb with a tracker that disconnects"]
 fn a_live_session_survives_a_disconnect_and_ctrl_c_leaves_a_valid_recording() {
     use serialport::SerialPort;
     use std::io::{Read, Write};
@@ -486,6 +487,7 @@ fn the_demo_opens_the_window_in_mouse_mode_when_there_is_a_display() {
 /// for an object, and the recording holds its samples as a mouse stream
 /// that decodes to valid on-screen points.
 #[test]
+#[ignore = "slow tier: a windowed session under Xvfb"]
 fn the_attention_source_moves_the_gaze_to_an_object_and_records_it() {
     for backend in ["cpu", "gpu"] {
         attention_source_on(backend);
@@ -671,6 +673,7 @@ fn masks_follow_the_eye_distance_a_hid_tracker_measures_unless_fixed() {
 /// viewer runs under a 4 KiB file size limit with SIGXFSZ ignored (EFBIG,
 /// as a full disk gives ENOSPC).
 #[test]
+#[ignore = "slow tier: windowed recording sessions under Xvfb"]
 fn a_write_error_during_view_record_is_reported_at_once_and_rendering_goes_on() {
     let x = Xvfb::start();
     let dir = tempfile::tempdir().expect("tempdir");

@@ -1023,7 +1023,7 @@ mod tests {
     }
 
     proptest! {
-        #![proptest_config(ProptestConfig::with_cases(500))]
+        #![proptest_config(ProptestConfig::with_cases(fixtures::proptest_cases(500)))]
 
         /// Whatever a calibration file holds: accepted means the tracker's
         /// range lands on the screen as a region of non-trivial area —
@@ -1079,7 +1079,7 @@ mod tests {
     }
 
     proptest! {
-        #![proptest_config(ProptestConfig::with_cases(300))]
+        #![proptest_config(ProptestConfig::with_cases(fixtures::proptest_cases(300)))]
         /// Any input — huge, tiny, repeated, collinear, NaN — gives a
         /// mapping that maps finitely or an error; never NaN.
         #[test]

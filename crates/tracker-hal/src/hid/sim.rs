@@ -642,7 +642,7 @@ mod tests {
     }
 
     proptest::proptest! {
-        #![proptest_config(proptest::prelude::ProptestConfig::with_cases(2_000))]
+        #![proptest_config(proptest::prelude::ProptestConfig::with_cases(fixtures::proptest_cases(2_000)))]
         /// Every descriptor shape the simulator emits round-trips through
         /// parse → locate → write → decode, at the edges of every range.
         #[test]

@@ -198,7 +198,7 @@ mod tests {
     }
 
     proptest::proptest! {
-        #![proptest_config(proptest::prelude::ProptestConfig::with_cases(48))]
+        #![proptest_config(proptest::prelude::ProptestConfig::with_cases(fixtures::proptest_cases(48)))]
 
         /// Accepted exactly when every object of the search scene that is
         /// rendered — its sphere's left, right, top and bottom points,
@@ -266,7 +266,7 @@ mod tests {
     }
 
     proptest! {
-        #![proptest_config(ProptestConfig::with_cases(64))]
+        #![proptest_config(ProptestConfig::with_cases(fixtures::proptest_cases(64)))]
 
         /// Every design that `experiment plan` accepts, `experiment run`
         /// accepts and can set up. `plan`'s trials-on-the-display check

@@ -2,7 +2,9 @@
 #![allow(dead_code)]
 
 use std::path::Path;
-use std::process::{Child, Command, Output, Stdio};
+use std::process::{Command, Output};
+
+pub use fixtures::Xvfb;
 
 /// The binary, started in the repository root (where `config/` is).
 pub fn gazecast() -> Command {
@@ -26,111 +28,6 @@ impl Run for Command {
             String::from_utf8_lossy(&out.stderr)
         );
         out
-    }
-}
-
-/// A private Xvfb on a free display number, killed on drop.
-pub struct Xvfb {
-    child: Child,
-    pub display: String,
-    /// Where the server keeps its screen as an XWD file (`-fbdir`), when
-    /// started with [`Xvfb::start_with_screen_file`].
-    screen_dir: Option<tempfile::TempDir>,
-}
-
-impl Xvfb {
-    /// Xvfb picks a free display number itself (`-displayfd`) and writes it
-    /// once it accepts connections, so tests running in parallel never share
-    /// or race for a display.
-    pub fn start() -> Self {
-        Self::start_in(None)
-    }
-
-    /// [`Xvfb::start`] with the screen kept in a file ([`Xvfb::screen`]
-    /// reads what is on it: the pixels a window actually shows).
-    pub fn start_with_screen_file() -> Self {
-        Self::start_in(Some(tempfile::tempdir().expect("tempdir")))
-    }
-
-    fn start_in(screen_dir: Option<tempfile::TempDir>) -> Self {
-        use std::io::BufRead;
-        let mut cmd = Command::new("Xvfb");
-        if let Some(d) = &screen_dir {
-            cmd.arg("-fbdir").arg(d.path());
-        }
-        let mut child = cmd
-            .args([
-                "-displayfd",
-                "1",
-                "-screen",
-                "0",
-                "1600x1200x24",
-                "-nolisten",
-                "tcp",
-                // Without it the server resets when its last client leaves,
-                // and a test's next window, connecting during the reset, is
-                // refused (seen on a loaded CI machine).
-                "-noreset",
-            ])
-            .stdout(Stdio::piped())
-            .stderr(Stdio::null())
-            .spawn()
-            .expect("Xvfb runs (scripts/system-deps.sh installs the xvfb package)");
-        let mut line = String::new();
-        if let Some(out) = child.stdout.take() {
-            let _ = std::io::BufReader::new(out).read_line(&mut line);
-        }
-        let num: u32 = line
-            .trim()
-            .parse()
-            .unwrap_or_else(|_| panic!("Xvfb did not report a display: {line:?}"));
-        Self {
-            child,
-            display: format!(":{num}"),
-            screen_dir,
-        }
-    }
-
-    /// The `w × h` pixels at the screen's top left (where a window opens
-    /// on a server without a window manager), as RGB, read from the
-    /// server's screen file (XWD: a big-endian header, a colour map, then
-    /// 32-bit pixels with the header's masks and byte order).
-    pub fn screen(&self, (w, h): (u32, u32)) -> Vec<u8> {
-        let dir = self
-            .screen_dir
-            .as_ref()
-            .expect("started with start_with_screen_file");
-        let bytes = std::fs::read(dir.path().join("Xvfb_screen0")).expect("the screen file");
-        let field = |k: usize| {
-            u32::from_be_bytes(bytes[4 * k..4 * k + 4].try_into().expect("4 bytes")) as usize
-        };
-        let (header, width, height, byte_order) = (field(0), field(4), field(5), field(7));
-        let (bits, line, colours) = (field(11), field(12), field(19));
-        let masks = [field(14), field(15), field(16)];
-        assert_eq!(bits, 32, "a 24-bit screen stored in 32-bit pixels");
-        assert!(w as usize <= width && h as usize <= height);
-        let start = header + 12 * colours;
-        let mut rgb = Vec::with_capacity(3 * (w * h) as usize);
-        for y in 0..h as usize {
-            for x in 0..w as usize {
-                let o = start + y * line + 4 * x;
-                let b: [u8; 4] = bytes[o..o + 4].try_into().expect("4 bytes");
-                let v = if byte_order == 0 {
-                    u32::from_le_bytes(b)
-                } else {
-                    u32::from_be_bytes(b)
-                } as usize;
-                rgb.extend(masks.map(|m| ((v & m) >> m.trailing_zeros()) as u8));
-            }
-        }
-        rgb
-    }
-}
-
-impl Drop for Xvfb {
-    fn drop(&mut self) {
-        let _ = self.child.kill();
-        let _ = self.child.wait();
     }
 }
 

@@ -90,7 +90,7 @@ impl DegradationTable {
     }
 
     /// Checks every value: the dotted path of the first bad field
-    /// (`extents_deg[2]`, `depth_subtended_deg`) and what is wrong.
+    /// (`extents_deg.2`, `depth_subtended_deg`) and what is wrong.
     pub fn check(&self) -> Result<(), (String, String)> {
         for (d, &a) in self.depth_subtended_deg.iter().enumerate() {
             if !(a.is_finite() && a > 0.0 && a < 180.0) {
@@ -104,7 +104,7 @@ impl DegradationTable {
             for (k, &e) in row.iter().enumerate() {
                 if !(e.is_finite() && e >= 0.0) {
                     return Err((
-                        format!("extents_deg[{d}]"),
+                        format!("extents_deg.{d}"),
                         format!(
                             "level {}: {e} must be a finite eccentricity ≥ 0 degrees",
                             LEVELS[k]
@@ -166,7 +166,7 @@ mod tests {
         }
         let mut bad = t.clone();
         bad.extents_deg[2][3] = f64::NAN;
-        assert_eq!(bad.check().unwrap_err().0, "extents_deg[2]");
+        assert_eq!(bad.check().unwrap_err().0, "extents_deg.2");
         bad.extents_deg[2][3] = -1.0;
         assert!(bad.check().unwrap_err().1.contains("level 2"));
         let mut bad = t.clone();

@@ -1139,6 +1139,31 @@ fn the_degradation_staircase_writes_its_synthetic_folder_and_a_table_lod_can_rea
     assert!(table.source.contains("SYNTHETIC"));
     table.check().unwrap();
     assert_eq!(table.extents_deg[0].to_vec(), extents(&v, 0));
+    // `render --method lod --degradation` selects by it; other methods refuse it.
+    let render = |method: &str| {
+        gazecast()
+            .args([
+                "render",
+                "--scene",
+                "config/scenes/bunny.ron",
+                "--backend",
+                "cpu",
+            ])
+            .args(["--method", method, "--display"])
+            .arg(tmp.path().join("d96x77.ron"))
+            .arg("--degradation")
+            .arg(dir.join("degradation-P01.ron"))
+            .arg("--out")
+            .arg(tmp.path().join(format!("{method}.png")))
+            .output()
+            .unwrap()
+    };
+    let o = render("lod");
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(String::from_utf8_lossy(&o.stdout).contains("SYNTHETIC"));
+    let o = render("simplify");
+    assert!(!o.status.success());
+    assert!(String::from_utf8_lossy(&o.stderr).contains("--method lod only"));
     // The folder is never overwritten; bad grids are refused first.
     let again = gazecast()
         .args([
@@ -1200,14 +1225,14 @@ fn a_more_sensitive_observer_needs_finer_levels_farther_out() {
         tmp.path(),
         "config/participants/threshold-observer-more-sensitive.ron",
         "more",
-        (128, 102),
+        (320, 256),
         &args,
     );
     let (less, _, _) = degradation(
         tmp.path(),
         "config/participants/threshold-observer-less-sensitive.ron",
         "less",
-        (128, 102),
+        (320, 256),
         &args,
     );
     let (m, l) = (extents(&more, 0), extents(&less, 0));

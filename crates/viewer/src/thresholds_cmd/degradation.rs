@@ -228,6 +228,13 @@ fn bounds(scene: &Scene) -> Option<(Vec3, f32)> {
     (r > 0.0).then_some((c, r))
 }
 
+/// The table row `lod` selects by for an object subtending `angle_deg`
+/// (`lod::select`: the nearest of Murphy & Duchowski's 26°, 24°, 22°, 20°,
+/// 18°, clamped to rows 0–4).
+fn lod_row(angle_deg: f64) -> usize {
+    ((26.0 - angle_deg) / 2.0).round().clamp(0.0, 4.0) as usize
+}
+
 /// A degradation table whose every row is full resolution within `e` and
 /// `level` beyond (level 5: everywhere).
 fn step_table(e: f64, level: u8) -> [[f64; 5]; 5] {
@@ -270,6 +277,15 @@ pub fn run(a: &DegradationArgs, out: &mut dyn Write) -> Result<(), String> {
         return Err(format!(
             "--depths {d}: must be finite and in (0, 90) degrees"
         ));
+    }
+    for (i, &d) in depths.iter().enumerate() {
+        if let Some(&other) = depths[..i].iter().find(|&&o| lod_row(o) == lod_row(d)) {
+            return Err(format!(
+                "--depths {other} and {d}: both fall on the table's row {} (rows are 26°, 24°, \
+                 22°, 20°, 18°, the nearest taken)",
+                lod_row(d)
+            ));
+        }
     }
     let grid: Vec<f64> = if a.eccentricities.is_empty() {
         DEFAULT_ECCENTRICITIES.to_vec()
@@ -329,7 +345,6 @@ pub fn run(a: &DegradationArgs, out: &mut dyn Write) -> Result<(), String> {
     let mut conditions = Vec::new();
     let mut rows = Vec::new();
     let mut extents = [[0.0; 5]; 5];
-    let mut subtended = [0.0; 5];
     for (d, &angle) in depths.iter().enumerate() {
         let moved = at_depth(&file, &scene_dir, camera.eye, centre, radius, angle)
             .map_err(|e| format!("--scene {} at {angle}°: {e}", a.scene.display()))?;
@@ -417,33 +432,46 @@ pub fn run(a: &DegradationArgs, out: &mut dyn Write) -> Result<(), String> {
             });
         }
         let t = table_row(&grid, &levels).map_err(|e| e.to_string())?;
-        extents[d] = t.extents_deg;
-        subtended[d] = angle;
         rows.push(t);
     }
-    // Rows not measured repeat the last one measured (said in `source`).
-    for d in depths.len()..5 {
-        extents[d] = extents[depths.len() - 1];
-        subtended[d] = subtended[depths.len() - 1] - 2.0 * (d + 1 - depths.len()) as f64;
-        subtended[d] = subtended[d].max(1.0);
+    // Each measured depth goes to the row lod picks for its angle
+    // (nearest of 26°, 24°, …, 18°); a row not measured repeats the
+    // nearest measured one (said in `source`).
+    let mut filled = [None; 5];
+    for (d, &angle) in depths.iter().enumerate() {
+        filled[lod_row(angle)] = Some(d);
     }
+    for (row, slot) in extents.iter_mut().enumerate() {
+        let nearest = (0..5)
+            .filter_map(|r| filled[r].map(|d| (r.abs_diff(row), d)))
+            .min()
+            .map(|(_, d)| d);
+        if let Some(d) = nearest {
+            *slot = rows[d].extents_deg;
+        }
+    }
+    let unmeasured: Vec<String> = (0..5)
+        .filter(|&r| filled[r].is_none())
+        .map(|r| r.to_string())
+        .collect();
     let table = DegradationTable {
         source: format!(
-            "SYNTHETIC: gazecast thresholds degradation, participant {}, simulated observer {}{}",
+            "SYNTHETIC: gazecast thresholds degradation, participant {}, simulated observer {}, \
+             depths {:?} degrees{}",
             a.participant,
             observer_path.display(),
-            if depths.len() < 5 {
-                format!(
-                    "; rows {}..=4 not measured: they repeat row {}",
-                    depths.len(),
-                    depths.len() - 1
-                )
-            } else {
+            depths,
+            if unmeasured.is_empty() {
                 String::new()
+            } else {
+                format!(
+                    "; rows {} not measured: each repeats the nearest measured row",
+                    unmeasured.join(", ")
+                )
             }
         ),
         synthetic: true,
-        depth_subtended_deg: subtended,
+        depth_subtended_deg: DEPTH_SUBTENDED_DEG,
         extents_deg: extents,
     };
     table

@@ -549,6 +549,11 @@ impl FrameMethod for ModelBased {
                 "Luebke–Hallen imperceptible mode, thresholds: {}",
                 self.thresholds_source
             ),
+            _ if matches!(self.mode, Mode::MurphyDuchowskiTable { .. }) => {
+                "Murphy–Duchowski levels by a degradation table in place of Table 1 (fixed \
+                 angles: no threshold table)"
+                    .to_string()
+            }
             _ => "Murphy–Duchowski Table 1 levels (fixed angles: no threshold table)".to_string(),
         };
         let mode = if options.ignore_gaze {

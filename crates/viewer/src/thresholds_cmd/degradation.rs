@@ -354,8 +354,8 @@ pub fn run(a: &DegradationArgs, out: &mut dyn Write) -> Result<(), String> {
             ..Options::default()
         };
         let model = crate::args::sampling_model_for(geometry, 1.0, 0.0, None)?;
-        let mut r = Renderer::new(&moved, camera.clone(), model, &options)
-            .map_err(|e| format!("lod: {e}"))?;
+        let mut r =
+            Renderer::new(&moved, camera, model, &options).map_err(|e| format!("lod: {e}"))?;
         let mut render = |table: [[f64; 5]; 5]| -> Result<(Vec<f64>, usize), String> {
             let m = r
                 .model_based_mut()

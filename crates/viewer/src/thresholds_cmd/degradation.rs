@@ -535,3 +535,33 @@ pub fn run(a: &DegradationArgs, out: &mut dyn Write) -> Result<(), String> {
     )
     .map_err(|e| e.to_string())
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_step_table_is_full_within_the_eccentricity_and_the_level_beyond() {
+        use foveation::degradation::level_in;
+        for level in 1..=5u8 {
+            let t = step_table(6.0, level);
+            for depth in 0..5 {
+                assert_eq!(level_in(&t, 0.0, depth), Some(5));
+                assert_eq!(level_in(&t, 5.9, depth), Some(5));
+                assert_eq!(level_in(&t, 6.0, depth), Some(level));
+                assert_eq!(level_in(&t, 90.0, depth), Some(level));
+            }
+        }
+        // At 0 the whole object is at the level.
+        assert_eq!(level_in(&step_table(0.0, 2), 0.0, 0), Some(2));
+    }
+
+    #[test]
+    fn each_angle_falls_on_the_row_lod_selects() {
+        let rows: Vec<usize> = DEPTH_SUBTENDED_DEG.iter().map(|&a| lod_row(a)).collect();
+        assert_eq!(rows, [0, 1, 2, 3, 4]);
+        assert_eq!(lod_row(40.0), 0);
+        assert_eq!(lod_row(5.0), 4);
+        assert_eq!(lod_row(23.2), 1);
+    }
+}

@@ -226,6 +226,10 @@
 //! analogue of M&D's "any vertex within range"). *Out of scope*: M&D's own
 //! multiresolution construction (Voronoi tiling, harmonic maps, quadtree
 //! remeshing, §5.1–§5.3); only their degradation function drives this tree.
+//! [`Mode::MurphyDuchowskiTable`] reads another table of Table 1's shape
+//! (`foveation::degradation::level_in`), e.g. one measured by `gazecast
+//! thresholds degradation`; such a table need not be monotone in
+//! eccentricity, and the error is monotone down the tree only when it is.
 //!
 //! ## Not handled
 //!

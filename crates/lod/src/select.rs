@@ -65,6 +65,17 @@ pub enum Mode {
         /// each resolution level, levels 1 to 5.
         level_angle_deg: [f64; 5],
     },
+    /// [`Mode::MurphyDuchowski`] with another degradation table of Table
+    /// 1's shape (a participant's, `foveation::degradation::DegradationTable`;
+    /// `foveation::degradation::level_in`) in place of Table 1. Extents
+    /// must be finite and ≥ 0.
+    MurphyDuchowskiTable {
+        /// As in [`Mode::MurphyDuchowski`].
+        level_angle_deg: [f64; 5],
+        /// Rows = depths 0..=4, columns = levels 5 … 1: each level's
+        /// eccentricity extent, degrees.
+        extents_deg: [[f64; 5]; 5],
+    },
 }
 
 impl Mode {
@@ -76,7 +87,26 @@ impl Mode {
     }
 
     fn validate(&self) -> Result<(), LodError> {
-        if let Mode::MurphyDuchowski { level_angle_deg: a } = self {
+        if let Mode::MurphyDuchowskiTable { extents_deg, .. } = self {
+            for (d, row) in extents_deg.iter().enumerate() {
+                if let Some((k, x)) = row
+                    .iter()
+                    .enumerate()
+                    .find(|(_, x)| !(x.is_finite() && **x >= 0.0))
+                {
+                    return Err(LodError::InvalidMode {
+                        field: "extents_deg",
+                        value: format!("{x} at depth {d}, level {}", 5 - k),
+                        reason: "extents must be finite and ≥ 0",
+                    });
+                }
+            }
+        }
+        if let Mode::MurphyDuchowski { level_angle_deg: a }
+        | Mode::MurphyDuchowskiTable {
+            level_angle_deg: a, ..
+        } = self
+        {
             for (i, &x) in a.iter().enumerate() {
                 if !x.is_finite() || x < 0.0 {
                     return Err(LodError::InvalidMode {
@@ -383,12 +413,19 @@ impl Frame {
         ((26.0 - g.theta_deg) / 2.0).round().clamp(0.0, 4.0) as usize
     }
 
-    fn md_unfold(&self, tree: &VertexTree, node: NodeId, row: usize, angles: &[f64; 5]) -> bool {
+    fn md_unfold(
+        &self,
+        tree: &VertexTree,
+        node: NodeId,
+        row: usize,
+        angles: &[f64; 5],
+        extents_deg: &[[f64; 5]; 5],
+    ) -> bool {
         let g = self.geometry(&tree.sphere[node as usize]);
         if g.eye_inside {
             return true;
         }
-        let level = degradation::level_for(g.ecc_deg, row).unwrap_or(5);
+        let level = degradation::level_in(extents_deg, g.ecc_deg, row).unwrap_or(5);
         g.theta_deg > angles[usize::from(level.clamp(1, 5)) - 1]
     }
 }
@@ -446,14 +483,21 @@ impl Cut<'_> {
                 );
                 report.nodes_evaluated = evaluated;
             }
-            Mode::MurphyDuchowski { level_angle_deg } => {
+            Mode::MurphyDuchowski { level_angle_deg }
+            | Mode::MurphyDuchowskiTable {
+                level_angle_deg, ..
+            } => {
+                let extents_deg = match *mode {
+                    Mode::MurphyDuchowskiTable { extents_deg, .. } => extents_deg,
+                    _ => degradation::TABLE_1_DEG,
+                };
                 let row = frame.md_depth_row(tree);
                 report.md_depth_row = Some(row);
                 let mut evaluated = 0;
                 self.reconcile(
                     |v| {
                         evaluated += 1;
-                        frame.md_unfold(tree, v, row, &level_angle_deg)
+                        frame.md_unfold(tree, v, row, &level_angle_deg, &extents_deg)
                     },
                     &mut report,
                 );

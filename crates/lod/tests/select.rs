@@ -401,3 +401,61 @@ proptest! {
         }
     }
 }
+
+/// `Mode::MurphyDuchowskiTable`: a table whose extents are all 0 draws
+/// level 1 everywhere, one whose extents reach everything draws the
+/// original mesh, a step at an eccentricity lies between; Table 1 itself
+/// gives what `Mode::MurphyDuchowski` gives; a bad extent is refused and
+/// leaves the cut alone.
+#[test]
+fn a_degradation_table_in_place_of_table_1() {
+    let m = mesh();
+    let tree = m.tree().unwrap();
+    let t = table();
+    let eye = Vec3::new(0.0, -400.0, 0.0);
+    let v = view(&t, eye, Some(Vec3::new(-60.0, 0.0, 0.0)));
+    let angles = lod::MD_DEFAULT_LEVEL_ANGLE_DEG;
+    let count = |extents_deg: [[f64; 5]; 5]| {
+        let mut cut = Cut::new(&tree);
+        cut.select(
+            &v,
+            &Mode::MurphyDuchowskiTable {
+                level_angle_deg: angles,
+                extents_deg,
+            },
+        )
+        .unwrap()
+        .triangles
+    };
+    let coarse = count([[0.0; 5]; 5]);
+    let full = count([[180.0; 5]; 5]);
+    let step = count([[10.0, 10.0, 10.0, 10.0, 180.0]; 5]);
+    assert_eq!(full, tree.triangles().len());
+    assert!(coarse < step && step < full, "{coarse} {step} {full}");
+    let mut cut = Cut::new(&tree);
+    let md = cut.select(&v, &Mode::murphy_duchowski()).unwrap().triangles;
+    assert_eq!(count(foveation::degradation::TABLE_1_DEG), md);
+    let before = snapshot(&cut);
+    let mut bad = foveation::degradation::TABLE_1_DEG;
+    bad[3][1] = f64::NAN;
+    let e = cut
+        .select(
+            &v,
+            &Mode::MurphyDuchowskiTable {
+                level_angle_deg: angles,
+                extents_deg: bad,
+            },
+        )
+        .unwrap_err();
+    assert!(
+        matches!(
+            e,
+            LodError::InvalidMode {
+                field: "extents_deg",
+                ..
+            }
+        ),
+        "{e}"
+    );
+    assert_eq!(snapshot(&cut), before);
+}

@@ -334,6 +334,42 @@ impl ModelBased {
         self.thresholds_source = source;
     }
 
+    /// `Method::Lod` only: selects by `extents_deg` (rows = depths 0..=4,
+    /// columns = levels 5 … 1, degrees; a participant's degradation table,
+    /// `foveation::degradation::DegradationTable`) in place of Murphy &
+    /// Duchowski's Table 1, with the same level allowances; `None` goes back
+    /// to Table 1. Extents must be finite and ≥ 0. The next frame selects
+    /// anew.
+    pub fn set_degradation(&mut self, extents_deg: Option<[[f64; 5]; 5]>) -> Result<(), String> {
+        let level_angle_deg = match self.mode {
+            Mode::MurphyDuchowski { level_angle_deg }
+            | Mode::MurphyDuchowskiTable {
+                level_angle_deg, ..
+            } => level_angle_deg,
+            _ => {
+                return Err(format!(
+                    "{}: a degradation table drives the lod method only",
+                    self.method.name()
+                ))
+            }
+        };
+        if let Some(t) = &extents_deg {
+            if let Some(x) = t.iter().flatten().find(|x| !(x.is_finite() && **x >= 0.0)) {
+                return Err(format!(
+                    "degradation extents must be finite and ≥ 0 degrees, got {x}"
+                ));
+            }
+        }
+        self.mode = match extents_deg {
+            Some(extents_deg) => Mode::MurphyDuchowskiTable {
+                level_angle_deg,
+                extents_deg,
+            },
+            None => Mode::MurphyDuchowski { level_angle_deg },
+        };
+        Ok(())
+    }
+
     /// The threshold table in use.
     pub fn thresholds(&self) -> &ThresholdTable {
         &self.thresholds
@@ -383,10 +419,12 @@ impl ModelBased {
         }
         let p = [gaze_px[0] as f32, gaze_px[1] as f32];
         let ray = camera.ray(p);
-        let vergence = self
-            .vergence_mm
-            .take()
-            .filter(|_| matches!(self.mode, Mode::MurphyDuchowski { .. }));
+        let vergence = self.vergence_mm.take().filter(|_| {
+            matches!(
+                self.mode,
+                Mode::MurphyDuchowski { .. } | Mode::MurphyDuchowskiTable { .. }
+            )
+        });
         let gaze_point = match (
             vergence,
             scene.intersect(&ray, 0.0, TriangleTest::Watertight),
@@ -511,6 +549,11 @@ impl FrameMethod for ModelBased {
                 "Luebke–Hallen imperceptible mode, thresholds: {}",
                 self.thresholds_source
             ),
+            _ if matches!(self.mode, Mode::MurphyDuchowskiTable { .. }) => {
+                "Murphy–Duchowski levels by a degradation table in place of Table 1 (fixed \
+                 angles: no threshold table)"
+                    .to_string()
+            }
             _ => "Murphy–Duchowski Table 1 levels (fixed angles: no threshold table)".to_string(),
         };
         let mode = if options.ignore_gaze {

@@ -653,6 +653,12 @@ impl<'s> Renderer<'s> {
         self.state.as_any().downcast_ref()
     }
 
+    /// The model-based method's state, to change how it selects (e.g.
+    /// [`ModelBased::set_degradation`]); `None` for the other methods.
+    pub fn model_based_mut(&mut self) -> Option<&mut ModelBased> {
+        self.state.model_based_mut()
+    }
+
     /// Every pass in the plan's order, as its CPU reference: the GPU
     /// passes' references, then the CPU passes.
     fn all_passes(&self) -> impl Iterator<Item = &dyn Pass> {

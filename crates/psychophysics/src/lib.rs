@@ -109,6 +109,7 @@
 
 #![warn(missing_docs)]
 
+pub mod degradation;
 pub mod fit;
 pub mod fixation;
 pub mod luminance;

@@ -188,9 +188,41 @@ pub fn load_scene(path: &Path) -> Result<Scene, String> {
     })
 }
 
+/// Loads a degradation table (`foveation::degradation::DegradationTable`,
+/// RON) and checks it: every error names the file, the line and the field
+/// (`extents_deg.2`: row 2; the line is the field's, as `ron-config` places
+/// tuple indices).
+pub fn load_degradation(
+    path: &Path,
+) -> Result<foveation::degradation::DegradationTable, ConfigError> {
+    let (table, text): (foveation::degradation::DegradationTable, String) = load(path)?;
+    table
+        .check()
+        .map_err(|(field, message)| invalid_field(path, &text, &field, message))?;
+    Ok(table)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_bad_degradation_table_names_file_line_and_field() {
+        let good = "(\n  source: \"t\",\n  depth_subtended_deg: (26.0, 24.0, 22.0, 20.0, 18.0),\n  extents_deg: (\n    (1.0, 2.0, 3.0, 4.0, 5.0),\n    (1.0, 2.0, 3.0, 4.0, 5.0),\n    (1.0, 2.0, -3.0, 4.0, 5.0),\n    (1.0, 2.0, 3.0, 4.0, 5.0),\n    (1.0, 2.0, 3.0, 4.0, 5.0),\n  ),\n)";
+        let dir = tempfile::tempdir().expect("tempdir");
+        let path = dir.path().join("t.ron");
+        std::fs::write(&path, good.replace("-3.0", "3.0")).expect("write");
+        let t = load_degradation(&path).expect("a good table");
+        assert!(!t.synthetic);
+        std::fs::write(&path, good).expect("write");
+        let err = load_degradation(&path).expect_err("a negative extent");
+        assert_eq!(err.field(), Some("extents_deg.2"));
+        // ron-config places a tuple index at the tuple's field (its line).
+        assert_eq!(err.line(), 4, "{err}");
+        assert!(err.to_string().contains("t.ron"), "{err}");
+        std::fs::write(&path, good.replace("source", "sorce")).expect("write");
+        assert!(load_degradation(&path).is_err());
+    }
 
     const GOOD: &str = "Display(\n  name: \"x\",\n  resolution_px: (100, 80),\n  size_mm: (50.0, 40.0),\n  eye_distance_mm: 500.0,\n)";
 

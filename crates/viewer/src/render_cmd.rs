@@ -99,6 +99,12 @@ pub struct RenderArgs {
     /// A participant's thresholds file instead of the default CSF model.
     #[command(flatten)]
     pub thresholds: ThresholdsArg,
+    /// A degradation table (RON, `foveation::degradation::DegradationTable`:
+    /// the `degradation-<ID>.ron` that `gazecast thresholds degradation`
+    /// writes): `--method lod` selects its levels by it instead of Murphy &
+    /// Duchowski's Table 1. Only with `--method lod`.
+    #[arg(long, value_name = "FILE.ron")]
+    pub degradation: Option<PathBuf>,
 }
 
 /// The `--stats` JSON.
@@ -262,7 +268,23 @@ pub fn run(args: &RenderArgs, out: &mut dyn Write) -> Result<(), String> {
     if let Some(p) = &args.thresholds.thresholds {
         inputs = inputs.file("--thresholds", p);
     }
+    if let Some(p) = &args.degradation {
+        inputs = inputs.file("--degradation", p);
+        if args.mode != pipeline::Method::Lod {
+            return Err(format!(
+                "--degradation {}: a degradation table drives --method lod only, not {}",
+                p.display(),
+                args.mode.name()
+            ));
+        }
+    }
     inputs.refuse(&outputs)?;
+    let degradation = args
+        .degradation
+        .as_deref()
+        .map(config::load_degradation)
+        .transpose()
+        .map_err(|e| e.to_string())?;
     let thresholds = args.thresholds.load()?;
     let mut scene = load_scene(&args.scene)?;
     if args.accel == AccelArg::Grid {
@@ -302,6 +324,23 @@ pub fn run(args: &RenderArgs, out: &mut dyn Write) -> Result<(), String> {
         .map_err(|e| e.to_string())?;
     if let Some(t) = &thresholds {
         t.apply(&mut renderer);
+    }
+    if let Some(t) = &degradation {
+        renderer
+            .model_based_mut()
+            .ok_or("--degradation: the lod method has no model-based state")?
+            .set_degradation(Some(t.extents_deg))?;
+        writeln!(
+            out,
+            "lod degradation table: {}{}",
+            t.source,
+            if t.synthetic && !t.source.contains("SYNTHETIC") {
+                " (SYNTHETIC)"
+            } else {
+                ""
+            }
+        )
+        .map_err(|e| e.to_string())?;
     }
     if renderer.depth_of_field().is_none() {
         let why = match scene.pass(&raycast::scene::PostPass::DEPTH_OF_FIELD) {

@@ -1048,3 +1048,207 @@ fn the_validation_refuses_bad_inputs_before_writing() {
     assert!(String::from_utf8_lossy(&o.stderr).contains("bad.ron"));
     assert!(!out.exists(), "nothing written");
 }
+
+/// `thresholds degradation --headless` of the bunny on a `w` × `h` display
+/// of the seed 17" screen's size, answered by `observer`, with the extra
+/// `args`: the parsed `session.json`, the folder and stdout.
+fn degradation(
+    tmp: &std::path::Path,
+    observer: &str,
+    id: &str,
+    (w, h): (u32, u32),
+    args: &[&str],
+) -> (serde_json::Value, std::path::PathBuf, String) {
+    let display = tmp.join(format!("d{w}x{h}.ron"));
+    std::fs::write(
+        &display,
+        format!(
+            "Display(name: \"small\", resolution_px: ({w}, {h}), size_mm: (337.9, 270.3), eye_distance_mm: 540.0)"
+        ),
+    )
+    .unwrap();
+    let out = tmp.join("degradation");
+    let o = gazecast()
+        .args([
+            "thresholds",
+            "degradation",
+            "--headless",
+            "--simulate-observer",
+            observer,
+            "--scene",
+            "config/scenes/bunny.ron",
+            "--display",
+        ])
+        .arg(&display)
+        .args(args)
+        .args(["--participant", id, "--out"])
+        .arg(&out)
+        .succeed();
+    let stdout = String::from_utf8_lossy(&o.stdout).to_string();
+    eprintln!("{stdout}");
+    let dir = out.join(format!("sub-{id}"));
+    let v: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("session.json")).unwrap()).unwrap();
+    (v, dir, stdout)
+}
+
+/// The extents (degrees) of levels 5 … 1 at depth row `d`.
+fn extents(v: &serde_json::Value, d: usize) -> Vec<f64> {
+    v["table_rows"][d]["extents_deg"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|x| x.as_f64().unwrap())
+        .collect()
+}
+
+#[test]
+fn the_degradation_staircase_writes_its_synthetic_folder_and_a_table_lod_can_read() {
+    let tmp = tempfile::tempdir().expect("tempdir");
+    let (v, dir, stdout) = degradation(
+        tmp.path(),
+        OBSERVER,
+        "P01",
+        (96, 77),
+        &[
+            "--depths",
+            "26",
+            "--eccentricities",
+            "0,10",
+            "--max-trials",
+            "12",
+        ],
+    );
+    assert!(stdout.contains("SYNTHETIC"), "{stdout}");
+    assert_eq!(v["synthetic"], true);
+    assert!(v["note"].as_str().unwrap().contains("no person"));
+    assert!(v["clocks"].as_str().unwrap().contains("virtual"));
+    assert_eq!(v["conditions"].as_array().unwrap().len(), 2);
+    let tsv = std::fs::read_to_string(dir.join("trials.tsv")).unwrap();
+    let header = tsv.lines().next().unwrap();
+    for col in ["level", "eccentricity_deg", "correct", "onset_virtual_ms"] {
+        assert!(header.split('\t').any(|h| h == col), "{col}: {header}");
+    }
+    let levels = column(&tsv, "level");
+    assert!(!levels.is_empty() && levels.len() <= 24);
+    assert_eq!(levels[0], "1", "starts at the coarsest level");
+    assert!(levels
+        .iter()
+        .all(|l| ["1", "2", "3", "4", "5"].contains(&l.as_str())));
+    // The table: RON that foveation::degradation reads, marked synthetic.
+    let text = std::fs::read_to_string(dir.join("degradation-P01.ron")).unwrap();
+    assert!(text.starts_with("// SYNTHETIC"), "{text}");
+    let table: foveation::degradation::DegradationTable = ron::from_str(&text).unwrap();
+    assert!(table.synthetic);
+    assert!(table.source.contains("SYNTHETIC"));
+    table.check().unwrap();
+    assert_eq!(table.extents_deg[0].to_vec(), extents(&v, 0));
+    // `render --method lod --degradation` selects by it; other methods refuse it.
+    let render = |method: &str| {
+        gazecast()
+            .args([
+                "render",
+                "--scene",
+                "config/scenes/bunny.ron",
+                "--backend",
+                "cpu",
+            ])
+            .args(["--method", method, "--display"])
+            .arg(tmp.path().join("d96x77.ron"))
+            .arg("--degradation")
+            .arg(dir.join("degradation-P01.ron"))
+            .arg("--out")
+            .arg(tmp.path().join(format!("{method}.png")))
+            .output()
+            .unwrap()
+    };
+    let o = render("lod");
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(String::from_utf8_lossy(&o.stdout).contains("SYNTHETIC"));
+    let o = render("simplify");
+    assert!(!o.status.success());
+    assert!(String::from_utf8_lossy(&o.stderr).contains("--method lod only"));
+    // The folder is never overwritten; bad grids are refused first.
+    let again = gazecast()
+        .args([
+            "thresholds",
+            "degradation",
+            "--headless",
+            "--simulate-observer",
+            OBSERVER,
+        ])
+        .args(["--scene", "config/scenes/bunny.ron", "--display"])
+        .arg(tmp.path().join("d96x77.ron"))
+        .args(["--participant", "P01", "--out"])
+        .arg(tmp.path().join("degradation"))
+        .output()
+        .unwrap();
+    assert!(!again.status.success());
+    for (flag, value) in [
+        ("--eccentricities", "5,2"),
+        ("--eccentricities", "NaN"),
+        ("--depths", "0"),
+        ("--max-trials", "0"),
+        ("--n-down", "0"),
+    ] {
+        let o = gazecast()
+            .args([
+                "thresholds",
+                "degradation",
+                "--headless",
+                "--simulate-observer",
+                OBSERVER,
+            ])
+            .args(["--scene", "config/scenes/bunny.ron", "--display"])
+            .arg(tmp.path().join("d96x77.ron"))
+            .args([flag, value, "--participant", "P02", "--out"])
+            .arg(tmp.path().join("refused"))
+            .output()
+            .unwrap();
+        assert!(!o.status.success(), "{flag} {value}");
+        assert!(
+            String::from_utf8_lossy(&o.stderr).contains(flag),
+            "{flag} {value}"
+        );
+        assert!(!tmp.path().join("refused").exists(), "{flag} {value}");
+    }
+}
+
+#[test]
+fn a_more_sensitive_observer_needs_finer_levels_farther_out() {
+    let tmp = tempfile::tempdir().expect("tempdir");
+    let args = [
+        "--depths",
+        "26",
+        "--eccentricities",
+        "0,4,8,12",
+        "--max-trials",
+        "30",
+    ];
+    let (more, _, _) = degradation(
+        tmp.path(),
+        "config/participants/threshold-observer-more-sensitive.ron",
+        "more",
+        (320, 256),
+        &args,
+    );
+    let (less, _, _) = degradation(
+        tmp.path(),
+        "config/participants/threshold-observer-less-sensitive.ron",
+        "less",
+        (320, 256),
+        &args,
+    );
+    let (m, l) = (extents(&more, 0), extents(&less, 0));
+    eprintln!("more sensitive {m:?}, less sensitive {l:?}");
+    // Every fine level (5 … 2) reaches at least as far for the more
+    // sensitive observer, and one reaches farther.
+    assert!(
+        m[..4].iter().zip(&l[..4]).all(|(a, b)| a >= b),
+        "{m:?} {l:?}"
+    );
+    assert!(
+        m[..4].iter().zip(&l[..4]).any(|(a, b)| a > b),
+        "{m:?} {l:?}"
+    );
+}

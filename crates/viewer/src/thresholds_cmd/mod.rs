@@ -2,7 +2,9 @@
 //! frequency × eccentricity grid with interleaved QUEST staircases
 //! (`psychophysics`), fit the Geisler–Perry CSF and write a session folder.
 //! (`gazecast thresholds validate`, Luebke & Hallen §6.2's full-against-
-//! simplified validation, is `validate`; `--procedure luebke-hallen`,
+//! simplified validation, is `validate`; `gazecast thresholds degradation`,
+//! Murphy & Duchowski §6.2's staircase over the `lod` levels, is
+//! `degradation`; `--procedure luebke-hallen`,
 //! Luebke & Hallen §6.1's own contrast ramp with a location click, is
 //! `ramp` headless and `ramp_window` in a window.)
 //!
@@ -33,6 +35,7 @@
 //! tracker's bytes), and `trials.tsv` a row per answer. An existing folder
 //! is never overwritten.
 
+mod degradation;
 mod ramp;
 mod ramp_window;
 mod validate;
@@ -68,6 +71,11 @@ pub enum ThresholdsCommand {
     /// Two-interval trials, proportion correct against chance. Headless
     /// with a simulated observer only: the windowed form is not built.
     Validate(validate::ValidateArgs),
+    /// Murphy & Duchowski §6.2's degradation staircase: per depth and
+    /// eccentricity, the coarsest lod level the observer cannot tell from
+    /// full; writes a Table-1-style degradation table. Headless with a
+    /// simulated observer only.
+    Degradation(degradation::DegradationArgs),
 }
 
 /// How thresholds are measured.
@@ -283,6 +291,7 @@ pub fn run(args: &ThresholdsArgs, out: &mut dyn Write) -> Result<(), String> {
     match &args.command {
         ThresholdsCommand::Measure(a) => measure(a, out),
         ThresholdsCommand::Validate(a) => validate::run(a, out),
+        ThresholdsCommand::Degradation(a) => degradation::run(a, out),
     }
 }
 

@@ -921,7 +921,7 @@ mod tests {
     }
 
     proptest! {
-        #![proptest_config(ProptestConfig::with_cases(64))]
+        #![proptest_config(ProptestConfig::with_cases(fixtures::proptest_cases(64)))]
 
         #[test]
         fn bad_designs_are_refused_not_panicked_on(

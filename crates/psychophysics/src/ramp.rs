@@ -62,6 +62,7 @@
 //! reaction allowance is applied: the real observer's temporal summation
 //! is not known.
 
+use crate::session::axis;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
@@ -150,34 +151,6 @@ fn in_range(field: &'static str, v: f64, lo: f64, hi: f64) -> Result<(), ParamEr
             format!("must be finite and in [{lo}, {hi}]"),
         ))
     }
-}
-
-fn axis(field: &'static str, v: &[f64], min_exclusive: bool) -> Result<(), ParamError> {
-    if v.is_empty() {
-        return Err(ParamError::new(field, "[]", "needs at least one value"));
-    }
-    if v.len() > 64 {
-        return Err(ParamError::new(field, v.len(), "at most 64 values"));
-    }
-    for (i, x) in v.iter().enumerate() {
-        let ok = x.is_finite() && if min_exclusive { *x > 0.0 } else { *x >= 0.0 };
-        if !ok {
-            let bound = if min_exclusive { "> 0" } else { "≥ 0" };
-            return Err(ParamError::new(
-                field,
-                x,
-                format!("entry {i} must be finite and {bound}"),
-            ));
-        }
-        if i > 0 && *x <= v[i - 1] {
-            return Err(ParamError::new(
-                field,
-                x,
-                format!("entry {i} must be above entry {}", i - 1),
-            ));
-        }
-    }
-    Ok(())
 }
 
 impl RampSpec {

@@ -109,9 +109,15 @@ impl Default for SessionSpec {
     }
 }
 
-fn axis(field: &'static str, v: &[f64], min_exclusive: bool) -> Result<(), ParamError> {
+/// A grid axis: one to 64 values, each finite and above 0
+/// (`min_exclusive`) or at 0 and above, in increasing order. (The 2IFC and
+/// the ramp sessions share it.)
+pub(crate) fn axis(field: &'static str, v: &[f64], min_exclusive: bool) -> Result<(), ParamError> {
     if v.is_empty() {
         return Err(ParamError::new(field, "[]", "needs at least one value"));
+    }
+    if v.len() > 64 {
+        return Err(ParamError::new(field, v.len(), "at most 64 values"));
     }
     for (i, x) in v.iter().enumerate() {
         let ok = x.is_finite() && if min_exclusive { *x > 0.0 } else { *x >= 0.0 };
@@ -143,11 +149,11 @@ impl SessionSpec {
             Procedure::Quest(q) => q.validate()?,
             Procedure::Staircase(s) => s.validate()?,
         }
-        if self.trials_per_condition == 0 {
+        if !(1..=10_000).contains(&self.trials_per_condition) {
             return Err(ParamError::new(
                 "trials_per_condition",
-                0,
-                "must be at least 1",
+                self.trials_per_condition,
+                "must be 1 to 10000",
             ));
         }
         if let Some(sd) = self.stop_sd_log10 {
